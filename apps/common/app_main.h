@@ -1,0 +1,51 @@
+// What every command's main() shares: CLI11 parsing with one-line errors, the mapping of
+// error channels to exit codes (interface.md), and --version.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <exception>
+#include <functional>
+#include <iostream>
+#include <string>
+
+#include "blmd/error.h"
+#include "blmd/version.h"
+
+namespace blmd::app {
+
+inline void AddVersionFlag(CLI::App& app, const std::string& tool) {
+  app.set_version_flag("--version", tool + " " + kVersion);
+}
+
+// Parses, then runs `body`. InputError and bad flags -> one line on stderr, exit 2.
+inline int Main(CLI::App& app, int argc, char** argv, const std::function<int()>& body) {
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp&) {
+    std::cout << app.help();
+    return kExitOk;
+  } catch (const CLI::CallForAllHelp&) {
+    std::cout << app.help("", CLI::AppFormatMode::All);
+    return kExitOk;
+  } catch (const CLI::CallForVersion&) {
+    std::cout << app.version() << "\n";
+    return kExitOk;
+  } catch (const CLI::ParseError& error) {
+    std::cerr << "error: " << error.what() << " (see " << app.get_name() << " --help)\n";
+    return kExitBadInput;
+  }
+  try {
+    return body();
+  } catch (const InputError& error) {
+    std::cerr << "error: " << error.what() << "\n";
+    return kExitBadInput;
+  } catch (const std::bad_alloc&) {
+    std::cerr << "error: out of memory\n";
+    return kExitFailed;
+  } catch (const std::exception& error) {
+    std::cerr << "error: internal: " << error.what() << "\n";
+    return kExitFailed;
+  }
+}
+
+}  // namespace blmd::app

@@ -1,0 +1,32 @@
+// Error channels (docs/errors.md):
+//  - InputError: the user's input (file, flag, config) is wrong. Thrown by the I/O layer,
+//    caught in main(), printed as one line, exit code 2, nothing written.
+//  - Broken invariants inside the library abort (assert / std::logic_error).
+//  - How a simulation or an optimiser ended is a status value, never an exception.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+namespace blmd {
+
+// One clear line: "<where>: <what>", where = "file:line:column" (line/column when known).
+class InputError : public std::runtime_error {
+ public:
+  explicit InputError(const std::string& message) : std::runtime_error(message) {}
+  InputError(const std::string& file, long line, long column, const std::string& message)
+      : std::runtime_error(Format(file, line, column, message)) {}
+
+  static std::string Format(const std::string& file, long line, long column,
+                            const std::string& message);
+};
+
+// Exit codes of every command (interface.md).
+enum ExitCode : int {
+  kExitOk = 0,
+  kExitFailed = 1,    // the work failed: a diverged simulation, a fit that did not converge
+  kExitBadInput = 2,  // bad usage or bad input; nothing written
+  kExitGate = 3,      // a gate such as --fail-above-nrmse was not met
+};
+
+}  // namespace blmd

@@ -1,0 +1,54 @@
+// Config JSON (interface.md, docs/config.md): the model, its parameter values, declared
+// effects, numerics, the experiment and the identification set-up. Loading is strict:
+// unknown keys, wrong types and impossible values are InputErrors naming file:line:column
+// (and the nearest valid key for a misspelling).
+#pragma once
+
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "blmd/sim/experiment.h"
+#include "blmd/sim/model.h"
+#include "blmd/sim/parameters.h"
+
+namespace blmd {
+
+struct IdentificationSettings {
+  std::vector<std::string> free;                            // parameters to identify
+  ParameterSet initial;                                     // start values (default: parameters)
+  std::map<std::string, std::pair<double, double>> bounds;  // explicit bounds
+  std::vector<std::string> observe;                         // trace columns in the cost
+  std::string method;                                       // empty: the tool's default
+  nlohmann::json options = nlohmann::json::object();        // per-method options
+};
+
+struct Config {
+  std::string path;  // file it came from ("" when parsed from text)
+  std::string name;
+  const Model* model = nullptr;
+  ParameterSet parameters;           // model parameters and declared effects' parameters
+  std::vector<std::string> effects;  // declared effects, in declaration order
+  SimulationSettings simulation;
+  Experiment experiment;
+  IdentificationSettings identification;
+  nlohmann::json notes;  // free-form provenance ("notes" key), carried into reports
+
+  // Adds an effect that the config does not declare (blmd-sim --effect); throws InputError.
+  void AddEffect(const std::string& effect, const ParameterSet& values);
+  // Lower/upper bound of a parameter: explicit, else the documented default.
+  std::pair<double, double> Bounds(const std::string& parameter) const;
+  // Description of a model or effect parameter (nullptr when unknown).
+  const ParamInfo* FindParameterInfo(const std::string& parameter) const;
+};
+
+Config LoadConfig(const std::string& path);
+Config ParseConfig(const std::string& text, const std::string& path);
+
+// Closest of `candidates` to `word` by edit distance, "" when none is close.
+std::string NearestName(const std::string& word, const std::vector<std::string>& candidates);
+
+}  // namespace blmd

@@ -1,0 +1,31 @@
+// Trace CSV (interface.md, docs/trace-format.md): optional '#' comment lines, one header
+// row, comma-separated plain decimal numbers, LF line ends. Reading is strict: every
+// problem is an InputError naming file:line:column, the column and what was expected.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "blmd/sim/trace.h"
+
+namespace blmd {
+
+struct CsvReadOptions {
+  // Columns that must be present (the error names the first missing one).
+  std::vector<std::string> required;
+  // Column whose values must strictly increase (empty: none).
+  std::string time_column = "t";
+};
+
+Trace ReadTraceCsv(const std::string& path, const CsvReadOptions& options = {});
+// Parses CSV text; `path` only labels errors.
+Trace ParseTraceCsv(const std::string& text, const std::string& path,
+                    const CsvReadOptions& options = {});
+
+// Shortest text that reads back to the same double (round trip exact).
+std::string FormatNumber(double value);
+std::string FormatTraceCsv(const Trace& trace);
+// Written to a temporary file in the same folder, then renamed (atomic).
+void WriteTraceCsv(const Trace& trace, const std::string& path);
+
+}  // namespace blmd

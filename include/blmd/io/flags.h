@@ -1,0 +1,22 @@
+// Parsing of the small text forms the commands accept in flags (docs/cli.md).
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "blmd/sim/parameters.h"
+
+namespace blmd {
+
+// "NAME=VALUE" with a finite number; throws InputError naming the flag.
+std::pair<std::string, double> ParseAssignment(const std::string& text, const std::string& flag);
+// "NAME=TEXT"; throws InputError naming the flag.
+std::pair<std::string, std::string> ParseTextAssignment(const std::string& text,
+                                                        const std::string& flag);
+// "coulomb_friction:Tc=0.01[,KEY=VALUE...]" -> effect name and its values.
+std::pair<std::string, ParameterSet> ParseEffectSpec(const std::string& text);
+// "J,B" -> {"J","B"} (empty items rejected).
+std::vector<std::string> ParseNameList(const std::string& text, const std::string& flag);
+
+}  // namespace blmd

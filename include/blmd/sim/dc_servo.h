@@ -1,0 +1,31 @@
+// DC servo of Ganesh et al. (2012), docs/model-dc-servo.md.
+//
+//   L di/dt     = u_eff - R i - Kb w        (armature; u_eff = u - Vdt sign(i))
+//   J dw/dt     = Kt i - B w - T_effects    (rigid shaft + load; effects.h)
+//   dtheta/dt   = w
+//   theta(s)/u(s) = Kt / (s [(R + sL)(Js + B) + Kb Kt])          (Ganesh eq. 12)
+//
+// States i (A), w (rad/s), theta (rad). Input u: armature voltage (V), or in closed loop
+// the position reference (rad) fed to a PID whose saturated output is the voltage.
+// Outputs: t, u (applied voltage), i (measured: + i0), w, theta; closed loop adds r.
+//
+// Numerics: exact discretisation of the linear part over each step dt (matrix exponential
+// of the augmented system, Eigen), with u and T_effects held over the step (zero-order
+// hold). Coulomb/Stribeck friction sticks at rest (effects.h). Coast-down: with the
+// armature open, i = 0 and only the mechanical sub-system evolves (its own exact step).
+#pragma once
+
+#include "blmd/sim/model.h"
+
+namespace blmd {
+
+class DcServoModel final : public Model {
+ public:
+  std::string_view name() const override { return "dc_servo"; }
+  const std::vector<ParamInfo>& parameters() const override;
+  std::vector<std::string> outputs() const override { return {"i", "w", "theta"}; }
+  SimulationSettings default_settings() const override;
+  SimStatus Simulate(const SimulationRequest& request, Trace* out) const override;
+};
+
+}  // namespace blmd

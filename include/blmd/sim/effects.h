@@ -1,0 +1,105 @@
+// The effects vocabulary (interface.md, docs/effects.md): extra physics a model can carry.
+// One implementation, shared by every model. All shaft torques are in N·m and enter the
+// mechanical equation as T_effects, i.e. they are *subtracted* from the drive torque:
+//
+//   J dw/dt = T_drive - B w - T_effects
+//   T_effects = Tc sign(w)                                (coulomb_friction; sticks at rest)
+//             + Ts exp(-(w/ws)^2) sign(w)                 (stribeck; adds to breakaway)
+//             + TL                                        (load_torque, signed)
+//             + Cd w |w|                                  (quadratic_drag)
+//             + Tcog sin(periods theta + phase)           (cogging)
+//
+// Electrical effects: dead_time (dc_servo) u_eff = u - Vdt sign(i);
+// current_offset: measured i = true i + i0 (output only).
+//
+// Sticking (Karnopp): at w = 0 the shaft stays at rest while |T_drive - TL - T_cog| does not
+// exceed the breakaway torque Tc + Ts; otherwise it breaks away with friction opposing the
+// net torque. A step in which w would change sign ends with w = 0 (stopped), so friction
+// never reverses the motion it opposes. SimulationSettings::friction_smoothing_w replaces
+// sign(w) by tanh(w / eps) (no sticking) for optimisers that need a smooth cost.
+#pragma once
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "blmd/sim/parameters.h"
+
+namespace blmd {
+
+struct EffectInfo {
+  std::string name;
+  std::vector<ParamInfo> parameters;
+  std::string equation;             // as in docs/effects.md
+  std::vector<std::string> models;  // models that support it
+};
+
+// Every effect, sorted by name. The one place that knows them all.
+const std::vector<EffectInfo>& EffectRegistry();
+// Throws InputError listing the valid names when `name` is unknown.
+const EffectInfo& FindEffect(const std::string& name);
+bool IsEffectParameter(const std::string& parameter, std::string* effect_name = nullptr);
+
+// Hot-loop view of the enabled shaft effects, unpacked once per simulation.
+struct ShaftEffects {
+  double Tc = 0.0;           // Coulomb friction, N·m
+  double Ts = 0.0;           // Stribeck extra breakaway torque, N·m
+  double ws = 1.0;           // Stribeck velocity, rad/s
+  double TL = 0.0;           // constant load torque, N·m (opposes positive motion)
+  double Cd = 0.0;           // quadratic drag, N·m·s²/rad²
+  double Tcog = 0.0;         // cogging amplitude, N·m
+  double cog_periods = 0.0;  // cogging periods per shaft revolution
+  double cog_phase = 0.0;    // cogging phase, rad
+  double smoothing_w = 0.0;  // rad/s; > 0: tanh(w/eps) friction without sticking
+
+  bool has_friction() const { return Tc > 0.0 || Ts > 0.0; }
+
+  static ShaftEffects From(const ParameterSet& values, const std::vector<std::string>& enabled,
+                           double smoothing_w);
+
+  // Torques other than friction (load, cogging), in the T_effects sense.
+  double NonFrictionTorque(double theta) const {
+    double torque = TL;
+    if (Tcog != 0.0) torque += Tcog * std::sin(cog_periods * theta + cog_phase);
+    return torque;
+  }
+  double DragTorque(double w) const { return Cd * w * std::abs(w); }
+  // Kinetic friction magnitude at speed w (Coulomb + Stribeck), N·m.
+  double FrictionMagnitude(double w) const {
+    double magnitude = Tc;
+    if (Ts != 0.0) magnitude += Ts * std::exp(-(w / ws) * (w / ws));
+    return magnitude;
+  }
+
+  // Friction torque (T_effects sense) to hold over one step starting at speed w, given the
+  // net torque the shaft would feel without friction (T_drive - non-friction effects).
+  // Sets *stuck when the shaft is at rest and cannot break away.
+  double StepFriction(double w, double net_torque_without_friction, bool* stuck) const {
+    *stuck = false;
+    if (!has_friction()) return 0.0;
+    if (smoothing_w > 0.0) return FrictionMagnitude(w) * std::tanh(w / smoothing_w);
+    if (w > 0.0) return FrictionMagnitude(w);
+    if (w < 0.0) return -FrictionMagnitude(w);
+    const double breakaway = FrictionMagnitude(0.0);
+    if (std::abs(net_torque_without_friction) <= breakaway) {
+      *stuck = true;
+      return net_torque_without_friction;  // static friction balances exactly
+    }
+    return net_torque_without_friction > 0.0 ? breakaway : -breakaway;
+  }
+  // True when a step from w_old to w_new under friction must end at rest.
+  bool StopsWithin(double w_old, double w_new) const {
+    return has_friction() && smoothing_w <= 0.0 &&
+           ((w_old > 0.0 && w_new < 0.0) || (w_old < 0.0 && w_new > 0.0));
+  }
+};
+
+// Electrical effects, unpacked once per simulation.
+struct DriveEffects {
+  double Vdt = 0.0;  // dead-time voltage loss, V (dc_servo): u_eff = u - Vdt sign(i)
+  double i0 = 0.0;   // current-sensor offset, A: measured i = i + i0
+
+  static DriveEffects From(const ParameterSet& values, const std::vector<std::string>& enabled);
+};
+
+}  // namespace blmd

@@ -1,0 +1,83 @@
+// What a simulation is asked to do: the input signal, the experiment around it (coast-down,
+// closed loop), the initial state, and the numerics. See docs/experiments.md.
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+namespace blmd {
+
+// u(t) for the model input (dc_servo: armature voltage V; blmd: torque demand V;
+// closed loop: the position reference in rad).
+struct InputSignal {
+  enum class Kind { kStep, kSquare, kSteps, kRecorded };
+  Kind kind = Kind::kStep;
+  double amplitude = 0.0;  // step height; square half peak-to-peak
+  double offset = 0.0;     // value before the step; square mean
+  double t0 = 0.0;         // s, step instant; square start (begins high)
+  double period = 0.0;     // s, square period
+  // kSteps: values[k] holds from times[k] on (offset before times[0]).
+  // kRecorded: zero-order hold of recorded samples, values[k] holds on [times[k], times[k+1]).
+  std::vector<double> times;
+  std::vector<double> values;
+  // kRecorded, dc_servo only: 1 where the armature is open (coast-down), empty if never.
+  std::vector<double> open;
+
+  double At(double t) const;
+  bool OpenAt(double t) const;
+};
+
+// Reads an InputSignal at non-decreasing times in O(1) amortised (no search per step).
+class InputCursor {
+ public:
+  explicit InputCursor(const InputSignal& signal) : signal_(signal) {}
+  double At(double t);
+  bool OpenAt(double t);
+
+ private:
+  void Advance(double t);
+  const InputSignal& signal_;
+  std::size_t index_ = 0;
+};
+
+// Closed-loop position control (dc_servo): PID on theta, output saturated at +-u_max.
+// u = Kp e + Ki integral(e) - Kd dtheta_f/dt, e = r - theta; derivative on the measurement
+// through a first-order filter (tau_d); the integrator stops while the output saturates
+// in the direction of the error (clamping anti-windup).
+struct PidSettings {
+  double Kp = 0.0;     // V/rad
+  double Ki = 0.0;     // V/(rad·s)
+  double Kd = 0.0;     // V·s/rad
+  double tau_d = 1e-3;  // s, derivative filter time constant
+  double u_max = 24.0;  // V, saturation (the supply)
+};
+
+struct InitialState {
+  double i = 0.0;      // A
+  double w = 0.0;      // rad/s
+  double theta = 0.0;  // rad
+};
+
+struct Experiment {
+  InputSignal input;
+  double duration = 1.0;         // s
+  double sample_rate = 10000.0;  // Hz, output rate
+  double coast_off_time = -1.0;  // s; >= 0: dc_servo armature opened at this instant
+  bool closed_loop = false;
+  PidSettings pid;
+  InitialState initial;
+
+  // Sample instants 0, 1/fs, ..., duration.
+  std::vector<double> SampleTimes() const;
+};
+
+struct SimulationSettings {
+  double dt = 1e-5;                   // s, fixed integration step
+  bool regula_falsi = true;           // blmd: locate PWM crossings inside a step
+  double friction_smoothing_w = 0.0;  // rad/s; > 0 replaces sign(w) by tanh(w/eps)
+  bool diagnostics = false;           // add internal columns (phase voltages, torque)
+  double divergence_limit = 1e9;      // |state| above this is a divergence
+};
+
+}  // namespace blmd

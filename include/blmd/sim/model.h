@@ -1,0 +1,60 @@
+// A model is a const description: its parameters, outputs and equations. Simulate() reads
+// values from a ParameterSet and never mutates the model, so one model serves every thread.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "blmd/sim/experiment.h"
+#include "blmd/sim/parameters.h"
+#include "blmd/sim/trace.h"
+
+namespace blmd {
+
+// How a simulation ended: a status value, never an exception (style.md, rule 4).
+struct SimStatus {
+  enum class Code { kOk, kDiverged, kInvalidParameters };
+  Code code = Code::kOk;
+  std::string message;  // empty when kOk
+  double at_time = 0.0;  // s, where it went wrong
+
+  bool ok() const { return code == Code::kOk; }
+  static SimStatus Ok() { return {}; }
+};
+
+// Everything one simulation needs; all pointers are borrowed for the call only.
+struct SimulationRequest {
+  const ParameterSet* parameters = nullptr;
+  const std::vector<std::string>* effects = nullptr;  // enabled effect names
+  const Experiment* experiment = nullptr;              // input, closed loop, initial state
+  SimulationSettings settings;
+  // Output instants (s), strictly increasing; the run starts at sample_times.front().
+  const std::vector<double>* sample_times = nullptr;
+};
+
+class Model {
+ public:
+  virtual ~Model() = default;
+  virtual std::string_view name() const = 0;
+  // The model's own parameters (effects bring theirs, see effects.h).
+  virtual const std::vector<ParamInfo>& parameters() const = 0;
+  // Output columns written besides "t" and "u", e.g. {"i", "w", "theta"}.
+  virtual std::vector<std::string> outputs() const = 0;
+  virtual SimulationSettings default_settings() const = 0;
+  // Returns an error message for values the model cannot run with (empty: fine).
+  virtual std::string Validate(const ParameterSet& values,
+                               const SimulationSettings& settings) const;
+  // Fills *out with t, u and outputs() at the request's sample times.
+  virtual SimStatus Simulate(const SimulationRequest& request, Trace* out) const = 0;
+
+  const ParamInfo* FindParameter(std::string_view name) const;
+};
+
+// The one registry of models, sorted by name. FindModel throws InputError listing the
+// valid names when `name` is unknown.
+const std::vector<const Model*>& ModelRegistry();
+const Model& FindModel(std::string_view name);
+
+}  // namespace blmd

@@ -1,0 +1,40 @@
+// Named parameter values and their descriptions.
+// A model is a const description; the values it runs with live in a ParameterSet.
+#pragma once
+
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+namespace blmd {
+
+// Description of one parameter of a model or an effect.
+struct ParamInfo {
+  std::string name;     // symbol as in docs/ (R, L, Kt, J, B, Tc, ...)
+  std::string unit;     // SI unit, e.g. "kg·m²"
+  std::string meaning;  // one line
+  bool positive = true;        // must be > 0 (searched on a log scale when free)
+  bool non_negative = false;   // may be 0 but not < 0 (e.g. friction Tc)
+  double default_lower = 0.0;  // default identification bounds
+  double default_upper = 0.0;
+  bool optional = false;       // may be left out of a config; then default_value
+  double default_value = 0.0;
+};
+
+// Ordered name -> value map. Small (tens of entries): linear look-up is fine,
+// and never used inside a simulation's inner loop.
+class ParameterSet {
+ public:
+  bool Has(std::string_view name) const;
+  // Throws std::out_of_range naming the parameter when absent.
+  double Get(std::string_view name) const;
+  double GetOr(std::string_view name, double fallback) const;
+  void Set(const std::string& name, double value);
+  const std::vector<std::pair<std::string, double>>& entries() const { return entries_; }
+
+ private:
+  std::vector<std::pair<std::string, double>> entries_;
+};
+
+}  // namespace blmd

@@ -1,0 +1,683 @@
+#include "blmd/io/config.h"
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+
+#include "blmd/error.h"
+#include "blmd/io/csv.h"
+#include "blmd/io/files.h"
+#include "blmd/sim/effects.h"
+
+namespace blmd {
+namespace {
+
+using nlohmann::json;
+
+struct Position {
+  long line = 0;
+  long column = 0;
+};
+
+// Maps a JSON pointer ("/parameters/R") to where its key (object member) or value (array
+// element, root) starts in the text. nlohmann::json keeps no positions, so we scan once.
+class PositionIndex {
+ public:
+  explicit PositionIndex(const std::string& text) { Scan(text); }
+  Position Find(const std::string& pointer) const {
+    const auto it = positions_.find(pointer);
+    return it == positions_.end() ? Position{} : it->second;
+  }
+
+ private:
+  struct Frame {
+    bool is_object;
+    std::string pointer;
+    std::string key;  // object: last key read
+    long index = 0;   // array: next element index
+    bool expecting_key = true;
+  };
+
+  void Scan(const std::string& text) {
+    long line = 1, column = 1;
+    std::vector<Frame> stack;
+    auto value_started = [&](long l, long c) {
+      if (stack.empty()) {
+        positions_.emplace("", Position{l, c});
+        return std::string();
+      }
+      Frame& top = stack.back();
+      if (top.is_object) return top.pointer + "/" + top.key;
+      std::string pointer = top.pointer + "/" + std::to_string(top.index++);
+      positions_.emplace(pointer, Position{l, c});
+      return pointer;
+    };
+    for (std::size_t k = 0; k < text.size(); ++k) {
+      const char c = text[k];
+      if (c == '\n') {
+        ++line;
+        column = 1;
+        continue;
+      }
+      const long here_line = line, here_column = column;
+      ++column;
+      if (c == '"') {
+        std::string value;
+        ++k;
+        while (k < text.size() && text[k] != '"') {
+          if (text[k] == '\\' && k + 1 < text.size()) {
+            value += text[k + 1];
+            k += 2;
+            column += 2;
+            continue;
+          }
+          if (text[k] == '\n') return;  // malformed: the parser will report it
+          value += text[k++];
+          ++column;
+        }
+        ++column;
+        if (!stack.empty() && stack.back().is_object && stack.back().expecting_key) {
+          stack.back().key = value;
+          stack.back().expecting_key = false;
+          positions_.emplace(stack.back().pointer + "/" + value, Position{here_line, here_column});
+        } else {
+          value_started(here_line, here_column);
+        }
+      } else if (c == '{' || c == '[') {
+        std::string pointer = value_started(here_line, here_column);
+        stack.push_back({c == '{', pointer, "", 0, true});
+      } else if (c == '}' || c == ']') {
+        if (!stack.empty()) stack.pop_back();
+      } else if (c == ',') {
+        if (!stack.empty() && stack.back().is_object) stack.back().expecting_key = true;
+      } else if (c == '-' || (c >= '0' && c <= '9') || c == 't' || c == 'f' || c == 'n') {
+        value_started(here_line, here_column);
+        while (k + 1 < text.size() && std::string_view(",}] \t\r\n").find(text[k + 1]) ==
+                                          std::string_view::npos) {
+          ++k;
+          ++column;
+        }
+      }
+    }
+  }
+
+  std::unordered_map<std::string, Position> positions_;
+};
+
+std::string TypeName(const json& value) {
+  if (value.is_number()) return "a number";
+  if (value.is_string()) return "a string";
+  if (value.is_boolean()) return "true/false";
+  if (value.is_array()) return "an array";
+  if (value.is_object()) return "an object";
+  return "null";
+}
+
+std::string Join(const std::vector<std::string>& names) {
+  std::string out;
+  for (const auto& name : names) out += (out.empty() ? "" : ", ") + name;
+  return out;
+}
+
+class Reader {
+ public:
+  Reader(const std::string& path, const PositionIndex& index) : path_(path), index_(index) {}
+
+  [[noreturn]] void Fail(const std::string& pointer, const std::string& message) const {
+    const Position p = index_.Find(pointer);
+    throw InputError(path_, p.line, p.column, message);
+  }
+
+  static std::string Label(const std::string& pointer) {
+    std::string label = pointer.empty() ? "(top level)" : pointer.substr(1);
+    std::replace(label.begin(), label.end(), '/', '.');
+    return label;
+  }
+
+  void RequireObject(const json& value, const std::string& pointer) const {
+    if (!value.is_object()) {
+      Fail(pointer, "'" + Label(pointer) + "' must be an object, not " + TypeName(value));
+    }
+  }
+
+  void CheckKeys(const json& object, const std::string& pointer,
+                 const std::vector<std::string>& allowed) const {
+    for (const auto& [key, value] : object.items()) {
+      if (std::find(allowed.begin(), allowed.end(), key) != allowed.end()) continue;
+      const std::string near = NearestName(key, allowed);
+      Fail(pointer + "/" + key,
+           "unknown key '" + key + "' in '" + Label(pointer) + "'" +
+               (near.empty() ? "" : " (did you mean '" + near + "'?)") + "; valid keys: " +
+               Join(allowed));
+    }
+  }
+
+  double Number(const json& value, const std::string& pointer) const {
+    if (!value.is_number()) {
+      Fail(pointer, "'" + Label(pointer) + "' must be a number, not " + TypeName(value));
+    }
+    const double v = value.get<double>();
+    if (!std::isfinite(v)) Fail(pointer, "'" + Label(pointer) + "' must be finite");
+    return v;
+  }
+
+  double Positive(const json& value, const std::string& pointer) const {
+    const double v = Number(value, pointer);
+    if (!(v > 0.0)) Fail(pointer, "'" + Label(pointer) + "' must be > 0 (got " +
+                                      FormatNumber(v) + ")");
+    return v;
+  }
+
+  bool Bool(const json& value, const std::string& pointer) const {
+    if (!value.is_boolean()) {
+      Fail(pointer, "'" + Label(pointer) + "' must be true or false, not " + TypeName(value));
+    }
+    return value.get<bool>();
+  }
+
+  std::string String(const json& value, const std::string& pointer) const {
+    if (!value.is_string()) {
+      Fail(pointer, "'" + Label(pointer) + "' must be a string, not " + TypeName(value));
+    }
+    return value.get<std::string>();
+  }
+
+  std::vector<double> Numbers(const json& value, const std::string& pointer) const {
+    if (!value.is_array()) {
+      Fail(pointer, "'" + Label(pointer) + "' must be an array of numbers, not " +
+                        TypeName(value));
+    }
+    std::vector<double> out;
+    for (std::size_t k = 0; k < value.size(); ++k) {
+      out.push_back(Number(value[k], pointer + "/" + std::to_string(k)));
+    }
+    return out;
+  }
+
+  std::vector<std::string> Strings(const json& value, const std::string& pointer) const {
+    if (value.is_string()) {  // "J,B" is accepted too
+      std::vector<std::string> out;
+      std::string item;
+      for (char c : value.get<std::string>() + ",") {
+        if (c == ',') {
+          if (!item.empty()) out.push_back(item);
+          item.clear();
+        } else if (c != ' ') {
+          item += c;
+        }
+      }
+      return out;
+    }
+    if (!value.is_array()) {
+      Fail(pointer, "'" + Label(pointer) + "' must be an array of names, not " +
+                        TypeName(value));
+    }
+    std::vector<std::string> out;
+    for (std::size_t k = 0; k < value.size(); ++k) {
+      out.push_back(String(value[k], pointer + "/" + std::to_string(k)));
+    }
+    return out;
+  }
+
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+  const PositionIndex& index_;
+};
+
+InputSignal ReadInput(const Reader& reader, const json& input, const std::string& pointer,
+                      const std::string& config_path) {
+  reader.RequireObject(input, pointer);
+  if (!input.contains("type")) reader.Fail(pointer, "'" + Reader::Label(pointer) +
+                                                        "' needs a \"type\" (step, square, "
+                                                        "steps, sweep, recorded)");
+  const std::string type = reader.String(input["type"], pointer + "/type");
+  InputSignal signal;
+  auto number_or = [&](const char* key, double fallback) {
+    return input.contains(key) ? reader.Number(input[key], pointer + "/" + key) : fallback;
+  };
+  if (type == "step") {
+    reader.CheckKeys(input, pointer, {"type", "amplitude", "offset", "t0"});
+    signal.kind = InputSignal::Kind::kStep;
+    signal.amplitude = number_or("amplitude", 1.0);
+    signal.offset = number_or("offset", 0.0);
+    signal.t0 = number_or("t0", 0.0);
+  } else if (type == "square") {
+    reader.CheckKeys(input, pointer, {"type", "amplitude", "offset", "t0", "period"});
+    signal.kind = InputSignal::Kind::kSquare;
+    signal.amplitude = number_or("amplitude", 1.0);
+    signal.offset = number_or("offset", 0.0);
+    signal.t0 = number_or("t0", 0.0);
+    if (!input.contains("period")) reader.Fail(pointer, "square input needs \"period\" (s)");
+    signal.period = reader.Positive(input["period"], pointer + "/period");
+  } else if (type == "steps") {
+    reader.CheckKeys(input, pointer, {"type", "times", "values", "offset"});
+    signal.kind = InputSignal::Kind::kSteps;
+    if (!input.contains("times") || !input.contains("values")) {
+      reader.Fail(pointer, "steps input needs \"times\" (s) and \"values\"");
+    }
+    signal.times = reader.Numbers(input["times"], pointer + "/times");
+    signal.values = reader.Numbers(input["values"], pointer + "/values");
+    signal.offset = number_or("offset", 0.0);
+    if (signal.times.size() != signal.values.size() || signal.times.empty()) {
+      reader.Fail(pointer + "/values", "steps input needs as many values as times (and one)");
+    }
+    for (std::size_t k = 1; k < signal.times.size(); ++k) {
+      if (!(signal.times[k] > signal.times[k - 1])) {
+        reader.Fail(pointer + "/times/" + std::to_string(k), "step times must increase");
+      }
+    }
+  } else if (type == "sweep") {
+    // Steady-state sweep: each level held for `hold` seconds, from t = 0.
+    reader.CheckKeys(input, pointer, {"type", "levels", "hold"});
+    if (!input.contains("levels") || !input.contains("hold")) {
+      reader.Fail(pointer, "sweep input needs \"levels\" (V) and \"hold\" (s)");
+    }
+    const auto levels = reader.Numbers(input["levels"], pointer + "/levels");
+    const double hold = reader.Positive(input["hold"], pointer + "/hold");
+    if (levels.empty()) reader.Fail(pointer + "/levels", "sweep needs at least one level");
+    signal.kind = InputSignal::Kind::kSteps;
+    for (std::size_t k = 0; k < levels.size(); ++k) {
+      signal.times.push_back(static_cast<double>(k) * hold);
+      signal.values.push_back(levels[k]);
+    }
+  } else if (type == "recorded") {
+    reader.CheckKeys(input, pointer, {"type", "file", "column"});
+    if (!input.contains("file")) reader.Fail(pointer, "recorded input needs \"file\"");
+    std::string file = reader.String(input["file"], pointer + "/file");
+    const std::string column =
+        input.contains("column") ? reader.String(input["column"], pointer + "/column") : "u";
+    if (!file.empty() && file.front() != '/') {
+      const auto slash = config_path.rfind('/');
+      if (slash != std::string::npos) file = config_path.substr(0, slash + 1) + file;
+    }
+    CsvReadOptions options;
+    options.required = {"t", column};
+    const Trace trace = ReadTraceCsv(file, options);
+    signal.kind = InputSignal::Kind::kRecorded;
+    signal.times = trace.Column("t");
+    signal.values = trace.Column(column);
+    if (trace.Has("open")) signal.open = trace.Column("open");
+  } else {
+    reader.Fail(pointer + "/type", "unknown input type '" + type +
+                                       "' (valid: recorded, square, step, steps, sweep)");
+  }
+  return signal;
+}
+
+}  // namespace
+
+std::string NearestName(const std::string& word, const std::vector<std::string>& candidates) {
+  auto lower = [](std::string s) {
+    for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return s;
+  };
+  const std::string a = lower(word);
+  std::string best;
+  std::size_t best_distance = std::string::npos;
+  for (const auto& candidate : candidates) {
+    const std::string b = lower(candidate);
+    std::vector<std::size_t> row(b.size() + 1);
+    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+    for (std::size_t i = 1; i <= a.size(); ++i) {
+      std::size_t diagonal = row[0];
+      row[0] = i;
+      for (std::size_t j = 1; j <= b.size(); ++j) {
+        const std::size_t above = row[j];
+        row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+        diagonal = above;
+      }
+    }
+    if (row[b.size()] < best_distance) {
+      best_distance = row[b.size()];
+      best = candidate;
+    }
+  }
+  const std::size_t limit = std::max<std::size_t>(1, std::min(word.size(), best.size()) / 2);
+  return best_distance <= limit ? best : std::string();
+}
+
+Config LoadConfig(const std::string& path) { return ParseConfig(ReadFileText(path), path); }
+
+Config ParseConfig(const std::string& text, const std::string& path) {
+  json root;
+  try {
+    root = json::parse(text);
+  } catch (const json::parse_error& error) {
+    long line = 1, column = 1;
+    const std::size_t end = std::min<std::size_t>(error.byte ? error.byte - 1 : 0, text.size());
+    for (std::size_t k = 0; k < end; ++k) {
+      if (text[k] == '\n') {
+        ++line;
+        column = 1;
+      } else {
+        ++column;
+      }
+    }
+    std::string what = error.what();
+    const auto colon = what.rfind(": ");
+    if (colon != std::string::npos) what = what.substr(colon + 2);
+    throw InputError(path, line, column, "invalid JSON: " + what);
+  }
+  const PositionIndex index(text);
+  const Reader reader(path, index);
+  reader.RequireObject(root, "");
+  reader.CheckKeys(root, "", {"name", "description", "notes", "model", "parameters", "effects",
+                              "simulation", "experiment", "identification"});
+
+  Config config;
+  config.path = path;
+  if (root.contains("name")) config.name = reader.String(root["name"], "/name");
+  if (root.contains("description")) reader.String(root["description"], "/description");
+  if (root.contains("notes")) config.notes = root["notes"];
+  if (!root.contains("model")) {
+    reader.Fail("", "missing \"model\" (one of: blmd, dc_servo)");
+  }
+  const std::string model_name = reader.String(root["model"], "/model");
+  try {
+    config.model = &FindModel(model_name);
+  } catch (const InputError& error) {
+    reader.Fail("/model", error.what());
+  }
+  const Model& model = *config.model;
+
+  // Parameters.
+  if (!root.contains("parameters")) reader.Fail("", "missing \"parameters\"");
+  const json& parameters = root["parameters"];
+  reader.RequireObject(parameters, "/parameters");
+  std::vector<std::string> names;
+  for (const auto& info : model.parameters()) names.push_back(info.name);
+  reader.CheckKeys(parameters, "/parameters", names);
+  for (const auto& info : model.parameters()) {
+    const std::string pointer = "/parameters/" + info.name;
+    if (!parameters.contains(info.name)) {
+      if (info.optional) {
+        config.parameters.Set(info.name, info.default_value);
+        continue;
+      }
+      reader.Fail("/parameters", "missing parameter '" + info.name + "' (" + info.meaning +
+                                     ", " + info.unit + ") for model " + model_name);
+    }
+    const double v = reader.Number(parameters[info.name], pointer);
+    if (info.positive && !(v > 0.0)) {
+      reader.Fail(pointer, "parameter '" + info.name + "' must be > 0 (got " + FormatNumber(v) +
+                               " " + info.unit + ")");
+    }
+    if (info.non_negative && v < 0.0) {
+      reader.Fail(pointer, "parameter '" + info.name + "' must be >= 0 (got " +
+                               FormatNumber(v) + ")");
+    }
+    config.parameters.Set(info.name, v);
+  }
+
+  // Effects.
+  if (root.contains("effects")) {
+    const json& effects = root["effects"];
+    reader.RequireObject(effects, "/effects");
+    for (const auto& [effect_name, effect_values] : effects.items()) {
+      const std::string pointer = "/effects/" + effect_name;
+      const EffectInfo* info = nullptr;
+      try {
+        info = &FindEffect(effect_name);
+      } catch (const InputError& error) {
+        std::vector<std::string> valid;
+        for (const auto& e : EffectRegistry()) valid.push_back(e.name);
+        const std::string near = NearestName(effect_name, valid);
+        reader.Fail(pointer, std::string(error.what()) +
+                                 (near.empty() ? "" : " (did you mean '" + near + "'?)"));
+      }
+      if (std::find(info->models.begin(), info->models.end(), model_name) == info->models.end()) {
+        reader.Fail(pointer, "effect '" + effect_name + "' does not apply to model " + model_name);
+      }
+      reader.RequireObject(effect_values, pointer);
+      std::vector<std::string> effect_params;
+      for (const auto& p : info->parameters) effect_params.push_back(p.name);
+      reader.CheckKeys(effect_values, pointer, effect_params);
+      for (const auto& p : info->parameters) {
+        if (!effect_values.contains(p.name)) {
+          reader.Fail(pointer, "effect '" + effect_name + "' needs parameter '" + p.name +
+                                   "' (" + p.meaning + ", " + p.unit + ")");
+        }
+        const double v = reader.Number(effect_values[p.name], pointer + "/" + p.name);
+        if ((p.positive && !(v > 0.0)) || (p.non_negative && v < 0.0)) {
+          reader.Fail(pointer + "/" + p.name, "effect parameter '" + p.name + "' must be " +
+                                                  (p.positive ? "> 0" : ">= 0"));
+        }
+        config.parameters.Set(p.name, v);
+      }
+      config.effects.push_back(effect_name);
+    }
+  }
+
+  // Simulation.
+  config.simulation = model.default_settings();
+  if (root.contains("simulation")) {
+    const json& sim = root["simulation"];
+    reader.RequireObject(sim, "/simulation");
+    reader.CheckKeys(sim, "/simulation", {"dt", "regula_falsi", "friction_smoothing_w",
+                                          "diagnostics", "divergence_limit"});
+    if (sim.contains("dt")) config.simulation.dt = reader.Positive(sim["dt"], "/simulation/dt");
+    if (sim.contains("regula_falsi")) {
+      config.simulation.regula_falsi = reader.Bool(sim["regula_falsi"], "/simulation/regula_falsi");
+    }
+    if (sim.contains("friction_smoothing_w")) {
+      config.simulation.friction_smoothing_w =
+          reader.Number(sim["friction_smoothing_w"], "/simulation/friction_smoothing_w");
+    }
+    if (sim.contains("diagnostics")) {
+      config.simulation.diagnostics = reader.Bool(sim["diagnostics"], "/simulation/diagnostics");
+    }
+    if (sim.contains("divergence_limit")) {
+      config.simulation.divergence_limit =
+          reader.Positive(sim["divergence_limit"], "/simulation/divergence_limit");
+    }
+  }
+  if (std::string error = model.Validate(config.parameters, config.simulation); !error.empty()) {
+    reader.Fail("/parameters", error);
+  }
+
+  // Experiment.
+  Experiment& experiment = config.experiment;
+  if (model_name == "blmd") {
+    experiment.duration = 0.16;
+    experiment.sample_rate = 50000.0;
+  }
+  if (root.contains("experiment")) {
+    const json& exp = root["experiment"];
+    reader.RequireObject(exp, "/experiment");
+    reader.CheckKeys(exp, "/experiment", {"input", "duration", "sample_rate", "coast_off_time",
+                                          "pid", "initial"});
+    if (exp.contains("input")) {
+      experiment.input = ReadInput(reader, exp["input"], "/experiment/input", path);
+    }
+    if (exp.contains("duration")) {
+      experiment.duration = reader.Positive(exp["duration"], "/experiment/duration");
+    }
+    if (exp.contains("sample_rate")) {
+      experiment.sample_rate = reader.Positive(exp["sample_rate"], "/experiment/sample_rate");
+    }
+    if (exp.contains("coast_off_time")) {
+      if (model_name != "dc_servo") {
+        reader.Fail("/experiment/coast_off_time", "coast-down applies to model dc_servo only");
+      }
+      experiment.coast_off_time = reader.Number(exp["coast_off_time"], "/experiment/coast_off_time");
+      if (experiment.coast_off_time < 0.0) {
+        reader.Fail("/experiment/coast_off_time", "coast_off_time must be >= 0 (s)");
+      }
+    }
+    if (exp.contains("pid")) {
+      if (model_name != "dc_servo") {
+        reader.Fail("/experiment/pid", "closed-loop PID position control applies to dc_servo");
+      }
+      const json& pid = exp["pid"];
+      reader.RequireObject(pid, "/experiment/pid");
+      reader.CheckKeys(pid, "/experiment/pid", {"Kp", "Ki", "Kd", "tau_d", "u_max"});
+      experiment.closed_loop = true;
+      auto get = [&](const char* key, double* field) {
+        if (pid.contains(key)) *field = reader.Number(pid[key], std::string("/experiment/pid/") + key);
+      };
+      get("Kp", &experiment.pid.Kp);
+      get("Ki", &experiment.pid.Ki);
+      get("Kd", &experiment.pid.Kd);
+      get("tau_d", &experiment.pid.tau_d);
+      get("u_max", &experiment.pid.u_max);
+      if (!(experiment.pid.u_max > 0.0)) reader.Fail("/experiment/pid/u_max", "u_max must be > 0");
+      if (!(experiment.pid.tau_d > 0.0)) reader.Fail("/experiment/pid/tau_d", "tau_d must be > 0");
+    }
+    if (exp.contains("initial")) {
+      const json& initial = exp["initial"];
+      reader.RequireObject(initial, "/experiment/initial");
+      reader.CheckKeys(initial, "/experiment/initial", {"i", "w", "theta"});
+      if (initial.contains("i")) experiment.initial.i = reader.Number(initial["i"], "/experiment/initial/i");
+      if (initial.contains("w")) experiment.initial.w = reader.Number(initial["w"], "/experiment/initial/w");
+      if (initial.contains("theta")) {
+        experiment.initial.theta = reader.Number(initial["theta"], "/experiment/initial/theta");
+      }
+    }
+  }
+  if (experiment.sample_rate * config.simulation.dt > 1.0 + 1e-9) {
+    reader.Fail("/experiment/sample_rate", "sample_rate is faster than the simulation step 1/dt");
+  }
+
+  // Identification.
+  IdentificationSettings& ident = config.identification;
+  ident.free = {"J", "B"};
+  ident.observe = model_name == "blmd" ? std::vector<std::string>{"i"}
+                                       : std::vector<std::string>{"i", "w"};
+  if (root.contains("identification")) {
+    const json& id = root["identification"];
+    reader.RequireObject(id, "/identification");
+    reader.CheckKeys(id, "/identification",
+                     {"free", "initial", "bounds", "observe", "method", "options"});
+    if (id.contains("free")) ident.free = reader.Strings(id["free"], "/identification/free");
+    if (id.contains("observe")) {
+      ident.observe = reader.Strings(id["observe"], "/identification/observe");
+    }
+    if (id.contains("method")) ident.method = reader.String(id["method"], "/identification/method");
+    if (id.contains("options")) {
+      reader.RequireObject(id["options"], "/identification/options");
+      ident.options = id["options"];
+    }
+    std::vector<std::string> known;
+    for (const auto& [name, value] : config.parameters.entries()) known.push_back(name);
+    auto check_known = [&](const std::string& name, const std::string& pointer) {
+      if (config.parameters.Has(name)) return;
+      std::string effect;
+      if (IsEffectParameter(name, &effect)) {
+        reader.Fail(pointer, "parameter '" + name + "' belongs to effect '" + effect +
+                                 "', which the config does not declare under \"effects\"");
+      }
+      const std::string near = NearestName(name, known);
+      reader.Fail(pointer, "unknown parameter '" + name + "'" +
+                               (near.empty() ? "" : " (did you mean '" + near + "'?)"));
+    };
+    if (id.contains("free")) {
+      for (std::size_t k = 0; k < ident.free.size(); ++k) {
+        check_known(ident.free[k], "/identification/free/" + std::to_string(k));
+      }
+    }
+    if (id.contains("bounds")) {
+      const json& bounds = id["bounds"];
+      reader.RequireObject(bounds, "/identification/bounds");
+      for (const auto& [name, pair] : bounds.items()) {
+        const std::string pointer = "/identification/bounds/" + name;
+        check_known(name, pointer);
+        const auto values = reader.Numbers(pair, pointer);
+        if (values.size() != 2) reader.Fail(pointer, "bounds of '" + name + "' must be [lower, upper]");
+        if (!(values[0] < values[1])) {
+          reader.Fail(pointer, "bounds of '" + name + "' are inverted or empty: lower " +
+                                   FormatNumber(values[0]) + " >= upper " + FormatNumber(values[1]));
+        }
+        const ParamInfo* info = config.FindParameterInfo(name);
+        if (info && info->positive && !(values[0] > 0.0)) {
+          reader.Fail(pointer, "lower bound of '" + name + "' must be > 0 (it is a positive "
+                                                           "scale parameter)");
+        }
+        ident.bounds[name] = {values[0], values[1]};
+      }
+    }
+    if (id.contains("initial")) {
+      const json& initial = id["initial"];
+      reader.RequireObject(initial, "/identification/initial");
+      for (const auto& [name, value] : initial.items()) {
+        const std::string pointer = "/identification/initial/" + name;
+        check_known(name, pointer);
+        ident.initial.Set(name, reader.Number(value, pointer));
+      }
+    }
+  }
+  for (const auto& name : ident.free) {
+    if (!config.parameters.Has(name)) {
+      reader.Fail("/identification/free", "free parameter '" + name + "' is not a parameter of "
+                                          "this config");
+    }
+    const double initial = ident.initial.Has(name) ? ident.initial.Get(name)
+                                                   : config.parameters.Get(name);
+    const auto [lower, upper] = config.Bounds(name);
+    if (initial < lower || initial > upper) {
+      const std::string pointer = ident.initial.Has(name) ? "/identification/initial/" + name
+                                                          : "/parameters/" + name;
+      reader.Fail(pointer, "initial value " + FormatNumber(initial) + " of '" + name +
+                               "' is outside its bounds [" + FormatNumber(lower) + ", " +
+                               FormatNumber(upper) + "]");
+    }
+  }
+  return config;
+}
+
+const ParamInfo* Config::FindParameterInfo(const std::string& parameter) const {
+  if (model) {
+    if (const ParamInfo* info = model->FindParameter(parameter)) return info;
+  }
+  for (const auto& effect : EffectRegistry()) {
+    for (const auto& info : effect.parameters) {
+      if (info.name == parameter) return &info;
+    }
+  }
+  return nullptr;
+}
+
+std::pair<double, double> Config::Bounds(const std::string& parameter) const {
+  const auto it = identification.bounds.find(parameter);
+  if (it != identification.bounds.end()) return it->second;
+  if (const ParamInfo* info = FindParameterInfo(parameter)) {
+    return {info->default_lower, info->default_upper};
+  }
+  return {-1e300, 1e300};
+}
+
+void Config::AddEffect(const std::string& effect, const ParameterSet& values) {
+  const EffectInfo& info = FindEffect(effect);
+  const std::string model_name(model->name());
+  if (std::find(info.models.begin(), info.models.end(), model_name) == info.models.end()) {
+    throw InputError("effect '" + effect + "' does not apply to model " + model_name);
+  }
+  for (const auto& [key, value] : values.entries()) {
+    bool known = false;
+    for (const auto& p : info.parameters) known = known || p.name == key;
+    if (!known) {
+      std::vector<std::string> valid;
+      for (const auto& p : info.parameters) valid.push_back(p.name);
+      const std::string near = NearestName(key, valid);
+      throw InputError("effect '" + effect + "' has no parameter '" + key + "'" +
+                       (near.empty() ? "" : " (did you mean '" + near + "'?)") +
+                       "; valid: " + Join(valid));
+    }
+  }
+  for (const auto& p : info.parameters) {
+    if (!values.Has(p.name)) {
+      throw InputError("effect '" + effect + "' needs parameter '" + p.name + "' (" + p.meaning +
+                       ", " + p.unit + ")");
+    }
+    const double v = values.Get(p.name);
+    if ((p.positive && !(v > 0.0)) || (p.non_negative && v < 0.0) || !std::isfinite(v)) {
+      throw InputError("effect parameter '" + p.name + "' must be " +
+                       (p.positive ? "> 0" : ">= 0"));
+    }
+    parameters.Set(p.name, v);
+  }
+  if (std::find(effects.begin(), effects.end(), effect) == effects.end()) effects.push_back(effect);
+}
+
+}  // namespace blmd

@@ -1,0 +1,255 @@
+#include "blmd/sim/blmd_drive.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numbers>
+
+#include "blmd/sim/effects.h"
+#include "sim/sampler.h"
+
+namespace blmd {
+namespace {
+
+ParamInfo P(const char* name, const char* unit, const char* meaning, bool positive, double lo,
+            double hi) {
+  ParamInfo info;
+  info.name = name;
+  info.unit = unit;
+  info.meaning = meaning;
+  info.positive = positive;
+  info.non_negative = !positive;
+  info.default_lower = lo;
+  info.default_upper = hi;
+  return info;
+}
+
+ParamInfo Optional(ParamInfo info) {
+  info.optional = true;
+  info.default_value = 0.0;
+  return info;
+}
+
+constexpr double kTwoPiOver3 = 2.0 * std::numbers::pi / 3.0;
+
+// Symmetric triangular carrier: -Vtri at t = 0, +Vtri at Tpwm/2.
+double Carrier(double t, double Tpwm, double Vtri) {
+  double phase = t / Tpwm;
+  phase -= std::floor(phase);
+  return phase < 0.5 ? -Vtri + 4.0 * Vtri * phase : 3.0 * Vtri - 4.0 * Vtri * phase;
+}
+
+// Time within [a, b] during which a switch commanded on since t_edge conducts, given the
+// turn-on delay delta.
+double ConductingTime(double a, double b, double t_edge, double delta) {
+  return std::max(0.0, b - std::max(a, t_edge + delta));
+}
+
+struct Leg {
+  bool upper_commanded = false;  // comparator output: upper switch commanded on
+  double t_edge = -1.0;          // s, instant of the last command change
+};
+
+}  // namespace
+
+const std::vector<ParamInfo>& BlmdDriveModel::parameters() const {
+  static const std::vector<ParamInfo> params = {
+      P("Ud", "V", "DC bus voltage", true, 1.0, 2000.0),
+      P("Rs", "ohm", "phase resistance", true, 1e-3, 100.0),
+      P("Ls", "H", "phase inductance", true, 1e-6, 1.0),
+      P("Ke", "V·s/rad", "back-EMF and torque constant Ke = p lambda_m (phase peak)", true,
+        1e-3, 10.0),
+      P("p", "-", "pole pairs", true, 1.0, 50.0),
+      P("Kc", "V/V", "current demand per volt of torque demand", true, 1e-3, 100.0),
+      P("Kf", "V/A", "current feedback gain", true, 1e-3, 100.0),
+      P("Kp", "V/V", "compensator proportional gain", false, 0.0, 1e3),
+      P("Ki", "1/s", "compensator integral gain", false, 0.0, 1e7),
+      Optional(P("Tz", "s", "compensator lead zero time constant (0: PI)", false, 0.0, 1.0)),
+      Optional(P("Tp", "s", "compensator lag pole time constant (0: PI)", false, 0.0, 1.0)),
+      P("Vtri", "V", "carrier peak (control voltage for full duty)", true, 1e-3, 100.0),
+      P("Tpwm", "s", "carrier (switching) period, the paper's Ts", true, 1e-6, 1e-2),
+      P("delta", "s", "blanking (dead) time on every turn-on", false, 0.0, 1e-3),
+      P("J", "kg·m²", "inertia of rotor, shaft and load", true, 1e-7, 10.0),
+      P("B", "N·m·s/rad", "viscous damping", true, 1e-9, 10.0),
+  };
+  return params;
+}
+
+SimulationSettings BlmdDriveModel::default_settings() const {
+  SimulationSettings settings;
+  settings.dt = 1e-6;
+  return settings;
+}
+
+std::string BlmdDriveModel::Validate(const ParameterSet& values,
+                                     const SimulationSettings& settings) const {
+  if (std::string error = Model::Validate(values, settings); !error.empty()) return error;
+  const double half_period = 0.5 * values.Get("Tpwm");
+  const double ratio = half_period / settings.dt;
+  if (std::abs(ratio - std::round(ratio)) > 1e-6 * ratio || std::round(ratio) < 2.0) {
+    return "Tpwm/2 must be a whole number (>= 2) of simulation steps dt";
+  }
+  if (values.Get("delta") >= half_period) return "delta must be shorter than Tpwm/2";
+  return {};
+}
+
+SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out) const {
+  const ParameterSet& values = *request.parameters;
+  const Experiment& experiment = *request.experiment;
+  const std::vector<double>& times = *request.sample_times;
+  const SimulationSettings& settings = request.settings;
+  const double dt = settings.dt;
+  if (std::string error = Validate(values, settings); !error.empty()) {
+    return {SimStatus::Code::kInvalidParameters, error, 0.0};
+  }
+  if (times.empty()) return {SimStatus::Code::kInvalidParameters, "no sample times", 0.0};
+
+  const double Ud = values.Get("Ud"), Rs = values.Get("Rs"), Ls = values.Get("Ls"),
+               Ke = values.Get("Ke"), p = values.Get("p"), Kc = values.Get("Kc"),
+               Kf = values.Get("Kf"), Kp = values.Get("Kp"), Ki = values.Get("Ki"),
+               Tz = values.Get("Tz"), Tp = values.Get("Tp"), Vtri = values.Get("Vtri"),
+               Tpwm = values.Get("Tpwm"), delta = values.Get("delta"), J = values.Get("J"),
+               B = values.Get("B");
+  const ShaftEffects shaft = ShaftEffects::From(values, *request.effects,
+                                                settings.friction_smoothing_w);
+  const DriveEffects drive = DriveEffects::From(values, *request.effects);
+
+  // Backward-Euler coefficients.
+  const double current_gain = 1.0 / (1.0 + dt * Rs / Ls);  // i+ = (i + dt/Ls (v - e)) * gain
+  const double speed_gain = 1.0 / (1.0 + dt * B / J);      // w+ = (w + dt/J (T)) * gain
+  // Lead-lag part: y_k (1 + Tp/dt) - (Tp/dt) y_{k-1} = Kp [(1 + Tz/dt) e_k - (Tz/dt) e_{k-1}]
+  const double lag_norm = 1.0 / (1.0 + Tp / dt);
+
+  std::vector<std::string> names = {"u", "i", "ib", "ic", "w", "theta"};
+  if (settings.diagnostics) {
+    for (const char* extra : {"va", "vb", "vc", "Te"}) names.emplace_back(extra);
+  }
+  internal::OutputSampler sampler(times, names);
+  InputCursor input(experiment.input);
+
+  const double t_start = times.front();
+  std::array<double, 3> current = {0.0, 0.0, 0.0};  // A, into the winding
+  double w = experiment.initial.w, theta = experiment.initial.theta;
+  std::array<double, 3> integral = {0.0, 0.0, 0.0};  // V, compensator integrator
+  std::array<double, 3> lead_out = {0.0, 0.0, 0.0};  // V, lead-lag output
+  std::array<double, 3> error_prev = {0.0, 0.0, 0.0};
+  std::array<Leg, 3> legs;
+  std::array<double, 3> phase_voltage = {0.0, 0.0, 0.0};
+  double torque = 0.0;
+
+  auto pack = [&](double u, double* row) {
+    row[0] = u;
+    row[1] = current[0] + drive.i0;
+    row[2] = current[1];
+    row[3] = current[2];
+    row[4] = w;
+    row[5] = theta;
+    if (settings.diagnostics) {
+      row[6] = phase_voltage[0];
+      row[7] = phase_voltage[1];
+      row[8] = phase_voltage[2];
+      row[9] = torque;
+    }
+  };
+  std::array<double, 10> prev{}, now{};
+  pack(input.At(t_start), prev.data());
+  sampler.Record(t_start, prev.data(), t_start, prev.data());
+
+  bool first_step = true;
+  for (long step = 0; !sampler.done(); ++step) {
+    const double t_low = t_start + static_cast<double>(step) * dt;
+    const double t_high = t_start + static_cast<double>(step + 1) * dt;
+    const double demand = input.At(t_low);
+    const double electrical_angle = p * theta;
+    std::array<double, 3> cosine;
+    for (int j = 0; j < 3; ++j) cosine[j] = std::cos(electrical_angle - kTwoPiOver3 * j);
+
+    // Compensators and PWM legs.
+    const double carrier_low = Carrier(t_low, Tpwm, Vtri);
+    const double carrier_high = Carrier(t_high, Tpwm, Vtri);
+    std::array<double, 3> leg_voltage;
+    for (int j = 0; j < 3; ++j) {
+      const double error = Kc * demand * cosine[j] - Kf * current[j];
+      lead_out[j] = lag_norm * ((Tp / dt) * lead_out[j] +
+                                Kp * ((1.0 + Tz / dt) * error - (Tz / dt) * error_prev[j]));
+      error_prev[j] = error;
+      // Conditional integration: the integrator holds while the output saturates in the
+      // direction of the error (anti-windup).
+      const double proposed_integral = integral[j] + Ki * dt * error;
+      const double unclamped = lead_out[j] + proposed_integral;
+      if (std::abs(unclamped) <= Vtri || unclamped * error < 0.0) integral[j] = proposed_integral;
+      const double control = std::clamp(lead_out[j] + integral[j], -Vtri, Vtri);
+
+      Leg& leg = legs[j];
+      const double d_low = carrier_low - control;  // < 0: upper commanded
+      const double d_high = carrier_high - control;
+      if (first_step) {
+        leg.upper_commanded = d_low < 0.0;
+        leg.t_edge = t_low - 2.0 * delta - dt;  // settled before the run
+      }
+      const bool old_command = leg.upper_commanded;
+      double t_cross = t_high;  // no change inside the step
+      bool new_command = old_command;
+      if ((d_low < 0.0) != old_command) {
+        // The control voltage jumped across the carrier at the step start.
+        t_cross = t_low;
+        new_command = d_low < 0.0;
+      } else if ((d_high < 0.0) != old_command) {
+        new_command = d_high < 0.0;
+        // Regula falsi: t_x = t_L + dt d_L / (d_L - d_H); off: switch at the step end.
+        t_cross = settings.regula_falsi ? t_low + dt * d_low / (d_low - d_high) : t_high;
+      }
+      double upper_on = 0.0, lower_on = 0.0;
+      (old_command ? upper_on : lower_on) += ConductingTime(t_low, t_cross, leg.t_edge, delta);
+      if (new_command != old_command) {
+        leg.upper_commanded = new_command;
+        leg.t_edge = t_cross;
+      }
+      (leg.upper_commanded ? upper_on : lower_on) +=
+          ConductingTime(t_cross, t_high, leg.t_edge, delta);
+      const double both_off = std::max(0.0, dt - upper_on - lower_on);
+      leg_voltage[j] = Ud * (upper_on + (current[j] < 0.0 ? both_off : 0.0)) / dt;
+    }
+    first_step = false;
+    const double neutral = (leg_voltage[0] + leg_voltage[1] + leg_voltage[2]) / 3.0;
+
+    // Windings (backward Euler), back-EMF from the step-start speed and angle.
+    torque = 0.0;
+    for (int j = 0; j < 3; ++j) {
+      phase_voltage[j] = leg_voltage[j] - neutral;
+      const double emf = Ke * w * cosine[j];
+      current[j] = (current[j] + dt / Ls * (phase_voltage[j] - emf)) * current_gain;
+      torque += Ke * current[j] * cosine[j];
+    }
+
+    // Shaft (backward Euler) with the shared effects.
+    const double w_old = w, theta_old = theta;
+    const double non_friction = shaft.NonFrictionTorque(theta) + shaft.DragTorque(w);
+    bool stuck = false;
+    const double friction = shaft.StepFriction(w, torque - non_friction, &stuck);
+    if (!stuck) {
+      w = (w + dt / J * (torque - friction - non_friction)) * speed_gain;
+      if (shaft.StopsWithin(w_old, w)) {
+        const double fraction = w_old / (w_old - w);
+        w = 0.0;
+        theta = theta_old + 0.5 * w_old * fraction * dt;
+      } else {
+        theta += dt * w;
+      }
+    }
+
+    pack(demand, now.data());
+    if (!internal::AllFinite(now.data() + 1, 5, settings.divergence_limit)) {
+      return {SimStatus::Code::kDiverged,
+              "simulation diverged (non-finite or |state| above the limit)", t_high};
+    }
+    sampler.Record(t_low, prev.data(), t_high, now.data());
+    prev = now;
+  }
+  sampler.Finish(out);
+  auto& u_column = out->Column("u");
+  for (std::size_t k = 0; k < times.size(); ++k) u_column[k] = experiment.input.At(times[k]);
+  return SimStatus::Ok();
+}
+
+}  // namespace blmd

@@ -1,0 +1,189 @@
+#include "blmd/sim/dc_servo.h"
+
+#include <Eigen/Dense>
+#include <unsupported/Eigen/MatrixFunctions>
+#include <array>
+#include <cmath>
+
+#include "blmd/sim/effects.h"
+#include "sim/sampler.h"
+
+namespace blmd {
+namespace {
+
+ParamInfo P(const char* name, const char* unit, const char* meaning, double lo, double hi) {
+  ParamInfo info;
+  info.name = name;
+  info.unit = unit;
+  info.meaning = meaning;
+  info.positive = true;
+  info.default_lower = lo;
+  info.default_upper = hi;
+  return info;
+}
+
+double Sign(double x) { return x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : 0.0); }
+
+// Exact zero-order-hold discretisation: x+ = Ad x + Bd [inputs], from expm([[A,B],[0,0]] dt).
+template <int N, int M>
+void Discretise(const Eigen::Matrix<double, N, N>& A, const Eigen::Matrix<double, N, M>& B,
+                double dt, Eigen::Matrix<double, N, N>* Ad, Eigen::Matrix<double, N, M>* Bd) {
+  Eigen::Matrix<double, N + M, N + M> augmented = Eigen::Matrix<double, N + M, N + M>::Zero();
+  augmented.template topLeftCorner<N, N>() = A * dt;
+  augmented.template topRightCorner<N, M>() = B * dt;
+  const Eigen::Matrix<double, N + M, N + M> expm = augmented.exp();
+  *Ad = expm.template topLeftCorner<N, N>();
+  *Bd = expm.template topRightCorner<N, M>();
+}
+
+}  // namespace
+
+const std::vector<ParamInfo>& DcServoModel::parameters() const {
+  static const std::vector<ParamInfo> params = {
+      P("R", "ohm", "armature resistance", 1e-3, 1e3),
+      P("L", "H", "armature inductance", 1e-6, 10.0),
+      P("Kt", "N·m/A", "torque constant", 1e-4, 10.0),
+      P("Kb", "V·s/rad", "back-EMF constant", 1e-4, 10.0),
+      P("J", "kg·m²", "inertia of motor and load", 1e-9, 10.0),
+      P("B", "N·m·s/rad", "viscous damping of motor and load", 1e-10, 10.0),
+  };
+  return params;
+}
+
+SimulationSettings DcServoModel::default_settings() const {
+  SimulationSettings settings;
+  settings.dt = 1e-5;
+  return settings;
+}
+
+SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) const {
+  const ParameterSet& values = *request.parameters;
+  const Experiment& experiment = *request.experiment;
+  const std::vector<double>& times = *request.sample_times;
+  const double dt = request.settings.dt;
+  if (std::string error = Validate(values, request.settings); !error.empty()) {
+    return {SimStatus::Code::kInvalidParameters, error, 0.0};
+  }
+  if (times.empty()) return {SimStatus::Code::kInvalidParameters, "no sample times", 0.0};
+
+  const double R = values.Get("R"), L = values.Get("L"), Kt = values.Get("Kt"),
+               Kb = values.Get("Kb"), J = values.Get("J"), B = values.Get("B");
+  const ShaftEffects shaft =
+      ShaftEffects::From(values, *request.effects, request.settings.friction_smoothing_w);
+  const DriveEffects drive = DriveEffects::From(values, *request.effects);
+
+  // Full system: x = [i, w, theta], inputs [u_eff, T_effects].
+  Eigen::Matrix3d A;
+  A << -R / L, -Kb / L, 0.0, Kt / J, -B / J, 0.0, 0.0, 1.0, 0.0;
+  Eigen::Matrix<double, 3, 2> Bm;
+  Bm << 1.0 / L, 0.0, 0.0, -1.0 / J, 0.0, 0.0;
+  Eigen::Matrix3d Ad;
+  Eigen::Matrix<double, 3, 2> Bd;
+  Discretise<3, 2>(A, Bm, dt, &Ad, &Bd);
+  // Shaft stuck (w = 0): the armature alone, x = [i], input u_eff.
+  Eigen::Matrix<double, 1, 1> As, Ads;
+  Eigen::Matrix<double, 1, 1> Bs, Bds;
+  As << -R / L;
+  Bs << 1.0 / L;
+  Discretise<1, 1>(As, Bs, dt, &Ads, &Bds);
+  // Armature open (i = 0): x = [w, theta], input T_effects.
+  Eigen::Matrix2d Ao, Ado;
+  Eigen::Matrix<double, 2, 1> Bo, Bdo;
+  Ao << -B / J, 0.0, 1.0, 0.0;
+  Bo << -1.0 / J, 0.0;
+  Discretise<2, 1>(Ao, Bo, dt, &Ado, &Bdo);
+
+  const bool closed_loop = experiment.closed_loop;
+  const PidSettings& pid = experiment.pid;
+  const bool has_coast = experiment.coast_off_time >= 0.0;
+
+  std::vector<std::string> names = {"u", "i", "w", "theta"};
+  if (closed_loop) names.push_back("r");
+  internal::OutputSampler sampler(times, names);
+
+  InputCursor input(experiment.input);
+  const double t_start = times.front();
+  double i = experiment.initial.i, w = experiment.initial.w, theta = experiment.initial.theta;
+  double integral = 0.0, derivative_state = theta;  // PID: filtered theta for the D term
+
+  auto control = [&](double t, double* reference) {
+    const double r = input.At(t);
+    *reference = r;
+    if (!closed_loop) return r;
+    const double error = r - theta;
+    // First-order filtered derivative of the measurement (backward Euler).
+    const double alpha = dt / (pid.tau_d + dt);
+    const double filtered_prev = derivative_state;
+    derivative_state += alpha * (theta - derivative_state);
+    const double dtheta = (derivative_state - filtered_prev) / dt;
+    double u = pid.Kp * error + pid.Ki * integral - pid.Kd * dtheta;
+    const bool saturated_high = u > pid.u_max, saturated_low = u < -pid.u_max;
+    if (!((saturated_high && error > 0.0) || (saturated_low && error < 0.0))) {
+      integral += error * dt;
+    }
+    return std::clamp(u, -pid.u_max, pid.u_max);
+  };
+
+  double reference = 0.0;
+  double u = control(t_start, &reference);
+  std::array<double, 5> prev = {u, i + drive.i0, w, theta, reference};
+  sampler.Record(t_start, prev.data(), t_start, prev.data());
+  std::array<double, 5> now = prev;
+
+  for (long step = 0; !sampler.done(); ++step) {
+    const double t = t_start + static_cast<double>(step) * dt;
+    const double t_next = t_start + static_cast<double>(step + 1) * dt;
+    if (step > 0) u = control(t, &reference);
+    const bool open = (has_coast && t >= experiment.coast_off_time) || input.OpenAt(t);
+
+    const double non_friction = shaft.NonFrictionTorque(theta) + shaft.DragTorque(w);
+    const double u_eff = u - drive.Vdt * Sign(i);
+    const double w_old = w, theta_old = theta;
+    if (open) {
+      i = 0.0;
+      bool stuck = false;
+      const double friction = shaft.StepFriction(w, -non_friction, &stuck);
+      if (!stuck) {
+        const Eigen::Vector2d x = Ado * Eigen::Vector2d(w, theta) + Bdo * (friction + non_friction);
+        w = x(0);
+        theta = x(1);
+      }
+    } else {
+      bool stuck = false;
+      const double friction = shaft.StepFriction(w, Kt * i - non_friction, &stuck);
+      if (stuck) {
+        i = Ads(0, 0) * i + Bds(0, 0) * u_eff;
+      } else {
+        const Eigen::Vector3d x =
+            Ad * Eigen::Vector3d(i, w, theta) + Bd * Eigen::Vector2d(u_eff, friction + non_friction);
+        i = x(0);
+        w = x(1);
+        theta = x(2);
+      }
+    }
+    if (shaft.StopsWithin(w_old, w)) {
+      // Friction stopped the shaft inside this step: it ends at rest, not reversed.
+      const double fraction = w_old / (w_old - w);
+      theta = theta_old + 0.5 * w_old * fraction * dt;
+      w = 0.0;
+    }
+
+    now = {u, i + drive.i0, w, theta, reference};
+    if (!internal::AllFinite(now.data() + 1, 3, request.settings.divergence_limit)) {
+      return {SimStatus::Code::kDiverged,
+              "simulation diverged (non-finite or |state| > " +
+                  std::to_string(request.settings.divergence_limit) + ")",
+              t_next};
+    }
+    sampler.Record(t, prev.data(), t_next, now.data());
+    prev = now;
+  }
+  sampler.Finish(out);
+  if (!closed_loop) {
+    auto& u_column = out->Column("u");
+    for (std::size_t k = 0; k < times.size(); ++k) u_column[k] = experiment.input.At(times[k]);
+  }
+  return SimStatus::Ok();
+}
+
+}  // namespace blmd

@@ -1,0 +1,122 @@
+#include "blmd/sim/effects.h"
+
+#include <algorithm>
+
+#include "blmd/error.h"
+
+namespace blmd {
+namespace {
+
+ParamInfo P(std::string name, std::string unit, std::string meaning, bool positive,
+            bool non_negative, double lower, double upper) {
+  ParamInfo info;
+  info.name = std::move(name);
+  info.unit = std::move(unit);
+  info.meaning = std::move(meaning);
+  info.positive = positive;
+  info.non_negative = non_negative;
+  info.default_lower = lower;
+  info.default_upper = upper;
+  return info;
+}
+
+std::vector<EffectInfo> MakeRegistry() {
+  const std::vector<std::string> all = {"blmd", "dc_servo", "rigid_load"};
+  std::vector<EffectInfo> effects = {
+      {"cogging",
+       {P("Tcog", "N·m", "cogging torque amplitude", false, true, 0.0, 10.0),
+        P("periods", "1/rev", "cogging periods per shaft revolution", true, false, 1.0, 200.0),
+        P("phase", "rad", "cogging phase", false, false, -3.14159265358979, 3.14159265358979)},
+       "T = Tcog sin(periods theta + phase)",
+       all},
+      {"coulomb_friction",
+       {P("Tc", "N·m", "Coulomb friction torque", false, true, 0.0, 10.0)},
+       "T = Tc sign(w), sticking at rest",
+       all},
+      {"current_offset",
+       {P("i0", "A", "current sensor offset", false, false, -10.0, 10.0)},
+       "i_measured = i + i0",
+       {"blmd", "dc_servo", "rigid_load"}},
+      {"dead_time",
+       {P("Vdt", "V", "drive voltage lost to inverter blanking", false, true, 0.0, 50.0)},
+       "u_eff = u - Vdt sign(i)",
+       {"dc_servo"}},
+      {"load_torque",
+       {P("TL", "N·m", "constant load torque opposing positive motion", false, false, -100.0,
+          100.0)},
+       "T = TL",
+       all},
+      {"quadratic_drag",
+       {P("Cd", "N·m·s²/rad²", "quadratic (fan, windage) drag coefficient", false, true, 0.0, 1.0)},
+       "T = Cd w |w|",
+       all},
+      {"stribeck",
+       {P("Ts", "N·m", "extra breakaway friction at rest", false, true, 0.0, 10.0),
+        P("ws", "rad/s", "Stribeck velocity", true, false, 1e-3, 1e3)},
+       "T = Ts exp(-(w/ws)^2) sign(w)",
+       all},
+  };
+  return effects;
+}
+
+}  // namespace
+
+const std::vector<EffectInfo>& EffectRegistry() {
+  static const std::vector<EffectInfo> registry = MakeRegistry();
+  return registry;
+}
+
+const EffectInfo& FindEffect(const std::string& name) {
+  for (const auto& effect : EffectRegistry()) {
+    if (effect.name == name) return effect;
+  }
+  std::string valid;
+  for (const auto& effect : EffectRegistry()) valid += (valid.empty() ? "" : ", ") + effect.name;
+  throw InputError("unknown effect '" + name + "' (valid: " + valid + ")");
+}
+
+bool IsEffectParameter(const std::string& parameter, std::string* effect_name) {
+  for (const auto& effect : EffectRegistry()) {
+    for (const auto& info : effect.parameters) {
+      if (info.name == parameter) {
+        if (effect_name) *effect_name = effect.name;
+        return true;
+      }
+    }
+  }
+  return false;
+}
+
+ShaftEffects ShaftEffects::From(const ParameterSet& values, const std::vector<std::string>& enabled,
+                                double smoothing_w) {
+  ShaftEffects shaft;
+  shaft.smoothing_w = smoothing_w;
+  auto on = [&](const char* name) {
+    return std::find(enabled.begin(), enabled.end(), name) != enabled.end();
+  };
+  if (on("coulomb_friction")) shaft.Tc = values.Get("Tc");
+  if (on("stribeck")) {
+    shaft.Ts = values.Get("Ts");
+    shaft.ws = values.Get("ws");
+  }
+  if (on("load_torque")) shaft.TL = values.Get("TL");
+  if (on("quadratic_drag")) shaft.Cd = values.Get("Cd");
+  if (on("cogging")) {
+    shaft.Tcog = values.Get("Tcog");
+    shaft.cog_periods = values.Get("periods");
+    shaft.cog_phase = values.Get("phase");
+  }
+  return shaft;
+}
+
+DriveEffects DriveEffects::From(const ParameterSet& values, const std::vector<std::string>& enabled) {
+  DriveEffects drive;
+  auto on = [&](const char* name) {
+    return std::find(enabled.begin(), enabled.end(), name) != enabled.end();
+  };
+  if (on("dead_time")) drive.Vdt = values.Get("Vdt");
+  if (on("current_offset")) drive.i0 = values.Get("i0");
+  return drive;
+}
+
+}  // namespace blmd

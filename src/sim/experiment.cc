@@ -1,0 +1,64 @@
+#include "blmd/sim/experiment.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace blmd {
+
+double InputSignal::At(double t) const {
+  switch (kind) {
+    case Kind::kStep:
+      return t >= t0 ? offset + amplitude : offset;
+    case Kind::kSquare: {
+      if (t < t0 || period <= 0.0) return offset;
+      const double phase = std::fmod(t - t0, period);
+      return phase < 0.5 * period ? offset + amplitude : offset - amplitude;
+    }
+    case Kind::kSteps:
+    case Kind::kRecorded: {
+      if (times.empty() || t < times.front()) return kind == Kind::kSteps ? offset : values.front();
+      const auto it = std::upper_bound(times.begin(), times.end(), t);
+      return values[static_cast<std::size_t>(it - times.begin()) - 1];
+    }
+  }
+  return 0.0;
+}
+
+bool InputSignal::OpenAt(double t) const {
+  if (open.empty() || times.empty() || t < times.front()) return false;
+  const auto it = std::upper_bound(times.begin(), times.end(), t);
+  return open[static_cast<std::size_t>(it - times.begin()) - 1] != 0.0;
+}
+
+void InputCursor::Advance(double t) {
+  const auto& times = signal_.times;
+  while (index_ + 1 < times.size() && times[index_ + 1] <= t) ++index_;
+}
+
+double InputCursor::At(double t) {
+  if (signal_.kind != InputSignal::Kind::kSteps && signal_.kind != InputSignal::Kind::kRecorded) {
+    return signal_.At(t);
+  }
+  const auto& times = signal_.times;
+  if (times.empty()) return signal_.offset;
+  if (t < times.front()) {
+    return signal_.kind == InputSignal::Kind::kSteps ? signal_.offset : signal_.values.front();
+  }
+  Advance(t);
+  return signal_.values[index_];
+}
+
+bool InputCursor::OpenAt(double t) {
+  if (signal_.open.empty() || signal_.times.empty() || t < signal_.times.front()) return false;
+  Advance(t);
+  return signal_.open[index_] != 0.0;
+}
+
+std::vector<double> Experiment::SampleTimes() const {
+  const auto n = static_cast<std::size_t>(std::floor(duration * sample_rate + 1e-9)) + 1;
+  std::vector<double> times(n);
+  for (std::size_t k = 0; k < n; ++k) times[k] = static_cast<double>(k) / sample_rate;
+  return times;
+}
+
+}  // namespace blmd

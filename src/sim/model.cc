@@ -1,0 +1,48 @@
+#include "blmd/sim/model.h"
+
+#include <cmath>
+
+#include "blmd/error.h"
+#include "blmd/sim/blmd_drive.h"
+#include "blmd/sim/dc_servo.h"
+
+namespace blmd {
+
+std::string Model::Validate(const ParameterSet& values, const SimulationSettings& settings) const {
+  for (const auto& info : parameters()) {
+    if (!values.Has(info.name)) return "missing parameter '" + info.name + "'";
+    const double v = values.Get(info.name);
+    if (!std::isfinite(v)) return "parameter '" + info.name + "' is not finite";
+    if (info.positive && !(v > 0.0)) return "parameter '" + info.name + "' must be > 0";
+    if (info.non_negative && v < 0.0) return "parameter '" + info.name + "' must be >= 0";
+  }
+  if (!(settings.dt > 0.0) || !std::isfinite(settings.dt)) return "simulation.dt must be > 0";
+  return {};
+}
+
+const ParamInfo* Model::FindParameter(std::string_view name) const {
+  for (const auto& info : parameters()) {
+    if (info.name == name) return &info;
+  }
+  return nullptr;
+}
+
+const std::vector<const Model*>& ModelRegistry() {
+  static const DcServoModel dc_servo;
+  static const BlmdDriveModel blmd_drive;
+  static const std::vector<const Model*> registry = {&blmd_drive, &dc_servo};
+  return registry;
+}
+
+const Model& FindModel(std::string_view name) {
+  for (const Model* model : ModelRegistry()) {
+    if (model->name() == name) return *model;
+  }
+  std::string valid;
+  for (const Model* model : ModelRegistry()) {
+    valid += (valid.empty() ? "" : ", ") + std::string(model->name());
+  }
+  throw InputError("unknown model '" + std::string(name) + "' (valid: " + valid + ")");
+}
+
+}  // namespace blmd

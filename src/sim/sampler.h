@@ -1,0 +1,62 @@
+// Private helper shared by the fixed-step models: writes the outputs at the requested
+// sample instants. A sample that falls inside a step is linearly interpolated between the
+// step's end points (exact when the sample lies on the step grid, the usual case).
+#pragma once
+
+#include <cmath>
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "blmd/sim/trace.h"
+
+namespace blmd::internal {
+
+class OutputSampler {
+ public:
+  OutputSampler(const std::vector<double>& times, const std::vector<std::string>& names)
+      : times_(times), columns_(names.size(), std::vector<double>(times.size(), 0.0)),
+        names_(names) {}
+
+  bool done() const { return next_ >= times_.size(); }
+  std::size_t next() const { return next_; }
+  double next_time() const { return times_[next_]; }
+
+  // Records samples with t in (t_prev, t_now] (and t == t_prev for the very first one).
+  void Record(double t_prev, const double* prev, double t_now, const double* now) {
+    const double span = t_now - t_prev;
+    const double tolerance = 1e-9 * span;
+    while (next_ < times_.size() && times_[next_] <= t_now + tolerance) {
+      const double t = times_[next_];
+      double alpha = span > 0.0 ? (t - t_prev) / span : 1.0;
+      if (alpha > 1.0 - 1e-9) alpha = 1.0;
+      if (alpha < 0.0) alpha = 0.0;
+      for (std::size_t c = 0; c < columns_.size(); ++c) {
+        columns_[c][next_] = alpha == 1.0 ? now[c] : prev[c] + alpha * (now[c] - prev[c]);
+      }
+      ++next_;
+    }
+  }
+
+  // Moves the columns into *out after "t".
+  void Finish(Trace* out) {
+    *out = Trace();
+    out->Set("t", times_);
+    for (std::size_t c = 0; c < columns_.size(); ++c) out->Set(names_[c], std::move(columns_[c]));
+  }
+
+ private:
+  const std::vector<double>& times_;
+  std::vector<std::vector<double>> columns_;
+  std::vector<std::string> names_;
+  std::size_t next_ = 0;
+};
+
+inline bool AllFinite(const double* values, std::size_t n, double limit) {
+  for (std::size_t k = 0; k < n; ++k) {
+    if (!std::isfinite(values[k]) || std::abs(values[k]) > limit) return false;
+  }
+  return true;
+}
+
+}  // namespace blmd::internal
