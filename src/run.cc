@@ -15,7 +15,16 @@ SimStatus RunExperiment(const Config& config, Trace* out, const InputSignal* inp
   request.experiment = &experiment;
   request.settings = config.simulation;
   request.sample_times = &times;
-  return config.model->Simulate(request, out);
+  const SimStatus status = config.model->Simulate(request, out);
+  if (status.ok() && experiment.coast_off_time >= 0.0) {
+    // Mark the open armature so that the trace replays correctly as a recorded input.
+    std::vector<double> open(times.size());
+    for (std::size_t k = 0; k < times.size(); ++k) {
+      open[k] = times[k] >= experiment.coast_off_time ? 1.0 : 0.0;
+    }
+    out->Set("open", std::move(open));
+  }
+  return status;
 }
 
 StepMetrics ComputeStepMetrics(const std::vector<double>& t, const std::vector<double>& y,

@@ -1,0 +1,144 @@
+// blmd-ident: identify the free parameters of a config's model from measured traces.
+#include <iostream>
+#include <thread>
+
+#include "../common/app_main.h"
+#include "blmd/ident/optimizer.h"
+#include "blmd/ident/report.h"
+#include "blmd/ident/trace_input.h"
+#include "blmd/io/config.h"
+#include "blmd/io/files.h"
+#include "blmd/io/flags.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"blmd-ident: identify J, B (and any other free parameter) from a recorded trace"};
+  blmd::app::AddVersionFlag(app, "blmd-ident");
+  std::string config_path, method, observe_text, free_text, report_path, initial_state = "config";
+  std::vector<std::string> traces, validates, columns, scales, derives, method_options, initials;
+  std::uint64_t seed = 1;
+  int threads = 0, max_evaluations = 0;
+  bool json = false, quiet = false;
+  double fail_above = -1.0;
+  app.add_option("--config", config_path, "model and identification set-up (JSON)")->required();
+  app.add_option("--trace", traces, "measured trace CSV (repeatable: one fit over all)")->required();
+  app.add_option("--validate", validates, "held-out trace CSV to report the error on (repeatable)");
+  app.add_option("--method", method, "ceres|powell|fsd|classic (default: config, else ceres)");
+  app.add_option("--observe", observe_text, "trace columns in the cost, e.g. i,w");
+  app.add_option("--free", free_text, "parameters to identify, e.g. J,B");
+  app.add_option("--initial", initials, "start value NAME=VALUE (repeatable)");
+  app.add_option("--option", method_options, "method option KEY=VALUE (repeatable), e.g. algorithm=praxis");
+  app.add_option("--max-evaluations", max_evaluations, "cost evaluation budget (0: method default)");
+  app.add_option("--initial-state", initial_state, "config|trace: initial w, theta, i")
+      ->check(CLI::IsMember({"config", "trace"}));
+  app.add_option("--report", report_path, "write the JSON report here");
+  app.add_flag("--json", json, "print the JSON report on stdout instead of the summary");
+  app.add_option("--column", columns, "map a standard column to a header, NAME=HEADER (repeatable)");
+  app.add_option("--scale", scales, "multiply a column, NAME=FACTOR (repeatable)");
+  app.add_option("--derive", derives, "derive a velocity from a position, e.g. w=theta");
+  app.add_option("--seed", seed, "random seed (fsd)");
+  app.add_option("--threads", threads, "worker threads (0: all cores)")->check(CLI::NonNegativeNumber);
+  app.add_flag("--quiet", quiet, "print nothing but errors");
+  app.add_option("--fail-above-nrmse", fail_above, "exit 3 when the final NRMSE exceeds X");
+
+  return blmd::app::Main(app, argc, argv, [&]() -> int {
+    blmd::Config config = blmd::LoadConfig(config_path);
+    for (const auto& text : initials) {
+      const auto [name, value] = blmd::ParseAssignment(text, "--initial");
+      config.identification.initial.Set(name, value);
+    }
+    if (method.empty()) method = config.identification.method.empty() ? "ceres" : config.identification.method;
+    const blmd::Optimizer& optimizer = blmd::FindOptimizer(method);
+    std::vector<std::string> observe = observe_text.empty()
+                                           ? config.identification.observe
+                                           : blmd::ParseNameList(observe_text, "--observe");
+    const std::vector<std::string> outputs = config.model->outputs();
+    for (const auto& name : observe) {
+      if (std::find(outputs.begin(), outputs.end(), name) == outputs.end()) {
+        std::string valid;
+        for (const auto& o : outputs) valid += (valid.empty() ? "" : ",") + o;
+        throw blmd::InputError("--observe: '" + name + "' is not an output of model " +
+                               std::string(config.model->name()) + " (valid: " + valid + ")");
+      }
+    }
+    const std::vector<std::string> free_names =
+        free_text.empty() ? config.identification.free : blmd::ParseNameList(free_text, "--free");
+    const auto free = blmd::MakeFreeParameters(config, free_names);
+
+    blmd::TraceInputOptions input_options;
+    for (const auto& text : columns) {
+      const auto [name, header] = blmd::ParseTextAssignment(text, "--column");
+      input_options.columns[name] = header;
+    }
+    for (const auto& text : scales) {
+      const auto [name, factor] = blmd::ParseAssignment(text, "--scale");
+      input_options.scales[name] = factor;
+    }
+    for (const auto& text : derives) {
+      const auto [target, source] = blmd::ParseTextAssignment(text, "--derive");
+      if (target != "w" || (source != "theta")) {
+        throw blmd::InputError("--derive '" + text + "': supported: w=theta");
+      }
+      input_options.derive.emplace_back(target, source);
+    }
+    input_options.required = observe;
+    input_options.initial_from_trace = initial_state == "trace";
+
+    nlohmann::json options_json = config.identification.method == method
+                                      ? config.identification.options
+                                      : nlohmann::json::object();
+    for (const auto& text : method_options) {
+      const auto [key, value] = blmd::ParseTextAssignment(text, "--option");
+      options_json[key] = value;
+    }
+    std::vector<blmd::FitTrace> fit_traces;
+    for (const auto& path : traces) {
+      fit_traces.push_back(blmd::LoadFitTrace(path, input_options, config.experiment.initial));
+    }
+    std::vector<blmd::FitTrace> validation_traces;
+    for (const auto& path : validates) {
+      validation_traces.push_back(blmd::LoadFitTrace(path, input_options, config.experiment.initial));
+    }
+    if (!report_path.empty()) blmd::InstallCleanupOnSignal();
+
+    const blmd::FitProblem problem(config, std::move(fit_traces), observe, free);
+    std::unique_ptr<blmd::FitProblem> validation;
+    if (!validation_traces.empty()) {
+      validation = std::make_unique<blmd::FitProblem>(config, std::move(validation_traces), observe, free);
+    }
+    blmd::OptimizerOptions options;
+    options.seed = seed;
+    options.threads = threads;
+    options.max_evaluations = max_evaluations;
+    options.method_options = options_json;
+    const blmd::FitResult result = optimizer.Minimize(problem, options);
+
+    blmd::ReportInputs inputs;
+    inputs.config_path = config_path;
+    inputs.problem = &problem;
+    inputs.result = &result;
+    inputs.validation = validation.get();
+    inputs.seed = seed;
+    inputs.threads = threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    const nlohmann::json report = blmd::MakeReport(inputs);
+    if (!report_path.empty()) blmd::WriteFileAtomically(report_path, report.dump(2) + "\n");
+    if (json) {
+      std::cout << report.dump(2) << "\n";
+    } else if (!quiet) {
+      std::cout << blmd::HumanSummary(report);
+      if (!report_path.empty()) std::cout << "report: " << report_path << "\n";
+    }
+    if (!result.summary.converged) {
+      std::cerr << "error: the fit did not converge: " << result.summary.termination << "\n";
+      return blmd::kExitFailed;
+    }
+    if (fail_above >= 0.0) {
+      const auto& nrmse = report["fit"]["nrmse"];
+      if (nrmse.is_null() || nrmse.get<double>() > fail_above) {
+        std::cerr << "error: final NRMSE " << (nrmse.is_null() ? std::string("n/a") : nrmse.dump())
+                  << " is above --fail-above-nrmse " << fail_above << "\n";
+        return blmd::kExitGate;
+      }
+    }
+    return blmd::kExitOk;
+  });
+}

@@ -1,0 +1,83 @@
+// Optimisers behind one interface (docs/identification.md): Options in, FitResult with a
+// Summary out. One registry knows every method; an unknown name lists the valid ones.
+//   ceres   - Ceres Solver nonlinear least squares on the per-sample residuals, numeric
+//             (central) derivatives, bounds, ceres::Covariance for the intervals.
+//   powell  - NLopt's Powell family in scaled coordinates: BOBYQA (default) or PRAXIS.
+//   fsd     - Fast Simulated Diffusion (our reconstruction, docs/fsd.md), seeded, with a
+//             final BOBYQA polish; deterministic for a seed whatever the thread count.
+//   classic - Ganesh et al. (2012) estimators on steady-state and coast-down traces.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "blmd/ident/problem.h"
+
+namespace blmd {
+
+struct OptimizerOptions {
+  std::uint64_t seed = 1;     // random seed (fsd)
+  int threads = 0;            // worker threads; 0 = all cores
+  int max_evaluations = 0;    // cost evaluations; 0 = the method's default
+  // Method-specific options by name, e.g. {"algorithm": "praxis"} for powell; unknown names
+  // are an InputError listing the valid ones.
+  nlohmann::json method_options = nlohmann::json::object();
+};
+
+struct OptimizerSummary {
+  std::string method = "none";
+  std::string algorithm;              // e.g. "LN_BOBYQA", "LEVENBERG_MARQUARDT"
+  bool converged = false;
+  std::string termination = "not run";  // short reason it stopped
+  std::string message;                  // the back-end's own words
+  int raw_code = 0;                     // the back-end's own result code
+  long evaluations = 0;                 // cost evaluations (each simulates every trace)
+  long failed_evaluations = 0;          // of which diverged or invalid (infinite cost)
+  std::map<std::string, long> failure_reasons;
+  long iterations = 0;
+  double wall_time_s = 0.0;
+  nlohmann::json details = nlohmann::json::object();  // seed, schedule, constants ...
+};
+
+struct ParameterEstimate {
+  std::string name;
+  double value = 0.0;
+  double initial = 0.0;
+  bool has_interval = false;   // std and ci95 valid
+  double std = 0.0;            // standard deviation, physical units
+  double ci95_low = 0.0, ci95_high = 0.0;
+  std::string interval_method;  // "ceres_covariance", "gauss_newton", ...
+};
+
+struct FitResult {
+  std::vector<double> values;  // free parameters, physical units
+  Evaluation evaluation;       // cost at `values`
+  std::vector<ParameterEstimate> estimates;
+  OptimizerSummary summary;
+  // Classic estimates may include parameters that are not free (Kb, Kt): name -> value.
+  std::map<std::string, double> extra_estimates;
+};
+
+class Optimizer {
+ public:
+  virtual ~Optimizer() = default;
+  virtual std::string_view name() const = 0;
+  virtual std::vector<std::string> option_names() const = 0;
+  virtual FitResult Minimize(const FitProblem& problem, const OptimizerOptions& options) const = 0;
+};
+
+const std::vector<const Optimizer*>& OptimizerRegistry();
+const Optimizer& FindOptimizer(std::string_view name);
+
+// Standard deviations and 95 % intervals by Gauss-Newton at `values`: finite-difference
+// Jacobian J of the weighted residuals in the search coordinates (log for log-scale
+// parameters), covariance s^2 (J^T J)^-1 with s^2 = sum r^2 / (N - p).
+void EstimateUncertainty(const FitProblem& problem, const std::vector<double>& values,
+                         std::vector<ParameterEstimate>* estimates);
+
+}  // namespace blmd

@@ -1,0 +1,95 @@
+// A fit problem (docs/identification.md): a config's model, one or more measured traces,
+// the observed columns and the free parameters. Evaluate() simulates every trace with its
+// own recorded input u and compares the observed columns at the trace's own sample times.
+//
+// Cost = (1/C) sum_c MSE_c / Var_c   (C observed columns, MSE and variance of the measured
+// column pooled over all traces), so columns of different units count alike and
+// NRMSE = sqrt(cost): 0 is a perfect fit, 1 no better than each column's mean.
+// A point whose simulation diverges or is invalid has an infinite cost and a reason.
+//
+// The free parameters are searched in scaled coordinates s in [0,1]: log scale between the
+// bounds for positive scale parameters (J, B, R, ...), linear otherwise.
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "blmd/io/config.h"
+#include "blmd/sim/model.h"
+#include "blmd/sim/trace.h"
+
+namespace blmd {
+
+// One measured experiment prepared for fitting.
+struct FitTrace {
+  std::string path;        // for reports
+  std::string sha256;      // of the file's bytes
+  Trace trace;             // t, u and the observed columns (after mapping and scaling)
+  InputSignal input;       // zero-order hold of the trace's u (and `open`, if present)
+  InitialState initial;    // state at the first sample
+};
+
+struct FreeParameter {
+  std::string name;
+  double lower = 0.0, upper = 0.0;  // bounds, physical units
+  bool log_scale = false;
+  double initial = 0.0;  // start value, physical units
+};
+
+// The outcome of one cost evaluation.
+struct Evaluation {
+  bool ok = false;
+  std::string reason;             // why not ok
+  double cost = 0.0;              // +inf when !ok
+  std::vector<double> mse;        // per observed column, pooled over traces
+  std::vector<std::vector<double>> mse_per_trace;  // [trace][column]
+};
+
+class FitProblem {
+ public:
+  FitProblem(Config config, std::vector<FitTrace> traces, std::vector<std::string> observe,
+             std::vector<FreeParameter> free);
+
+  const Config& config() const { return config_; }
+  const std::vector<FitTrace>& traces() const { return traces_; }
+  const std::vector<std::string>& observe() const { return observe_; }
+  const std::vector<FreeParameter>& free() const { return free_; }
+  std::size_t num_free() const { return free_.size(); }
+  // Measured variance of each observed column (pooled), the cost's weights.
+  const std::vector<double>& variance() const { return variance_; }
+  std::size_t num_residuals() const { return num_residuals_; }
+
+  // Physical values <-> scaled coordinates in [0,1].
+  std::vector<double> ToScaled(const std::vector<double>& values) const;
+  std::vector<double> FromScaled(const std::vector<double>& scaled) const;
+  std::vector<double> InitialValues() const;
+
+  // The full parameter set with the free values substituted.
+  ParameterSet Parameters(const std::vector<double>& values) const;
+
+  // Cost at physical values (thread-safe: the problem is const, each call has its own
+  // scratch). When `residuals` is given it receives the weighted residuals, trace after
+  // trace, column after column: r = (sim - meas) / sqrt(C N_c Var_c), so sum r^2 = cost.
+  Evaluation Evaluate(const std::vector<double>& values,
+                      std::vector<double>* residuals = nullptr) const;
+
+  // Simulates trace k at the given values (outputs at its sample times).
+  SimStatus Simulate(std::size_t k, const std::vector<double>& values, Trace* out) const;
+
+ private:
+  Config config_;
+  std::vector<FitTrace> traces_;
+  std::vector<std::string> observe_;
+  std::vector<FreeParameter> free_;
+  std::vector<double> variance_;
+  std::vector<std::size_t> samples_per_column_;
+  std::size_t num_residuals_ = 0;
+};
+
+// Builds the free-parameter list from the config (bounds, initial values, log scale).
+// Throws InputError for an unknown parameter or an initial value outside its bounds.
+std::vector<FreeParameter> MakeFreeParameters(const Config& config,
+                                              const std::vector<std::string>& names);
+
+}  // namespace blmd

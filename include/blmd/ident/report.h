@@ -1,0 +1,46 @@
+// The blmd-ident report (interface.md "Report JSON", docs/report.md) and its human summary.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "blmd/ident/optimizer.h"
+#include "blmd/ident/problem.h"
+
+namespace blmd {
+
+// The error of a parameter set on a set of traces (fit or validation).
+struct ErrorFigures {
+  bool ok = false;
+  std::string reason;
+  std::vector<std::string> observe;
+  std::vector<double> rmse;  // per observed column, measured units
+  double nrmse = 0.0;        // sqrt(mean_c MSE_c / Var_c)
+  double mse = 0.0;          // the cost, = nrmse^2 (dimensionless)
+};
+ErrorFigures ComputeErrors(const FitProblem& problem, const std::vector<double>& values);
+nlohmann::json ErrorsJson(const ErrorFigures& errors);
+
+// Residual diagnostics at `values`: per observed column the autocorrelation (first lags),
+// its 95 % band 1.96/sqrt(n), the Ljung-Box test; overall whiteness_p is the smallest
+// column p-value times the number of columns (Bonferroni), capped at 1.
+nlohmann::json ResidualDiagnostics(const FitProblem& problem, const std::vector<double>& values);
+
+struct ReportInputs {
+  std::string config_path;
+  const FitProblem* problem = nullptr;
+  const FitResult* result = nullptr;
+  const FitProblem* validation = nullptr;  // held-out traces, may be null
+  std::uint64_t seed = 1;
+  int threads = 1;
+};
+
+nlohmann::json MakeReport(const ReportInputs& inputs);
+std::string HumanSummary(const nlohmann::json& report);
+
+// Replaces every non-finite number by null (a report never holds NaN or Inf).
+void SanitizeJson(nlohmann::json* value);
+
+}  // namespace blmd

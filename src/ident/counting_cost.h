@@ -1,0 +1,71 @@
+// Private: a thread-safe wrapper that counts cost evaluations and their failure reasons.
+#pragma once
+
+#include <atomic>
+#include <map>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "blmd/ident/optimizer.h"
+
+namespace blmd::internal {
+
+class CountingCost {
+ public:
+  explicit CountingCost(const FitProblem& problem) : problem_(problem) {}
+
+  Evaluation Evaluate(const std::vector<double>& values, std::vector<double>* residuals = nullptr) {
+    Evaluation evaluation = problem_.Evaluate(values, residuals);
+    ++evaluations_;
+    if (!evaluation.ok) {
+      ++failed_;
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++reasons_[evaluation.reason];
+    }
+    return evaluation;
+  }
+  // Cost at scaled coordinates.
+  double ScaledCost(const std::vector<double>& scaled) {
+    return Evaluate(problem_.FromScaled(scaled)).cost;
+  }
+
+  void FillSummary(OptimizerSummary* summary) const {
+    summary->evaluations = evaluations_.load();
+    summary->failed_evaluations = failed_.load();
+    std::lock_guard<std::mutex> lock(mutex_);
+    summary->failure_reasons = reasons_;
+  }
+  const FitProblem& problem() const { return problem_; }
+
+ private:
+  const FitProblem& problem_;
+  std::atomic<long> evaluations_{0};
+  std::atomic<long> failed_{0};
+  mutable std::mutex mutex_;
+  std::map<std::string, long> reasons_;
+};
+
+// Rejects method options that the method does not know (InputError listing valid ones).
+void CheckMethodOptions(const std::string& method, const nlohmann::json& options,
+                        const std::vector<std::string>& valid);
+double OptionNumber(const nlohmann::json& options, const char* key, double fallback);
+std::string OptionString(const nlohmann::json& options, const char* key,
+                         const std::string& fallback);
+
+// BOBYQA/PRAXIS in scaled coordinates from `start`; shared by powell and the FSD polish.
+struct LocalResult {
+  std::vector<double> scaled;
+  double cost = 0.0;
+  int code = 0;
+  std::string message;
+  bool converged = false;
+  long evaluations = 0;
+};
+LocalResult NloptLocal(CountingCost& cost, const std::string& algorithm,
+                       const std::vector<double>& start, double initial_step, int max_evaluations,
+                       double xtol_abs, double ftol_rel);
+
+int ThreadCount(int requested);
+
+}  // namespace blmd::internal

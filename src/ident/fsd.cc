@@ -1,0 +1,298 @@
+// Fast Simulated Diffusion, reconstructed from its public foundations (docs/fsd.md):
+//  - simulated diffusion (Geman & Hwang 1986): dx = -grad U dt + sqrt(2 T(t)) dW with
+//    reflecting boundaries and a logarithmic cooling T(t) = c / ln(2 + t);
+//  - its discrete form (Gelfand & Mitter 1991): x_{k+1} = x_k - a (grad U + xi_k) + b_k W_k,
+//    xi_k the error of a finite-difference gradient, b_k = sqrt(2 a T_k);
+//  - "fast" (Sakurai, Lin & Newton 1992, as described by Guinee & Lyden): deterministic
+//    local descent (a quench) between diffusion bursts, and a final local polish.
+// Everything works in the unit cube of scaled coordinates; the cost is normalised by its
+// spread over a few random probe points, so temperatures and steps are problem-free
+// numbers. Each walker owns a random stream derived from (seed, walker), so results do not
+// depend on the number of threads.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <thread>
+
+#include "blmd/random.h"
+#include "ident/counting_cost.h"
+#include "ident/methods.h"
+
+namespace blmd::internal {
+namespace {
+
+struct FsdSettings {
+  int walkers = 4;            // independent diffusions (the first starts at the initial point)
+  int bursts = 6;             // diffusion bursts per walker, each followed by a quench
+  int burst_steps = 8;        // Langevin steps per burst
+  int quench_steps = 6;       // projected-gradient steps with backtracking per quench
+  int probes = 0;             // random probe points for the cost scale (0: 8 per parameter)
+  double initial_spread = 0.15;  // scaled units: sqrt(2 a T0) at the first step
+  double t0 = 1.0;            // initial temperature in units of the probe spread
+  double fd_step = 1e-3;      // scaled units, forward-difference gradient step
+  double max_step = 0.2;      // scaled units, cap on one move per coordinate
+  bool polish = true;         // final BOBYQA from the best point
+  int polish_evaluations = 200;
+};
+
+double Reflect(double x) {
+  // Reflecting boundary on [0, 1].
+  for (int k = 0; k < 4 && (x < 0.0 || x > 1.0); ++k) {
+    if (x < 0.0) x = -x;
+    if (x > 1.0) x = 2.0 - x;
+  }
+  return std::clamp(x, 0.0, 1.0);
+}
+
+struct Walker {
+  std::vector<double> x;
+  double cost = std::numeric_limits<double>::infinity();
+  std::vector<double> best_x;
+  double best = std::numeric_limits<double>::infinity();
+  long steps = 0;
+};
+
+class FsdRun {
+ public:
+  FsdRun(CountingCost& cost, const FsdSettings& s, double scale)
+      : cost_(cost), s_(s), scale_(scale) {}
+
+  // Normalised cost (divided by the probe spread); +inf stays +inf.
+  double U(const std::vector<double>& x) { return cost_.ScaledCost(x) / scale_; }
+
+  // Forward-difference gradient at x (cost at x known), stepping inward at the boundary.
+  std::vector<double> Gradient(const std::vector<double>& x, double ux) {
+    std::vector<double> g(x.size(), 0.0);
+    for (std::size_t k = 0; k < x.size(); ++k) {
+      std::vector<double> y = x;
+      const double h = x[k] + s_.fd_step <= 1.0 ? s_.fd_step : -s_.fd_step;
+      y[k] += h;
+      const double uy = U(y);
+      g[k] = std::isfinite(uy) && std::isfinite(ux) ? (uy - ux) / h : 0.0;
+    }
+    return g;
+  }
+
+  void Consider(Walker& w, const std::vector<double>& x, double u) {
+    if (u < w.best) {
+      w.best = u;
+      w.best_x = x;
+    }
+  }
+
+  void RunWalker(Walker& w, Random& random, double a) {
+    const std::size_t n = w.x.size();
+    w.cost = U(w.x);
+    Consider(w, w.x, w.cost);
+    long k = 0;
+    for (int burst = 0; burst < s_.bursts; ++burst) {
+      // Diffusion burst at the current temperature.
+      for (int step = 0; step < s_.burst_steps; ++step, ++k) {
+        const double temperature = s_.t0 * std::log(2.0) / std::log(2.0 + static_cast<double>(k));
+        const double noise = std::sqrt(2.0 * a * temperature);
+        const std::vector<double> g = Gradient(w.x, w.cost);
+        std::vector<double> y(n);
+        for (std::size_t j = 0; j < n; ++j) {
+          double move = -a * g[j] + noise * random.Normal();
+          move = std::clamp(move, -s_.max_step, s_.max_step);
+          y[j] = Reflect(w.x[j] + move);
+        }
+        const double uy = U(y);
+        if (std::isfinite(uy)) {  // an infinite cost is a wall: stay
+          w.x = y;
+          w.cost = uy;
+          Consider(w, y, uy);
+        }
+      }
+      // Quench: projected gradient descent with backtracking.
+      std::vector<double> x = w.x;
+      double ux = w.cost;
+      double step = a;
+      for (int q = 0; q < s_.quench_steps && std::isfinite(ux); ++q) {
+        const std::vector<double> g = Gradient(x, ux);
+        bool improved = false;
+        for (int tries = 0; tries < 6; ++tries) {
+          std::vector<double> y(n);
+          for (std::size_t j = 0; j < n; ++j) {
+            y[j] = std::clamp(x[j] - std::clamp(step * g[j], -s_.max_step, s_.max_step), 0.0, 1.0);
+          }
+          const double uy = U(y);
+          if (uy < ux) {
+            x = y;
+            ux = uy;
+            improved = true;
+            step *= 1.5;
+            break;
+          }
+          step *= 0.3;
+        }
+        if (!improved) break;
+      }
+      Consider(w, x, ux);
+    }
+    w.steps = k;
+  }
+
+ private:
+  CountingCost& cost_;
+  const FsdSettings& s_;
+  double scale_;
+};
+
+}  // namespace
+
+std::vector<std::string> FsdOptimizer::option_names() const {
+  return {"walkers", "bursts", "burst_steps", "quench_steps", "probes", "initial_spread",
+          "t0", "fd_step", "max_step", "polish", "polish_evaluations"};
+}
+
+FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptions& options) const {
+  const auto& o = options.method_options;
+  CheckMethodOptions("fsd", o, option_names());
+  FsdSettings s;
+  const std::size_t n = problem.num_free();
+  s.walkers = static_cast<int>(OptionNumber(o, "walkers", s.walkers));
+  s.bursts = static_cast<int>(OptionNumber(o, "bursts", s.bursts));
+  s.burst_steps = static_cast<int>(OptionNumber(o, "burst_steps", s.burst_steps));
+  s.quench_steps = static_cast<int>(OptionNumber(o, "quench_steps", s.quench_steps));
+  s.probes = static_cast<int>(OptionNumber(o, "probes", 8.0 * static_cast<double>(n)));
+  s.initial_spread = OptionNumber(o, "initial_spread", s.initial_spread);
+  s.t0 = OptionNumber(o, "t0", s.t0);
+  s.fd_step = OptionNumber(o, "fd_step", s.fd_step);
+  s.max_step = OptionNumber(o, "max_step", s.max_step);
+  s.polish = OptionNumber(o, "polish", 1.0) != 0.0;
+  s.polish_evaluations = static_cast<int>(OptionNumber(o, "polish_evaluations", s.polish_evaluations));
+  s.walkers = std::max(1, s.walkers);
+  s.probes = std::max(2, s.probes);
+
+  const auto started = std::chrono::steady_clock::now();
+  CountingCost cost(problem);
+  const int threads = ThreadCount(options.threads);
+
+  // Probe points: the cost's spread sets the temperature scale; the best probes seed walkers.
+  Random master(options.seed);
+  std::vector<std::vector<double>> probes(static_cast<std::size_t>(s.probes), std::vector<double>(n));
+  for (auto& p : probes) {
+    for (double& v : p) v = master.Uniform();
+  }
+  std::vector<double> probe_cost(probes.size());
+  {
+    std::vector<std::thread> pool;
+    for (int t = 0; t < threads; ++t) {
+      pool.emplace_back([&, t] {
+        for (std::size_t k = static_cast<std::size_t>(t); k < probes.size();
+             k += static_cast<std::size_t>(threads)) {
+          probe_cost[k] = cost.ScaledCost(probes[k]);
+        }
+      });
+    }
+    for (auto& thread : pool) thread.join();
+  }
+  std::vector<double> finite;
+  for (double c : probe_cost) {
+    if (std::isfinite(c)) finite.push_back(c);
+  }
+  double scale = 1.0;
+  if (finite.size() >= 2) {
+    double mean = 0.0;
+    for (double c : finite) mean += c;
+    mean /= static_cast<double>(finite.size());
+    double variance = 0.0;
+    for (double c : finite) variance += (c - mean) * (c - mean);
+    scale = std::sqrt(variance / static_cast<double>(finite.size() - 1));
+  }
+  if (!(scale > 0.0) || !std::isfinite(scale)) scale = 1.0;
+  // Step size a from the wanted initial spread: sqrt(2 a T0) = initial_spread.
+  const double a = s.initial_spread * s.initial_spread / (2.0 * s.t0);
+
+  std::vector<std::size_t> order(probes.size());
+  for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t l, std::size_t r) { return probe_cost[l] < probe_cost[r]; });
+
+  std::vector<Walker> walkers(static_cast<std::size_t>(s.walkers));
+  walkers[0].x = problem.ToScaled(problem.InitialValues());
+  for (std::size_t w = 1; w < walkers.size(); ++w) walkers[w].x = probes[order[(w - 1) % order.size()]];
+
+  FsdRun run(cost, s, scale);
+  {
+    std::vector<std::thread> pool;
+    for (int t = 0; t < threads; ++t) {
+      pool.emplace_back([&, t] {
+        for (std::size_t w = static_cast<std::size_t>(t); w < walkers.size();
+             w += static_cast<std::size_t>(threads)) {
+          Random random(options.seed * 0x9e3779b97f4a7c15ULL + 7919ULL * (w + 1));
+          run.RunWalker(walkers[w], random, a);
+        }
+      });
+    }
+    for (auto& thread : pool) thread.join();
+  }
+  // Best walker; ties go to the lower index, so the outcome is thread-independent.
+  std::size_t best = 0;
+  for (std::size_t w = 1; w < walkers.size(); ++w) {
+    if (walkers[w].best < walkers[best].best) best = w;
+  }
+  std::vector<double> x = walkers[best].best_x;
+  double best_cost = walkers[best].best * scale;
+  for (std::size_t k = 0; k < probes.size(); ++k) {
+    if (probe_cost[k] < best_cost) {
+      best_cost = probe_cost[k];
+      x = probes[k];
+    }
+  }
+  LocalResult polish;
+  if (s.polish && std::isfinite(best_cost)) {
+    polish = NloptLocal(cost, "bobyqa", x, 0.02, s.polish_evaluations, 1e-9, 1e-12);
+    if (polish.cost <= best_cost) {
+      x = polish.scaled;
+      best_cost = polish.cost;
+    }
+  }
+
+  FitResult result;
+  result.values = problem.FromScaled(x);
+  result.evaluation = problem.Evaluate(result.values);
+  result.estimates = MakeEstimates(problem, result.values);
+  OptimizerSummary& summary = result.summary;
+  summary.method = "fsd";
+  summary.algorithm = "fast simulated diffusion + LN_BOBYQA polish";
+  summary.converged = result.evaluation.ok && (!s.polish || polish.converged);
+  summary.termination = s.polish ? "schedule completed; polish: " + polish.message
+                                 : "schedule completed";
+  summary.message = summary.termination;
+  summary.raw_code = polish.code;
+  long steps = 0;
+  for (const auto& w : walkers) steps += w.steps;
+  summary.iterations = steps;
+  nlohmann::json walker_json = nlohmann::json::array();
+  for (const auto& w : walkers) {
+    walker_json.push_back({{"best_cost", std::isfinite(w.best) ? nlohmann::json(w.best * scale)
+                                                               : nlohmann::json(nullptr)}});
+  }
+  summary.details = {{"seed", options.seed},
+                     {"walkers", s.walkers},
+                     {"bursts", s.bursts},
+                     {"burst_steps", s.burst_steps},
+                     {"quench_steps", s.quench_steps},
+                     {"probes", s.probes},
+                     {"cost_scale", scale},
+                     {"t0", s.t0},
+                     {"schedule", "T_k = t0 ln 2 / ln(2 + k), in units of cost_scale"},
+                     {"step_a", a},
+                     {"initial_spread", s.initial_spread},
+                     {"fd_step", s.fd_step},
+                     {"max_step", s.max_step},
+                     {"polish", s.polish},
+                     {"polish_evaluations", s.polish_evaluations},
+                     {"best_walker", best},
+                     {"walker_results", walker_json}};
+  cost.FillSummary(&summary);
+  summary.wall_time_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  if (result.evaluation.ok) EstimateUncertainty(problem, result.values, &result.estimates);
+  return result;
+}
+
+}  // namespace blmd::internal

@@ -1,0 +1,41 @@
+// Private: the optimiser classes, known only to the registry in optimizer.cc.
+#pragma once
+
+#include "blmd/ident/optimizer.h"
+
+namespace blmd::internal {
+
+class CeresOptimizer final : public Optimizer {
+ public:
+  std::string_view name() const override { return "ceres"; }
+  std::vector<std::string> option_names() const override;
+  FitResult Minimize(const FitProblem& problem, const OptimizerOptions& options) const override;
+};
+
+class PowellOptimizer final : public Optimizer {
+ public:
+  std::string_view name() const override { return "powell"; }
+  std::vector<std::string> option_names() const override;
+  FitResult Minimize(const FitProblem& problem, const OptimizerOptions& options) const override;
+};
+
+class FsdOptimizer final : public Optimizer {
+ public:
+  std::string_view name() const override { return "fsd"; }
+  std::vector<std::string> option_names() const override;
+  FitResult Minimize(const FitProblem& problem, const OptimizerOptions& options) const override;
+};
+
+class ClassicOptimizer final : public Optimizer {
+ public:
+  std::string_view name() const override { return "classic"; }
+  std::vector<std::string> option_names() const override;
+  FitResult Minimize(const FitProblem& problem, const OptimizerOptions& options) const override;
+};
+
+void SetInterval(const FreeParameter& parameter, double std_search, const std::string& method,
+                 ParameterEstimate* estimate);
+std::vector<ParameterEstimate> MakeEstimates(const FitProblem& problem,
+                                             const std::vector<double>& values);
+
+}  // namespace blmd::internal

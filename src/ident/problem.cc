@@ -1,0 +1,185 @@
+#include "blmd/ident/problem.h"
+
+#include <cmath>
+#include <limits>
+
+#include "blmd/error.h"
+#include "blmd/io/csv.h"
+
+namespace blmd {
+
+FitProblem::FitProblem(Config config, std::vector<FitTrace> traces,
+                       std::vector<std::string> observe, std::vector<FreeParameter> free)
+    : config_(std::move(config)),
+      traces_(std::move(traces)),
+      observe_(std::move(observe)),
+      free_(std::move(free)) {
+  variance_.assign(observe_.size(), 0.0);
+  samples_per_column_.assign(observe_.size(), 0);
+  for (std::size_t c = 0; c < observe_.size(); ++c) {
+    double sum = 0.0, sum_sq = 0.0;
+    std::size_t n = 0;
+    for (const auto& fit_trace : traces_) {
+      for (double v : fit_trace.trace.Column(observe_[c])) {
+        sum += v;
+        sum_sq += v * v;
+        ++n;
+      }
+    }
+    const double mean = n ? sum / static_cast<double>(n) : 0.0;
+    double variance = 0.0;
+    for (const auto& fit_trace : traces_) {
+      for (double v : fit_trace.trace.Column(observe_[c])) variance += (v - mean) * (v - mean);
+    }
+    variance = n ? variance / static_cast<double>(n) : 0.0;
+    if (!(variance > 0.0)) {
+      throw InputError("observed column '" + observe_[c] +
+                       "' is constant in the trace(s): it cannot inform the fit");
+    }
+    variance_[c] = variance;
+    samples_per_column_[c] = n;
+    num_residuals_ += n;
+  }
+}
+
+std::vector<double> FitProblem::ToScaled(const std::vector<double>& values) const {
+  std::vector<double> scaled(free_.size());
+  for (std::size_t k = 0; k < free_.size(); ++k) {
+    const FreeParameter& p = free_[k];
+    scaled[k] = p.log_scale ? std::log(values[k] / p.lower) / std::log(p.upper / p.lower)
+                            : (values[k] - p.lower) / (p.upper - p.lower);
+  }
+  return scaled;
+}
+
+std::vector<double> FitProblem::FromScaled(const std::vector<double>& scaled) const {
+  std::vector<double> values(free_.size());
+  for (std::size_t k = 0; k < free_.size(); ++k) {
+    const FreeParameter& p = free_[k];
+    values[k] = p.log_scale ? p.lower * std::pow(p.upper / p.lower, scaled[k])
+                            : p.lower + scaled[k] * (p.upper - p.lower);
+  }
+  return values;
+}
+
+std::vector<double> FitProblem::InitialValues() const {
+  std::vector<double> values;
+  for (const auto& p : free_) values.push_back(p.initial);
+  return values;
+}
+
+ParameterSet FitProblem::Parameters(const std::vector<double>& values) const {
+  ParameterSet parameters = config_.parameters;
+  for (std::size_t k = 0; k < free_.size(); ++k) parameters.Set(free_[k].name, values[k]);
+  return parameters;
+}
+
+SimStatus FitProblem::Simulate(std::size_t k, const std::vector<double>& values,
+                               Trace* out) const {
+  const ParameterSet parameters = Parameters(values);
+  const FitTrace& fit_trace = traces_[k];
+  Experiment experiment = config_.experiment;
+  experiment.input = fit_trace.input;
+  experiment.initial = fit_trace.initial;
+  experiment.closed_loop = false;  // a recorded u is replayed open loop
+  experiment.coast_off_time = -1.0;
+  SimulationRequest request;
+  request.parameters = &parameters;
+  request.effects = &config_.effects;
+  request.experiment = &experiment;
+  request.settings = config_.simulation;
+  request.sample_times = &fit_trace.trace.Column("t");
+  return config_.model->Simulate(request, out);
+}
+
+Evaluation FitProblem::Evaluate(const std::vector<double>& values,
+                                std::vector<double>* residuals) const {
+  Evaluation evaluation;
+  evaluation.cost = std::numeric_limits<double>::infinity();
+  for (double v : values) {
+    if (!std::isfinite(v)) {
+      evaluation.reason = "non-finite parameter value";
+      return evaluation;
+    }
+  }
+  if (residuals) residuals->clear();
+  const std::size_t columns = observe_.size();
+  std::vector<double> sum_sq(columns, 0.0);
+  evaluation.mse_per_trace.assign(traces_.size(), std::vector<double>(columns, 0.0));
+  Trace simulated;
+  for (std::size_t k = 0; k < traces_.size(); ++k) {
+    const SimStatus status = Simulate(k, values, &simulated);
+    if (!status.ok()) {
+      evaluation.reason = status.message;
+      return evaluation;
+    }
+    const Trace& measured = traces_[k].trace;
+    for (std::size_t c = 0; c < columns; ++c) {
+      const auto& sim = simulated.Column(observe_[c]);
+      const auto& meas = measured.Column(observe_[c]);
+      const double weight =
+          1.0 / std::sqrt(static_cast<double>(columns) *
+                          static_cast<double>(samples_per_column_[c]) * variance_[c]);
+      double trace_sum = 0.0;
+      for (std::size_t r = 0; r < meas.size(); ++r) {
+        const double e = sim[r] - meas[r];
+        trace_sum += e * e;
+        if (residuals) residuals->push_back(e * weight);
+      }
+      if (!std::isfinite(trace_sum)) {
+        evaluation.reason = "non-finite simulated '" + observe_[c] + "'";
+        return evaluation;
+      }
+      sum_sq[c] += trace_sum;
+      evaluation.mse_per_trace[k][c] = trace_sum / static_cast<double>(meas.size());
+    }
+  }
+  evaluation.mse.resize(columns);
+  double cost = 0.0;
+  for (std::size_t c = 0; c < columns; ++c) {
+    evaluation.mse[c] = sum_sq[c] / static_cast<double>(samples_per_column_[c]);
+    cost += evaluation.mse[c] / variance_[c];
+  }
+  evaluation.cost = cost / static_cast<double>(columns);
+  evaluation.ok = true;
+  return evaluation;
+}
+
+std::vector<FreeParameter> MakeFreeParameters(const Config& config,
+                                              const std::vector<std::string>& names) {
+  std::vector<FreeParameter> free;
+  for (const auto& name : names) {
+    if (!config.parameters.Has(name)) {
+      std::vector<std::string> known;
+      for (const auto& [key, value] : config.parameters.entries()) known.push_back(key);
+      const std::string near = NearestName(name, known);
+      throw InputError("free parameter '" + name + "' is not a parameter of " +
+                       (config.path.empty() ? "the config" : config.path) +
+                       (near.empty() ? "" : " (did you mean '" + near + "'?)"));
+    }
+    for (const auto& existing : free) {
+      if (existing.name == name) throw InputError("free parameter '" + name + "' listed twice");
+    }
+    FreeParameter p;
+    p.name = name;
+    std::tie(p.lower, p.upper) = config.Bounds(name);
+    const ParamInfo* info = config.FindParameterInfo(name);
+    p.log_scale = info && info->positive && p.lower > 0.0;
+    p.initial = config.identification.initial.Has(name) ? config.identification.initial.Get(name)
+                                                        : config.parameters.Get(name);
+    if (!(p.lower < p.upper)) {
+      throw InputError("bounds of '" + name + "' are empty: [" + FormatNumber(p.lower) + ", " +
+                       FormatNumber(p.upper) + "]");
+    }
+    if (p.initial < p.lower || p.initial > p.upper) {
+      throw InputError("initial value " + FormatNumber(p.initial) + " of '" + name +
+                       "' is outside its bounds [" + FormatNumber(p.lower) + ", " +
+                       FormatNumber(p.upper) + "]");
+    }
+    free.push_back(p);
+  }
+  if (free.empty()) throw InputError("no free parameters to identify (see --free)");
+  return free;
+}
+
+}  // namespace blmd

@@ -1,0 +1,91 @@
+#include "blmd/ident/trace_input.h"
+
+#include "blmd/error.h"
+#include "blmd/io/csv.h"
+#include "blmd/io/files.h"
+
+namespace blmd {
+
+std::vector<double> Differentiate(const std::vector<double>& t, const std::vector<double>& x) {
+  const std::size_t n = x.size();
+  std::vector<double> d(n, 0.0);
+  if (n < 2) return d;
+  d[0] = (x[1] - x[0]) / (t[1] - t[0]);
+  d[n - 1] = (x[n - 1] - x[n - 2]) / (t[n - 1] - t[n - 2]);
+  for (std::size_t k = 1; k + 1 < n; ++k) d[k] = (x[k + 1] - x[k - 1]) / (t[k + 1] - t[k - 1]);
+  return d;
+}
+
+FitTrace LoadFitTrace(const std::string& path, const TraceInputOptions& options,
+                      const InitialState& default_initial) {
+  const std::string bytes = ReadFileText(path);
+  CsvReadOptions csv;
+  csv.time_column = "";  // checked after mapping
+  Trace trace = ParseTraceCsv(bytes, path, csv);
+  // Column mapping: header -> standard name.
+  for (const auto& [standard, header] : options.columns) {
+    if (!trace.Has(header)) {
+      std::string have;
+      for (const auto& name : trace.names()) have += (have.empty() ? "" : ",") + name;
+      throw InputError(path + ": --column " + standard + "=" + header + ": no column '" + header +
+                       "' (header has: " + have + ")");
+    }
+    if (standard != header && trace.Has(standard)) {
+      trace.Rename(standard, standard + "_original");
+    }
+    if (standard != header) trace.Set(standard, trace.Column(header));
+  }
+  for (const auto& [name, factor] : options.scales) {
+    if (!trace.Has(name)) throw InputError(path + ": --scale " + name + ": no column '" + name + "'");
+    for (double& v : trace.Column(name)) v *= factor;
+  }
+  std::vector<std::string> required = {"t", "u"};
+  for (const auto& [target, source] : options.derive) required.push_back(source);
+  for (const auto& name : required) {
+    if (!trace.Has(name)) {
+      std::string have;
+      for (const auto& h : trace.names()) have += (have.empty() ? "" : ",") + h;
+      throw InputError(path + ": missing required column '" + name + "' (header has: " + have +
+                       "; map another header with --column " + name + "=HEADER)");
+    }
+  }
+  const auto& t = trace.Column("t");
+  for (std::size_t k = 1; k < t.size(); ++k) {
+    if (!(t[k] > t[k - 1])) {
+      throw InputError(path, static_cast<long>(trace.comments.size() + k + 2), 0,
+                       "time 't' must strictly increase (" + FormatNumber(t[k]) +
+                           (t[k] == t[k - 1] ? " repeats " : " follows ") + FormatNumber(t[k - 1]) +
+                           ")");
+    }
+  }
+  for (const auto& [target, source] : options.derive) {
+    trace.Set(target, Differentiate(trace.Column("t"), trace.Column(source)));
+  }
+  for (const auto& name : options.required) {
+    if (!trace.Has(name)) {
+      std::string have;
+      for (const auto& h : trace.names()) have += (have.empty() ? "" : ",") + h;
+      throw InputError(path + ": missing observed column '" + name + "' (header has: " + have +
+                       "; map another header with --column " + name + "=HEADER)");
+    }
+  }
+  if (trace.rows() < 3) throw InputError(path + ": a fit needs at least 3 samples");
+
+  FitTrace fit;
+  fit.path = path;
+  fit.sha256 = Sha256Hex(bytes);
+  fit.input.kind = InputSignal::Kind::kRecorded;
+  fit.input.times = trace.Column("t");
+  fit.input.values = trace.Column("u");
+  if (trace.Has("open")) fit.input.open = trace.Column("open");
+  fit.initial = default_initial;
+  if (options.initial_from_trace) {
+    if (trace.Has("w")) fit.initial.w = trace.Column("w").front();
+    if (trace.Has("theta")) fit.initial.theta = trace.Column("theta").front();
+    if (trace.Has("i")) fit.initial.i = trace.Column("i").front();
+  }
+  fit.trace = std::move(trace);
+  return fit;
+}
+
+}  // namespace blmd

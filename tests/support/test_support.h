@@ -1,0 +1,37 @@
+// Helpers shared by the tests: paths, running the real commands, temporary folders.
+#pragma once
+
+#include <string>
+
+namespace blmd::testing {
+
+std::string SourcePath(const std::string& relative);  // repository root + relative
+std::string BinPath(const std::string& command);      // build/bin/<command>
+
+struct CommandResult {
+  int exit_code = -1;
+  std::string out;  // stdout
+  std::string err;  // stderr
+};
+// Runs `command_line` through /bin/sh, capturing stdout and stderr.
+CommandResult Run(const std::string& command_line);
+
+// A fresh empty folder under the build tree's temp area, removed at destruction.
+class TempDir {
+ public:
+  TempDir();
+  ~TempDir();
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const std::string& path() const { return path_; }
+  std::string File(const std::string& name) const { return path_ + "/" + name; }
+  // Writes `content` to File(name) and returns its path.
+  std::string Write(const std::string& name, const std::string& content) const;
+
+ private:
+  std::string path_;
+};
+
+bool FileExists(const std::string& path);
+
+}  // namespace blmd::testing
