@@ -106,8 +106,12 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
   double i = experiment.initial.i, w = experiment.initial.w, theta = experiment.initial.theta;
   double integral = 0.0, derivative_state = theta;  // PID: filtered theta for the D term
 
+  // The input over a step [t, t + dt) is read at its midpoint t + dt/2, so that an event on
+  // the step grid (a step's t0, a switching instant, an `open` sample, coast_off_time) takes
+  // effect at that grid point whatever the rounding of t = t_start + k dt; an event between
+  // grid points takes effect at the nearest one. The PID runs at t with the state at t.
   auto control = [&](double t, double* reference) {
-    const double r = input.At(t);
+    const double r = input.At(t + 0.5 * dt);
     *reference = r;
     if (!closed_loop) return r;
     const double error = r - theta;
@@ -131,10 +135,12 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
   std::array<double, 5> now = prev;
 
   for (long step = 0; !sampler.done(); ++step) {
+    // u: the voltage applied over [t, t_next), computed at t.
     const double t = t_start + static_cast<double>(step) * dt;
     const double t_next = t_start + static_cast<double>(step + 1) * dt;
-    if (step > 0) u = control(t, &reference);
-    const bool open = (has_coast && t >= experiment.coast_off_time) || input.OpenAt(t);
+    const double t_mid = t + 0.5 * dt;
+    const bool open =
+        (has_coast && t_mid >= experiment.coast_off_time) || input.OpenAt(t_mid);
 
     const double non_friction = shaft.NonFrictionTorque(theta) + shaft.DragTorque(w);
     const double u_eff = u - drive.Vdt * Sign(i);
@@ -168,6 +174,10 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
       w = 0.0;
     }
 
+    // Recorded with the state at t_next: the voltage applied from t_next on, so that the u
+    // column of a closed-loop trace means what it means in open loop (the input from that
+    // instant on) and replays as a recorded input.
+    u = control(t_next, &reference);
     now = {u, i + drive.i0, w, theta, reference};
     if (!internal::AllFinite(now.data() + 1, 3, request.settings.divergence_limit)) {
       return {SimStatus::Code::kDiverged,

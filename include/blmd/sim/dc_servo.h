@@ -11,8 +11,11 @@
 //
 // Numerics: exact discretisation of the linear part over each step dt (matrix exponential
 // of the augmented system, Eigen), with u and T_effects held over the step (zero-order
-// hold). Coulomb/Stribeck friction sticks at rest (effects.h). Coast-down: with the
-// armature open, i = 0 and only the mechanical sub-system evolves (its own exact step).
+// hold). The input over a step [t, t + dt) is read at t + dt/2, so events on the step grid
+// take effect exactly there. Coulomb/Stribeck friction sticks at rest (effects.h).
+// Coast-down: with the armature open, i = 0 and only the mechanical sub-system evolves (its
+// own exact step). The u column at a sample is the voltage applied from that instant on
+// (closed loop too), so a trace replays through its u column.
 #pragma once
 
 #include "blmd/sim/model.h"
