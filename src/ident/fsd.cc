@@ -4,7 +4,8 @@
 //  - its discrete form (Gelfand & Mitter 1991): x_{k+1} = x_k - a (grad U + xi_k) + b_k W_k,
 //    xi_k the error of a finite-difference gradient, b_k = sqrt(2 a T_k);
 //  - "fast" (Sakurai, Lin & Newton 1992, as described by Guinee & Lyden): deterministic
-//    local descent (a quench) between diffusion bursts, and a final local polish.
+//    local descent (a quench, here a short BOBYQA) after each diffusion burst, so little
+//    time is spent wandering inside one basin, and a final local polish of the best point.
 // Everything works in the unit cube of scaled coordinates; the cost is normalised by its
 // spread over a few random probe points, so temperatures and steps are problem-free
 // numbers. Each walker owns a random stream derived from (seed, walker), so results do not
@@ -26,7 +27,8 @@ struct FsdSettings {
   int walkers = 4;            // independent diffusions (the first starts at the initial point)
   int bursts = 6;             // diffusion bursts per walker, each followed by a quench
   int burst_steps = 8;        // Langevin steps per burst
-  int quench_steps = 6;       // projected-gradient steps with backtracking per quench
+  int quench_evaluations = 30;  // BOBYQA evaluations per quench
+  double quench_step = 0.03;  // scaled units, BOBYQA initial step in a quench
   int probes = 0;             // random probe points for the cost scale (0: 8 per parameter)
   double initial_spread = 0.15;  // scaled units: sqrt(2 a T0) at the first step
   double t0 = 1.0;            // initial temperature in units of the probe spread
@@ -105,29 +107,17 @@ class FsdRun {
           Consider(w, y, uy);
         }
       }
-      // Quench: projected gradient descent with backtracking.
+      // Quench: a short deterministic local descent (BOBYQA) from the walker's position.
       std::vector<double> x = w.x;
       double ux = w.cost;
-      double step = a;
-      for (int q = 0; q < s_.quench_steps && std::isfinite(ux); ++q) {
-        const std::vector<double> g = Gradient(x, ux);
-        bool improved = false;
-        for (int tries = 0; tries < 6; ++tries) {
-          std::vector<double> y(n);
-          for (std::size_t j = 0; j < n; ++j) {
-            y[j] = std::clamp(x[j] - std::clamp(step * g[j], -s_.max_step, s_.max_step), 0.0, 1.0);
-          }
-          const double uy = U(y);
-          if (uy < ux) {
-            x = y;
-            ux = uy;
-            improved = true;
-            step *= 1.5;
-            break;
-          }
-          step *= 0.3;
+      if (std::isfinite(ux) && s_.quench_evaluations > 0) {
+        const LocalResult quench =
+            NloptLocal(cost_, "bobyqa", w.x, s_.quench_step, s_.quench_evaluations, 1e-6, 1e-6);
+        const double uq = quench.cost / scale_;
+        if (uq < ux) {
+          x = quench.scaled;
+          ux = uq;
         }
-        if (!improved) break;
       }
       Consider(w, x, ux);
     }
@@ -143,7 +133,7 @@ class FsdRun {
 }  // namespace
 
 std::vector<std::string> FsdOptimizer::option_names() const {
-  return {"walkers", "bursts", "burst_steps", "quench_steps", "probes", "initial_spread",
+  return {"walkers", "bursts", "burst_steps", "quench_evaluations", "quench_step", "probes", "initial_spread",
           "t0", "fd_step", "max_step", "polish", "polish_evaluations"};
 }
 
@@ -155,7 +145,8 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
   s.walkers = static_cast<int>(OptionNumber(o, "walkers", s.walkers));
   s.bursts = static_cast<int>(OptionNumber(o, "bursts", s.bursts));
   s.burst_steps = static_cast<int>(OptionNumber(o, "burst_steps", s.burst_steps));
-  s.quench_steps = static_cast<int>(OptionNumber(o, "quench_steps", s.quench_steps));
+  s.quench_evaluations = static_cast<int>(OptionNumber(o, "quench_evaluations", s.quench_evaluations));
+  s.quench_step = OptionNumber(o, "quench_step", s.quench_step);
   s.probes = static_cast<int>(OptionNumber(o, "probes", 8.0 * static_cast<double>(n)));
   s.initial_spread = OptionNumber(o, "initial_spread", s.initial_spread);
   s.t0 = OptionNumber(o, "t0", s.t0);
@@ -275,7 +266,8 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
                      {"walkers", s.walkers},
                      {"bursts", s.bursts},
                      {"burst_steps", s.burst_steps},
-                     {"quench_steps", s.quench_steps},
+                     {"quench_evaluations", s.quench_evaluations},
+                     {"quench_step", s.quench_step},
                      {"probes", s.probes},
                      {"cost_scale", scale},
                      {"t0", s.t0},

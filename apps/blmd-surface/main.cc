@@ -1,0 +1,288 @@
+// blmd-surface: sweep the identification cost over a 1-D or 2-D parameter grid.
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <mutex>
+
+#include "../common/app_main.h"
+#include "blmd/ident/surface.h"
+#include "blmd/ident/trace_input.h"
+#include "blmd/io/config.h"
+#include "blmd/io/csv.h"
+#include "blmd/io/files.h"
+#include "blmd/io/flags.h"
+#include "blmd/io/plot.h"
+#include "blmd/io/surface_file.h"
+
+namespace {
+
+std::string G(double v, int digits = 5) {
+  if (!std::isfinite(v)) return "inf";
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.*g", digits, v);
+  return buffer;
+}
+
+std::string Clock(double seconds) {
+  if (!std::isfinite(seconds) || seconds < 0) return "--";
+  char buffer[32];
+  const long s = std::lround(seconds);
+  std::snprintf(buffer, sizeof buffer, "%ld:%02ld", s / 60, s % 60);
+  return buffer;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"blmd-surface: sweep the MSE cost over a grid of parameters"};
+  blmd::app::AddVersionFlag(app, "blmd-surface");
+  std::string config_path, trace_path, out_path, observe_text, svg_path, shard_text;
+  std::vector<std::string> grids, columns, scales, derives;
+  int threads = 0;
+  bool json = false, quiet = false;
+  app.add_option("--config", config_path, "model (JSON)");
+  app.add_option("--trace", trace_path, "measured trace CSV");
+  app.add_option("--grid", grids, "axis P=LO:HI:N or P=log:LO:HI:N (one or two)");
+  app.add_option("--out", out_path, "surface CSV to write");
+  app.add_option("--observe", observe_text, "trace columns in the cost, e.g. i,w");
+  app.add_option("--column", columns, "map a standard column to a header, NAME=HEADER");
+  app.add_option("--scale", scales, "multiply a column, NAME=FACTOR");
+  app.add_option("--derive", derives, "derive a velocity from a position, w=theta");
+  app.add_option("--threads", threads, "worker threads (0: all cores)")->check(CLI::NonNegativeNumber);
+  app.add_option("--shard", shard_text, "compute only slice K of N, K/N (1-based)");
+  app.add_option("--svg", svg_path, "write a heat map (2-D) or curve (1-D) SVG");
+  app.add_flag("--json", json, "print the surface as JSON on stdout instead of the summary");
+  app.add_flag("--quiet", quiet, "no progress bar, no summary");
+  CLI::App* merge = app.add_subcommand("merge", "join shard files into the unsharded surface CSV");
+  std::vector<std::string> parts;
+  std::string merge_out;
+  merge->add_option("parts", parts, "shard CSV files")->required();
+  merge->add_option("--out", merge_out, "merged CSV to write")->required();
+
+  return blmd::app::Main(app, argc, argv, [&]() -> int {
+    if (merge->parsed()) {
+      const std::string merged = blmd::MergeSurfaceParts(parts);
+      blmd::WriteFileAtomically(merge_out, merged);
+      if (!quiet) std::cout << "blmd-surface: merged " << parts.size() << " shards -> " << merge_out << "\n";
+      return blmd::kExitOk;
+    }
+    for (const auto& [flag, value] : {std::pair<const char*, const std::string*>{"--config", &config_path},
+                                      {"--trace", &trace_path}, {"--out", &out_path}}) {
+      if (value->empty()) throw blmd::InputError(std::string(flag) + " is required (see blmd-surface --help)");
+    }
+    if (grids.empty() || grids.size() > 2) {
+      throw blmd::InputError("--grid: give one or two axes, P=LO:HI:N (got " + std::to_string(grids.size()) + ")");
+    }
+    blmd::Config config = blmd::LoadConfig(config_path);
+    std::vector<blmd::GridAxis> axes;
+    for (const auto& text : grids) {
+      blmd::GridAxis axis = blmd::ParseGridAxis(text);
+      if (!config.parameters.Has(axis.name)) {
+        std::vector<std::string> known;
+        for (const auto& [name, value] : config.parameters.entries()) known.push_back(name);
+        const std::string near = blmd::NearestName(axis.name, known);
+        throw blmd::InputError("--grid: unknown parameter '" + axis.name + "'" +
+                               (near.empty() ? "" : " (did you mean '" + near + "'?)"));
+      }
+      const blmd::ParamInfo* info = config.FindParameterInfo(axis.name);
+      if (info && info->positive && !(axis.low > 0.0)) {
+        throw blmd::InputError("--grid " + axis.name + ": the parameter must be > 0 (LO = " +
+                               blmd::FormatNumber(axis.low) + ")");
+      }
+      for (const auto& other : axes) {
+        if (other.name == axis.name) throw blmd::InputError("--grid: '" + axis.name + "' given twice");
+      }
+      axes.push_back(axis);
+    }
+    int shard_index = 1, shard_count = 1;
+    if (!shard_text.empty()) {
+      const auto slash = shard_text.find('/');
+      try {
+        std::size_t used = 0;
+        shard_index = std::stoi(shard_text.substr(0, slash), &used);
+        shard_count = std::stoi(shard_text.substr(slash + 1));
+      } catch (const std::exception&) {
+        throw blmd::InputError("--shard '" + shard_text + "': expected K/N, e.g. 3/8");
+      }
+      if (slash == std::string::npos || shard_count < 1 || shard_index < 1 || shard_index > shard_count) {
+        throw blmd::InputError("--shard '" + shard_text + "': expected K/N with 1 <= K <= N");
+      }
+    }
+    std::vector<std::string> observe = observe_text.empty() ? config.identification.observe
+                                                            : blmd::ParseNameList(observe_text, "--observe");
+    const std::vector<std::string> outputs = config.model->outputs();
+    for (const auto& name : observe) {
+      if (std::find(outputs.begin(), outputs.end(), name) == outputs.end()) {
+        throw blmd::InputError("--observe: '" + name + "' is not an output of model " +
+                               std::string(config.model->name()));
+      }
+    }
+    blmd::TraceInputOptions input_options;
+    for (const auto& text : columns) {
+      const auto [name, header] = blmd::ParseTextAssignment(text, "--column");
+      input_options.columns[name] = header;
+    }
+    for (const auto& text : scales) {
+      const auto [name, factor] = blmd::ParseAssignment(text, "--scale");
+      input_options.scales[name] = factor;
+    }
+    for (const auto& text : derives) {
+      const auto [target, source] = blmd::ParseTextAssignment(text, "--derive");
+      if (target != "w" || source != "theta") throw blmd::InputError("--derive '" + text + "': supported: w=theta");
+      input_options.derive.emplace_back(target, source);
+    }
+    input_options.required = observe;
+    std::vector<blmd::FitTrace> traces;
+    traces.push_back(blmd::LoadFitTrace(trace_path, input_options, config.experiment.initial));
+    const std::string trace_sha = traces.front().sha256;
+
+    // The grid axes are the free parameters; bounds are the grid's (the cost does not clip).
+    std::vector<blmd::FreeParameter> free;
+    for (const auto& axis : axes) {
+      blmd::FreeParameter p;
+      p.name = axis.name;
+      p.lower = axis.low;
+      p.upper = axis.high;
+      p.log_scale = axis.log_scale;
+      p.initial = config.parameters.Get(axis.name);
+      free.push_back(p);
+    }
+    blmd::InstallCleanupOnSignal();
+    const std::string config_sha = blmd::Sha256Hex(blmd::ReadFileText(config_path));
+    const blmd::FitProblem problem(config, std::move(traces), observe, free);
+
+    blmd::SurfaceOptions options;
+    options.threads = threads;
+    options.shard_index = shard_index;
+    options.shard_count = shard_count;
+    const bool show_progress = !quiet && isatty(STDERR_FILENO);
+    const auto started = std::chrono::steady_clock::now();
+    std::mutex progress_mutex;
+    auto last_draw = started;
+    if (show_progress) {
+      options.progress = [&](std::size_t done, std::size_t total) {
+        std::lock_guard<std::mutex> lock(progress_mutex);
+        const auto now = std::chrono::steady_clock::now();
+        if (done != total && now - last_draw < std::chrono::milliseconds(200)) return;
+        last_draw = now;
+        const double elapsed = std::chrono::duration<double>(now - started).count();
+        const double rate = elapsed > 0 ? static_cast<double>(done) / elapsed : 0.0;
+        const double left = rate > 0 ? static_cast<double>(total - done) / rate : -1.0;
+        const int width = 30;
+        const int filled = static_cast<int>(width * done / std::max<std::size_t>(1, total));
+        std::fprintf(stderr, "\r[%s%s] %zu/%zu points, %.1f pt/s, %s left ", std::string(filled, '#').c_str(),
+                     std::string(width - filled, ' ').c_str(), done, total, rate, Clock(left).c_str());
+        if (done == total) std::fprintf(stderr, "\n");
+      };
+    }
+    const std::vector<blmd::SurfacePoint> points = blmd::ComputeSurface(problem, axes, options);
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+
+    blmd::SurfaceMetadata metadata;
+    metadata.lines = {"blmd-surface " + std::string(blmd::kVersion),
+                      "model: " + std::string(config.model->name()),
+                      "config_sha256: " + config_sha,
+                      "trace_sha256: " + trace_sha};
+    std::string observe_line = "observe: ";
+    for (std::size_t c = 0; c < observe.size(); ++c) observe_line += (c ? "," : "") + observe[c];
+    metadata.lines.push_back(observe_line);
+    for (const auto& axis : axes) metadata.lines.push_back("grid: " + axis.Spec());
+    metadata.shard_index = shard_index;
+    metadata.shard_count = shard_count;
+    const std::string csv = blmd::FormatSurfaceCsv(metadata, axes, observe, points);
+
+    // Summary figures (on a shard: of that shard only).
+    std::vector<std::size_t> minima;
+    std::size_t best = points.size();
+    std::size_t failed = 0;
+    std::map<std::string, long> reasons;
+    for (std::size_t k = 0; k < points.size(); ++k) {
+      if (!points[k].evaluation.ok) {
+        ++failed;
+        ++reasons[points[k].evaluation.reason];
+        continue;
+      }
+      if (best == points.size() || points[k].evaluation.cost < points[best].evaluation.cost) best = k;
+    }
+    if (shard_count == 1) minima = blmd::LocalMinima(axes, points);
+    std::string svg;
+    if (!svg_path.empty()) {
+      if (shard_count > 1) throw blmd::InputError("--svg needs the whole grid: draw it from the merged surface, not a shard");
+      blmd::SurfacePlotOptions plot;
+      plot.title = config.name + ": cost over ";
+      for (std::size_t a = 0; a < axes.size(); ++a) {
+        plot.title += (a ? ", " : "") + axes[a].name;
+        const blmd::ParamInfo* info = config.FindParameterInfo(axes[a].name);
+        plot.units.push_back(info ? info->unit : "");
+      }
+      plot.title += " (observe " + observe_line.substr(9) + ")";
+      svg = blmd::SurfaceSvg(axes, points, minima, plot);
+    }
+    blmd::WriteFileAtomically(out_path, csv);
+    if (!svg.empty()) blmd::WriteFileAtomically(svg_path, svg);
+
+    auto point_json = [&](std::size_t k) {
+      nlohmann::json p = nlohmann::json::object();
+      for (std::size_t a = 0; a < axes.size(); ++a) p[axes[a].name] = points[k].coordinates[a];
+      p["cost"] = points[k].evaluation.ok ? nlohmann::json(points[k].evaluation.cost) : nlohmann::json(nullptr);
+      return p;
+    };
+    if (json) {
+      nlohmann::json out;
+      out["tool"] = "blmd-surface";
+      out["version"] = blmd::kVersion;
+      out["config"] = {{"path", config_path}, {"sha256", config_sha}};
+      out["trace"] = {{"path", trace_path}, {"sha256", trace_sha}};
+      out["observe"] = observe;
+      out["grid"] = nlohmann::json::array();
+      for (const auto& axis : axes) {
+        out["grid"].push_back({{"name", axis.name}, {"low", axis.low}, {"high", axis.high},
+                               {"count", axis.count}, {"log", axis.log_scale}});
+      }
+      out["shard"] = {shard_index, shard_count};
+      out["minimum"] = best < points.size() ? point_json(best) : nlohmann::json(nullptr);
+      out["local_minima"] = nlohmann::json::array();
+      for (std::size_t k : minima) out["local_minima"].push_back(point_json(k));
+      out["failed_points"] = failed;
+      out["failure_reasons"] = reasons;
+      out["points"] = nlohmann::json::array();
+      for (std::size_t k = 0; k < points.size(); ++k) {
+        nlohmann::json p = point_json(k);
+        if (points[k].evaluation.ok) {
+          for (std::size_t c = 0; c < observe.size(); ++c) p["mse_" + observe[c]] = points[k].evaluation.mse[c];
+        }
+        out["points"].push_back(p);
+      }
+      out["wall_time_s"] = elapsed;
+      std::cout << out.dump(2) << "\n";
+    } else if (!quiet) {
+      std::cout << "blmd-surface: " << points.size() << " points";
+      if (shard_count > 1) std::cout << " (shard " << shard_index << "/" << shard_count << ")";
+      std::cout << " in " << G(elapsed, 3) << " s (" << G(points.size() / std::max(elapsed, 1e-9), 3)
+                << " points/s) -> " << out_path << "\n";
+      if (best < points.size()) {
+        std::cout << "  grid minimum:";
+        for (std::size_t a = 0; a < axes.size(); ++a) std::cout << " " << axes[a].name << " = " << G(points[best].coordinates[a], 6);
+        std::cout << ", cost " << G(points[best].evaluation.cost) << "\n";
+      }
+      if (shard_count == 1) {
+        std::cout << "  local minima: " << minima.size() << "\n";
+        for (std::size_t k : minima) {
+          std::cout << "   ";
+          for (std::size_t a = 0; a < axes.size(); ++a) std::cout << " " << axes[a].name << " = " << G(points[k].coordinates[a], 6);
+          std::cout << ", cost " << G(points[k].evaluation.cost) << (k == best ? "  (global)" : "") << "\n";
+        }
+      }
+      if (failed) {
+        std::cout << "  failed points: " << failed << " (cost inf)";
+        for (const auto& [reason, n] : reasons) std::cout << "; " << n << " x " << reason;
+        std::cout << "\n";
+      }
+      if (!svg_path.empty()) std::cout << "  svg: " << svg_path << "\n";
+    }
+    return blmd::kExitOk;
+  });
+}

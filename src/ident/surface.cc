@@ -1,0 +1,149 @@
+#include "blmd/ident/surface.h"
+
+#include <atomic>
+#include <charconv>
+#include <cmath>
+#include <thread>
+
+#include "blmd/error.h"
+#include "blmd/io/csv.h"
+#include "ident/counting_cost.h"
+
+namespace blmd {
+namespace {
+
+double ParseNumber(const std::string& text, const std::string& context) {
+  double value = 0.0;
+  const char* first = text.data();
+  if (!text.empty() && *first == '+') ++first;
+  const auto result = std::from_chars(first, text.data() + text.size(), value);
+  if (text.empty() || result.ec != std::errc() || result.ptr != text.data() + text.size() ||
+      !std::isfinite(value)) {
+    throw InputError(context + ": '" + text + "' is not a finite number");
+  }
+  return value;
+}
+
+}  // namespace
+
+double GridAxis::Value(int k) const {
+  if (count == 1) return low;
+  if (k == 0) return low;
+  if (k == count - 1) return high;
+  const double f = static_cast<double>(k) / static_cast<double>(count - 1);
+  return log_scale ? low * std::pow(high / low, f) : low + f * (high - low);
+}
+
+std::string GridAxis::Spec() const {
+  return name + "=" + (log_scale ? "log:" : "") + FormatNumber(low) + ":" + FormatNumber(high) +
+         ":" + std::to_string(count);
+}
+
+GridAxis ParseGridAxis(const std::string& text) {
+  const std::string context = "--grid '" + text + "'";
+  const auto eq = text.find('=');
+  if (eq == std::string::npos || eq == 0) {
+    throw InputError(context + ": expected P=LO:HI:N or P=log:LO:HI:N");
+  }
+  GridAxis axis;
+  axis.name = text.substr(0, eq);
+  std::string rest = text.substr(eq + 1);
+  if (rest.rfind("log:", 0) == 0) {
+    axis.log_scale = true;
+    rest = rest.substr(4);
+  }
+  std::vector<std::string> parts;
+  std::size_t start = 0;
+  while (true) {
+    const auto colon = rest.find(':', start);
+    parts.push_back(rest.substr(start, colon == std::string::npos ? rest.npos : colon - start));
+    if (colon == std::string::npos) break;
+    start = colon + 1;
+  }
+  if (parts.size() != 3) throw InputError(context + ": expected P=LO:HI:N or P=log:LO:HI:N");
+  axis.low = ParseNumber(parts[0], context + " LO");
+  axis.high = ParseNumber(parts[1], context + " HI");
+  const double count = ParseNumber(parts[2], context + " N");
+  if (count != std::floor(count) || count < 1 || count > 1e6) {
+    throw InputError(context + ": N must be a whole number of points >= 1 (got " + parts[2] + ")");
+  }
+  axis.count = static_cast<int>(count);
+  if (!(axis.low < axis.high) && !(axis.count == 1 && axis.low == axis.high)) {
+    throw InputError(context + ": the range is inverted or empty (LO must be below HI)");
+  }
+  if (axis.log_scale && !(axis.low > 0.0)) {
+    throw InputError(context + ": a log: axis needs LO > 0");
+  }
+  return axis;
+}
+
+std::pair<std::size_t, std::size_t> ShardRange(std::size_t total, int index, int count) {
+  const std::size_t k = static_cast<std::size_t>(index - 1), n = static_cast<std::size_t>(count);
+  return {total * k / n, total * (k + 1) / n};
+}
+
+std::vector<SurfacePoint> ComputeSurface(const FitProblem& problem, const std::vector<GridAxis>& axes,
+                                         const SurfaceOptions& options) {
+  std::size_t total = 1;
+  for (const auto& axis : axes) total *= static_cast<std::size_t>(axis.count);
+  const auto [first, last] = ShardRange(total, options.shard_index, options.shard_count);
+  std::vector<SurfacePoint> points(last - first);
+  const int threads = std::max(1, internal::ThreadCount(options.threads));
+  std::atomic<std::size_t> next{0}, done{0};
+  auto worker = [&] {
+    while (true) {
+      const std::size_t k = next.fetch_add(1);
+      if (k >= points.size()) break;
+      std::size_t index = first + k;
+      std::vector<double> coordinates(axes.size());
+      for (std::size_t a = axes.size(); a-- > 0;) {
+        const std::size_t n = static_cast<std::size_t>(axes[a].count);
+        coordinates[a] = axes[a].Value(static_cast<int>(index % n));
+        index /= n;
+      }
+      points[k].coordinates = coordinates;
+      points[k].evaluation = problem.Evaluate(coordinates);
+      const std::size_t finished = done.fetch_add(1) + 1;
+      if (options.progress) options.progress(finished, points.size());
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
+  worker();
+  for (auto& thread : pool) thread.join();
+  return points;
+}
+
+std::vector<std::size_t> LocalMinima(const std::vector<GridAxis>& axes,
+                                     const std::vector<SurfacePoint>& points) {
+  std::vector<std::size_t> minima;
+  const int n0 = axes[0].count;
+  const int n1 = axes.size() > 1 ? axes[1].count : 1;
+  auto cost = [&](int i, int j) {
+    return points[static_cast<std::size_t>(i) * static_cast<std::size_t>(n1) + static_cast<std::size_t>(j)].evaluation.cost;
+  };
+  for (int i = 0; i < n0; ++i) {
+    for (int j = 0; j < n1; ++j) {
+      const double c = cost(i, j);
+      if (!std::isfinite(c)) continue;
+      bool lowest = true;
+      int neighbours = 0;
+      for (int di = -1; di <= 1 && lowest; ++di) {
+        for (int dj = -1; dj <= 1; ++dj) {
+          if (di == 0 && dj == 0) continue;
+          const int a = i + di, b = j + dj;
+          if (a < 0 || a >= n0 || b < 0 || b >= n1) continue;
+          ++neighbours;
+          if (!(c < cost(a, b))) {
+            lowest = false;
+            break;
+          }
+        }
+      }
+      if (lowest && neighbours > 0) minima.push_back(static_cast<std::size_t>(i) * static_cast<std::size_t>(n1) + static_cast<std::size_t>(j));
+    }
+  }
+  return minima;
+}
+
+}  // namespace blmd
