@@ -32,13 +32,6 @@ ParamInfo Optional(ParamInfo info) {
 
 constexpr double kTwoPiOver3 = 2.0 * std::numbers::pi / 3.0;
 
-// Symmetric triangular carrier: -Vtri at t = 0, +Vtri at Tpwm/2.
-double Carrier(double t, double Tpwm, double Vtri) {
-  double phase = t / Tpwm;
-  phase -= std::floor(phase);
-  return phase < 0.5 ? -Vtri + 4.0 * Vtri * phase : 3.0 * Vtri - 4.0 * Vtri * phase;
-}
-
 // Time within [a, b] during which a switch commanded on since t_edge conducts, given the
 // turn-on delay delta.
 double ConductingTime(double a, double b, double t_edge, double delta) {
@@ -61,7 +54,9 @@ const std::vector<ParamInfo>& BlmdDriveModel::parameters() const {
         1e-3, 10.0),
       P("p", "-", "pole pairs", true, 1.0, 50.0),
       P("Kc", "V/V", "current demand per volt of torque demand", true, 1e-3, 100.0),
-      P("Kf", "V/A", "current feedback gain", true, 1e-3, 100.0),
+      // Kf = 0 (with Ki = 0) opens the current loop: v_cj = Kp Kc Td cos(...), a fixed duty
+      // for a fixed rotor angle (open-loop voltage mode, docs/model-blmd.md).
+      P("Kf", "V/A", "current feedback gain (0: current loop open)", false, 1e-3, 100.0),
       P("Kp", "V/V", "compensator proportional gain", false, 0.0, 1e3),
       P("Ki", "1/s", "compensator integral gain", false, 0.0, 1e7),
       Optional(P("Tz", "s", "compensator lead zero time constant (0: PI)", false, 0.0, 1.0)),
@@ -119,10 +114,24 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
   const double speed_gain = 1.0 / (1.0 + dt * B / J);      // w+ = (w + dt/J (T)) * gain
   // Lead-lag part: y_k (1 + Tp/dt) - (Tp/dt) y_{k-1} = Kp [(1 + Tz/dt) e_k - (Tz/dt) e_{k-1}]
   const double lag_norm = 1.0 / (1.0 + Tp / dt);
+  const double Ki_dt = Ki * dt;
+
+  // Carrier: -Vtri at the run's start, +Vtri after Tpwm/2, linear in between; Validate()
+  // guarantees Tpwm/2 = steps_per_half_period * dt, so every vertex falls on a step boundary
+  // and the carrier is linear inside each step. Indexed by an integer step counter (no
+  // floor() of a time, no drift).
+  const long steps_per_half_period = std::lround(0.5 * Tpwm / dt);
+  const double carrier_slope = 2.0 * Vtri / static_cast<double>(steps_per_half_period);
+  auto carrier_at = [&](long index_in_period) {  // index_in_period in [0, 2N]
+    return index_in_period <= steps_per_half_period
+               ? -Vtri + carrier_slope * static_cast<double>(index_in_period)
+               : Vtri - carrier_slope *
+                            static_cast<double>(index_in_period - steps_per_half_period);
+  };
 
   std::vector<std::string> names = {"u", "i", "ib", "ic", "w", "theta"};
   if (settings.diagnostics) {
-    for (const char* extra : {"va", "vb", "vc", "Te"}) names.emplace_back(extra);
+    for (const char* extra : {"va", "vb", "vc", "Te", "vsg"}) names.emplace_back(extra);
   }
   internal::OutputSampler sampler(times, names);
   InputCursor input(experiment.input);
@@ -135,7 +144,7 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
   std::array<double, 3> error_prev = {0.0, 0.0, 0.0};
   std::array<Leg, 3> legs;
   std::array<double, 3> phase_voltage = {0.0, 0.0, 0.0};
-  double torque = 0.0;
+  double torque = 0.0, neutral_voltage = 0.0;
 
   auto pack = [&](double u, double* row) {
     row[0] = u;
@@ -149,24 +158,34 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
       row[7] = phase_voltage[1];
       row[8] = phase_voltage[2];
       row[9] = torque;
+      row[10] = neutral_voltage;
     }
   };
-  std::array<double, 10> prev{}, now{};
+  std::array<double, 11> prev{}, now{};
   pack(input.At(t_start), prev.data());
   sampler.Record(t_start, prev.data(), t_start, prev.data());
 
+  constexpr double kHalfSqrt3 = 0.86602540378443864676;  // sin(2 pi/3)
+  long index_in_period = 0;  // step start within the carrier period, 0 .. 2N-1
   bool first_step = true;
   for (long step = 0; !sampler.done(); ++step) {
     const double t_low = t_start + static_cast<double>(step) * dt;
     const double t_high = t_start + static_cast<double>(step + 1) * dt;
-    const double demand = input.At(t_low);
+    // The demand over a step is read at its midpoint, so that an event on the step grid (a
+    // step's t0, a square wave's edge, a recorded sample) takes effect exactly there whatever
+    // the rounding of t_start + k dt (as dc_servo does).
+    const double demand = input.At(t_low + 0.5 * dt);
+    // cos(p theta - 2(j-1)pi/3) from one sine/cosine pair: the b and c phases are the a
+    // phase rotated by -120 and -240 degrees.
     const double electrical_angle = p * theta;
-    std::array<double, 3> cosine;
-    for (int j = 0; j < 3; ++j) cosine[j] = std::cos(electrical_angle - kTwoPiOver3 * j);
+    const double cos_a = std::cos(electrical_angle), sin_a = std::sin(electrical_angle);
+    const std::array<double, 3> cosine = {cos_a, -0.5 * cos_a + kHalfSqrt3 * sin_a,
+                                          -0.5 * cos_a - kHalfSqrt3 * sin_a};
 
     // Compensators and PWM legs.
-    const double carrier_low = Carrier(t_low, Tpwm, Vtri);
-    const double carrier_high = Carrier(t_high, Tpwm, Vtri);
+    const double carrier_low = carrier_at(index_in_period);
+    const double carrier_high = carrier_at(index_in_period + 1);
+    if (++index_in_period == 2 * steps_per_half_period) index_in_period = 0;
     std::array<double, 3> leg_voltage;
     for (int j = 0; j < 3; ++j) {
       const double error = Kc * demand * cosine[j] - Kf * current[j];
@@ -175,7 +194,7 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
       error_prev[j] = error;
       // Conditional integration: the integrator holds while the output saturates in the
       // direction of the error (anti-windup).
-      const double proposed_integral = integral[j] + Ki * dt * error;
+      const double proposed_integral = integral[j] + Ki_dt * error;
       const double unclamped = lead_out[j] + proposed_integral;
       if (std::abs(unclamped) <= Vtri || unclamped * error < 0.0) integral[j] = proposed_integral;
       const double control = std::clamp(lead_out[j] + integral[j], -Vtri, Vtri);
@@ -187,36 +206,39 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
         leg.upper_commanded = d_low < 0.0;
         leg.t_edge = t_low - 2.0 * delta - dt;  // settled before the run
       }
-      const bool old_command = leg.upper_commanded;
-      double t_cross = t_high;  // no change inside the step
-      bool new_command = old_command;
-      if ((d_low < 0.0) != old_command) {
-        // The control voltage jumped across the carrier at the step start.
-        t_cross = t_low;
-        new_command = d_low < 0.0;
-      } else if ((d_high < 0.0) != old_command) {
-        new_command = d_high < 0.0;
-        // Regula falsi: t_x = t_L + dt d_L / (d_L - d_H); off: switch at the step end.
-        t_cross = settings.regula_falsi ? t_low + dt * d_low / (d_low - d_high) : t_high;
+      double upper_on = 0.0, lower_on = 0.0;  // s, conduction times inside the step
+      auto conduct = [&](double a, double b) {  // [a, b] under the present command
+        (leg.upper_commanded ? upper_on : lower_on) += ConductingTime(a, b, leg.t_edge, delta);
+      };
+      // Comparator at the step start with this step's control voltage: the control may have
+      // moved across the carrier since the previous step (an edge at t_low).
+      if ((d_low < 0.0) != leg.upper_commanded) {
+        leg.upper_commanded = d_low < 0.0;
+        leg.t_edge = t_low;
       }
-      double upper_on = 0.0, lower_on = 0.0;
-      (old_command ? upper_on : lower_on) += ConductingTime(t_low, t_cross, leg.t_edge, delta);
-      if (new_command != old_command) {
-        leg.upper_commanded = new_command;
+      // A crossing inside the step (control held, carrier linear: at most one), located by
+      // regula falsi, t_x = t_L + dt d_L / (d_L - d_H), exact here. Without regula falsi
+      // the comparator is only sampled at step boundaries, so this crossing is seen at the
+      // next step's start.
+      if (settings.regula_falsi && (d_high < 0.0) != leg.upper_commanded) {
+        const double t_cross = t_low + dt * d_low / (d_low - d_high);
+        conduct(t_low, t_cross);
+        leg.upper_commanded = d_high < 0.0;
         leg.t_edge = t_cross;
+        conduct(t_cross, t_high);
+      } else {
+        conduct(t_low, t_high);
       }
-      (leg.upper_commanded ? upper_on : lower_on) +=
-          ConductingTime(t_cross, t_high, leg.t_edge, delta);
       const double both_off = std::max(0.0, dt - upper_on - lower_on);
       leg_voltage[j] = Ud * (upper_on + (current[j] < 0.0 ? both_off : 0.0)) / dt;
     }
     first_step = false;
-    const double neutral = (leg_voltage[0] + leg_voltage[1] + leg_voltage[2]) / 3.0;
+    neutral_voltage = (leg_voltage[0] + leg_voltage[1] + leg_voltage[2]) / 3.0;
 
     // Windings (backward Euler), back-EMF from the step-start speed and angle.
     torque = 0.0;
     for (int j = 0; j < 3; ++j) {
-      phase_voltage[j] = leg_voltage[j] - neutral;
+      phase_voltage[j] = leg_voltage[j] - neutral_voltage;
       const double emf = Ke * w * cosine[j];
       current[j] = (current[j] + dt / Ls * (phase_voltage[j] - emf)) * current_gain;
       torque += Ke * current[j] * cosine[j];
@@ -248,7 +270,11 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
   }
   sampler.Finish(out);
   auto& u_column = out->Column("u");
-  for (std::size_t k = 0; k < times.size(); ++k) u_column[k] = experiment.input.At(times[k]);
+  // u at a sample: the demand applied from that instant on (read as the steps read it), so
+  // that a trace replays exactly through its u column as a recorded input.
+  for (std::size_t k = 0; k < times.size(); ++k) {
+    u_column[k] = experiment.input.At(times[k] + 0.5 * dt);
+  }
   return SimStatus::Ok();
 }
 

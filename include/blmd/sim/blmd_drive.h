@@ -1,15 +1,16 @@
 // Three-phase brushless motor drive (BLMD) of Guinee & Lyden (1999) in torque-control
 // mode, docs/model-blmd.md. Y-connected PM motor, p pole pairs, round rotor, linear magnetics.
 //
-//   lambda_j = lambda_m sin(p theta - 2(j-1)pi/3),   j = 1..3 = a, b, c        (eqs. 2-3)
+//   lambda_j = Ls i_j + lambda_m sin(p theta - 2(j-1)pi/3),  j = 1..3 = a, b, c  (eqs. 2-3)
 //   v_j = Rs i_j + Ls di_j/dt + e_j,  e_j = Ke w cos(p theta - 2(j-1)pi/3)   (eqs. 4-6)
 //   Te  = Ke sum_j i_j cos(p theta - 2(j-1)pi/3),   Ke = p lambda_m          (eq. 7)
 //   J dw/dt = Te - B w - T_effects,  dtheta/dt = w                           (eq. 8)
 // Drive chain (Fig. 1): torque demand Td (V) -> i*_j = Kc Td cos(p theta - 2(j-1)pi/3) (V)
 //   -> compensator on e_j = i*_j - Kf i_j: v_cj = Kp (1 + s Tz)/(1 + s Tp) e_j + Ki/s e_j
-//      (PI when Tz = Tp = 0), clamped to +-Vtri with a conditional integrator
-//   -> comparator against a symmetric triangular carrier (+-Vtri, period Tpwm):
-//      upper switch commanded on while v_cj > v_tri                           (eqs. 9-10)
+//      (PI when Tz = Tp = 0), clamped to +-Vtri with a conditional integrator;
+//      Kf = Ki = 0 opens the current loop (v_cj = Kp Kc Td cos(...), open-loop voltage mode)
+//   -> comparator against a symmetric triangular carrier (+-Vtri, period Tpwm, -Vtri at the
+//      run's first sample time): upper switch commanded on while v_cj > v_tri    (eqs. 9-10)
 //   -> every turn-on delayed by the blanking time delta                        (eq. 11)
 //   -> leg voltage v_jg = Ud if upper on, or both off and i_j < 0;
 //                   v_jg = 0  if lower on, or both off and i_j >= 0           (eqs. 12-13)
@@ -18,10 +19,15 @@
 // Numerics (paper §3): backward Euler for every sub-system at fixed dt (1 µs default);
 // compensator output held over a step; one regula-falsi step locates the PWM crossing
 // inside a step (settings.regula_falsi), and the step applies the exact time-average of
-// the leg voltage given that crossing and the blanking; off, the comparator is sampled at
-// step ends. Tpwm/2 must be a multiple of dt, so the carrier is linear within a step.
-// Input u = Td (V). Outputs: t, u, i (phase-a current feedback, A, + i0), ib, ic, w, theta;
-// diagnostics add va, vb, vc (step-average phase voltages, V) and Te (N·m).
+// the leg voltage given that crossing and the blanking; off, the comparator is sampled only
+// at step boundaries. Tpwm/2 must be a multiple of dt, so the carrier is linear within a
+// step (and regula falsi exact). The diode state during blanking follows the sign of i_j at
+// the step start. Phase currents start at zero (experiment.initial.i is not used).
+// Input u = Td (V), read at each step's midpoint; the u column holds the demand applied
+// from each sample on. Outputs: t, u, i (phase-a current feedback, A, + i0), ib, ic (A),
+// w (rad/s), theta (rad); settings.diagnostics adds va, vb, vc (phase voltages, the average
+// over the step ending at the sample, V), Te (N·m, that step's torque) and vsg (neutral
+// voltage against the DC bus's negative rail, step average, V).
 #pragma once
 
 #include "blmd/sim/model.h"
