@@ -355,8 +355,11 @@ Config ParseConfig(const std::string& text, const std::string& path) {
         ++column;
       }
     }
+    // "[json.exception.parse_error.101] parse error at line 3, column 30: <what>": keep
+    // <what>, which may itself contain ": " ("last read: '0.04.'").
     std::string what = error.what();
-    const auto colon = what.rfind(": ");
+    const auto column_at = what.find(", column ");
+    const auto colon = what.find(": ", column_at == std::string::npos ? 0 : column_at);
     if (colon != std::string::npos) what = what.substr(colon + 2);
     throw InputError(path, line, column, "invalid JSON: " + what);
   }

@@ -147,7 +147,7 @@ Trace ParseTraceCsv(const std::string& text, const std::string& path,
       }
       double value = 0.0;
       const char* first = field.data();
-      if (*first == '+') ++first;
+      if (*first == '+' && field.size() > 1 && field[1] != '-') ++first;  // "+1", not "+-1"
       const auto result = std::from_chars(first, field.data() + field.size(), value);
       if (result.ec == std::errc::result_out_of_range) {
         fail(line_number, static_cast<long>(column_index + 1),

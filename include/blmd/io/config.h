@@ -31,7 +31,7 @@ struct Config {
   std::string name;
   const Model* model = nullptr;
   ParameterSet parameters;           // model parameters and declared effects' parameters
-  std::vector<std::string> effects;  // declared effects, in declaration order
+  std::vector<std::string> effects;  // declared effects, sorted by name (then --effect's)
   SimulationSettings simulation;
   Experiment experiment;
   IdentificationSettings identification;
