@@ -15,7 +15,9 @@ namespace {
 // log(value) for log-scale parameters, the value itself otherwise.
 class ResidualFunctor {
  public:
-  explicit ResidualFunctor(CountingCost* cost) : cost_(cost) {}
+  // `scale` (optional): per-residual factors applied to the residuals (noise normalisation).
+  explicit ResidualFunctor(CountingCost* cost, std::vector<double> scale = {})
+      : cost_(cost), scale_(std::move(scale)) {}
 
   bool operator()(double const* const* parameters, double* residuals) const {
     const FitProblem& problem = cost_->problem();
@@ -26,12 +28,13 @@ class ResidualFunctor {
     std::vector<double> r;
     const Evaluation evaluation = cost_->Evaluate(values, &r);
     if (!evaluation.ok) return false;  // Ceres treats the step as infeasible
-    std::copy(r.begin(), r.end(), residuals);
+    for (std::size_t k = 0; k < r.size(); ++k) residuals[k] = scale_.empty() ? r[k] : r[k] * scale_[k];
     return true;
   }
 
  private:
   CountingCost* cost_;
+  std::vector<double> scale_;
 };
 
 }  // namespace
@@ -108,27 +111,41 @@ FitResult CeresOptimizer::Minimize(const FitProblem& problem,
                      {"successful_steps", ceres_summary.num_successful_steps},
                      {"unsuccessful_steps", ceres_summary.num_unsuccessful_steps}};
 
-  // Covariance of the search coordinates, scaled by the residual variance.
+  // Covariance of the search coordinates, scaled by the residual variance: the residuals
+  // are re-weighted by each column's estimated noise level (e/s_c), so that columns with
+  // different noise (current in A, speed in rad/s) each count with their own variance, and
+  // ceres::Covariance of that problem is the parameter covariance directly.
   if (result.evaluation.ok && problem.num_residuals() > p) {
+    std::vector<double> cov_x = x;
+    auto* noise_functor = new ResidualFunctor(&cost, problem.NoiseNormalisation(result.evaluation));
+    auto* noise_cost =
+        new ceres::DynamicNumericDiffCostFunction<ResidualFunctor, ceres::CENTRAL>(
+            noise_functor, ceres::TAKE_OWNERSHIP);
+    noise_cost->AddParameterBlock(static_cast<int>(p));
+    noise_cost->SetNumResiduals(static_cast<int>(problem.num_residuals()));
+    ceres::Problem covariance_problem;
+    covariance_problem.AddResidualBlock(noise_cost, nullptr, cov_x.data());
     ceres::Covariance::Options covariance_options;
     covariance_options.algorithm_type = ceres::DENSE_SVD;
     covariance_options.null_space_rank = -1;
     covariance_options.min_reciprocal_condition_number = 1e-14;
     ceres::Covariance covariance(covariance_options);
-    std::vector<std::pair<const double*, const double*>> blocks = {{x.data(), x.data()}};
-    if (covariance.Compute(blocks, &ceres_problem)) {
+    std::vector<std::pair<const double*, const double*>> blocks = {{cov_x.data(), cov_x.data()}};
+    if (covariance.Compute(blocks, &covariance_problem)) {
       std::vector<double> matrix(p * p);
-      covariance.GetCovarianceBlock(x.data(), x.data(), matrix.data());
-      const double s2 = 2.0 * ceres_summary.final_cost /
-                        static_cast<double>(problem.num_residuals() - p);
+      covariance.GetCovarianceBlock(cov_x.data(), cov_x.data(), matrix.data());
       for (std::size_t k = 0; k < p; ++k) {
-        const double variance = s2 * matrix[k * p + k];
+        const double variance = matrix[k * p + k];
         if (variance >= 0.0 && std::isfinite(variance)) {
           SetInterval(problem.free()[k], std::sqrt(variance), "ceres_covariance",
                       &result.estimates[k]);
         }
       }
-      summary.details["residual_variance"] = s2;
+      nlohmann::json noise = nlohmann::json::object();
+      for (std::size_t c = 0; c < problem.observe().size(); ++c) {
+        noise[problem.observe()[c]] = std::sqrt(result.evaluation.mse[c]);
+      }
+      summary.details["residual_rms"] = noise;
     } else {
       summary.details["covariance"] = "rank deficient: parameters not separately identifiable";
     }

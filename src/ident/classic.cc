@@ -105,16 +105,41 @@ FitResult ClassicOptimizer::Minimize(const FitProblem& problem,
     plateaus.insert(plateaus.end(), found.begin(), found.end());
     if (off < t.size() && !found.empty()) {
       const Plateau& before = found.back();
-      const double w0 = w[off > 0 ? off - 1 : 0];
+      // w0: the steady speed at the opening (plateau mean, robust to noise). The 36.8 %
+      // instant is located by a least-squares line through the samples within +-3 % of
+      // w0 around the first crossing, so measurement noise averages out.
+      const double w0 = before.w;
+      const double t_off = t[off];
       const double target = 0.368 * w0;
+      const double band = 0.03 * std::abs(w0);
+      std::size_t first_cross = t.size();
       for (std::size_t k = off; k < t.size(); ++k) {
         if ((w0 > 0.0 && w[k] <= target) || (w0 < 0.0 && w[k] >= target)) {
-          const double f = (w[k - 1] - target) / (w[k - 1] - w[k]);
-          const double t_cross = t[k - 1] + f * (t[k] - t[k - 1]);
-          taus.push_back(t_cross - t[off > 0 ? off - 1 : 0]);
-          tau_B.push_back(before.w != 0.0 ? before.i / before.w : 0.0);  // times Kt later
+          first_cross = k;
           break;
         }
+      }
+      if (first_cross < t.size()) {
+        double st = 0.0, sw = 0.0, stt = 0.0, stw = 0.0;
+        long n = 0;
+        for (std::size_t k = off; k < t.size(); ++k) {
+          if (std::abs(w[k] - target) <= band) {
+            st += t[k];
+            sw += w[k];
+            stt += t[k] * t[k];
+            stw += t[k] * w[k];
+            ++n;
+          }
+        }
+        double t_cross = t[first_cross];
+        const double denominator = static_cast<double>(n) * stt - st * st;
+        if (n >= 3 && denominator > 0.0) {
+          const double slope = (static_cast<double>(n) * stw - st * sw) / denominator;
+          const double intercept = (sw - slope * st) / static_cast<double>(n);
+          if (slope != 0.0) t_cross = (target - intercept) / slope;
+        }
+        taus.push_back(t_cross - t_off);
+        tau_B.push_back(before.w != 0.0 ? before.i / before.w : 0.0);  // times Kt later
       }
     }
   }

@@ -38,6 +38,8 @@ void EstimateUncertainty(const FitProblem& problem, const std::vector<double>& v
   if (!base.ok) return;
   const std::size_t n = r0.size();
   if (n <= p) return;
+  // Noise-normalised residuals e/s_c: unit variance in every column, so cov = (J^T J)^-1.
+  const std::vector<double> normalise = problem.NoiseNormalisation(base);
   // Search coordinates: log(value) for log-scale parameters, value otherwise.
   Eigen::MatrixXd jacobian(n, p);
   for (std::size_t k = 0; k < p; ++k) {
@@ -54,11 +56,12 @@ void EstimateUncertainty(const FitProblem& problem, const std::vector<double>& v
     }
     std::vector<double> rp, rm;
     if (!problem.Evaluate(plus, &rp).ok || !problem.Evaluate(minus, &rm).ok) return;
-    for (std::size_t r = 0; r < n; ++r) jacobian(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(k)) = (rp[r] - rm[r]) / (2.0 * h);
+    for (std::size_t r = 0; r < n; ++r) {
+      jacobian(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(k)) =
+          normalise[r] * (rp[r] - rm[r]) / (2.0 * h);
+    }
   }
-  double sum_sq = 0.0;
-  for (double r : r0) sum_sq += r * r;
-  const double s2 = sum_sq / static_cast<double>(n - p);
+  const double s2 = 1.0;  // already in units of each column's residual noise
   const Eigen::MatrixXd information = jacobian.transpose() * jacobian;
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(information, Eigen::ComputeFullU | Eigen::ComputeFullV);
   const auto& singular = svd.singularValues();

@@ -40,6 +40,31 @@ FitProblem::FitProblem(Config config, std::vector<FitTrace> traces,
     samples_per_column_[c] = n;
     num_residuals_ += n;
   }
+  for (const auto& fit_trace : traces_) {
+    for (std::size_t c = 0; c < observe_.size(); ++c) {
+      residual_columns_.insert(residual_columns_.end(), fit_trace.trace.rows(), static_cast<int>(c));
+    }
+  }
+}
+
+double FitProblem::column_weight(std::size_t c) const {
+  return 1.0 / std::sqrt(static_cast<double>(observe_.size()) *
+                         static_cast<double>(samples_per_column_[c]) * variance_[c]);
+}
+
+std::vector<double> FitProblem::NoiseNormalisation(const Evaluation& evaluation) const {
+  const double p_per_column = static_cast<double>(free_.size()) / static_cast<double>(observe_.size());
+  std::vector<double> factor_per_column(observe_.size(), 0.0);
+  for (std::size_t c = 0; c < observe_.size(); ++c) {
+    const double n = static_cast<double>(samples_per_column_[c]);
+    const double s2 = evaluation.mse[c] * n / std::max(1.0, n - p_per_column);
+    factor_per_column[c] = s2 > 0.0 ? 1.0 / (column_weight(c) * std::sqrt(s2)) : 0.0;
+  }
+  std::vector<double> factors(residual_columns_.size());
+  for (std::size_t k = 0; k < factors.size(); ++k) {
+    factors[k] = factor_per_column[static_cast<std::size_t>(residual_columns_[k])];
+  }
+  return factors;
 }
 
 std::vector<double> FitProblem::ToScaled(const std::vector<double>& values) const {

@@ -75,8 +75,9 @@ const std::vector<const Optimizer*>& OptimizerRegistry();
 const Optimizer& FindOptimizer(std::string_view name);
 
 // Standard deviations and 95 % intervals by Gauss-Newton at `values`: finite-difference
-// Jacobian J of the weighted residuals in the search coordinates (log for log-scale
-// parameters), covariance s^2 (J^T J)^-1 with s^2 = sum r^2 / (N - p).
+// Jacobian J of the noise-normalised residuals e/s_c (s_c^2 = SSE_c/(N_c - p/C), each
+// observed column its own noise level) in the search coordinates (log for log-scale
+// parameters), covariance (J^T J)^-1.
 void EstimateUncertainty(const FitProblem& problem, const std::vector<double>& values,
                          std::vector<ParameterEstimate>* estimates);
 

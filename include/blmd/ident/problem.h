@@ -59,6 +59,14 @@ class FitProblem {
   // Measured variance of each observed column (pooled), the cost's weights.
   const std::vector<double>& variance() const { return variance_; }
   std::size_t num_residuals() const { return num_residuals_; }
+  // Observed-column index of each residual, in Evaluate's order, and each column's weight
+  // 1/sqrt(C N_c Var_c) (residual = weight * (sim - meas)).
+  const std::vector<int>& residual_columns() const { return residual_columns_; }
+  double column_weight(std::size_t c) const;
+  // Per-residual factors that turn weighted residuals into noise-normalised ones, e/s_c,
+  // with s_c^2 = SSE_c / (N_c - p/C) estimated from `evaluation` (the fit's residual):
+  // the covariance of a fit with unequal noise across columns needs these.
+  std::vector<double> NoiseNormalisation(const Evaluation& evaluation) const;
 
   // Physical values <-> scaled coordinates in [0,1].
   std::vector<double> ToScaled(const std::vector<double>& values) const;
@@ -84,6 +92,7 @@ class FitProblem {
   std::vector<FreeParameter> free_;
   std::vector<double> variance_;
   std::vector<std::size_t> samples_per_column_;
+  std::vector<int> residual_columns_;
   std::size_t num_residuals_ = 0;
 };
 
