@@ -709,6 +709,89 @@ TEST(DcServoEffects, StribeckBreakawayNeedsTcPlusTs) {
   }
 }
 
+// simulation.friction_smoothing_w = eps replaces sign(w) by tanh(w/eps), without sticking:
+// the steady state solves Kt (u - Kb w)/R = B w + Tc tanh(w/eps) (bisection here), and a
+// drive below Tc now creeps instead of sticking.
+TEST(DcServoEffects, SmoothedFrictionSteadyStateAndNoSticking) {
+  const Motor m;
+  const double Tc = 0.01, eps = 1.0;
+  for (double U : {24.0, 3.0}) {  // Kt u/R = 0.076 and 0.0095 N m (the latter below Tc)
+    Scenario s;
+    s.Effect("coulomb_friction", {{"Tc", Tc}});
+    s.settings.friction_smoothing_w = eps;
+    s.experiment = Step(U, 4.0, 100.0);
+    const Trace trace = Simulate(s);
+    auto f = [&](double w) {
+      return m.Kt * (U - m.Kb * w) / m.R - m.B * w - Tc * std::tanh(w / eps);
+    };
+    double lo = 0.0, hi = m.Kt * U / m.a0();
+    for (int k = 0; k < 200; ++k) (f(0.5 * (lo + hi)) > 0.0 ? lo : hi) = 0.5 * (lo + hi);
+    EXPECT_NEAR(trace.Column("w").back() / lo, 1.0, 1e-6) << "U = " << U;
+    EXPECT_GT(lo, 0.0);
+  }
+}
+
+// ---------------------------------------------------------------------------------------
+// Run status and time origin.
+
+// A recorded trace need not start at t = 0: the run starts at the first sample instant.
+TEST(DcServoRun, StartsAtTheFirstSampleTime) {
+  const Motor m;
+  Scenario s;
+  s.experiment = Step(24.0, 0.0, 10000.0);
+  s.experiment.input.t0 = 5.0;
+  for (int k = 0; k <= 3000; ++k) s.times.push_back(5.0 + k * 1e-4);
+  const Trace trace = Simulate(s);
+  const UnitStep unit(m);
+  double error = 0.0;
+  for (std::size_t k = 0; k < s.times.size(); ++k) {
+    error = std::max(error, std::abs(trace.Column("w")[k] - 24.0 * unit.w(s.times[k] - 5.0)));
+  }
+  EXPECT_LT(error, 1e-9 * m.Kt * 24.0 / m.a0());
+}
+
+// A state beyond settings.divergence_limit ends the run with kDiverged at the first step
+// end past the crossing: w = 100 rad/s is reached at the t solving 24 w_unit(t) = 100.
+TEST(DcServoRun, DivergenceIsAStatusWithItsInstant) {
+  const Motor m;
+  Scenario s;
+  s.experiment = Step(24.0, 1.0, 1000.0);
+  s.settings.divergence_limit = 100.0;
+  const std::vector<double> times = s.experiment.SampleTimes();
+  SimulationRequest request;
+  request.parameters = &s.parameters;
+  request.effects = &s.effects;
+  request.experiment = &s.experiment;
+  request.settings = s.settings;
+  request.sample_times = &times;
+  Trace trace;
+  const SimStatus status = FindModel("dc_servo").Simulate(request, &trace);
+  EXPECT_EQ(status.code, SimStatus::Code::kDiverged);
+  EXPECT_EQ(status.message, "simulation diverged (non-finite or |state| > 100.000000)");
+  const UnitStep unit(m);
+  double lo = 0.0, hi = 1.0;
+  for (int k = 0; k < 100; ++k) (24.0 * unit.w(0.5 * (lo + hi)) < 100.0 ? lo : hi) = 0.5 * (lo + hi);
+  EXPECT_GE(status.at_time, lo);
+  EXPECT_LE(status.at_time, lo + s.settings.dt + 1e-12);
+}
+
+TEST(DcServoRun, InvalidParametersAreAStatus) {
+  Scenario s;
+  s.parameters.Set("J", 0.0);
+  s.experiment = Step(24.0, 0.01, 1000.0);
+  const std::vector<double> times = s.experiment.SampleTimes();
+  SimulationRequest request;
+  request.parameters = &s.parameters;
+  request.effects = &s.effects;
+  request.experiment = &s.experiment;
+  request.settings = s.settings;
+  request.sample_times = &times;
+  Trace trace;
+  const SimStatus status = FindModel("dc_servo").Simulate(request, &trace);
+  EXPECT_EQ(status.code, SimStatus::Code::kInvalidParameters);
+  EXPECT_EQ(status.message, "parameter 'J' must be > 0");
+}
+
 // ---------------------------------------------------------------------------------------
 // Closed loop (configs/ganesh-pid.json) and the step metrics.
 
