@@ -162,8 +162,8 @@ TEST(DcServoLinear, VoltageStepMatchesPartialFractionResponse) {
   const Trace trace = Simulate(s);
   const UnitStep unit(m);
   // Distinct real roots for Ganesh's motor: -7.82 and -37.7 rad/s.
-  EXPECT_NEAR(unit.s1().real(), -7.8165, 1e-3);
-  EXPECT_NEAR(unit.s2().real(), -37.708, 1e-2);
+  EXPECT_NEAR(unit.s1().real(), -7.81552, 1e-5);
+  EXPECT_NEAR(unit.s2().real(), -37.70789, 1e-5);
   EXPECT_EQ(unit.s1().imag(), 0.0);
   const double w_final = m.Kt * U / m.a0();
   const double i_final = m.B * U / m.a0();
@@ -459,6 +459,35 @@ TEST(DcServoCoastDown, OpensAtTheInstantOnEveryStepGrid) {
            error / w_off, 1e-9);
     EXPECT_LT(error, 1e-9 * w_off) << "dt = " << dt;
   }
+}
+
+// A coast-down trace (RunExperiment marks the open armature in an `open` column) replays
+// exactly as a recorded input through its u and open columns.
+TEST(DcServoCoastDown, TraceReplaysThroughItsUAndOpenColumns) {
+  const Config config = ParseConfig(R"({
+    "model": "dc_servo",
+    "parameters": { "R": 12.6, "L": 0.283, "Kt": 0.04, "Kb": 0.04, "J": 2.26e-5, "B": 2.261e-5 },
+    "effects": { "coulomb_friction": { "Tc": 0.002 } },
+    "experiment": { "input": { "type": "step", "amplitude": 24.0 }, "coast_off_time": 1.5,
+                    "duration": 4.0, "sample_rate": 1000 }
+  })", "coast.json");
+  Trace trace;
+  ASSERT_TRUE(RunExperiment(config, &trace).ok());
+  ASSERT_TRUE(trace.Has("open"));
+  EXPECT_EQ(trace.Column("open")[1499], 0.0);
+  EXPECT_EQ(trace.Column("open")[1500], 1.0);
+  InputSignal recorded;
+  recorded.kind = InputSignal::Kind::kRecorded;
+  recorded.times = trace.Column("t");
+  recorded.values = trace.Column("u");
+  recorded.open = trace.Column("open");
+  Config replay_config = config;
+  replay_config.experiment.coast_off_time = -1.0;
+  Trace replay;
+  ASSERT_TRUE(RunExperiment(replay_config, &replay, &recorded).ok());
+  EXPECT_EQ(replay.Column("w"), trace.Column("w"));
+  EXPECT_EQ(replay.Column("i"), trace.Column("i"));
+  EXPECT_EQ(trace.Column("w").back(), 0.0);  // stopped by the friction before 4 s
 }
 
 // Coast-down from a given initial speed (armature open from t = 0) under Coulomb friction:
