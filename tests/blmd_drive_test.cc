@@ -28,10 +28,9 @@ constexpr double kPi = std::numbers::pi;
 ParameterSet D31xParameters() {
   ParameterSet values;
   const std::vector<std::pair<std::string, double>> entries = {
-      {"Ud", 310.0},  {"Rs", 1.0},  {"Ls", 0.004},   {"Ke", 0.3},     {"p", 3.0},
-      {"Kc", 1.1},    {"Kf", 0.5},  {"Kp", 8.0},     {"Ki", 16000.0}, {"Tz", 0.0},
-      {"Tp", 0.0},    {"Vtri", 10.0}, {"Tpwm", 200e-6}, {"delta", 20e-6}, {"J", 11.9e-4},
-      {"B", 5e-4}};
+      {"Ud", 310.0},    {"Rs", 1.0},      {"Ls", 0.004},   {"Ke", 0.3}, {"p", 3.0},  {"Kc", 1.1},
+      {"Kf", 0.5},      {"Kp", 8.0},      {"Ki", 16000.0}, {"Tz", 0.0}, {"Tp", 0.0}, {"Vtri", 10.0},
+      {"Tpwm", 200e-6}, {"delta", 20e-6}, {"J", 11.9e-4},  {"B", 5e-4}};
   for (const auto& [name, value] : entries) values.Set(name, value);
   return values;
 }
@@ -235,8 +234,7 @@ TEST(BlmdDrive, BlankingCostsUdDeltaOverTsAgainstTheCurrentSign) {
         const auto& i = trace.Column(currents[j]);
         const double i_min = *std::min_element(i.begin() + first, i.end());
         const double i_max = *std::max_element(i.begin() + first, i.end());
-        ASSERT_TRUE(i_min > 0.0 || i_max < 0.0) << "current of " << currents[j]
-                                                << " changes sign";
+        ASSERT_TRUE(i_min > 0.0 || i_max < 0.0) << "current of " << currents[j] << " changes sign";
         current_sign[j] = i_min > 0.0 ? 1.0 : -1.0;
       }
     }
@@ -485,7 +483,7 @@ TEST(BlmdDrive, OneVoltStepOnBundledConfigIsAnFmCurrentAndAVelocityRamp) {
   Report("step_final_speed_rad_s", w.back());
   EXPECT_GE(cycles, 3.0);
   // The shaft starts once the first active voltage vector has built up some current (all
-  // three legs switch together for the first 28 µs), then accelerates without a pause.
+  // three legs switch together for the first ~27 µs), then accelerates without a pause.
   for (std::size_t k = 1; k < w.size(); ++k) {
     if (t[k] <= 1e-3) {
       ASSERT_GE(w[k], w[k - 1]) << "at t = " << t[k];
@@ -499,7 +497,8 @@ TEST(BlmdDrive, OneVoltStepOnBundledConfigIsAnFmCurrentAndAVelocityRamp) {
   for (std::size_t n = 1; n < crossings.size(); ++n) {
     double peak = 0.0;
     for (std::size_t k = 0; k < t.size(); ++k) {
-      if (t[k] > crossings[n - 1] && t[k] < crossings[n]) peak = std::max(peak, std::abs(smooth[k]));
+      if (t[k] > crossings[n - 1] && t[k] < crossings[n])
+        peak = std::max(peak, std::abs(smooth[k]));
     }
     worst_peak = std::max(worst_peak, std::abs(peak / 2.2 - 1.0));
   }

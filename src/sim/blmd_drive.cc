@@ -50,8 +50,8 @@ const std::vector<ParamInfo>& BlmdDriveModel::parameters() const {
       P("Ud", "V", "DC bus voltage", true, 1.0, 2000.0),
       P("Rs", "ohm", "phase resistance", true, 1e-3, 100.0),
       P("Ls", "H", "phase inductance", true, 1e-6, 1.0),
-      P("Ke", "V·s/rad", "back-EMF and torque constant Ke = p lambda_m (phase peak)", true,
-        1e-3, 10.0),
+      P("Ke", "V·s/rad", "back-EMF and torque constant Ke = p lambda_m (phase peak)", true, 1e-3,
+        10.0),
       P("p", "-", "pole pairs", true, 1.0, 50.0),
       P("Kc", "V/V", "current demand per volt of torque demand", true, 1e-3, 100.0),
       // Kf = 0 (with Ki = 0) opens the current loop: v_cj = Kp Kc Td cos(...), a fixed duty
@@ -105,8 +105,8 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
                Tz = values.Get("Tz"), Tp = values.Get("Tp"), Vtri = values.Get("Vtri"),
                Tpwm = values.Get("Tpwm"), delta = values.Get("delta"), J = values.Get("J"),
                B = values.Get("B");
-  const ShaftEffects shaft = ShaftEffects::From(values, *request.effects,
-                                                settings.friction_smoothing_w);
+  const ShaftEffects shaft =
+      ShaftEffects::From(values, *request.effects, settings.friction_smoothing_w);
   const DriveEffects drive = DriveEffects::From(values, *request.effects);
 
   // Backward-Euler coefficients.
@@ -125,8 +125,8 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
   auto carrier_at = [&](long index_in_period) {  // index_in_period in [0, 2N]
     return index_in_period <= steps_per_half_period
                ? -Vtri + carrier_slope * static_cast<double>(index_in_period)
-               : Vtri - carrier_slope *
-                            static_cast<double>(index_in_period - steps_per_half_period);
+               : Vtri -
+                     carrier_slope * static_cast<double>(index_in_period - steps_per_half_period);
   };
 
   std::vector<std::string> names = {"u", "i", "ib", "ic", "w", "theta"};
@@ -206,7 +206,7 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
         leg.upper_commanded = d_low < 0.0;
         leg.t_edge = t_low - 2.0 * delta - dt;  // settled before the run
       }
-      double upper_on = 0.0, lower_on = 0.0;  // s, conduction times inside the step
+      double upper_on = 0.0, lower_on = 0.0;    // s, conduction times inside the step
       auto conduct = [&](double a, double b) {  // [a, b] under the present command
         (leg.upper_commanded ? upper_on : lower_on) += ConductingTime(a, b, leg.t_edge, delta);
       };

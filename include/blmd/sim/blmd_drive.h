@@ -2,8 +2,9 @@
 // mode, docs/model-blmd.md. Y-connected PM motor, p pole pairs, round rotor, linear magnetics.
 //
 //   lambda_j = Ls i_j + lambda_m sin(p theta - 2(j-1)pi/3),  j = 1..3 = a, b, c  (eqs. 2-3)
-//   v_j = Rs i_j + Ls di_j/dt + e_j,  e_j = Ke w cos(p theta - 2(j-1)pi/3)   (eqs. 4-6)
-//   Te  = Ke sum_j i_j cos(p theta - 2(j-1)pi/3),   Ke = p lambda_m          (eq. 7)
+//   v_j = Rs i_j + Ls di_j/dt + e_j                                          (eqs. 4, 6)
+//   e_j = Ke w cos(p theta - 2(j-1)pi/3),   Ke = p lambda_m                  (eq. 7)
+//   Te  = Ke sum_j i_j cos(p theta - 2(j-1)pi/3)                             (eq. 5)
 //   J dw/dt = Te - B w - T_effects,  dtheta/dt = w                           (eq. 8)
 // Drive chain (Fig. 1): torque demand Td (V) -> i*_j = Kc Td cos(p theta - 2(j-1)pi/3) (V)
 //   -> compensator on e_j = i*_j - Kf i_j: v_cj = Kp (1 + s Tz)/(1 + s Tp) e_j + Ki/s e_j
@@ -11,18 +12,19 @@
 //      Kf = Ki = 0 opens the current loop (v_cj = Kp Kc Td cos(...), open-loop voltage mode)
 //   -> comparator against a symmetric triangular carrier (+-Vtri, period Tpwm, -Vtri at the
 //      run's first sample time): upper switch commanded on while v_cj > v_tri    (eqs. 9-10)
-//   -> every turn-on delayed by the blanking time delta                        (eq. 11)
+//   -> every turn-on delayed by the blanking time delta (RC base-drive delay)  (eq. 11)
 //   -> leg voltage v_jg = Ud if upper on, or both off and i_j < 0;
 //                   v_jg = 0  if lower on, or both off and i_j >= 0           (eqs. 12-13)
 //   -> v_sg = (v_1g + v_2g + v_3g)/3,  v_j = v_jg - v_sg                      (eq. 14)
 //
 // Numerics (paper §3): backward Euler for every sub-system at fixed dt (1 µs default);
-// compensator output held over a step; one regula-falsi step locates the PWM crossing
-// inside a step (settings.regula_falsi), and the step applies the exact time-average of
-// the leg voltage given that crossing and the blanking; off, the comparator is sampled only
-// at step boundaries. Tpwm/2 must be a multiple of dt, so the carrier is linear within a
-// step (and regula falsi exact). The diode state during blanking follows the sign of i_j at
-// the step start. Phase currents start at zero (experiment.initial.i is not used).
+// compensator output held over a step; one regula-falsi step (eq. 1) locates the PWM
+// crossing inside a step (settings.regula_falsi), and the step applies the exact time
+// average of the leg voltage given that crossing and the blanking; off, the comparator is
+// sampled only at step boundaries. Tpwm/2 must be a multiple of dt, so the carrier is
+// linear within a step (and regula falsi exact). The diode state during blanking follows
+// the sign of i_j at the step start. Phase currents start at zero (experiment.initial.i is
+// not used).
 // Input u = Td (V), read at each step's midpoint; the u column holds the demand applied
 // from each sample on. Outputs: t, u, i (phase-a current feedback, A, + i0), ib, ic (A),
 // w (rad/s), theta (rad); settings.diagnostics adds va, vb, vc (phase voltages, the average
@@ -38,9 +40,7 @@ class BlmdDriveModel final : public Model {
  public:
   std::string_view name() const override { return "blmd"; }
   const std::vector<ParamInfo>& parameters() const override;
-  std::vector<std::string> outputs() const override {
-    return {"i", "ib", "ic", "w", "theta"};
-  }
+  std::vector<std::string> outputs() const override { return {"i", "ib", "ic", "w", "theta"}; }
   SimulationSettings default_settings() const override;
   std::string Validate(const ParameterSet& values,
                        const SimulationSettings& settings) const override;
