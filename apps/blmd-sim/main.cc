@@ -31,7 +31,7 @@ int main(int argc, char** argv) {
   app.add_option("--out", out_path, "trace CSV to write")->required();
   app.add_option("--effect", effects,
                  "add an undeclared effect, NAME:KEY=VALUE[,KEY=VALUE...] (repeatable)");
-  app.add_option("--noise", noises, "white Gaussian noise on a column, NAME=SIGMA (repeatable)");
+  app.add_option("--noise", noises, "white Gaussian noise on a column, NAME=SIGMA or NAME=P% of its peak (repeatable)");
   app.add_option("--seed", seed, "noise seed (default 1)");
   app.add_option("--input", input_path, "drive the model with the u column of this trace");
   app.add_flag("--quiet", quiet, "print nothing on success");
@@ -42,13 +42,27 @@ int main(int argc, char** argv) {
       const auto [name, values] = blmd::ParseEffectSpec(spec);
       config.AddEffect(name, values);
     }
-    std::vector<std::pair<std::string, double>> noise;
+    // --noise NAME=SIGMA (absolute, column units) or NAME=P% (P % of the column's peak |value|).
+    struct NoiseSpec {
+      std::string column;
+      double sigma = 0.0;
+      bool relative = false;
+    };
+    std::vector<NoiseSpec> noise;
     for (const auto& spec : noises) {
-      const auto assignment = blmd::ParseAssignment(spec, "--noise");
+      NoiseSpec n;
+      std::string text = spec;
+      if (!text.empty() && text.back() == '%') {
+        n.relative = true;
+        text.pop_back();
+      }
+      const auto assignment = blmd::ParseAssignment(text, "--noise");
       if (assignment.second < 0.0) {
         throw blmd::InputError("--noise " + assignment.first + ": sigma must be >= 0");
       }
-      noise.push_back(assignment);
+      n.column = assignment.first;
+      n.sigma = n.relative ? assignment.second / 100.0 : assignment.second;
+      noise.push_back(n);
     }
     blmd::InputSignal recorded;
     if (!input_path.empty()) {
@@ -82,21 +96,26 @@ int main(int argc, char** argv) {
                 << Fixed(status.at_time) << " s\n";
       return blmd::kExitFailed;
     }
-    for (const auto& [column, sigma] : noise) {
+    for (auto& [column, sigma, relative] : noise) {
       if (!trace.Has(column)) {
         std::string have;
         for (const auto& name : trace.names()) have += (have.empty() ? "" : ",") + name;
         throw blmd::InputError("--noise: no output column '" + column + "' (have: " + have + ")");
       }
+      if (relative) {
+        double peak = 0.0;
+        for (double v : trace.Column(column)) peak = std::max(peak, std::abs(v));
+        sigma *= peak;
+      }
     }
     blmd::Random random(seed);
-    for (const auto& [column, sigma] : noise) {
+    for (const auto& [column, sigma, relative] : noise) {
       for (double& value : trace.Column(column)) value += sigma * random.Normal();
     }
     trace.comments.push_back("blmd-sim " + std::string(blmd::kVersion) + " model=" +
                              std::string(config.model->name()) + " config=" + config_path);
     for (const auto& name : config.effects) trace.comments.push_back("effect " + name);
-    for (const auto& [column, sigma] : noise) {
+    for (const auto& [column, sigma, relative] : noise) {
       trace.comments.push_back("noise " + column + " sigma=" + blmd::FormatNumber(sigma) +
                                " seed=" + std::to_string(seed));
     }
