@@ -1,0 +1,76 @@
+// Identification speed: cost evaluations per second and surface grid points per second.
+// A cost evaluation simulates the whole trace and compares the observed columns.
+//
+//   build/bin/blmd_bench --benchmark_filter='BM_(Cost|Surface)' \
+//       --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+// Target (surface issue): a 31 x 31 BLMD grid over the 160 ms trace under 60 s on 2 cores.
+#include <benchmark/benchmark.h>
+
+#include <string>
+
+#include "blmd/ident/problem.h"
+#include "blmd/ident/surface.h"
+#include "blmd/ident/trace_input.h"
+#include "blmd/io/config.h"
+
+namespace {
+
+std::string Source(const std::string& relative) { return std::string(BLMD_SOURCE_DIR) + "/" + relative; }
+
+blmd::FitProblem MakeProblem(const std::string& config_name, const std::string& trace_name,
+                             const std::vector<std::string>& observe,
+                             const std::vector<blmd::FreeParameter>& free = {}) {
+  const blmd::Config config = blmd::LoadConfig(Source("configs/" + config_name));
+  blmd::TraceInputOptions options;
+  options.required = observe;
+  std::vector<blmd::FitTrace> traces = {
+      blmd::LoadFitTrace(Source("testdata/" + trace_name), options, config.experiment.initial)};
+  return blmd::FitProblem(config, std::move(traces), observe,
+                          free.empty() ? blmd::MakeFreeParameters(config, {"J", "B"}) : free);
+}
+
+void RunCost(benchmark::State& state, const blmd::FitProblem& problem) {
+  const std::vector<double> values = problem.InitialValues();
+  for (auto _ : state) {
+    const blmd::Evaluation evaluation = problem.Evaluate(values);
+    benchmark::DoNotOptimize(evaluation.cost);
+  }
+  state.counters["evaluations_per_s"] =
+      benchmark::Counter(1.0, benchmark::Counter::kIsIterationInvariantRate);
+}
+
+// dc_servo: 1 s at dt = 10 µs (100 000 steps), 10 001 samples of i and w.
+void BM_CostDcServo(benchmark::State& state) {
+  RunCost(state, MakeProblem("ganesh-noload.json", "ganesh-noload-step.csv", {"i", "w"}));
+}
+BENCHMARK(BM_CostDcServo)->Unit(benchmark::kMillisecond);
+
+// blmd: 160 ms at dt = 1 µs (160 000 steps), 8 001 samples of i.
+void BM_CostBlmd(benchmark::State& state) {
+  RunCost(state, MakeProblem("blmd-d31x.json", "blmd-d31x-step.csv", {"i"}));
+}
+BENCHMARK(BM_CostBlmd)->Unit(benchmark::kMillisecond);
+
+// A 2-D BLMD surface over J and B (the paper's Fig. 8 set-up) at 1 and 2 threads;
+// state.range(0) = points per axis, state.range(1) = threads.
+void BM_SurfaceBlmd(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  blmd::GridAxis j{"J", 8.33e-4, 1.547e-3, n, false};
+  blmd::GridAxis b{"B", 1e-4, 1e-3, n, true};
+  std::vector<blmd::FreeParameter> free = {{"J", j.low, j.high, false, 1.19e-3},
+                                           {"B", b.low, b.high, true, 5e-4}};
+  const blmd::FitProblem problem = MakeProblem("blmd-d31x.json", "blmd-d31x-step.csv", {"i"}, free);
+  blmd::SurfaceOptions options;
+  options.threads = static_cast<int>(state.range(1));
+  for (auto _ : state) {
+    const auto points = blmd::ComputeSurface(problem, {j, b}, options);
+    benchmark::DoNotOptimize(points.data());
+  }
+  state.counters["points_per_s"] =
+      benchmark::Counter(static_cast<double>(n) * n, benchmark::Counter::kIsIterationInvariantRate);
+}
+BENCHMARK(BM_SurfaceBlmd)->Args({8, 1})->Args({8, 2})->Unit(benchmark::kMillisecond)->UseRealTime();
+// The issue's 31 x 31 grid, once, on 2 threads.
+BENCHMARK(BM_SurfaceBlmd)->Args({31, 2})->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+
+}  // namespace
