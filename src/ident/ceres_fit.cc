@@ -12,35 +12,81 @@ namespace blmd::internal {
 namespace {
 
 // Residuals of the whole problem as one Ceres block. Parameters in search coordinates:
-// log(value) for log-scale parameters, the value itself otherwise.
-class ResidualFunctor {
+// log(value) for log-scale parameters, the value itself otherwise. Derivatives are central
+// differences with a step chosen in those coordinates (fd_step: 1e-3 in log, i.e. 0.1 %,
+// or 1e-3 of max(|x|, range/1000) when linear). Ceres' own numeric differentiation steps
+// relative to |x| (1e-6 |log J| ~ 1e-5), too fine for a simulator whose stick-slip and
+// PWM events shift by whole steps: the cost has micro-jumps at that scale, and a Jacobian
+// taken across one is wrong (and so would be the covariance).
+class SimulationCost final : public ceres::CostFunction {
  public:
-  // `scale` (optional): per-residual factors applied to the residuals (noise normalisation).
-  explicit ResidualFunctor(CountingCost* cost, std::vector<double> scale = {})
-      : cost_(cost), scale_(std::move(scale)) {}
-
-  bool operator()(double const* const* parameters, double* residuals) const {
+  SimulationCost(CountingCost* cost, double fd_step, std::vector<double> scale = {})
+      : cost_(cost), fd_step_(fd_step), scale_(std::move(scale)) {
     const FitProblem& problem = cost_->problem();
-    std::vector<double> values(problem.num_free());
-    for (std::size_t k = 0; k < values.size(); ++k) {
-      values[k] = problem.free()[k].log_scale ? std::exp(parameters[0][k]) : parameters[0][k];
-    }
+    mutable_parameter_block_sizes()->push_back(static_cast<int>(problem.num_free()));
+    set_num_residuals(static_cast<int>(problem.num_residuals()));
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    const FitProblem& problem = cost_->problem();
+    const std::size_t p = problem.num_free(), n = problem.num_residuals();
+    std::vector<double> x(parameters[0], parameters[0] + p);
     std::vector<double> r;
-    const Evaluation evaluation = cost_->Evaluate(values, &r);
-    if (!evaluation.ok) return false;  // Ceres treats the step as infeasible
-    for (std::size_t k = 0; k < r.size(); ++k) residuals[k] = scale_.empty() ? r[k] : r[k] * scale_[k];
+    if (!Residuals(x, &r)) return false;
+    std::copy(r.begin(), r.end(), residuals);
+    if (!jacobians || !jacobians[0]) return true;
+    std::vector<double> plus, minus;
+    for (std::size_t k = 0; k < p; ++k) {
+      const FreeParameter& fp = problem.free()[k];
+      const double h = fp.log_scale ? fd_step_
+                                    : fd_step_ * std::max(std::abs(x[k]), 1e-3 * (fp.upper - fp.lower));
+      std::vector<double> xp = x, xm = x;
+      xp[k] += h;
+      xm[k] -= h;
+      const bool ok_plus = Residuals(xp, &plus), ok_minus = Residuals(xm, &minus);
+      for (std::size_t r_index = 0; r_index < n; ++r_index) {
+        double derivative = 0.0;
+        if (ok_plus && ok_minus) {
+          derivative = (plus[r_index] - minus[r_index]) / (2.0 * h);
+        } else if (ok_plus) {
+          derivative = (plus[r_index] - r[r_index]) / h;
+        } else if (ok_minus) {
+          derivative = (r[r_index] - minus[r_index]) / h;
+        } else {
+          return false;
+        }
+        jacobians[0][r_index * p + k] = derivative;
+      }
+    }
     return true;
   }
 
  private:
+  bool Residuals(const std::vector<double>& x, std::vector<double>* r) const {
+    const FitProblem& problem = cost_->problem();
+    std::vector<double> values(x.size());
+    for (std::size_t k = 0; k < x.size(); ++k) {
+      values[k] = problem.free()[k].log_scale ? std::exp(x[k]) : x[k];
+    }
+    const Evaluation evaluation = cost_->Evaluate(values, r);
+    if (!evaluation.ok) return false;  // Ceres treats the step as infeasible
+    if (!scale_.empty()) {
+      for (std::size_t k = 0; k < r->size(); ++k) (*r)[k] *= scale_[k];
+    }
+    return true;
+  }
+
   CountingCost* cost_;
+  double fd_step_;
   std::vector<double> scale_;
 };
 
 }  // namespace
 
 std::vector<std::string> CeresOptimizer::option_names() const {
-  return {"max_iterations", "function_tolerance", "parameter_tolerance", "gradient_tolerance"};
+  return {"max_iterations", "function_tolerance", "parameter_tolerance", "gradient_tolerance",
+          "fd_step"};
 }
 
 FitResult CeresOptimizer::Minimize(const FitProblem& problem,
@@ -55,12 +101,8 @@ FitResult CeresOptimizer::Minimize(const FitProblem& problem,
     x[k] = problem.free()[k].log_scale ? std::log(initial[k]) : initial[k];
   }
 
-  auto* functor = new ResidualFunctor(&cost);
-  auto* cost_function =
-      new ceres::DynamicNumericDiffCostFunction<ResidualFunctor, ceres::CENTRAL>(
-          functor, ceres::TAKE_OWNERSHIP);
-  cost_function->AddParameterBlock(static_cast<int>(p));
-  cost_function->SetNumResiduals(static_cast<int>(problem.num_residuals()));
+  const double fd_step = OptionNumber(options.method_options, "fd_step", 1e-3);
+  auto* cost_function = new SimulationCost(&cost, fd_step);
 
   ceres::Problem::Options problem_options;
   ceres::Problem ceres_problem(problem_options);
@@ -99,14 +141,15 @@ FitResult CeresOptimizer::Minimize(const FitProblem& problem,
 
   OptimizerSummary& summary = result.summary;
   summary.method = "ceres";
-  summary.algorithm = "LEVENBERG_MARQUARDT (numeric central differences, DENSE_QR)";
+  summary.algorithm = "LEVENBERG_MARQUARDT (central differences, DENSE_QR)";
   summary.raw_code = static_cast<int>(ceres_summary.termination_type);
   summary.converged = ceres_summary.termination_type == ceres::CONVERGENCE &&
                       result.evaluation.ok;
   summary.termination = ceres::TerminationTypeToString(ceres_summary.termination_type);
   summary.message = ceres_summary.message;
   summary.iterations = static_cast<long>(ceres_summary.iterations.size());
-  summary.details = {{"initial_cost", ceres_summary.initial_cost},
+  summary.details = {{"fd_step", fd_step},
+                     {"initial_cost", ceres_summary.initial_cost},
                      {"final_cost", ceres_summary.final_cost},
                      {"successful_steps", ceres_summary.num_successful_steps},
                      {"unsuccessful_steps", ceres_summary.num_unsuccessful_steps}};
@@ -117,12 +160,7 @@ FitResult CeresOptimizer::Minimize(const FitProblem& problem,
   // ceres::Covariance of that problem is the parameter covariance directly.
   if (result.evaluation.ok && problem.num_residuals() > p) {
     std::vector<double> cov_x = x;
-    auto* noise_functor = new ResidualFunctor(&cost, problem.NoiseNormalisation(result.evaluation));
-    auto* noise_cost =
-        new ceres::DynamicNumericDiffCostFunction<ResidualFunctor, ceres::CENTRAL>(
-            noise_functor, ceres::TAKE_OWNERSHIP);
-    noise_cost->AddParameterBlock(static_cast<int>(p));
-    noise_cost->SetNumResiduals(static_cast<int>(problem.num_residuals()));
+    auto* noise_cost = new SimulationCost(&cost, fd_step, problem.NoiseNormalisation(result.evaluation));
     ceres::Problem covariance_problem;
     covariance_problem.AddResidualBlock(noise_cost, nullptr, cov_x.data());
     ceres::Covariance::Options covariance_options;

@@ -44,7 +44,9 @@ void EstimateUncertainty(const FitProblem& problem, const std::vector<double>& v
   Eigen::MatrixXd jacobian(n, p);
   for (std::size_t k = 0; k < p; ++k) {
     const FreeParameter& fp = problem.free()[k];
-    const double h = fp.log_scale ? 1e-4 : 1e-4 * std::max(std::abs(values[k]),
+    // The same step as the ceres method (see ceres_fit.cc): coarse enough to step over the
+    // simulator's whole-step event jitter.
+    const double h = fp.log_scale ? 1e-3 : 1e-3 * std::max(std::abs(values[k]),
                                                            1e-3 * (fp.upper - fp.lower));
     std::vector<double> plus = values, minus = values;
     if (fp.log_scale) {
