@@ -3,12 +3,14 @@
 #include <thread>
 
 #include "../common/app_main.h"
+#include "blmd/ident/discovery.h"
 #include "blmd/ident/optimizer.h"
 #include "blmd/ident/report.h"
 #include "blmd/ident/trace_input.h"
 #include "blmd/io/config.h"
 #include "blmd/io/files.h"
 #include "blmd/io/flags.h"
+#include "blmd/sim/effects.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"blmd-ident: identify J, B (and any other free parameter) from a recorded trace"};
@@ -17,7 +19,10 @@ int main(int argc, char** argv) {
   std::vector<std::string> traces, validates, columns, scales, derives, method_options, initials;
   std::uint64_t seed = 1;
   int threads = 0, max_evaluations = 0;
-  bool json = false, quiet = false;
+  bool json = false, quiet = false, discover = false;
+  double bic_margin = 10.0;
+  int max_effects = 3;
+  std::string candidates_text;
   double fail_above = -1.0;
   app.add_option("--config", config_path, "model and identification set-up (JSON)")->required();
   app.add_option("--trace", traces, "measured trace CSV (repeatable: one fit over all)")->required();
@@ -30,6 +35,12 @@ int main(int argc, char** argv) {
   app.add_option("--max-evaluations", max_evaluations, "cost evaluation budget (0: method default)");
   app.add_option("--initial-state", initial_state, "config|trace: initial w, theta, i")
       ->check(CLI::IsMember({"config", "trace"}));
+  app.add_flag("--discover", discover, "find the effects the model lacks, add them, refit");
+  app.add_option("--bic-margin", bic_margin, "discovery: BIC fall needed to add an effect (default 10)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--max-effects", max_effects, "discovery: most effects to add (default 3)")
+      ->check(CLI::Range(1, 20));
+  app.add_option("--candidates", candidates_text, "discovery: effects to consider, e.g. coulomb_friction,load_torque");
   app.add_option("--report", report_path, "write the JSON report here");
   app.add_flag("--json", json, "print the JSON report on stdout instead of the summary");
   app.add_option("--column", columns, "map a standard column to a header, NAME=HEADER (repeatable)");
@@ -90,6 +101,11 @@ int main(int argc, char** argv) {
       const auto [key, value] = blmd::ParseTextAssignment(text, "--option");
       options_json[key] = value;
     }
+    std::vector<std::string> candidate_names;
+    if (!candidates_text.empty()) {
+      candidate_names = blmd::ParseNameList(candidates_text, "--candidates");
+      for (const auto& name : candidate_names) blmd::FindEffect(name);
+    }
     std::vector<blmd::FitTrace> fit_traces;
     for (const auto& path : traces) {
       fit_traces.push_back(blmd::LoadFitTrace(path, input_options, config.experiment.initial));
@@ -119,7 +135,28 @@ int main(int argc, char** argv) {
     inputs.validation = validation.get();
     inputs.seed = seed;
     inputs.threads = threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-    const nlohmann::json report = blmd::MakeReport(inputs);
+    nlohmann::json report = blmd::MakeReport(inputs);
+    if (discover) {
+      blmd::DiscoveryOptions discovery_options;
+      discovery_options.bic_margin = bic_margin;
+      discovery_options.max_effects = max_effects;
+      discovery_options.refit.threads = threads;
+      discovery_options.refit.seed = seed;
+      if (!candidates_text.empty()) discovery_options.candidates = candidate_names;
+      const blmd::DiscoveryResult discovery = blmd::Discover(problem, result, discovery_options);
+      std::unique_ptr<blmd::FitProblem> validation_after;
+      if (validation) {
+        validation_after = std::make_unique<blmd::FitProblem>(
+            discovery.final_config, validation->traces(), observe,
+            [&] {
+              std::vector<blmd::FreeParameter> names;
+              for (const auto& name : discovery.final_free) names.push_back({name, 0.0, 0.0, false, 0.0});
+              return names;
+            }());
+      }
+      report["discovery"] = blmd::DiscoveryJson(problem, result, discovery, validation.get(),
+                                                validation_after.get());
+    }
     if (!report_path.empty()) blmd::WriteFileAtomically(report_path, report.dump(2) + "\n");
     if (json) {
       std::cout << report.dump(2) << "\n";

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <sstream>
 
+#include "blmd/ident/diagnostics.h"
 #include "blmd/ident/stats.h"
 #include "blmd/version.h"
 
@@ -62,39 +63,7 @@ nlohmann::json ErrorsJson(const ErrorFigures& errors) {
 }
 
 nlohmann::json ResidualDiagnostics(const FitProblem& problem, const std::vector<double>& values) {
-  nlohmann::json out = nlohmann::json::object();
-  const auto& observe = problem.observe();
-  double min_p = 1.0;
-  nlohmann::json columns = nlohmann::json::object();
-  for (std::size_t c = 0; c < observe.size(); ++c) {
-    std::vector<double> residual;
-    for (std::size_t k = 0; k < problem.traces().size(); ++k) {
-      Trace simulated;
-      if (!problem.Simulate(k, values, &simulated).ok()) return {{"whiteness_p", nullptr}};
-      const auto& sim = simulated.Column(observe[c]);
-      const auto& meas = problem.traces()[k].trace.Column(observe[c]);
-      for (std::size_t r = 0; r < meas.size(); ++r) residual.push_back(meas[r] - sim[r]);
-    }
-    const int lags = static_cast<int>(std::min<std::size_t>(20, residual.size() / 5));
-    const LjungBox test = LjungBoxTest(residual, lags);
-    const std::vector<double> acf = Autocorrelation(residual, lags);
-    double mean = 0.0;
-    for (double r : residual) mean += r;
-    mean /= static_cast<double>(residual.size());
-    nlohmann::json column;
-    column["mean"] = Number(mean);
-    column["ljung_box_q"] = Number(test.q);
-    column["ljung_box_lags"] = test.lags;
-    column["whiteness_p"] = Number(test.p_value);
-    column["acf"] = acf;
-    column["acf_band95"] = 1.959963984540054 / std::sqrt(static_cast<double>(residual.size()));
-    columns[observe[c]] = column;
-    min_p = std::min(min_p, test.p_value);
-  }
-  out["whiteness_p"] = Number(std::min(1.0, min_p * static_cast<double>(observe.size())));
-  out["white"] = std::min(1.0, min_p * static_cast<double>(observe.size())) >= 0.05;
-  out["columns"] = columns;
-  return out;
+  return ResidualJson(AnalyseResidual(problem, values));
 }
 
 nlohmann::json MakeReport(const ReportInputs& inputs) {
@@ -258,6 +227,41 @@ std::string HumanSummary(const nlohmann::json& report) {
     const auto& v = report["validation"];
     out << "validation: NRMSE " << G(v["nrmse"], 4) << " on " << v["traces"].size()
         << " held-out trace(s)\n";
+  }
+  if (report.contains("discovery")) {
+    const auto& d = report["discovery"];
+    out << "discovery: " << d["conclusion"].get<std::string>() << "\n";
+    for (const auto& step : d["steps"]) {
+      out << "  + " << step["effect"].get<std::string>() << ":";
+      for (const auto& [name, value] : step["parameters"].items()) {
+        out << " " << name << " = " << G(value, 5);
+        if (step["intervals"].contains(name)) {
+          const auto& ci = step["intervals"][name]["ci95"];
+          out << " (95 %: [" << G(ci[0], 4) << ", " << G(ci[1], 4) << "])";
+        }
+      }
+      out << "\n    evidence: " << step["evidence"].get<std::string>() << "\n";
+    }
+    const auto& before = d["error_before"];
+    const auto& after = d["error_after"];
+    out << "  error before -> after: NRMSE " << G(before["nrmse"], 4) << " -> " << G(after["nrmse"], 4);
+    if (before.contains("rmse") && after.contains("rmse")) {
+      for (const auto& [column, value] : before["rmse"].items()) {
+        out << ", " << column << " " << G(value, 4) << " -> " << G(after["rmse"][column], 4);
+      }
+    }
+    out << "\n";
+    if (d.contains("validation")) {
+      out << "  validation NRMSE before -> after: " << G(d["validation"]["before"]["nrmse"], 4) << " -> "
+          << G(d["validation"]["after"]["nrmse"], 4) << "\n";
+    }
+    if (!d["added"].empty()) {
+      out << "  parameters after:";
+      for (const auto& [name, value] : d["parameters_after"].items()) {
+        out << " " << name << " = " << G(value, 5);
+      }
+      out << "\n";
+    }
   }
   return out.str();
 }

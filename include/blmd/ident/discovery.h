@@ -1,0 +1,85 @@
+// Closing the loop (docs/discovery.md): fit, examine the residual, find the effect the
+// model lacks, add it, refit, repeat until nothing significant is left.
+//
+// Each round, every applicable effect of the vocabulary not yet in the model is a
+// candidate. A candidate is started from a small deterministic scan of its parameters
+// (periods of cogging from the residual's angle spectrum; i0 from the current residual's
+// mean), then all free parameters and the effect's are refit (Ceres). It is scored by the
+// Bayesian information criterion with each observed column's own noise level,
+//   BIC = sum_c N_c ln(SSE_c / N_c) + k ln N,
+// and qualifies when it lowers BIC by more than `bic_margin` (10: "very strong" evidence)
+// and its parameters are physically valid (inside their constraints, off their search
+// bounds, and away from zero by more than two standard deviations). The best qualifying
+// candidate is added; if another qualifying candidate is within `ambiguity_margin` (2) of
+// it, the data cannot tell them apart and the round reports them as ambiguous and adds
+// nothing.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "blmd/ident/diagnostics.h"
+#include "blmd/ident/optimizer.h"
+#include "blmd/ident/problem.h"
+
+namespace blmd {
+
+struct DiscoveryOptions {
+  double bic_margin = 10.0;       // BIC must fall by more than this to add an effect
+  double ambiguity_margin = 2.0;  // candidates closer than this to the best are ambiguous
+  int max_effects = 3;            // rounds
+  std::vector<std::string> candidates;  // empty: every applicable effect
+  OptimizerOptions refit;         // options of the Ceres refits (threads, budgets)
+};
+
+struct CandidateOutcome {
+  std::string effect;
+  bool fitted = false;
+  bool valid = false;
+  std::string reason;  // why not valid / not fitted
+  double bic = 0.0;
+  double delta_bic = 0.0;  // vs the model before this round (negative: better)
+  double nrmse = 0.0;
+  std::map<std::string, double> parameters;  // the effect's fitted parameters
+};
+
+struct DiscoveryStep {
+  std::string effect;
+  std::vector<ParameterEstimate> effect_parameters;  // with intervals
+  std::map<std::string, double> fixed_parameters;    // e.g. cogging periods
+  double nrmse_before = 0.0, nrmse_after = 0.0;
+  double bic_before = 0.0, bic_after = 0.0;
+  std::vector<CandidateOutcome> candidates;  // every candidate of the round, best first
+  std::string evidence;                      // one line: why this effect
+};
+
+struct DiscoveryResult {
+  std::vector<std::string> added;
+  std::vector<DiscoveryStep> steps;
+  // Rounds that stopped because the best candidates could not be told apart.
+  std::vector<std::vector<std::string>> ambiguous;
+  std::string ambiguity_reason;
+  std::vector<CandidateOutcome> last_round;  // the round that added nothing, best first
+  std::string conclusion;                    // one line for people
+  Config final_config;                       // with the added effects at their fitted values
+  std::vector<std::string> final_free;
+  FitResult final_fit;
+  double bic_initial = 0.0;
+};
+
+// BIC of `evaluation` for `k` free parameters (see above).
+double Bic(const FitProblem& problem, const Evaluation& evaluation, std::size_t k);
+
+// Runs discovery from an initial fit of `problem` (whose result is `initial`).
+DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
+                         const DiscoveryOptions& options);
+
+// The report's "discovery" block (interface.md).
+nlohmann::json DiscoveryJson(const FitProblem& problem, const FitResult& initial,
+                             const DiscoveryResult& result, const FitProblem* validation_before,
+                             const FitProblem* validation_after);
+
+}  // namespace blmd

@@ -1,0 +1,230 @@
+#include "blmd/ident/diagnostics.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "blmd/ident/stats.h"
+
+namespace blmd {
+namespace {
+
+nlohmann::json Number(double v) {
+  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+}
+
+SignDependence SplitBySign(const std::vector<double>& residual, const std::vector<double>& signal,
+                           double threshold) {
+  SignDependence out;
+  double sum_p = 0, sum_n = 0, sq_p = 0, sq_n = 0;
+  for (std::size_t k = 0; k < residual.size(); ++k) {
+    if (signal[k] > threshold) {
+      sum_p += residual[k];
+      sq_p += residual[k] * residual[k];
+      ++out.count_positive;
+    } else if (signal[k] < -threshold) {
+      sum_n += residual[k];
+      sq_n += residual[k] * residual[k];
+      ++out.count_negative;
+    }
+  }
+  if (out.count_positive < 10 || out.count_negative < 10) return out;
+  const double np = static_cast<double>(out.count_positive), nn = static_cast<double>(out.count_negative);
+  out.mean_positive = sum_p / np;
+  out.mean_negative = sum_n / nn;
+  const double var_p = std::max(0.0, sq_p / np - out.mean_positive * out.mean_positive);
+  const double var_n = std::max(0.0, sq_n / nn - out.mean_negative * out.mean_negative);
+  const double se = std::sqrt(var_p / np + var_n / nn);
+  out.t_statistic = se > 0.0 ? (out.mean_positive - out.mean_negative) / se : 0.0;
+  out.available = true;
+  return out;
+}
+
+}  // namespace
+
+ResidualAnalysis AnalyseResidual(const FitProblem& problem, const std::vector<double>& values,
+                                 const DiagnosticsOptions& options) {
+  ResidualAnalysis analysis;
+  const auto& observe = problem.observe();
+  const std::size_t columns = observe.size();
+  std::vector<std::vector<double>> residual(columns);
+  std::vector<double> u, w, theta, current;
+  for (std::size_t k = 0; k < problem.traces().size(); ++k) {
+    Trace simulated;
+    const SimStatus status = problem.Simulate(k, values, &simulated);
+    if (!status.ok()) {
+      analysis.reason = status.message;
+      return analysis;
+    }
+    const Trace& measured = problem.traces()[k].trace;
+    for (std::size_t c = 0; c < columns; ++c) {
+      const auto& sim = simulated.Column(observe[c]);
+      const auto& meas = measured.Column(observe[c]);
+      for (std::size_t r = 0; r < meas.size(); ++r) residual[c].push_back(meas[r] - sim[r]);
+    }
+    const auto& uk = measured.Column("u");
+    u.insert(u.end(), uk.begin(), uk.end());
+    const auto& wk = simulated.Column("w");
+    w.insert(w.end(), wk.begin(), wk.end());
+    const auto& tk = simulated.Column("theta");
+    theta.insert(theta.end(), tk.begin(), tk.end());
+    const auto& ik = simulated.Column("i");
+    current.insert(current.end(), ik.begin(), ik.end());
+  }
+  for (double v : w) analysis.w_max = std::max(analysis.w_max, std::abs(v));
+  for (double v : current) analysis.i_max = std::max(analysis.i_max, std::abs(v));
+  for (double v : u) analysis.u_max = std::max(analysis.u_max, std::abs(v));
+  const double w_threshold = 0.01 * analysis.w_max;
+  bool positive = false, negative = false;
+  for (double v : w) {
+    positive = positive || v > w_threshold;
+    negative = negative || v < -w_threshold;
+  }
+  analysis.w_changes_sign = positive && negative;
+  const double pole_pairs = problem.config().parameters.GetOr("p", 0.0);
+  double theta_span = 0.0;
+  for (std::size_t k = 1; k < theta.size(); ++k) theta_span += std::abs(theta[k] - theta[k - 1]);
+
+  double min_p = 1.0;
+  for (std::size_t c = 0; c < columns; ++c) {
+    const std::vector<double>& e = residual[c];
+    ColumnDiagnostics d;
+    d.column = observe[c];
+    const double n = static_cast<double>(e.size());
+    double sum = 0.0, sq = 0.0;
+    for (double v : e) {
+      sum += v;
+      sq += v * v;
+    }
+    d.mean = sum / n;
+    d.rms = std::sqrt(sq / n);
+    const int lags = std::min<int>(options.max_lag, static_cast<int>(e.size() / 5));
+    d.acf = Autocorrelation(e, lags);
+    d.acf_band95 = 1.959963984540054 / std::sqrt(n);
+    const LjungBox test = LjungBoxTest(e, lags);
+    d.ljung_box_q = test.q;
+    d.ljung_box_lags = test.lags;
+    d.whiteness_p = test.p_value;
+    min_p = std::min(min_p, test.p_value);
+
+    // Cross-correlation with the input (both mean-removed, normalised).
+    double u_mean = 0.0;
+    for (double v : u) u_mean += v;
+    u_mean /= n;
+    double u_var = 0.0, e_var = 0.0;
+    for (std::size_t k = 0; k < e.size(); ++k) {
+      u_var += (u[k] - u_mean) * (u[k] - u_mean);
+      e_var += (e[k] - d.mean) * (e[k] - d.mean);
+    }
+    d.input_ccf_band95 = d.acf_band95;
+    if (u_var > 0.0 && e_var > 0.0) {
+      const double norm = std::sqrt(u_var * e_var);
+      for (int lag = -lags; lag <= lags; ++lag) {
+        double s = 0.0;
+        for (std::size_t k = 0; k < e.size(); ++k) {
+          const long j = static_cast<long>(k) - lag;
+          if (j < 0 || j >= static_cast<long>(e.size())) continue;
+          s += (e[k] - d.mean) * (u[static_cast<std::size_t>(j)] - u_mean);
+        }
+        const double value = s / norm;
+        d.input_ccf.push_back(value);
+        if (std::abs(value) > std::abs(d.input_ccf_peak)) {
+          d.input_ccf_peak = value;
+          d.input_ccf_peak_lag = lag;
+        }
+      }
+    }
+    d.sign_w = SplitBySign(e, w, w_threshold);
+    d.sign_i = SplitBySign(e, current, 0.01 * analysis.i_max);
+
+    // Angle spectrum: harmonic regression of the residual on theta over the moving samples.
+    d.shaft_turned = theta_span > 2.0 * 2.0 * M_PI;
+    if (d.shaft_turned) {
+      std::vector<double> amplitude(static_cast<std::size_t>(options.max_order), 0.0);
+      std::size_t moving = 0;
+      for (std::size_t k = 0; k < e.size(); ++k) moving += std::abs(w[k]) > w_threshold;
+      for (int order = 1; order <= options.max_order; ++order) {
+        double a = 0.0, b = 0.0;
+        for (std::size_t k = 0; k < e.size(); ++k) {
+          if (std::abs(w[k]) <= w_threshold) continue;
+          const double angle = order * theta[k];
+          a += (e[k] - d.mean) * std::cos(angle);
+          b += (e[k] - d.mean) * std::sin(angle);
+        }
+        const double scale = 2.0 / static_cast<double>(std::max<std::size_t>(moving, 1));
+        amplitude[static_cast<std::size_t>(order - 1)] = scale * std::hypot(a, b);
+      }
+      std::vector<double> sorted = amplitude;
+      std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
+      const double floor = sorted[sorted.size() / 2];
+      std::vector<int> orders(amplitude.size());
+      for (std::size_t k = 0; k < orders.size(); ++k) orders[k] = static_cast<int>(k + 1);
+      std::stable_sort(orders.begin(), orders.end(), [&](int l, int r) {
+        return amplitude[static_cast<std::size_t>(l - 1)] > amplitude[static_cast<std::size_t>(r - 1)];
+      });
+      for (int k = 0; k < options.peaks && k < static_cast<int>(orders.size()); ++k) {
+        AnglePeak peak;
+        peak.order = orders[static_cast<std::size_t>(k)];
+        peak.amplitude = amplitude[static_cast<std::size_t>(peak.order - 1)];
+        peak.ratio = floor > 0.0 ? peak.amplitude / floor : 0.0;
+        peak.electrical_multiple = pole_pairs > 0.0 ? peak.order / pole_pairs : 0.0;
+        d.angle_peaks.push_back(peak);
+      }
+    }
+    analysis.columns.push_back(d);
+  }
+  analysis.whiteness_p = std::min(1.0, min_p * static_cast<double>(columns));
+  analysis.white = analysis.whiteness_p >= 0.05;
+  analysis.ok = true;
+  return analysis;
+}
+
+nlohmann::json ResidualJson(const ResidualAnalysis& analysis) {
+  nlohmann::json out = nlohmann::json::object();
+  if (!analysis.ok) {
+    out["whiteness_p"] = nullptr;
+    out["failed"] = analysis.reason;
+    return out;
+  }
+  out["whiteness_p"] = Number(analysis.whiteness_p);
+  out["white"] = analysis.white;
+  out["w_changes_sign"] = analysis.w_changes_sign;
+  nlohmann::json columns = nlohmann::json::object();
+  for (const auto& d : analysis.columns) {
+    nlohmann::json c;
+    c["mean"] = Number(d.mean);
+    c["rms"] = Number(d.rms);
+    c["whiteness_p"] = Number(d.whiteness_p);
+    c["ljung_box_q"] = Number(d.ljung_box_q);
+    c["ljung_box_lags"] = d.ljung_box_lags;
+    c["acf"] = d.acf;
+    c["acf_band95"] = Number(d.acf_band95);
+    c["input_ccf"] = {{"lags", d.input_ccf.empty() ? 0 : static_cast<int>(d.input_ccf.size() / 2)},
+                      {"values", d.input_ccf},
+                      {"peak", Number(d.input_ccf_peak)},
+                      {"peak_lag", d.input_ccf_peak_lag},
+                      {"band95", Number(d.input_ccf_band95)}};
+    auto sign = [](const SignDependence& s) {
+      if (!s.available) return nlohmann::json(nullptr);
+      return nlohmann::json{{"mean_positive", Number(s.mean_positive)},
+                            {"mean_negative", Number(s.mean_negative)},
+                            {"count_positive", s.count_positive},
+                            {"count_negative", s.count_negative},
+                            {"t", Number(s.t_statistic)}};
+    };
+    c["by_sign_of_w"] = sign(d.sign_w);
+    c["by_sign_of_i"] = sign(d.sign_i);
+    nlohmann::json peaks = nlohmann::json::array();
+    for (const auto& p : d.angle_peaks) {
+      nlohmann::json peak = {{"order_per_rev", p.order}, {"amplitude", Number(p.amplitude)},
+                             {"ratio_to_floor", Number(p.ratio)}};
+      if (p.electrical_multiple > 0.0) peak["electrical_multiple"] = Number(p.electrical_multiple);
+      peaks.push_back(peak);
+    }
+    c["angle_spectrum_peaks"] = d.shaft_turned ? peaks : nlohmann::json(nullptr);
+    columns[d.column] = c;
+  }
+  out["columns"] = columns;
+  return out;
+}
+
+}  // namespace blmd
