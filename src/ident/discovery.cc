@@ -1,6 +1,9 @@
 #include "blmd/ident/discovery.h"
 
+#include <Eigen/Dense>
 #include <algorithm>
+#include <functional>
+#include <limits>
 #include <cmath>
 #include <cstdio>
 #include <thread>
@@ -52,7 +55,7 @@ double TorqueScale(const FitProblem& problem, const ResidualAnalysis& analysis) 
 }
 
 CandidatePlan Plan(const std::string& effect, const FitProblem& problem,
-                   const ResidualAnalysis& analysis, const std::vector<double>& values) {
+                   const ResidualAnalysis& analysis) {
   CandidatePlan plan;
   plan.effect = effect;
   const double T = TorqueScale(problem, analysis);
@@ -82,27 +85,22 @@ CandidatePlan Plan(const std::string& effect, const FitProblem& problem,
     }
     plan.amplitude = "Ts";
   } else if (effect == "cogging") {
-    // Periods per revolution from the residual's angle spectrum (velocity first: the
-    // cogging torque's direct trace), three strongest distinct orders.
-    std::vector<int> orders;
-    for (const char* column : {"w", "theta", "i"}) {
-      for (const auto& d : analysis.columns) {
-        if (d.column != column) continue;
-        for (const auto& peak : d.angle_peaks) {
-          if (orders.size() < 3 && std::find(orders.begin(), orders.end(), peak.order) == orders.end()) {
-            orders.push_back(peak.order);
-          }
-        }
-      }
-    }
-    if (orders.empty()) {
+    // The periods per revolution are searched, not guessed: every order 1..64 is tried in
+    // the scan (two amplitudes, four phases) with the other parameters held. A linearised
+    // score test cannot be used: a real cogging torque acts mostly near standstill and
+    // reversals, through detents, where the response is far from linear.
+    bool turned = false;
+    for (const auto& d : analysis.columns) turned = turned || d.shaft_turned;
+    if (!turned) {
       plan.applicable = false;
-      plan.not_applicable = "the shaft turns too little for an angle spectrum";
+      plan.not_applicable = "the shaft turns too little for cogging to be seen";
       return plan;
     }
     plan.free = {Free("Tcog", 0.0, T), Free("phase", -2.0 * kPi, 2.0 * kPi)};
-    for (int order : orders) plan.fixed_alternatives.push_back({{"periods", static_cast<double>(order)}});
-    for (double f : {0.003, 0.01, 0.03, 0.1}) {
+    for (int order = 1; order <= 64; ++order) {
+      plan.fixed_alternatives.push_back({{"periods", static_cast<double>(order)}});
+    }
+    for (double f : {0.03, 0.2}) {
       for (double phase : {0.0, 0.5 * kPi, kPi, -0.5 * kPi}) plan.starts.push_back({f * T, phase});
     }
     plan.amplitude = "Tcog";
@@ -129,7 +127,6 @@ CandidatePlan Plan(const std::string& effect, const FitProblem& problem,
     plan.applicable = false;
     plan.not_applicable = "no discovery plan for this effect";
   }
-  (void)values;
   return plan;
 }
 
@@ -139,6 +136,9 @@ struct CandidateRun {
   std::vector<FreeParameter> free;
   FitResult fit;
   std::map<std::string, double> fixed;
+  std::vector<double> screen_values;  // after the scan and one Gauss-Newton step
+  double screen_bic = std::numeric_limits<double>::infinity();  // delta BIC at screening
+  bool refitted = false;
 };
 
 // Builds the problem with `effect` added at `effect_values` (free) and `fixed`.
@@ -166,110 +166,225 @@ FitProblem CandidateProblem(const FitProblem& base, const std::vector<double>& b
   return FitProblem(config, base.traces(), base.observe(), free);
 }
 
-CandidateRun RunCandidate(const FitProblem& base, const std::vector<double>& base_values,
-                          const CandidatePlan& plan, double bic_before,
-                          const DiscoveryOptions& options) {
+// Cost of a candidate problem at values given in physical units, in search coordinates
+// (log for log-scale parameters).
+std::vector<double> ToSearch(const FitProblem& problem, const std::vector<double>& values) {
+  std::vector<double> x(values.size());
+  for (std::size_t k = 0; k < values.size(); ++k) {
+    x[k] = problem.free()[k].log_scale ? std::log(values[k]) : values[k];
+  }
+  return x;
+}
+std::vector<double> FromSearch(const FitProblem& problem, const std::vector<double>& x) {
+  std::vector<double> values(x.size());
+  for (std::size_t k = 0; k < x.size(); ++k) {
+    const FreeParameter& p = problem.free()[k];
+    values[k] = std::clamp(p.log_scale ? std::exp(x[k]) : x[k], p.lower, p.upper);
+  }
+  return values;
+}
+
+// One damped Gauss-Newton step on all free parameters from `values` (the issue's "one-step
+// Gauss-Newton fit"): cheap, and it lets J and B move with the new effect, which a scan with
+// J and B held cannot. Returns the better of the start and the step.
+std::pair<std::vector<double>, Evaluation> OneStepGaussNewton(const FitProblem& problem,
+                                                              const std::vector<double>& values,
+                                                              const Evaluation& start) {
+  const std::size_t p = problem.num_free();
+  std::vector<double> r0;
+  if (!problem.Evaluate(values, &r0).ok) return {values, start};
+  const std::size_t n = r0.size();
+  const std::vector<double> x0 = ToSearch(problem, values);
+  Eigen::MatrixXd jacobian(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(p));
+  for (std::size_t k = 0; k < p; ++k) {
+    const FreeParameter& fp = problem.free()[k];
+    const double h = fp.log_scale ? 1e-3 : 1e-3 * std::max(std::abs(x0[k]), 1e-2 * (fp.upper - fp.lower));
+    std::vector<double> xp = x0, xm = x0, rp, rm;
+    xp[k] += h;
+    xm[k] -= h;
+    if (!problem.Evaluate(FromSearch(problem, xp), &rp).ok ||
+        !problem.Evaluate(FromSearch(problem, xm), &rm).ok) {
+      return {values, start};
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+      jacobian(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(k)) = (rp[i] - rm[i]) / (2.0 * h);
+    }
+  }
+  const Eigen::Map<const Eigen::VectorXd> residual(r0.data(), static_cast<Eigen::Index>(n));
+  Eigen::MatrixXd normal = jacobian.transpose() * jacobian;
+  const Eigen::VectorXd gradient = jacobian.transpose() * residual;
+  std::vector<double> best_values = values;
+  Evaluation best = start;
+  for (double damping : {1e-4, 1e-2, 1.0}) {
+    Eigen::MatrixXd damped = normal;
+    for (Eigen::Index k = 0; k < damped.rows(); ++k) damped(k, k) *= (1.0 + damping);
+    const Eigen::VectorXd step = damped.ldlt().solve(-gradient);
+    if (!step.allFinite()) continue;
+    std::vector<double> x = x0;
+    for (std::size_t k = 0; k < p; ++k) x[k] += step(static_cast<Eigen::Index>(k));
+    const std::vector<double> trial = FromSearch(problem, x);
+    const Evaluation evaluation = problem.Evaluate(trial);
+    if (evaluation.ok && evaluation.cost < best.cost) {
+      best = evaluation;
+      best_values = trial;
+      break;
+    }
+  }
+  return {best_values, best};
+}
+
+// Screening: a deterministic scan of the effect's start points (and cogging periods) with
+// the other parameters held, then one Gauss-Newton step on all of them.
+CandidateRun ScreenCandidate(const FitProblem& base, const std::vector<double>& base_values,
+                             const CandidatePlan& plan, double bic_before) {
   CandidateRun run;
   run.outcome.effect = plan.effect;
   if (!plan.applicable) {
     run.outcome.reason = plan.not_applicable;
     return run;
   }
-  // Deterministic scan of start points (and of cogging periods).
   std::vector<std::map<std::string, double>> alternatives = plan.fixed_alternatives;
   if (alternatives.empty()) alternatives.push_back({});
   double best_cost = std::numeric_limits<double>::infinity();
   std::vector<double> best_start;
   std::map<std::string, double> best_fixed;
-  for (const auto& fixed : alternatives) {
+  // Best start per alternative (cogging: per order).
+  std::vector<std::pair<double, std::size_t>> per_alternative;
+  std::vector<std::vector<double>> alternative_start(alternatives.size());
+  for (std::size_t a = 0; a < alternatives.size(); ++a) {
+    double alternative_best = std::numeric_limits<double>::infinity();
     for (const auto& start : plan.starts) {
       Config config;
       std::vector<FreeParameter> free;
-      const FitProblem problem = CandidateProblem(base, base_values, plan, start, fixed, &config, &free);
+      const FitProblem problem = CandidateProblem(base, base_values, plan, start, alternatives[a], &config, &free);
       const Evaluation evaluation = problem.Evaluate(problem.InitialValues());
-      if (evaluation.ok && evaluation.cost < best_cost) {
-        best_cost = evaluation.cost;
-        best_start = start;
-        best_fixed = fixed;
+      if (evaluation.ok && evaluation.cost < alternative_best) {
+        alternative_best = evaluation.cost;
+        alternative_start[a] = start;
       }
+    }
+    if (std::isfinite(alternative_best)) per_alternative.emplace_back(alternative_best, a);
+    if (alternative_best < best_cost) {
+      best_cost = alternative_best;
+      best_start = alternative_start[a];
+      best_fixed = alternatives[a];
     }
   }
   if (best_start.empty()) {
     run.outcome.reason = "every start point failed to simulate";
     return run;
   }
+  if (alternatives.size() > 1) {
+    // A coarse scan cannot rank strongly non-linear alternatives reliably: the five best
+    // get a short local search (BOBYQA, all free parameters) before one is chosen.
+    std::stable_sort(per_alternative.begin(), per_alternative.end());
+    if (per_alternative.size() > 5) per_alternative.resize(5);
+    best_cost = std::numeric_limits<double>::infinity();
+    for (const auto& [cost, a] : per_alternative) {
+      Config config;
+      std::vector<FreeParameter> free;
+      const FitProblem problem =
+          CandidateProblem(base, base_values, plan, alternative_start[a], alternatives[a], &config, &free);
+      internal::CountingCost counting(problem);
+      const internal::LocalResult local = internal::NloptLocal(
+          counting, "bobyqa", problem.ToScaled(problem.InitialValues()), 0.05, 40, 1e-6, 1e-6);
+      if (local.cost < best_cost) {
+        best_cost = local.cost;
+        best_fixed = alternatives[a];
+        const std::vector<double> values = problem.FromScaled(local.scaled);
+        best_start.assign(values.begin() + static_cast<long>(base.num_free()), values.end());
+      }
+    }
+  }
   const FitProblem problem =
       CandidateProblem(base, base_values, plan, best_start, best_fixed, &run.config, &run.free);
-  OptimizerOptions refit = options.refit;
-  if (!refit.method_options.contains("max_iterations")) refit.method_options["max_iterations"] = 60;
-  run.fit = FindOptimizer("ceres").Minimize(problem, refit);
+  const Evaluation at_start = problem.Evaluate(problem.InitialValues());
+  const auto [values, evaluation] = OneStepGaussNewton(problem, problem.InitialValues(), at_start);
   run.fixed = best_fixed;
-  run.outcome.fitted = run.fit.evaluation.ok;
-  if (!run.outcome.fitted) {
-    run.outcome.reason = "refit failed: " + run.fit.evaluation.reason;
-    return run;
+  run.screen_values = values;
+  run.screen_bic = Bic(problem, evaluation, problem.num_free()) - bic_before;
+  run.outcome.delta_bic = run.screen_bic;
+  run.outcome.nrmse = std::sqrt(evaluation.cost);
+  return run;
+}
+
+// Full refit (Ceres, all free parameters) from the screening point, and the verdict.
+void RefitCandidate(const FitProblem& base, const CandidatePlan& plan, double bic_before,
+                    const DiscoveryOptions& options, CandidateRun* run) {
+  for (std::size_t k = 0; k < run->free.size(); ++k) run->free[k].initial = run->screen_values[k];
+  const FitProblem problem(run->config, base.traces(), base.observe(), run->free);
+  OptimizerOptions refit = options.refit;
+  if (!refit.method_options.contains("max_iterations")) refit.method_options["max_iterations"] = 50;
+  run->fit = FindOptimizer("ceres").Minimize(problem, refit);
+  run->outcome.fitted = run->fit.evaluation.ok;
+  if (!run->outcome.fitted) {
+    run->outcome.reason = "refit failed: " + run->fit.evaluation.reason;
+    return;
   }
-  run.outcome.bic = Bic(problem, run.fit.evaluation, problem.num_free());
-  run.outcome.delta_bic = run.outcome.bic - bic_before;
-  run.outcome.nrmse = std::sqrt(run.fit.evaluation.cost);
+  run->outcome.bic = Bic(problem, run->fit.evaluation, problem.num_free());
+  run->outcome.delta_bic = run->outcome.bic - bic_before;
+  run->outcome.nrmse = std::sqrt(run->fit.evaluation.cost);
   const std::size_t offset = base.num_free();
   for (std::size_t k = 0; k < plan.free.size(); ++k) {
-    run.outcome.parameters[plan.free[k].name] = run.fit.values[offset + k];
+    run->outcome.parameters[plan.free[k].name] = run->fit.values[offset + k];
   }
-  for (const auto& [name, value] : best_fixed) run.outcome.parameters[name] = value;
+  for (const auto& [name, value] : run->fixed) run->outcome.parameters[name] = value;
   // Physical validity: off the search bounds, and the amplitude distinguishable from zero.
-  run.outcome.valid = true;
+  run->outcome.valid = true;
   for (std::size_t k = 0; k < plan.free.size(); ++k) {
     const FreeParameter& p = plan.free[k];
     if (p.name == "phase") continue;  // periodic
-    const double v = run.fit.values[offset + k];
+    const double v = run->fit.values[offset + k];
     const double margin = 1e-3 * (p.log_scale ? std::log(p.upper / p.lower) : (p.upper - p.lower));
     const double below = p.log_scale ? std::log(v / p.lower) : v - p.lower;
     const double above = p.log_scale ? std::log(p.upper / v) : p.upper - v;
     if (below < margin || above < margin) {
-      run.outcome.valid = false;
-      run.outcome.reason = p.name + " = " + G(v) + " sits on its search bound [" + G(p.lower) +
-                           ", " + G(p.upper) + "]";
+      run->outcome.valid = false;
+      run->outcome.reason = p.name + " = " + G(v) + " sits on its search bound [" + G(p.lower) +
+                            ", " + G(p.upper) + "]";
       break;
     }
     if (p.name == plan.amplitude) {
-      const ParameterEstimate& e = run.fit.estimates[offset + k];
+      const ParameterEstimate& e = run->fit.estimates[offset + k];
       if (e.has_interval && std::abs(v) < 2.0 * e.std) {
-        run.outcome.valid = false;
-        run.outcome.reason = p.name + " = " + G(v) + " is within two standard deviations (" +
-                             G(e.std) + ") of zero";
+        run->outcome.valid = false;
+        run->outcome.reason = p.name + " = " + G(v) + " is within two standard deviations (" +
+                              G(e.std) + ") of zero";
         break;
       }
     }
   }
-  if (run.outcome.valid && !(run.outcome.delta_bic < -options.bic_margin)) {
-    run.outcome.reason = "BIC does not fall by more than " + G(options.bic_margin);
+  if (run->outcome.valid && !(run->outcome.delta_bic < -options.bic_margin)) {
+    run->outcome.reason = "BIC does not fall by more than " + G(options.bic_margin);
   }
-  return run;
 }
 
 std::string Evidence(const std::string& effect, const ResidualAnalysis& analysis,
                      const CandidateOutcome& outcome, double nrmse_before) {
   std::string text = "BIC " + G(outcome.delta_bic, 5) + ", NRMSE " + G(nrmse_before) + " -> " +
                      G(outcome.nrmse);
-  for (const auto& d : analysis.columns) {
-    if ((effect == "coulomb_friction" || effect == "stribeck") && d.sign_w.available) {
-      text += "; " + d.column + " residual mean differs by sign of w (t = " + G(d.sign_w.t_statistic, 3) + ")";
-      break;
+  // The diagnostic that points at this effect, from the column where it is strongest.
+  const ColumnDiagnostics* strongest = nullptr;
+  auto pick = [&](auto score) {
+    for (const auto& d : analysis.columns) {
+      if (score(d) > 0.0 && (!strongest || score(d) > score(*strongest))) strongest = &d;
     }
-    if (effect == "dead_time" && d.sign_i.available) {
-      text += "; " + d.column + " residual mean differs by sign of i (t = " + G(d.sign_i.t_statistic, 3) + ")";
-      break;
+  };
+  if (effect == "coulomb_friction" || effect == "stribeck") {
+    pick([](const ColumnDiagnostics& d) { return d.sign_w.available ? std::abs(d.sign_w.t_statistic) : 0.0; });
+    if (strongest) text += "; " + strongest->column + " residual mean differs by sign of w (t = " + G(strongest->sign_w.t_statistic, 3) + ")";
+  } else if (effect == "dead_time") {
+    pick([](const ColumnDiagnostics& d) { return d.sign_i.available ? std::abs(d.sign_i.t_statistic) : 0.0; });
+    if (strongest) text += "; " + strongest->column + " residual mean differs by sign of i (t = " + G(strongest->sign_i.t_statistic, 3) + ")";
+  } else if (effect == "cogging") {
+    pick([](const ColumnDiagnostics& d) { return d.angle_peaks.empty() ? 0.0 : d.angle_peaks.front().ratio; });
+    if (strongest) {
+      text += "; " + strongest->column + " residual peaks at " + std::to_string(strongest->angle_peaks.front().order) +
+              " periods/rev (" + G(strongest->angle_peaks.front().ratio, 3) + " x the spectrum's median)";
     }
-    if (effect == "cogging" && !d.angle_peaks.empty()) {
-      text += "; " + d.column + " residual peaks at " + std::to_string(d.angle_peaks.front().order) +
-              " periods/rev (" + G(d.angle_peaks.front().ratio, 3) + " x floor)";
-      break;
-    }
-    if ((effect == "load_torque" || effect == "current_offset") && d.rms > 0.0) {
-      text += "; " + d.column + " residual mean " + G(d.mean) + " (rms " + G(d.rms) + ")";
-      break;
-    }
+  } else {
+    pick([](const ColumnDiagnostics& d) { return d.rms > 0.0 ? std::abs(d.mean) / d.rms : 0.0; });
+    if (strongest) text += "; " + strongest->column + " residual mean " + G(strongest->mean) + " (rms " + G(strongest->rms) + ")";
   }
   return text;
 }
@@ -318,21 +433,48 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     for (const auto& effect : candidates) {
       const auto& declared = current_problem->config().effects;
       if (std::find(declared.begin(), declared.end(), effect) != declared.end()) continue;
-      plans.push_back(Plan(effect, *current_problem, analysis, current_fit.values));
+      plans.push_back(Plan(effect, *current_problem, analysis));
     }
     if (plans.empty()) break;
     std::vector<CandidateRun> runs(plans.size());
     const int threads = std::max(1, internal::ThreadCount(options.refit.threads));
-    {
+    auto parallel = [&](const std::vector<std::size_t>& items, const std::function<void(std::size_t)>& work) {
       std::vector<std::thread> pool;
       for (int t = 0; t < threads; ++t) {
         pool.emplace_back([&, t] {
-          for (std::size_t k = static_cast<std::size_t>(t); k < plans.size(); k += static_cast<std::size_t>(threads)) {
-            runs[k] = RunCandidate(*current_problem, current_fit.values, plans[k], current_bic, options);
+          for (std::size_t k = static_cast<std::size_t>(t); k < items.size(); k += static_cast<std::size_t>(threads)) {
+            work(items[k]);
           }
         });
       }
       for (auto& thread : pool) thread.join();
+    };
+    std::vector<std::size_t> all(plans.size());
+    for (std::size_t k = 0; k < all.size(); ++k) all[k] = k;
+    parallel(all, [&](std::size_t k) {
+      runs[k] = ScreenCandidate(*current_problem, current_fit.values, plans[k], current_bic);
+    });
+    // Refit the most promising candidates by their screening BIC (deterministic order).
+    // Only candidates whose screening already lowers BIC are worth a full refit.
+    std::vector<std::size_t> screened;
+    for (std::size_t k = 0; k < runs.size(); ++k) {
+      if (!runs[k].screen_values.empty() && runs[k].screen_bic < 0.0) screened.push_back(k);
+    }
+    std::stable_sort(screened.begin(), screened.end(), [&](std::size_t l, std::size_t r) {
+      return runs[l].screen_bic < runs[r].screen_bic;
+    });
+    if (screened.size() > static_cast<std::size_t>(options.refits)) screened.resize(static_cast<std::size_t>(options.refits));
+    parallel(screened, [&](std::size_t k) {
+      RefitCandidate(*current_problem, plans[k], current_bic, options, &runs[k]);
+      runs[k].refitted = true;
+    });
+    for (auto& run : runs) {
+      if (!run.refitted && !run.screen_values.empty()) {
+        run.outcome.reason = run.screen_bic >= 0.0
+                                 ? "screened out: one Gauss-Newton step does not lower BIC (" + G(run.screen_bic, 4) + ")"
+                                 : "screened out (one-step BIC " + G(run.screen_bic, 4) + "; only the best " +
+                                       std::to_string(options.refits) + " are refit)";
+      }
     }
     // Best first: fitted before not, then by BIC; ties by name (deterministic).
     std::vector<std::size_t> order(runs.size());
@@ -342,6 +484,7 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
       const auto& b = runs[r].outcome;
       if (a.fitted != b.fitted) return a.fitted;
       if (a.fitted && a.bic != b.bic) return a.bic < b.bic;
+      if (!a.fitted && runs[l].screen_bic != runs[r].screen_bic) return runs[l].screen_bic < runs[r].screen_bic;
       return a.effect < b.effect;
     });
     std::vector<CandidateOutcome> outcomes;

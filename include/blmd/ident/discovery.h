@@ -2,9 +2,11 @@
 // model lacks, add it, refit, repeat until nothing significant is left.
 //
 // Each round, every applicable effect of the vocabulary not yet in the model is a
-// candidate. A candidate is started from a small deterministic scan of its parameters
+// candidate. A candidate is screened: a small deterministic scan of its parameters
 // (periods of cogging from the residual's angle spectrum; i0 from the current residual's
-// mean), then all free parameters and the effect's are refit (Ceres). It is scored by the
+// mean) with the others held, then one damped Gauss-Newton step on all free parameters.
+// The `refits` best by screening BIC are refit in full (Ceres, all parameters). Each is
+// scored by the
 // Bayesian information criterion with each observed column's own noise level,
 //   BIC = sum_c N_c ln(SSE_c / N_c) + k ln N,
 // and qualifies when it lowers BIC by more than `bic_margin` (10: "very strong" evidence)
@@ -31,6 +33,7 @@ struct DiscoveryOptions {
   double bic_margin = 10.0;       // BIC must fall by more than this to add an effect
   double ambiguity_margin = 2.0;  // candidates closer than this to the best are ambiguous
   int max_effects = 3;            // rounds
+  int refits = 3;                 // candidates refit in full per round (best by screening)
   std::vector<std::string> candidates;  // empty: every applicable effect
   OptimizerOptions refit;         // options of the Ceres refits (threads, budgets)
 };
