@@ -38,6 +38,14 @@ double ConductingTime(double a, double b, double t_edge, double delta) {
   return std::max(0.0, b - std::max(a, t_edge + delta));
 }
 
+// Time within [a, b] during which i(t) = i0 + slope (t - t0) is negative.
+double NegativeTime(double a, double b, double t0, double i0, double slope) {
+  if (slope == 0.0) return i0 < 0.0 ? b - a : 0.0;
+  const double t_zero = t0 - i0 / slope;  // i(t_zero) = 0
+  if (slope > 0.0) return std::clamp(t_zero, a, b) - a;  // negative before t_zero
+  return b - std::clamp(t_zero, a, b);                   // negative after t_zero
+}
+
 struct Leg {
   bool upper_commanded = false;  // comparator output: upper switch commanded on
   double t_edge = -1.0;          // s, instant of the last command change
@@ -138,6 +146,7 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
 
   const double t_start = times.front();
   std::array<double, 3> current = {0.0, 0.0, 0.0};  // A, into the winding
+  std::array<double, 3> slope = {0.0, 0.0, 0.0};  // A/s, di_j/dt over the last step
   double w = experiment.initial.w, theta = experiment.initial.theta;
   std::array<double, 3> integral = {0.0, 0.0, 0.0};  // V, compensator integrator
   std::array<double, 3> lead_out = {0.0, 0.0, 0.0};  // V, lead-lag output
@@ -207,8 +216,15 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
         leg.t_edge = t_low - 2.0 * delta - dt;  // settled before the run
       }
       double upper_on = 0.0, lower_on = 0.0;    // s, conduction times inside the step
+      double diode_up = 0.0;                    // s, both off with the upper diode conducting
       auto conduct = [&](double a, double b) {  // [a, b] under the present command
         (leg.upper_commanded ? upper_on : lower_on) += ConductingTime(a, b, leg.t_edge, delta);
+        // Blanking part [a, min(b, t_edge + delta)]: both switches off, the diodes carry
+        // the current, the upper one (leg at Ud) while i_j < 0 (eq. 13). The current is
+        // extrapolated linearly across the step from its last change, so the diode time
+        // moves continuously with the zero crossing instead of jumping a whole step.
+        const double off_end = std::min(b, leg.t_edge + delta);
+        if (off_end > a) diode_up += NegativeTime(a, off_end, t_low, current[j], slope[j]);
       };
       // Comparator at the step start with this step's control voltage: the control may have
       // moved across the carrier since the previous step (an edge at t_low).
@@ -229,8 +245,7 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
       } else {
         conduct(t_low, t_high);
       }
-      const double both_off = std::max(0.0, dt - upper_on - lower_on);
-      leg_voltage[j] = Ud * (upper_on + (current[j] < 0.0 ? both_off : 0.0)) / dt;
+      leg_voltage[j] = Ud * (upper_on + diode_up) / dt;
     }
     first_step = false;
     neutral_voltage = (leg_voltage[0] + leg_voltage[1] + leg_voltage[2]) / 3.0;
@@ -240,7 +255,9 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
     for (int j = 0; j < 3; ++j) {
       phase_voltage[j] = leg_voltage[j] - neutral_voltage;
       const double emf = Ke * w * cosine[j];
+      const double previous = current[j];
       current[j] = (current[j] + dt / Ls * (phase_voltage[j] - emf)) * current_gain;
+      slope[j] = (current[j] - previous) / dt;
       torque += Ke * current[j] * cosine[j];
     }
 
