@@ -1,6 +1,7 @@
 #include <ceres/ceres.h>
 #include <ceres/covariance.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -119,6 +120,12 @@ FitResult CeresOptimizer::Minimize(const FitProblem& problem,
   solver_options.linear_solver_type = ceres::DENSE_QR;
   solver_options.max_num_iterations =
       static_cast<int>(OptionNumber(options.method_options, "max_iterations", 100));
+  if (options.max_evaluations > 0) {
+    // Each iteration costs about 2p + 1 evaluations (central differences and the step).
+    solver_options.max_num_iterations = std::max(
+        1, std::min(solver_options.max_num_iterations,
+                    options.max_evaluations / static_cast<int>(2 * p + 1)));
+  }
   solver_options.function_tolerance =
       OptionNumber(options.method_options, "function_tolerance", 1e-10);
   solver_options.parameter_tolerance =

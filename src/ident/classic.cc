@@ -172,7 +172,7 @@ FitResult ClassicOptimizer::Minimize(const FitProblem& problem,
     J = sum / static_cast<double>(taus.size());
     notes.push_back("J = B tau from " + std::to_string(taus.size()) + " coast-down(s)");
   } else {
-    notes.push_back("no coast-down found: J keeps its initial value");
+    notes.push_back("no coast-down found: J keeps its initial value (not estimated)");
   }
   std::vector<double> values = problem.InitialValues();
   for (std::size_t k = 0; k < problem.num_free(); ++k) {
@@ -187,7 +187,11 @@ FitResult ClassicOptimizer::Minimize(const FitProblem& problem,
   OptimizerSummary& summary = result.summary;
   summary.method = "classic";
   summary.algorithm = "Ganesh et al. (2012) steady-state and 36.8 % coast-down estimators";
-  summary.converged = result.evaluation.ok && B > 0.0;
+  bool j_free = false;
+  for (const auto& p : problem.free()) j_free = j_free || p.name == "J";
+  // Converged only when every free parameter it can estimate was estimated: J needs a
+  // coast-down, B a plateau with the shaft turning.
+  summary.converged = result.evaluation.ok && B > 0.0 && (!j_free || J > 0.0);
   summary.termination = "closed form";
   summary.message = "estimated from " + std::to_string(plateaus.size()) + " plateau(s) and " +
                     std::to_string(taus.size()) + " coast-down(s)";

@@ -37,6 +37,7 @@ class CountingCost {
     summary->failure_reasons = reasons_;
   }
   const FitProblem& problem() const { return problem_; }
+  long evaluations() const { return evaluations_.load(); }
 
  private:
   const FitProblem& problem_;

@@ -88,12 +88,16 @@ class FsdRun {
     }
   }
 
+  // Evaluation budget shared by all walkers (0: none), checked at burst boundaries.
+  long budget = 0;
+  bool Exhausted() const { return budget > 0 && cost_.evaluations() >= budget; }
+
   void RunWalker(Walker& w, Random& random, double a) {
     const std::size_t n = w.x.size();
     w.cost = U(w.x);
     Consider(w, w.x, w.cost);
     long k = 0;
-    for (int burst = 0; burst < s_.bursts; ++burst) {
+    for (int burst = 0; burst < s_.bursts && !Exhausted(); ++burst) {
       // Diffusion burst at the current temperature.
       for (int step = 0; step < s_.burst_steps; ++step, ++k) {
         const double temperature = s_.t0 * std::log(2.0) / std::log(2.0 + static_cast<double>(k));
@@ -213,6 +217,10 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
   for (std::size_t w = 1; w < walkers.size(); ++w) walkers[w].x = probes[order[(w - 1) % order.size()]];
 
   FsdRun run(cost, s, scale);
+  if (options.max_evaluations > 0) {
+    // The polish gets its own budget (polish_evaluations per point) on top.
+    run.budget = options.max_evaluations;
+  }
   {
     std::vector<std::thread> pool;
     for (int t = 0; t < threads; ++t) {

@@ -118,6 +118,8 @@ FitResult PowellOptimizer::Minimize(const FitProblem& problem,
 
   const auto started = std::chrono::steady_clock::now();
   CountingCost cost(problem);
+  // PRAXIS draws random directions from NLopt's global generator: seed it, so a run repeats.
+  if (algorithm == "praxis") nlopt::srand(options.seed);
   const LocalResult local = NloptLocal(cost, algorithm, problem.ToScaled(problem.InitialValues()),
                                        initial_step, budget, xtol, ftol);
   FitResult result;

@@ -109,7 +109,14 @@ nlohmann::json MakeReport(const ReportInputs& inputs) {
     if (const ParamInfo* info = config.FindParameterInfo(e.name)) p["unit"] = info->unit;
     p["free"] = true;
     for (const auto& fp : problem.free()) {
-      if (fp.name == e.name) p["bounds"] = {fp.lower, fp.upper};
+      if (fp.name != e.name) continue;
+      p["bounds"] = {fp.lower, fp.upper};
+      // An estimate on a bound is the bound's answer, not the data's: its interval means
+      // little, and a wider bound (or another model) is needed.
+      const double span = fp.log_scale ? std::log(fp.upper / fp.lower) : fp.upper - fp.lower;
+      const double below = fp.log_scale ? std::log(e.value / fp.lower) : e.value - fp.lower;
+      const double above = fp.log_scale ? std::log(fp.upper / e.value) : fp.upper - e.value;
+      p["at_bound"] = below <= 1e-6 * span || above <= 1e-6 * span;
     }
     parameters[e.name] = p;
   }
@@ -195,6 +202,7 @@ std::string HumanSummary(const nlohmann::json& report) {
     }
     if (p.contains("initial") && !p["initial"].is_null()) out << "   initial " << G(p["initial"], 4);
     if (p.contains("free") && !p["free"].get<bool>()) out << "   (classic estimate)";
+    if (p.contains("at_bound") && p["at_bound"].get<bool>()) out << "   AT ITS BOUND";
     out << "\n";
   }
   const auto& fit = report["fit"];
