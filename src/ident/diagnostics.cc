@@ -48,7 +48,16 @@ ResidualAnalysis AnalyseResidual(const FitProblem& problem, const std::vector<do
   const std::size_t columns = observe.size();
   std::vector<std::vector<double>> residual(columns);
   std::vector<double> u, w, theta, current;
+  std::vector<std::pair<std::size_t, std::size_t>> segments;  // [first, last) per trace
+  std::vector<double> rates;                                  // samples per second per trace
   for (std::size_t k = 0; k < problem.traces().size(); ++k) {
+    {
+      const auto& time = problem.traces()[k].trace.Column("t");
+      const std::size_t first = w.size();
+      segments.emplace_back(first, first + time.size());
+      const double span = time.back() - time.front();
+      rates.push_back(span > 0.0 ? static_cast<double>(time.size() - 1) / span : 1.0);
+    }
     Trace simulated;
     const SimStatus status = problem.Simulate(k, values, &simulated);
     if (!status.ok()) {
@@ -73,7 +82,7 @@ ResidualAnalysis AnalyseResidual(const FitProblem& problem, const std::vector<do
   for (double v : w) analysis.w_max = std::max(analysis.w_max, std::abs(v));
   for (double v : current) analysis.i_max = std::max(analysis.i_max, std::abs(v));
   for (double v : u) analysis.u_max = std::max(analysis.u_max, std::abs(v));
-  const double w_threshold = 0.01 * analysis.w_max;
+  const double w_threshold = 0.01 * analysis.w_max;  // "moving" for the sign statistics
   bool positive = false, negative = false;
   for (double v : w) {
     positive = positive || v > w_threshold;
@@ -136,19 +145,40 @@ ResidualAnalysis AnalyseResidual(const FitProblem& problem, const std::vector<do
     d.sign_w = SplitBySign(e, w, w_threshold);
     d.sign_i = SplitBySign(e, current, 0.01 * analysis.i_max);
 
-    // Angle spectrum: harmonic regression of the residual on theta over the moving samples.
+    // Angle spectrum: harmonic regression of the residual on theta over the samples in
+    // steady motion (|w| above a quarter of its maximum), after an angle-synchronous
+    // detrend: from each sample the residual's mean over one shaft revolution around it
+    // (half-width pi/|w| in time) is removed, which cancels every whole order and keeps
+    // the slow drift out (transients after a step or a reversal would otherwise smear all
+    // orders alike).
     d.shaft_turned = theta_span > 2.0 * 2.0 * M_PI;
     if (d.shaft_turned) {
-      std::vector<double> amplitude(static_cast<std::size_t>(options.max_order), 0.0);
+      std::vector<double> detrended(e.size(), 0.0);
+      std::vector<char> use(e.size(), 0);
       std::size_t moving = 0;
-      for (std::size_t k = 0; k < e.size(); ++k) moving += std::abs(w[k]) > w_threshold;
+      for (std::size_t s_index = 0; s_index < segments.size(); ++s_index) {
+        const auto [first, last] = segments[s_index];
+        std::vector<double> prefix(last - first + 1, 0.0);
+        for (std::size_t k = first; k < last; ++k) prefix[k - first + 1] = prefix[k - first] + e[k];
+        const std::size_t cap = std::max<std::size_t>(1, (last - first) / 4);
+        for (std::size_t k = first; k < last; ++k) {
+          if (std::abs(w[k]) <= 0.25 * analysis.w_max) continue;
+          const std::size_t h = std::min(cap, static_cast<std::size_t>(M_PI / std::abs(w[k]) * rates[s_index]));
+          const std::size_t lo = k - first >= h ? k - first - h : 0;
+          const std::size_t hi = std::min(last - first, k - first + h + 1);
+          detrended[k] = e[k] - (prefix[hi] - prefix[lo]) / static_cast<double>(hi - lo);
+          use[k] = 1;
+          ++moving;
+        }
+      }
+      std::vector<double> amplitude(static_cast<std::size_t>(options.max_order), 0.0);
       for (int order = 1; order <= options.max_order; ++order) {
         double a = 0.0, b = 0.0;
         for (std::size_t k = 0; k < e.size(); ++k) {
-          if (std::abs(w[k]) <= w_threshold) continue;
+          if (!use[k]) continue;
           const double angle = order * theta[k];
-          a += (e[k] - d.mean) * std::cos(angle);
-          b += (e[k] - d.mean) * std::sin(angle);
+          a += detrended[k] * std::cos(angle);
+          b += detrended[k] * std::sin(angle);
         }
         const double scale = 2.0 / static_cast<double>(std::max<std::size_t>(moving, 1));
         amplitude[static_cast<std::size_t>(order - 1)] = scale * std::hypot(a, b);

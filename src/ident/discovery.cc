@@ -32,6 +32,7 @@ struct CandidatePlan {
   std::map<std::string, double> fixed;         // the effect's fixed parameters
   std::vector<std::vector<double>> starts;     // start values for `free`
   std::vector<std::map<std::string, double>> fixed_alternatives;  // cogging: one per period
+  std::vector<std::vector<std::vector<double>>> alternative_starts;  // extra starts per alternative
   std::string amplitude;                       // parameter that must differ from zero
 };
 
@@ -54,8 +55,57 @@ double TorqueScale(const FitProblem& problem, const ResidualAnalysis& analysis) 
   return std::max(per_amp * analysis.i_max, 1e-12);
 }
 
+// Start values for a cogging torque Tcog sin(m theta + phase) from the speed residual in
+// steady motion, where the response is linear: with J dw/dt = -Tcog sin(m theta + phase)
+// and dtheta/dt = w nearly constant, w ripples by Tcog / (J m w) cos(m theta + phase), so
+// the residual times w, regressed on cos(m theta) and sin(m theta), has coefficients
+// a = (Tcog / (J m)) cos(phase) and b = -(Tcog / (J m)) sin(phase). The residual is
+// detrended over one revolution around each sample first (as the angle spectrum is).
+bool CoggingStart(const FitProblem& problem, const std::vector<double>& values, int order,
+                  double w_max, double* tcog, double* phase) {
+  const auto& observe = problem.observe();
+  const auto column = std::find(observe.begin(), observe.end(), "w");
+  if (column == observe.end()) return false;
+  double J = problem.config().parameters.Get("J");
+  for (std::size_t k = 0; k < problem.num_free(); ++k) {
+    if (problem.free()[k].name == "J") J = values[k];
+  }
+  double a = 0.0, b = 0.0, cc = 0.0, ss = 0.0, cs = 0.0;
+  for (std::size_t k = 0; k < problem.traces().size(); ++k) {
+    Trace simulated;
+    if (!problem.Simulate(k, values, &simulated).ok()) return false;
+    const auto& w = simulated.Column("w");
+    const auto& theta = simulated.Column("theta");
+    const auto& time = simulated.Column("t");
+    const auto& measured = problem.traces()[k].trace.Column("w");
+    const std::size_t n = w.size();
+    std::vector<double> prefix(n + 1, 0.0);
+    for (std::size_t r = 0; r < n; ++r) prefix[r + 1] = prefix[r] + (measured[r] - w[r]);
+    const double rate = static_cast<double>(n - 1) / std::max(time.back() - time.front(), 1e-300);
+    for (std::size_t r = 0; r < n; ++r) {
+      if (std::abs(w[r]) <= 0.25 * w_max) continue;
+      const std::size_t h = std::min(n / 4, static_cast<std::size_t>(kPi / std::abs(w[r]) * rate));
+      const std::size_t lo = r >= h ? r - h : 0, hi = std::min(n, r + h + 1);
+      const double detrended = (measured[r] - w[r]) - (prefix[hi] - prefix[lo]) / static_cast<double>(hi - lo);
+      const double y = detrended * w[r];
+      const double c = std::cos(order * theta[r]), s = std::sin(order * theta[r]);
+      a += y * c;
+      b += y * s;
+      cc += c * c;
+      ss += s * s;
+      cs += c * s;
+    }
+  }
+  const double det = cc * ss - cs * cs;
+  if (!(det > 0.0)) return false;
+  const double ca = (ss * a - cs * b) / det, cb = (cc * b - cs * a) / det;
+  *tcog = J * order * std::hypot(ca, cb);
+  *phase = std::atan2(-cb, ca);
+  return std::isfinite(*tcog) && std::isfinite(*phase);
+}
+
 CandidatePlan Plan(const std::string& effect, const FitProblem& problem,
-                   const ResidualAnalysis& analysis) {
+                   const ResidualAnalysis& analysis, const std::vector<double>& values) {
   CandidatePlan plan;
   plan.effect = effect;
   const double T = TorqueScale(problem, analysis);
@@ -85,23 +135,39 @@ CandidatePlan Plan(const std::string& effect, const FitProblem& problem,
     }
     plan.amplitude = "Ts";
   } else if (effect == "cogging") {
-    // The periods per revolution are searched, not guessed: every order 1..64 is tried in
-    // the scan (two amplitudes, four phases) with the other parameters held. A linearised
-    // score test cannot be used: a real cogging torque acts mostly near standstill and
-    // reversals, through detents, where the response is far from linear.
-    bool turned = false;
-    for (const auto& d : analysis.columns) turned = turned || d.shaft_turned;
-    if (!turned) {
+    // Periods per revolution: the strongest orders of the residual's angle spectrum
+    // (diagnostics.cc: detrended, steady motion only), velocity first (the cogging torque's
+    // direct trace), then current; four distinct orders are tried.
+    std::vector<int> orders;
+    for (const char* column : {"w", "theta", "i"}) {
+      for (const auto& d : analysis.columns) {
+        if (d.column != column) continue;
+        for (const auto& peak : d.angle_peaks) {
+          if (orders.size() < 4 && std::find(orders.begin(), orders.end(), peak.order) == orders.end()) {
+            orders.push_back(peak.order);
+          }
+        }
+      }
+    }
+    if (orders.empty()) {
       plan.applicable = false;
-      plan.not_applicable = "the shaft turns too little for cogging to be seen";
+      plan.not_applicable = "the shaft turns too little for an angle spectrum";
       return plan;
     }
     plan.free = {Free("Tcog", 0.0, T), Free("phase", -2.0 * kPi, 2.0 * kPi)};
-    for (int order = 1; order <= 64; ++order) {
+    for (int order : orders) {
       plan.fixed_alternatives.push_back({{"periods", static_cast<double>(order)}});
+      // The linear-response estimate of this order's amplitude and phase is a start point
+      // (per alternative), besides the generic grid.
+      double tcog = 0.0, phase = 0.0;
+      if (CoggingStart(problem, values, order, analysis.w_max, &tcog, &phase)) {
+        plan.alternative_starts.push_back({{std::clamp(tcog, 1e-6 * T, 0.9 * T), phase}});
+      } else {
+        plan.alternative_starts.push_back({});
+      }
     }
-    for (double f : {0.03, 0.2}) {
-      for (double phase : {0.0, 0.5 * kPi, kPi, -0.5 * kPi}) plan.starts.push_back({f * T, phase});
+    for (double f : {0.01, 0.03, 0.1, 0.3}) {
+      for (int k = 0; k < 8; ++k) plan.starts.push_back({f * T, -kPi + 0.25 * kPi * k});
     }
     plan.amplitude = "Tcog";
   } else if (effect == "dead_time") {
@@ -253,7 +319,11 @@ CandidateRun ScreenCandidate(const FitProblem& base, const std::vector<double>& 
   std::vector<std::vector<double>> alternative_start(alternatives.size());
   for (std::size_t a = 0; a < alternatives.size(); ++a) {
     double alternative_best = std::numeric_limits<double>::infinity();
-    for (const auto& start : plan.starts) {
+    std::vector<std::vector<double>> starts = plan.starts;
+    if (a < plan.alternative_starts.size()) {
+      starts.insert(starts.begin(), plan.alternative_starts[a].begin(), plan.alternative_starts[a].end());
+    }
+    for (const auto& start : starts) {
       Config config;
       std::vector<FreeParameter> free;
       const FitProblem problem = CandidateProblem(base, base_values, plan, start, alternatives[a], &config, &free);
@@ -433,7 +503,7 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     for (const auto& effect : candidates) {
       const auto& declared = current_problem->config().effects;
       if (std::find(declared.begin(), declared.end(), effect) != declared.end()) continue;
-      plans.push_back(Plan(effect, *current_problem, analysis));
+      plans.push_back(Plan(effect, *current_problem, analysis, current_fit.values));
     }
     if (plans.empty()) break;
     std::vector<CandidateRun> runs(plans.size());
