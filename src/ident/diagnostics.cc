@@ -151,7 +151,10 @@ ResidualAnalysis AnalyseResidual(const FitProblem& problem, const std::vector<do
     // (half-width pi/|w| in time) is removed, which cancels every whole order and keeps
     // the slow drift out (transients after a step or a reversal would otherwise smear all
     // orders alike).
-    d.shaft_turned = theta_span > 2.0 * 2.0 * M_PI;
+    // Orders that complete fewer than three periods over the whole rotation are not
+    // resolved; the spectrum needs at least half a revolution.
+    d.shaft_turned = theta_span > M_PI;
+    const int min_order = std::max(1, static_cast<int>(std::ceil(3.0 * 2.0 * M_PI / std::max(theta_span, 1e-9))));
     if (d.shaft_turned) {
       std::vector<double> detrended(e.size(), 0.0);
       std::vector<char> use(e.size(), 0);
@@ -172,7 +175,7 @@ ResidualAnalysis AnalyseResidual(const FitProblem& problem, const std::vector<do
         }
       }
       std::vector<double> amplitude(static_cast<std::size_t>(options.max_order), 0.0);
-      for (int order = 1; order <= options.max_order; ++order) {
+      for (int order = min_order; order <= options.max_order; ++order) {
         double a = 0.0, b = 0.0;
         for (std::size_t k = 0; k < e.size(); ++k) {
           if (!use[k]) continue;
@@ -183,7 +186,7 @@ ResidualAnalysis AnalyseResidual(const FitProblem& problem, const std::vector<do
         const double scale = 2.0 / static_cast<double>(std::max<std::size_t>(moving, 1));
         amplitude[static_cast<std::size_t>(order - 1)] = scale * std::hypot(a, b);
       }
-      std::vector<double> sorted = amplitude;
+      std::vector<double> sorted(amplitude.begin() + std::min<long>(min_order - 1, options.max_order - 1), amplitude.end());
       std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
       const double floor = sorted[sorted.size() / 2];
       std::vector<int> orders(amplitude.size());
