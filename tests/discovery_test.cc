@@ -1,0 +1,121 @@
+// Discovery on traces with one undeclared effect (testdata/README.md, scripts/make-testdata):
+// the real blmd-ident --discover on real files. Each case knows the hidden effect and its
+// value, and the true J and B.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "support/test_support.h"
+
+namespace blmd::testing {
+namespace {
+
+struct HiddenEffectCase {
+  std::string name;    // test name
+  std::string config;  // configs/...
+  std::string trace;   // testdata/...
+  std::string observe;
+  std::string effect;                       // the hidden effect ("" for controls)
+  std::map<std::string, double> truth;      // its parameters
+  double J = 0.0, B = 0.0;                  // the true inertia and damping
+  std::string known_failure;                // non-empty: skipped, with the reason
+};
+
+void PrintTo(const HiddenEffectCase& c, std::ostream* out) { *out << c.name; }
+
+nlohmann::json Discover(const HiddenEffectCase& c) {
+  const CommandResult run = blmd::testing::Run(
+      BinPath("blmd-ident") + " --config " + SourcePath(c.config) + " --trace " +
+      SourcePath(c.trace) + " --observe " + c.observe + " --discover --json");
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  return nlohmann::json::parse(run.out);
+}
+
+class HiddenEffect : public ::testing::TestWithParam<HiddenEffectCase> {};
+
+TEST_P(HiddenEffect, IsFoundFittedAndExplainsTheResidual) {
+  const HiddenEffectCase& c = GetParam();
+  if (!c.known_failure.empty()) GTEST_SKIP() << "KNOWN FAILURE, not solved yet: " << c.known_failure;
+  const nlohmann::json report = Discover(c);
+  const auto& d = report["discovery"];
+  ASSERT_EQ(d["added"], nlohmann::json::array({c.effect})) << d["conclusion"];
+  const auto& step = d["steps"][0];
+  for (const auto& [name, value] : c.truth) {
+    const double fitted = step["parameters"][name].get<double>();
+    std::cout << c.name << ": " << name << " = " << fitted << " (truth " << value << ", "
+              << 100.0 * (fitted / value - 1.0) << " %)\n";
+    EXPECT_NEAR(fitted, value, 0.10 * std::abs(value)) << name;
+  }
+  const double before = d["error_before"]["nrmse"].get<double>();
+  const double after = d["error_after"]["nrmse"].get<double>();
+  std::cout << c.name << ": NRMSE " << before << " -> " << after << "\n";
+  EXPECT_LE(after, 0.5 * before);
+  const double J_before = report["parameters"]["J"]["value"].get<double>();
+  const double B_before = report["parameters"]["B"]["value"].get<double>();
+  const double J_after = d["parameters_after"]["J"].get<double>();
+  const double B_after = d["parameters_after"]["B"].get<double>();
+  std::cout << c.name << ": J " << 100 * (J_before / c.J - 1) << " % -> " << 100 * (J_after / c.J - 1)
+            << " %, B " << 100 * (B_before / c.B - 1) << " % -> " << 100 * (B_after / c.B - 1) << " %\n";
+  EXPECT_NEAR(J_after, c.J, 0.02 * c.J);
+  EXPECT_NEAR(B_after, c.B, 0.02 * c.B);
+  // Before, the model without the effect absorbs it into J and B: visibly biased means at
+  // least one of them off by more than 2 %, the same bound they meet after.
+  EXPECT_TRUE(std::abs(J_before / c.J - 1) > 0.02 || std::abs(B_before / c.B - 1) > 0.02);
+}
+
+const double kJ = 2.26e-5, kB = 2.261e-5;         // Ganesh no-load motor
+const double kJb = 11.9e-4, kBb = 5e-4;           // blmd-d31x
+INSTANTIATE_TEST_SUITE_P(
+    Testdata, HiddenEffect,
+    ::testing::Values(
+        HiddenEffectCase{"DcCoulomb", "configs/ganesh-square.json", "testdata/dc-hidden-coulomb.csv", "i,w",
+                         "coulomb_friction", {{"Tc", 0.012}}, kJ, kB, ""},
+        HiddenEffectCase{"DcLoad", "configs/ganesh-square.json", "testdata/dc-hidden-load.csv", "i,w",
+                         "load_torque", {{"TL", 0.0015}}, kJ, kB, ""},
+        HiddenEffectCase{"DcDrag", "configs/ganesh-staircase.json", "testdata/dc-hidden-drag.csv", "i,w",
+                         "quadratic_drag", {{"Cd", 3e-7}}, kJ, kB, ""},
+        HiddenEffectCase{"DcDeadTime", "configs/ganesh-square.json", "testdata/dc-hidden-dead-time.csv", "i,w",
+                         "dead_time", {{"Vdt", 0.6}}, kJ, kB, ""},
+        HiddenEffectCase{"DcCurrentOffset", "configs/ganesh-square.json", "testdata/dc-hidden-current-offset.csv",
+                         "i,w", "current_offset", {{"i0", 0.04}}, kJ, kB, ""},
+        HiddenEffectCase{"DcStribeck", "configs/ganesh-square.json", "testdata/dc-hidden-stribeck.csv", "i,w",
+                         "stribeck", {{"Ts", 0.02}, {"ws", 50.0}}, kJ, kB, ""},
+        HiddenEffectCase{"DcCogging", "configs/ganesh-square.json", "testdata/dc-hidden-cogging.csv", "i,w",
+                         "cogging", {{"Tcog", 0.025}, {"periods", 6.0}}, kJ, kB,
+                         "the cost over (Tcog, phase) is rugged (detent capture at each reversal): the "
+                         "search settles on a wrong order (measured: periods 5, NRMSE 0.052 -> 0.026)"},
+        HiddenEffectCase{"BlmdLoad", "configs/blmd-d31x-square.json", "testdata/blmd-hidden-load.csv", "w",
+                         "load_torque", {{"TL", 0.15}}, kJb, kBb, ""},
+        HiddenEffectCase{"BlmdCogging", "configs/blmd-d31x-square.json", "testdata/blmd-hidden-cogging.csv", "w",
+                         "cogging", {{"Tcog", 0.15}, {"periods", 12.0}}, kJb, kBb,
+                         "order 12 is the second spectral peak but the fit settles on order 3 (the "
+                         "electrical frequency; measured NRMSE 0.055 -> 0.040)"}),
+    [](const ::testing::TestParamInfo<HiddenEffectCase>& info) { return info.param.name; });
+
+TEST(Discovery, ControlsWithoutAHiddenEffectAddNothing) {
+  for (const auto& [config, trace, observe] :
+       std::vector<std::tuple<std::string, std::string, std::string>>{
+           {"configs/ganesh-square.json", "testdata/ganesh-square.csv", "i,w"},
+           {"configs/blmd-d31x-square.json", "testdata/blmd-square.csv", "w"}}) {
+    HiddenEffectCase c{"control", config, trace, observe, "", {}, 0, 0, ""};
+    const nlohmann::json report = Discover(c);
+    EXPECT_EQ(report["discovery"]["added"], nlohmann::json::array()) << trace;
+    EXPECT_EQ(report["discovery"]["conclusion"].get<std::string>().rfind("nothing missing", 0), 0u)
+        << report["discovery"]["conclusion"];
+  }
+}
+
+TEST(Discovery, CoulombAndLoadAreAmbiguousWhenTheShaftNeverStops) {
+  HiddenEffectCase c{"ambiguous", "configs/ganesh-running.json", "testdata/dc-ambiguous-coulomb.csv", "i,w",
+                     "", {}, 0, 0, ""};
+  const nlohmann::json report = Discover(c);
+  const auto& d = report["discovery"];
+  EXPECT_EQ(d["added"], nlohmann::json::array());
+  ASSERT_EQ(d["ambiguous"].size(), 1u);
+  EXPECT_EQ(d["ambiguous"][0]["effects"], nlohmann::json::array({"coulomb_friction", "load_torque"}));
+  EXPECT_EQ(d["conclusion"].get<std::string>().rfind("ambiguous: ", 0), 0u) << d["conclusion"];
+}
+
+}  // namespace
+}  // namespace blmd::testing
