@@ -273,7 +273,9 @@ TEST(Config, GaneshNoLoad) {
   EXPECT_EQ(config.identification.initial.Get("B"), 1e-5);
   EXPECT_EQ(config.Bounds("J"), (std::pair<double, double>{1e-7, 1e-2}));
   EXPECT_EQ(config.Bounds("B"), (std::pair<double, double>{1e-8, 1e-2}));
-  EXPECT_EQ(config.Bounds("R"), (std::pair<double, double>{1e-3, 1e3}));  // documented default
+  // No explicit bounds: three decades either side of the value (12.6 ohm), within the
+  // model's default range [1e-3, 1e3] (docs/config.md).
+  EXPECT_EQ(config.Bounds("R"), (std::pair<double, double>{12.6 * 1e-3, 1e3}));
   EXPECT_EQ(config.identification.observe, (std::vector<std::string>{"i", "w"}));
   EXPECT_EQ(config.identification.method, "ceres");
   EXPECT_EQ(config.experiment.SampleTimes().size(), 10001u);
@@ -294,10 +296,10 @@ TEST(Config, GaneshLoad1AndPid) {
   EXPECT_EQ(pid.experiment.duration, 1.5);
   EXPECT_EQ(pid.experiment.sample_rate, 2000.0);
   EXPECT_EQ(pid.identification.method, "");  // the tool's default
-  // No "initial": the parameter values; no "bounds": the documented defaults.
+  // No "initial": the parameter values; no "bounds": three decades either side of them.
   EXPECT_FALSE(pid.identification.initial.Has("J"));
-  EXPECT_EQ(pid.Bounds("J"), (std::pair<double, double>{1e-9, 10.0}));
-  EXPECT_EQ(pid.Bounds("B"), (std::pair<double, double>{1e-10, 10.0}));
+  EXPECT_EQ(pid.Bounds("J"), (std::pair<double, double>{2.26e-5 * 1e-3, 2.26e-5 * 1e3}));
+  EXPECT_EQ(pid.Bounds("B"), (std::pair<double, double>{2.261e-5 * 1e-3, 2.261e-5 * 1e3}));
 }
 
 TEST(Config, DefaultsEffectsAndInputs) {
@@ -424,9 +426,9 @@ TEST(ConfigErrors, UnknownKeysSuggestTheNearest) {
 
 TEST(ConfigErrors, MissingOrUnknownModel) {
   EXPECT_EQ(ConfigError(Base("  \"model\": \"dc_servo\",\n", "")),
-            "config.json:1:1: missing \"model\" (one of: blmd, dc_servo)");
+            "config.json:1:1: missing \"model\" (one of: blmd, dc_servo, rigid_load)");
   EXPECT_EQ(ConfigError(Base("\"dc_servo\"", "\"dc_motor\"")),
-            "config.json:2:3: unknown model 'dc_motor' (valid: blmd, dc_servo)");
+            "config.json:2:3: unknown model 'dc_motor' (valid: blmd, dc_servo, rigid_load)");
 }
 
 TEST(ConfigErrors, WrongTypes) {

@@ -76,8 +76,12 @@ ResidualAnalysis AnalyseResidual(const FitProblem& problem, const std::vector<do
     w.insert(w.end(), wk.begin(), wk.end());
     const auto& tk = simulated.Column("theta");
     theta.insert(theta.end(), tk.begin(), tk.end());
-    const auto& ik = simulated.Column("i");
-    current.insert(current.end(), ik.begin(), ik.end());
+    if (simulated.Has("i")) {
+      const auto& ik = simulated.Column("i");
+      current.insert(current.end(), ik.begin(), ik.end());
+    } else {
+      current.insert(current.end(), wk.size(), 0.0);  // rigid_load: no current
+    }
   }
   for (double v : w) analysis.w_max = std::max(analysis.w_max, std::abs(v));
   for (double v : current) analysis.i_max = std::max(analysis.i_max, std::abs(v));

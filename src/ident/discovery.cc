@@ -52,6 +52,7 @@ double TorqueScale(const FitProblem& problem, const ResidualAnalysis& analysis) 
   double per_amp = 1.0;
   if (model == "dc_servo") per_amp = p.Get("Kt");
   if (model == "blmd") per_amp = 1.5 * p.Get("Ke");
+  if (model == "rigid_load") return std::max(p.Get("Kt") * analysis.u_max, 1e-12);  // u drives
   return std::max(per_amp * analysis.i_max, 1e-12);
 }
 
@@ -311,63 +312,68 @@ CandidateRun ScreenCandidate(const FitProblem& base, const std::vector<double>& 
   }
   std::vector<std::map<std::string, double>> alternatives = plan.fixed_alternatives;
   if (alternatives.empty()) alternatives.push_back({});
-  double best_cost = std::numeric_limits<double>::infinity();
-  std::vector<double> best_start;
-  std::map<std::string, double> best_fixed;
-  // Best start per alternative (cogging: per order).
-  std::vector<std::pair<double, std::size_t>> per_alternative;
-  std::vector<std::vector<double>> alternative_start(alternatives.size());
+  // Scan: every start point of every alternative, the other parameters held.
+  struct Scanned {
+    double cost;
+    std::size_t alternative;
+    std::vector<double> start;
+  };
+  std::vector<Scanned> scanned;
   for (std::size_t a = 0; a < alternatives.size(); ++a) {
-    double alternative_best = std::numeric_limits<double>::infinity();
     std::vector<std::vector<double>> starts = plan.starts;
     if (a < plan.alternative_starts.size()) {
       starts.insert(starts.begin(), plan.alternative_starts[a].begin(), plan.alternative_starts[a].end());
     }
+    Scanned best_of_alternative{std::numeric_limits<double>::infinity(), a, {}};
+    std::vector<Scanned> of_alternative;
     for (const auto& start : starts) {
       Config config;
       std::vector<FreeParameter> free;
       const FitProblem problem = CandidateProblem(base, base_values, plan, start, alternatives[a], &config, &free);
       const Evaluation evaluation = problem.Evaluate(problem.InitialValues());
-      if (evaluation.ok && evaluation.cost < alternative_best) {
-        alternative_best = evaluation.cost;
-        alternative_start[a] = start;
-      }
+      if (evaluation.ok) of_alternative.push_back({evaluation.cost, a, start});
     }
-    if (std::isfinite(alternative_best)) per_alternative.emplace_back(alternative_best, a);
-    if (alternative_best < best_cost) {
-      best_cost = alternative_best;
-      best_start = alternative_start[a];
-      best_fixed = alternatives[a];
-    }
+    // With several alternatives (cogging orders) only each one's best start competes.
+    std::stable_sort(of_alternative.begin(), of_alternative.end(),
+                     [](const Scanned& l, const Scanned& r) { return l.cost < r.cost; });
+    const std::size_t keep = alternatives.size() > 1 ? 1 : 2;
+    for (std::size_t k = 0; k < of_alternative.size() && k < keep; ++k) scanned.push_back(of_alternative[k]);
   }
-  if (best_start.empty()) {
+  if (scanned.empty()) {
     run.outcome.reason = "every start point failed to simulate";
     return run;
   }
-  if (alternatives.size() > 1) {
-    // A coarse scan cannot rank strongly non-linear alternatives reliably: the five best
-    // get a short local search (BOBYQA, all free parameters) before one is chosen.
-    std::stable_sort(per_alternative.begin(), per_alternative.end());
-    if (per_alternative.size() > 5) per_alternative.resize(5);
-    best_cost = std::numeric_limits<double>::infinity();
-    for (const auto& [cost, a] : per_alternative) {
-      Config config;
-      std::vector<FreeParameter> free;
-      const FitProblem problem =
-          CandidateProblem(base, base_values, plan, alternative_start[a], alternatives[a], &config, &free);
-      internal::CountingCost counting(problem);
-      const internal::LocalResult local = internal::NloptLocal(
-          counting, "bobyqa", problem.ToScaled(problem.InitialValues()), 0.05, 40, 1e-6, 1e-6);
-      if (local.cost < best_cost) {
-        best_cost = local.cost;
-        best_fixed = alternatives[a];
-        const std::vector<double> values = problem.FromScaled(local.scaled);
-        best_start.assign(values.begin() + static_cast<long>(base.num_free()), values.end());
-      }
+  // The scan holds J and B at values that absorbed the missing effect, so its ranking is
+  // rough: the best few (five alternatives, or the two best starts) each get a short local
+  // search on all free parameters (BOBYQA), and the best of those is screened.
+  std::stable_sort(scanned.begin(), scanned.end(),
+                   [](const Scanned& l, const Scanned& r) { return l.cost < r.cost; });
+  if (scanned.size() > 5) scanned.resize(5);
+  double best_cost = std::numeric_limits<double>::infinity();
+  std::vector<double> best_values;
+  std::map<std::string, double> best_fixed;
+  for (const auto& candidate : scanned) {
+    Config config;
+    std::vector<FreeParameter> free;
+    const FitProblem problem = CandidateProblem(base, base_values, plan, candidate.start,
+                                                alternatives[candidate.alternative], &config, &free);
+    internal::CountingCost counting(problem);
+    const internal::LocalResult local = internal::NloptLocal(
+        counting, "bobyqa", problem.ToScaled(problem.InitialValues()), 0.05, 40, 1e-6, 1e-6);
+    if (local.cost < best_cost) {
+      best_cost = local.cost;
+      best_fixed = alternatives[candidate.alternative];
+      best_values = problem.FromScaled(local.scaled);
     }
   }
+  if (best_values.empty()) {
+    run.outcome.reason = "the local searches of the scan's best points failed";
+    return run;
+  }
+  const std::vector<double> searched_base(best_values.begin(), best_values.begin() + static_cast<long>(base.num_free()));
+  const std::vector<double> best_start(best_values.begin() + static_cast<long>(base.num_free()), best_values.end());
   const FitProblem problem =
-      CandidateProblem(base, base_values, plan, best_start, best_fixed, &run.config, &run.free);
+      CandidateProblem(base, searched_base, plan, best_start, best_fixed, &run.config, &run.free);
   const Evaluation at_start = problem.Evaluate(problem.InitialValues());
   const auto [values, evaluation] = OneStepGaussNewton(problem, problem.InitialValues(), at_start);
   run.fixed = best_fixed;

@@ -375,7 +375,7 @@ Config ParseConfig(const std::string& text, const std::string& path) {
   if (root.contains("description")) reader.String(root["description"], "/description");
   if (root.contains("notes")) config.notes = root["notes"];
   if (!root.contains("model")) {
-    reader.Fail("", "missing \"model\" (one of: blmd, dc_servo)");
+    reader.Fail("", "missing \"model\" (one of: blmd, dc_servo, rigid_load)");
   }
   const std::string model_name = reader.String(root["model"], "/model");
   try {
@@ -546,8 +546,9 @@ Config ParseConfig(const std::string& text, const std::string& path) {
   // Identification.
   IdentificationSettings& ident = config.identification;
   ident.free = {"J", "B"};
-  ident.observe = model_name == "blmd" ? std::vector<std::string>{"i"}
-                                       : std::vector<std::string>{"i", "w"};
+  ident.observe = model_name == "blmd"         ? std::vector<std::string>{"i"}
+                  : model_name == "rigid_load" ? std::vector<std::string>{"w"}
+                                               : std::vector<std::string>{"i", "w"};
   if (root.contains("identification")) {
     const json& id = root["identification"];
     reader.RequireObject(id, "/identification");
@@ -645,6 +646,17 @@ std::pair<double, double> Config::Bounds(const std::string& parameter) const {
   const auto it = identification.bounds.find(parameter);
   if (it != identification.bounds.end()) return it->second;
   if (const ParamInfo* info = FindParameterInfo(parameter)) {
+    // A positive scale parameter without explicit bounds is searched over three decades
+    // either side of its start value (within the model's wide default range): the defaults
+    // must serve a 20 g rotor and a 100 kg axis alike, and a search box of 20 decades would
+    // make every step of a scaled-coordinate search a leap of decades.
+    if (info->positive) {
+      const double start = identification.initial.Has(parameter) ? identification.initial.Get(parameter)
+                                                                 : parameters.GetOr(parameter, 0.0);
+      if (start > 0.0) {
+        return {std::max(info->default_lower, start * 1e-3), std::min(info->default_upper, start * 1e3)};
+      }
+    }
     return {info->default_lower, info->default_upper};
   }
   return {-1e300, 1e300};

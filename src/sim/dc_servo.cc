@@ -1,11 +1,11 @@
 #include "blmd/sim/dc_servo.h"
 
 #include <Eigen/Dense>
-#include <unsupported/Eigen/MatrixFunctions>
 #include <array>
 #include <cmath>
 
 #include "blmd/sim/effects.h"
+#include "sim/discretise.h"
 #include "sim/sampler.h"
 
 namespace blmd {
@@ -24,17 +24,6 @@ ParamInfo P(const char* name, const char* unit, const char* meaning, double lo, 
 
 double Sign(double x) { return x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : 0.0); }
 
-// Exact zero-order-hold discretisation: x+ = Ad x + Bd [inputs], from expm([[A,B],[0,0]] dt).
-template <int N, int M>
-void Discretise(const Eigen::Matrix<double, N, N>& A, const Eigen::Matrix<double, N, M>& B,
-                double dt, Eigen::Matrix<double, N, N>* Ad, Eigen::Matrix<double, N, M>* Bd) {
-  Eigen::Matrix<double, N + M, N + M> augmented = Eigen::Matrix<double, N + M, N + M>::Zero();
-  augmented.template topLeftCorner<N, N>() = A * dt;
-  augmented.template topRightCorner<N, M>() = B * dt;
-  const Eigen::Matrix<double, N + M, N + M> expm = augmented.exp();
-  *Ad = expm.template topLeftCorner<N, N>();
-  *Bd = expm.template topRightCorner<N, M>();
-}
 
 }  // namespace
 
@@ -79,19 +68,19 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
   Bm << 1.0 / L, 0.0, 0.0, -1.0 / J, 0.0, 0.0;
   Eigen::Matrix3d Ad;
   Eigen::Matrix<double, 3, 2> Bd;
-  Discretise<3, 2>(A, Bm, dt, &Ad, &Bd);
+  internal::Discretise<3, 2>(A, Bm, dt, &Ad, &Bd);
   // Shaft stuck (w = 0): the armature alone, x = [i], input u_eff.
   Eigen::Matrix<double, 1, 1> As, Ads;
   Eigen::Matrix<double, 1, 1> Bs, Bds;
   As << -R / L;
   Bs << 1.0 / L;
-  Discretise<1, 1>(As, Bs, dt, &Ads, &Bds);
+  internal::Discretise<1, 1>(As, Bs, dt, &Ads, &Bds);
   // Armature open (i = 0): x = [w, theta], input T_effects.
   Eigen::Matrix2d Ao, Ado;
   Eigen::Matrix<double, 2, 1> Bo, Bdo;
   Ao << -B / J, 0.0, 1.0, 0.0;
   Bo << -1.0 / J, 0.0;
-  Discretise<2, 1>(Ao, Bo, dt, &Ado, &Bdo);
+  internal::Discretise<2, 1>(Ao, Bo, dt, &Ado, &Bdo);
 
   const bool closed_loop = experiment.closed_loop;
   const PidSettings& pid = experiment.pid;

@@ -36,7 +36,7 @@ std::vector<EffectInfo> MakeRegistry() {
       {"current_offset",
        {P("i0", "A", "current sensor offset", false, false, -10.0, 10.0)},
        "i_measured = i + i0",
-       {"blmd", "dc_servo", "rigid_load"}},
+       {"blmd", "dc_servo"}},
       {"dead_time",
        {P("Vdt", "V", "drive voltage lost to inverter blanking", false, true, 0.0, 50.0)},
        "u_eff = u - Vdt sign(i)",

@@ -5,6 +5,7 @@
 #include "blmd/error.h"
 #include "blmd/sim/blmd_drive.h"
 #include "blmd/sim/dc_servo.h"
+#include "blmd/sim/rigid_load.h"
 
 namespace blmd {
 
@@ -30,7 +31,8 @@ const ParamInfo* Model::FindParameter(std::string_view name) const {
 const std::vector<const Model*>& ModelRegistry() {
   static const DcServoModel dc_servo;
   static const BlmdDriveModel blmd_drive;
-  static const std::vector<const Model*> registry = {&blmd_drive, &dc_servo};
+  static const RigidLoadModel rigid_load;
+  static const std::vector<const Model*> registry = {&blmd_drive, &dc_servo, &rigid_load};
   return registry;
 }
 
