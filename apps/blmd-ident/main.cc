@@ -10,12 +10,14 @@
 #include "blmd/io/config.h"
 #include "blmd/io/files.h"
 #include "blmd/io/flags.h"
+#include "blmd/io/html_report.h"
 #include "blmd/sim/effects.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"blmd-ident: identify J, B (and any other free parameter) from a recorded trace"};
   blmd::app::AddVersionFlag(app, "blmd-ident");
   std::string config_path, method, observe_text, free_text, report_path, initial_state = "config";
+  std::string html_path;
   std::vector<std::string> traces, validates, columns, scales, derives, method_options, initials;
   std::uint64_t seed = 1;
   int threads = 0, max_evaluations = 0;
@@ -43,6 +45,7 @@ int main(int argc, char** argv) {
   app.add_option("--candidates", candidates_text, "discovery: effects to consider, e.g. coulomb_friction,load_torque");
   app.add_option("--report", report_path, "write the JSON report here");
   app.add_flag("--json", json, "print the JSON report on stdout instead of the summary");
+  app.add_option("--html", html_path, "write the visual report (one self-contained HTML file) here");
   app.add_option("--column", columns, "map a standard column to a header, NAME=HEADER (repeatable)");
   app.add_option("--scale", scales, "multiply a column, NAME=FACTOR (repeatable)");
   app.add_option("--derive", derives, "derive a velocity from a position, e.g. w=theta");
@@ -114,7 +117,7 @@ int main(int argc, char** argv) {
     for (const auto& path : validates) {
       validation_traces.push_back(blmd::LoadFitTrace(path, input_options, config.experiment.initial));
     }
-    if (!report_path.empty()) blmd::InstallCleanupOnSignal();
+    if (!report_path.empty() || !html_path.empty()) blmd::InstallCleanupOnSignal();
 
     const blmd::FitProblem problem(config, std::move(fit_traces), observe, free);
     std::unique_ptr<blmd::FitProblem> validation;
@@ -136,6 +139,7 @@ int main(int argc, char** argv) {
     inputs.seed = seed;
     inputs.threads = threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
     nlohmann::json report = blmd::MakeReport(inputs);
+    std::unique_ptr<blmd::DiscoveryResult> discovery_for_html;
     if (discover) {
       blmd::DiscoveryOptions discovery_options;
       discovery_options.bic_margin = bic_margin;
@@ -144,6 +148,7 @@ int main(int argc, char** argv) {
       discovery_options.refit.seed = seed;
       if (!candidates_text.empty()) discovery_options.candidates = candidate_names;
       const blmd::DiscoveryResult discovery = blmd::Discover(problem, result, discovery_options);
+      if (!html_path.empty()) discovery_for_html = std::make_unique<blmd::DiscoveryResult>(discovery);
       std::unique_ptr<blmd::FitProblem> validation_after;
       if (validation) {
         validation_after = std::make_unique<blmd::FitProblem>(
@@ -158,11 +163,17 @@ int main(int argc, char** argv) {
                                                 validation_after.get());
     }
     if (!report_path.empty()) blmd::WriteFileAtomically(report_path, report.dump(2) + "\n");
+    if (!html_path.empty()) {
+      blmd::HtmlReportOptions html_options;
+      html_options.threads = threads;
+      blmd::WriteHtmlReport(html_path, {&report, &problem, &result, discovery_for_html.get()}, html_options);
+    }
     if (json) {
       std::cout << report.dump(2) << "\n";
     } else if (!quiet) {
       std::cout << blmd::HumanSummary(report);
       if (!report_path.empty()) std::cout << "report: " << report_path << "\n";
+      if (!html_path.empty()) std::cout << "html report: " << html_path << "\n";
     }
     if (!result.summary.converged) {
       std::cerr << "error: the fit did not converge: " << result.summary.termination << "\n";

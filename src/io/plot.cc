@@ -1276,6 +1276,34 @@ std::string SurfaceSvg(const std::vector<GridAxis>& axes, const std::vector<Surf
 
 // ---- line plots ------------------------------------------------------------------------
 
+// The samples [*begin, *end) of a series worth drawing on the x range [low, high]: all of
+// them, or for a series whose finite x never decreases, those inside the range and one
+// neighbour on each side (so the line leaves the frame where the data does).
+void SamplesInRange(const std::vector<double>& x, std::size_t n, double low, double high,
+                    std::size_t* begin, std::size_t* end) {
+  *begin = 0;
+  *end = n;
+  double previous = -std::numeric_limits<double>::infinity();
+  std::size_t first_inside = n, last_inside = n;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!std::isfinite(x[i])) continue;
+    if (x[i] < previous) return;  // not monotonic: everything
+    previous = x[i];
+    if (x[i] >= low && x[i] <= high) {
+      if (first_inside == n) first_inside = i;
+      last_inside = i;
+    }
+  }
+  if (first_inside == n) return;  // nothing inside: let the clip path decide
+  *begin = first_inside > 0 ? first_inside - 1 : 0;
+  *end = std::min(n, last_inside + 2);
+}
+
+bool FiniteBand(const Band& band, bool log) {
+  return std::isfinite(band.low) && std::isfinite(band.high) && band.low <= band.high &&
+         (!log || band.low > 0);
+}
+
 std::string LinePlotSvg(const LinePlotOptions& options, const std::vector<Series>& series) {
   const int W = std::max(240, options.width), H = std::max(160, options.height);
   auto usable_x = [&](double v) { return std::isfinite(v) && (!options.x_log || v > 0); };
@@ -1299,6 +1327,15 @@ std::string LinePlotSvg(const LinePlotOptions& options, const std::vector<Series
     }
   }
   const bool has_data = x_lo <= x_hi;
+  for (const auto& band : options.bands) {
+    if (!has_data || !FiniteBand(band, band.vertical ? options.x_log : options.y_log)) continue;
+    double& lo = band.vertical ? x_lo : y_lo;
+    double& hi = band.vertical ? x_hi : y_hi;
+    lo = std::min(lo, band.low);
+    hi = std::max(hi, band.high);
+    fingerprint.Add(band.low);
+    fingerprint.Add(band.high);
+  }
   if (!has_data) {
     x_lo = options.x_log ? 1.0 : 0.0;
     x_hi = options.x_log ? 10.0 : 1.0;
@@ -1350,6 +1387,22 @@ std::string LinePlotSvg(const LinePlotOptions& options, const std::vector<Series
     }
     legend.push_back({symbol, s.label});
   }
+  for (const auto& band : options.bands) {
+    if (band.label.empty()) continue;
+    const std::string colour = Escape(band.colour);
+    if (band.low == band.high) {
+      legend.push_back({"<line x1=\"-11\" y1=\"0\" x2=\"11\" y2=\"0\" stroke=\"" + colour +
+                            "\" stroke-width=\"1.5\"" +
+                            (band.dash.empty() ? "" : " stroke-dasharray=\"" + Escape(band.dash) + "\"") +
+                            "/>",
+                        band.label});
+    } else {
+      legend.push_back({"<rect x=\"-10\" y=\"-6\" width=\"20\" height=\"12\" fill=\"" + colour +
+                            "\" fill-opacity=\"" + Num(std::clamp(band.opacity, 0.05, 1.0), 3) +
+                            "\" stroke=\"" + colour + "\" stroke-width=\"0.6\"/>",
+                        band.label});
+    }
+  }
   const int legend_rows = LegendRows(legend, W - 20.0);
 
   const double top = (options.title.empty() ? 14 : 40) + 16.0 * legend_rows + (legend_rows ? 6 : 0);
@@ -1377,18 +1430,55 @@ std::string LinePlotSvg(const LinePlotOptions& options, const std::vector<Series
   DrawAxis(out, Side::kLeft, ys, y_ticks, left, left, right);
 
   out += "<g clip-path=\"url(#" + prefix + "-clip)\">\n";
+  for (const auto& band : options.bands) {
+    const bool log = band.vertical ? options.x_log : options.y_log;
+    if (!FiniteBand(band, log)) continue;
+    const Scale& scale = band.vertical ? xs : ys;
+    const double a = std::clamp(scale(band.low), -1e5, 1e5),
+                 b = std::clamp(scale(band.high), -1e5, 1e5);
+    const std::string colour = Escape(band.colour);
+    if (band.low == band.high) {
+      out += "<line class=\"reference-line\" " +
+             (band.vertical ? "x1=\"" + Num(a) + "\" y1=\"" + Num(top) + "\" x2=\"" + Num(a) +
+                                  "\" y2=\"" + Num(bottom) + "\""
+                            : "x1=\"" + Num(left) + "\" y1=\"" + Num(a) + "\" x2=\"" + Num(right) +
+                                  "\" y2=\"" + Num(a) + "\"") +
+             " stroke=\"" + colour + "\" stroke-width=\"1.5\"" +
+             (band.dash.empty() ? "" : " stroke-dasharray=\"" + Escape(band.dash) + "\"") + "/>\n";
+      continue;
+    }
+    double lo = std::min(a, b), extent = std::abs(b - a);
+    if (extent < 1.0) {  // at least one pixel, centred
+      lo -= (1.0 - extent) / 2;
+      extent = 1.0;
+    }
+    out += "<rect class=\"band\" " +
+           (band.vertical ? "x=\"" + Num(lo) + "\" y=\"" + Num(top) + "\" width=\"" + Num(extent) +
+                                "\" height=\"" + Num(bottom - top) + "\""
+                          : "x=\"" + Num(left) + "\" y=\"" + Num(lo) + "\" width=\"" +
+                                Num(right - left) + "\" height=\"" + Num(extent) + "\"") +
+           " fill=\"" + colour + "\" fill-opacity=\"" + Num(std::clamp(band.opacity, 0.05, 1.0), 3) +
+           "\"/>\n";
+  }
   const double columns = right - left;
   for (std::size_t k = 0; k < series.size(); ++k) {
     const Series& s = series[k];
     const std::size_t n = std::min(s.x.size(), s.y.size());
+    std::size_t begin = 0, end = n;
+    SamplesInRange(s.x, n, x_lo, x_hi, &begin, &end);
     std::vector<std::size_t> kept;
-    if (static_cast<double>(n) > 4 * columns) {
-      kept = internal::DecimateMinMax(s.x, s.y, [&](double x) {
-        return options.x_log && !(x > 0) ? std::numeric_limits<double>::quiet_NaN() : xs(x) - left;
+    if (static_cast<double>(end - begin) > 4 * columns) {
+      const std::vector<double> x(s.x.begin() + static_cast<std::ptrdiff_t>(begin),
+                                  s.x.begin() + static_cast<std::ptrdiff_t>(end));
+      const std::vector<double> y(s.y.begin() + static_cast<std::ptrdiff_t>(begin),
+                                  s.y.begin() + static_cast<std::ptrdiff_t>(end));
+      kept = internal::DecimateMinMax(x, y, [&](double v) {
+        return options.x_log && !(v > 0) ? std::numeric_limits<double>::quiet_NaN() : xs(v) - left;
       });
+      for (std::size_t& i : kept) i += begin;
     } else {
-      kept.resize(n);
-      for (std::size_t i = 0; i < n; ++i) kept[i] = i;
+      kept.resize(end - begin);
+      for (std::size_t i = begin; i < end; ++i) kept[i - begin] = i;
     }
     std::string d;
     bool pen_down = false;

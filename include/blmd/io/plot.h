@@ -55,6 +55,18 @@ struct Series {
   double marker_radius = 0.0;  // px; > 0: a dot at every drawn sample
 };
 
+// A shaded band or a reference line across a LinePlotSvg, drawn under the series (e.g. the
+// 95 % band of an autocorrelation, a confidence interval, the estimate). Its limits count in
+// the axis range taken from the data, so it is always in view.
+struct Band {
+  std::string label;             // legend text; empty: not listed in the legend
+  bool vertical = false;         // false: y in [low, high] across the plot; true: x in [low, high]
+  double low = 0.0, high = 0.0;  // data units; low == high: a line; non-finite: not drawn
+  std::string colour = "#999999";
+  double opacity = 0.25;  // fill opacity of a band (a line is opaque); a band is at least 1 px
+  std::string dash;       // stroke-dasharray of a line, e.g. "5 3"; empty: solid
+};
+
 struct LinePlotOptions {
   std::string title;
   std::string x_label, x_unit;  // the axis reads "x_label (x_unit)"
@@ -67,6 +79,7 @@ struct LinePlotOptions {
   double y_max = std::numeric_limits<double>::quiet_NaN();
   int width = 720, height = 400;  // px
   std::string id_prefix;          // as SurfacePlotOptions::id_prefix
+  std::vector<Band> bands;        // shaded bands and reference lines, listed after the series
 };
 
 // Lines over shared axes with "nice" ticks (1-2-5 steps; decades on log axes), axis labels
@@ -75,7 +88,9 @@ struct LinePlotOptions {
 // in one column only the first, last, lowest and highest are drawn (and the first
 // non-finite one, so gaps stay visible). Spikes therefore survive and the SVG size is
 // bounded by the plot width, not by the series length (1e6 samples give ~60 kB).
-// Decimation applies only to series whose finite x values are non-decreasing.
+// Decimation applies only to series whose finite x values are non-decreasing. Samples of a
+// monotonic series outside a given x range are not drawn (but for one on each side, so the
+// line leaves the frame where the data does): a detail of a long trace stays small.
 std::string LinePlotSvg(const LinePlotOptions& options, const std::vector<Series>& series);
 
 }  // namespace blmd

@@ -1,0 +1,930 @@
+// The HTML report (docs/report.md). Every plot is a LinePlotSvg inlined in the page; the
+// page's only styling is the <style> block below. Nothing is fetched and nothing runs.
+#include "blmd/io/html_report.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+#include <thread>
+
+#include "blmd/io/files.h"
+#include "blmd/io/plot.h"
+#include "blmd/version.h"
+
+namespace blmd {
+namespace {
+
+using nlohmann::json;
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// Colours (Okabe-Ito, see docs/report.md): the measurement is a light grey under the
+// simulations; the fit is blue and solid, the model after discovery vermilion and dashed,
+// so the two differ in greyscale too.
+constexpr const char* kMeasuredColour = "#9a9a9a";
+constexpr const char* kFitColour = "#0072b2";
+constexpr const char* kAfterColour = "#d55e00";
+constexpr const char* kAfterDash = "7 4";
+constexpr const char* kBandColour = "#7f7f7f";
+
+// ---- text ------------------------------------------------------------------------------
+
+std::string Escape(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  for (char c : text) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      case '\'': out += "&#39;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+// `digits` significant digits: plain from 1e-3 to 1e6, else with a compact exponent
+// ("2.2613e-5"); "n/a" when not finite.
+std::string G(double v, int digits = 5) {
+  if (!std::isfinite(v)) return "n/a";
+  char buffer[64];
+  const double a = std::abs(v);
+  const bool exponent_form = a != 0.0 && (a < 1e-3 || a >= 1e6);
+  std::snprintf(buffer, sizeof buffer, exponent_form ? "%.*e" : "%.*g",
+                exponent_form ? digits - 1 : digits, v);
+  std::string text = buffer;
+  const auto e = text.find('e');
+  if (e == std::string::npos) return text;
+  std::string mantissa = text.substr(0, e);
+  if (mantissa.find('.') != std::string::npos) {
+    while (mantissa.back() == '0') mantissa.pop_back();
+    if (mantissa.back() == '.') mantissa.pop_back();
+  }
+  return mantissa + "e" + std::to_string(std::atoi(text.c_str() + e + 1));
+}
+
+std::string G(const json& v, int digits = 5) {
+  return v.is_number() ? G(v.get<double>(), digits) : std::string("n/a");
+}
+
+std::string Text(const json& v) {
+  if (v.is_string()) return v.get<std::string>();
+  if (v.is_number_float()) return G(v.get<double>(), 6);
+  if (v.is_null()) return "n/a";
+  if (v.is_object()) {  // {"i": 0.025, "w": 7.9} -> "i 0.025, w 7.9"
+    std::string out;
+    for (const auto& [key, value] : v.items()) out += (out.empty() ? "" : ", ") + key + " " + Text(value);
+    return out;
+  }
+  return v.dump();
+}
+
+const json& Member(const json& object, const char* key) {
+  static const json kNull;
+  return object.is_object() && object.contains(key) ? object.at(key) : kNull;
+}
+
+std::string NowUtc() {
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char buffer[64];
+  std::strftime(buffer, sizeof buffer, "%Y-%m-%d %H:%M UTC", &utc);
+  return buffer;
+}
+
+// ---- columns ---------------------------------------------------------------------------
+
+struct ColumnInfo {
+  std::string quantity, unit;
+};
+
+ColumnInfo DescribeColumn(const std::string& column, const std::string& model) {
+  if (column == "i" || column == "ib" || column == "ic") return {"current " + column, "A"};
+  if (column == "w") return {"speed w", "rad/s"};
+  if (column == "theta") return {"angle theta", "rad"};
+  if (column == "u") return {"input u", model == "rigid_load" ? "N·m" : "V"};
+  return {column, ""};
+}
+
+std::string ParameterUnit(const Config& config, const std::string& name) {
+  const ParamInfo* info = config.FindParameterInfo(name);
+  return info ? info->unit : std::string();
+}
+
+// ---- page pieces -----------------------------------------------------------------------
+
+constexpr const char* kStyle = R"css(
+:root { color-scheme: light; }
+body { font-family: sans-serif; color: #222; background: #fff; margin: 0 auto;
+       max-width: 1260px; padding: 14px 22px 40px; line-height: 1.4; }
+h1 { font-size: 1.55rem; margin: .4rem 0 .6rem; }
+h2 { font-size: 1.2rem; margin: 2rem 0 .6rem; padding-bottom: .2rem; border-bottom: 1px solid #bbb; }
+h3 { font-size: 1rem; margin: 1.2rem 0 .5rem; }
+p.note { color: #444; font-size: .9rem; max-width: 60rem; }
+table { border-collapse: collapse; font-size: .88rem; margin: .4rem 0 .8rem; }
+th, td { border-bottom: 1px solid #ddd; padding: .22rem .6rem; text-align: left; vertical-align: top; }
+th { background: #f3f3f3; font-weight: 600; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
+table.meta th { background: none; width: 9rem; }
+code { font-size: .85rem; word-break: break-all; }
+.cards { display: flex; flex-wrap: wrap; gap: .7rem; margin: .6rem 0; }
+.card { border: 1px solid #ccc; border-radius: 6px; padding: .45rem .8rem; min-width: 10rem; }
+.card .label { font-size: .8rem; color: #555; }
+.card .value { font-size: 1.35rem; font-weight: bold; }
+.card .sub { font-size: .8rem; color: #555; }
+.warn { border-left: 4px solid #d55e00; padding-left: .6rem; }
+.grid { display: grid; grid-template-columns: repeat(auto-fill, minmax(540px, 1fr)); gap: 14px; }
+figure.plot { margin: 0; border: 1px solid #e0e0e0; border-radius: 4px; padding: 6px 6px 4px;
+              position: relative; background: #fff; }
+figure.plot svg { display: block; width: 100%; height: auto; }
+figcaption { font-size: .82rem; color: #444; margin: .25rem .2rem 0; }
+a.zoom, a.close { position: absolute; top: 5px; right: 8px; font-size: .78rem; color: #0b5394;
+                  background: #fff; padding: 0 .25rem; }
+a.close { display: none; }
+figure.plot:target { position: fixed; inset: 0; z-index: 10; margin: 0; border: 0; border-radius: 0;
+                     padding: 2rem 1.2rem 1rem; overflow: auto; }
+figure.plot:target svg { width: 100%; height: calc(100vh - 5.5rem); }
+figure.plot:target a.zoom { display: none; }
+figure.plot:target a.close { display: block; font-size: 1rem; }
+details { margin: .3rem 0 .8rem; }
+summary { cursor: pointer; color: #0b5394; }
+footer { margin-top: 2.5rem; font-size: .8rem; color: #555; border-top: 1px solid #ddd; padding-top: .5rem; }
+@media print { a.zoom { display: none; } .grid { grid-template-columns: 1fr; } }
+)css";
+
+class Page {
+ public:
+  explicit Page(const HtmlReportOptions& options) : options_(options) {}
+  std::string& html() { return html_; }
+  const HtmlReportOptions& options() const { return options_; }
+
+  void Section(const std::string& id, const std::string& title) {
+    section_ = id;
+    html_ += "<section id=\"" + id + "\">\n<h2>" + Escape(title) + "</h2>\n";
+  }
+  void EndSection() { html_ += "</section>\n"; }
+
+  // A figure: the plot, a caption, an "enlarge" link to itself and a "close" link back.
+  void Figure(const std::string& kind, const std::string& attributes, const std::string& svg,
+              const std::string& caption_html) {
+    const std::string id = "fig-" + std::to_string(++figures_);
+    html_ += "<figure class=\"plot\" id=\"" + id + "\" data-kind=\"" + kind + "\"" + attributes +
+             ">\n<a class=\"zoom\" href=\"#" + id + "\">enlarge</a><a class=\"close\" href=\"#" +
+             section_ + "\">close</a>\n" + svg + "<figcaption><b>Figure " +
+             std::to_string(figures_) + ".</b> " + caption_html + "</figcaption>\n</figure>\n";
+  }
+  // id_prefix of the next figure's SVG (unique on the page).
+  std::string NextPrefix() const { return "f" + std::to_string(figures_ + 1); }
+
+ private:
+  const HtmlReportOptions& options_;
+  std::string html_;
+  std::string section_;
+  int figures_ = 0;
+};
+
+std::string Row(const std::vector<std::string>& cells_html, const std::string& row_attributes = "",
+                const std::vector<bool>& numeric = {}) {
+  std::string out = "<tr" + row_attributes + ">";
+  for (std::size_t k = 0; k < cells_html.size(); ++k) {
+    const bool num = k < numeric.size() && numeric[k];
+    out += num ? "<td class=\"num\">" : "<td>";
+    out += cells_html[k] + "</td>";
+  }
+  return out + "</tr>\n";
+}
+
+std::string HeaderRow(const std::vector<std::string>& names) {
+  std::string out = "<tr>";
+  for (const auto& name : names) out += "<th>" + Escape(name) + "</th>";
+  return out + "</tr>\n";
+}
+
+std::string Card(const std::string& label, const std::string& value, const std::string& sub,
+                 bool warn = false) {
+  return std::string("<div class=\"card") + (warn ? " warn" : "") + "\"><div class=\"label\">" +
+         Escape(label) + "</div><div class=\"value\">" + Escape(value) + "</div><div class=\"sub\">" +
+         Escape(sub) + "</div></div>\n";
+}
+
+// ---- data ------------------------------------------------------------------------------
+
+// The simulated traces of one model: one per trace of the problem, or a failure reason.
+struct Simulation {
+  bool ok = false;
+  std::string reason;
+  std::vector<Trace> traces;
+};
+
+Simulation SimulateAll(const FitProblem& problem, const std::vector<double>& values) {
+  Simulation simulation;
+  simulation.traces.resize(problem.traces().size());
+  for (std::size_t k = 0; k < problem.traces().size(); ++k) {
+    const SimStatus status = problem.Simulate(k, values, &simulation.traces[k]);
+    if (!status.ok()) {
+      simulation.reason = status.message;
+      simulation.traces.clear();
+      return simulation;
+    }
+  }
+  simulation.ok = true;
+  return simulation;
+}
+
+std::vector<double> Slice(const std::vector<double>& v, std::size_t begin, std::size_t end) {
+  begin = std::min(begin, v.size());
+  end = std::min(std::max(begin, end), v.size());
+  return std::vector<double>(v.begin() + static_cast<std::ptrdiff_t>(begin),
+                             v.begin() + static_cast<std::ptrdiff_t>(end));
+}
+
+std::vector<double> Difference(const std::vector<double>& a, const std::vector<double>& b) {
+  std::vector<double> out(std::min(a.size(), b.size()));
+  for (std::size_t i = 0; i < out.size(); ++i) out[i] = a[i] - b[i];
+  return out;
+}
+
+// The model after discovery as a problem over the same traces (for its simulations and
+// slices); null when discovery added nothing.
+std::unique_ptr<FitProblem> AfterProblem(const FitProblem& problem, const DiscoveryResult* discovery) {
+  if (!discovery || discovery->added.empty()) return nullptr;
+  if (discovery->final_fit.values.size() != discovery->final_free.size()) return nullptr;
+  std::vector<FreeParameter> free;
+  try {
+    free = MakeFreeParameters(discovery->final_config, discovery->final_free);
+  } catch (const std::exception&) {  // a start value outside its bounds: bounds unused here
+    free.clear();
+    for (const auto& name : discovery->final_free) {
+      const auto [lower, upper] = discovery->final_config.Bounds(name);
+      free.push_back({name, lower, upper, false, 0.0});
+    }
+  }
+  return std::make_unique<FitProblem>(discovery->final_config, problem.traces(), problem.observe(),
+                                      std::move(free));
+}
+
+// ---- sections --------------------------------------------------------------------------
+
+void WriteHeader(Page& page, const json& report, const FitProblem& problem, const std::string& date) {
+  std::string& h = page.html();
+  const std::string name = Text(Member(Member(report, "config"), "name"));
+  h += "<header>\n<h1>blmd-ident report: " + Escape(name) + "</h1>\n<table class=\"meta\">\n";
+  auto meta = [&](const std::string& key, const std::string& value_html) {
+    h += "<tr><th>" + Escape(key) + "</th><td>" + value_html + "</td></tr>\n";
+  };
+  meta("model", "<code>" + Escape(Text(Member(report, "model"))) + "</code>");
+  const json& config = Member(report, "config");
+  meta("config", "<code>" + Escape(Text(Member(config, "path"))) + "</code> (" + Escape(name) + ")");
+  const json& summary = Member(report, "method_summary");
+  meta("method", "<code>" + Escape(Text(Member(report, "method"))) + "</code> — " +
+                     Escape(Text(Member(summary, "algorithm"))));
+  std::string traces_html;
+  const json& traces = Member(report, "traces");
+  for (std::size_t k = 0; k < traces.size(); ++k) {
+    const json& t = traces[k];
+    const std::string sha = Text(Member(t, "sha256"));
+    traces_html += (k ? "<br>" : "") + std::string("<code>") + Escape(Text(Member(t, "path"))) +
+                   "</code>, " + Escape(Text(Member(t, "samples"))) + " samples, sha256 <code title=\"" +
+                   Escape(sha) + "\">" + Escape(sha.substr(0, 12)) + "…</code>";
+  }
+  meta(traces.size() > 1 ? "traces" : "trace", traces_html);
+  std::string observed, free;
+  for (const auto& c : problem.observe()) observed += (observed.empty() ? "" : ", ") + c;
+  for (const auto& p : problem.free()) free += (free.empty() ? "" : ", ") + p.name;
+  meta("observed", Escape(observed));
+  meta("free", Escape(free));
+  meta("date", Escape(date));
+  meta("tool", "blmd-ident " + Escape(Text(Member(report, "version"))));
+  h += "</table>\n</header>\n";
+}
+
+void WriteKeyFigures(Page& page, const json& report) {
+  std::string& h = page.html();
+  const json& fit = Member(report, "fit");
+  const json& residual = Member(report, "residual");
+  const json& summary = Member(report, "method_summary");
+  h += "<div class=\"cards\">\n";
+  h += Card("NRMSE of the fit", G(Member(fit, "nrmse"), 4),
+            "fit " + G(Member(fit, "fit_percent"), 4) + " % (100 % = perfect)");
+  const bool white = Member(residual, "white").is_boolean() && residual["white"].get<bool>();
+  h += Card("residual", white ? "white" : "NOT white",
+            "Ljung-Box p = " + G(Member(residual, "whiteness_p"), 3), !white);
+  const bool converged = Member(summary, "converged").is_boolean() && summary["converged"].get<bool>();
+  h += Card("method", converged ? "converged" : "NOT converged",
+            Text(Member(summary, "termination")) + ", " + Text(Member(summary, "evaluations")) +
+                " evaluations, " + G(Member(summary, "wall_time_s"), 3) + " s",
+            !converged);
+  const json& discovery = Member(report, "discovery");
+  if (discovery.is_object()) {
+    h += Card("after discovery", "NRMSE " + G(Member(Member(discovery, "error_after"), "nrmse"), 4),
+              Text(Member(discovery, "conclusion")));
+  }
+  if (Member(report, "validation").is_object()) {
+    h += Card("validation", "NRMSE " + G(Member(report["validation"], "nrmse"), 4),
+              std::to_string(Member(report["validation"], "traces").size()) + " held-out trace(s)");
+  }
+  h += "</div>\n";
+  if (residual.contains("note")) h += "<p class=\"note warn\">" + Escape(Text(residual["note"])) + "</p>\n";
+}
+
+void WriteParameters(Page& page, const json& report) {
+  std::string& h = page.html();
+  page.Section("parameters", "Parameters");
+  const json& parameters = Member(report, "parameters");
+  const json& discovery = Member(report, "discovery");
+  const bool after = discovery.is_object() && !Member(discovery, "added").empty();
+  std::vector<std::string> head = {"parameter", "unit", "initial", "estimate", "std", "95 % interval",
+                                   "bounds"};
+  if (after) {
+    head.push_back("after discovery");
+    head.push_back("95 % interval after");
+  }
+  h += "<table class=\"parameters\">\n" + HeaderRow(head);
+  std::vector<std::string> names;
+  for (const auto& [name, p] : parameters.items()) names.push_back(name);
+  if (after) {
+    for (const auto& [name, value] : Member(discovery, "parameters_after").items()) {
+      if (!parameters.contains(name)) names.push_back(name);
+    }
+  }
+  for (const auto& name : names) {
+    const json& p = Member(parameters, name.c_str());
+    std::string interval = "—", bounds = "—", note;
+    if (Member(p, "ci95").is_array()) {
+      interval = "[" + G(p["ci95"][0], 5) + ", " + G(p["ci95"][1], 5) + "]";
+    }
+    if (Member(p, "bounds").is_array()) bounds = G(p["bounds"][0], 3) + " … " + G(p["bounds"][1], 3);
+    if (Member(p, "at_bound").is_boolean() && p["at_bound"].get<bool>()) note = " <b>at its bound</b>";
+    if (Member(p, "free").is_boolean() && !p["free"].get<bool>()) note = " (classic estimate)";
+    std::string unit = Text(Member(p, "unit"));
+    if (unit == "n/a") unit.clear();
+    std::vector<std::string> cells = {
+        "<b>" + Escape(name) + "</b>",
+        Escape(unit),
+        p.is_null() ? "—" : G(Member(p, "initial"), 4),
+        p.is_null() ? "— (added by discovery)" : G(Member(p, "value"), 6) + note,
+        p.is_null() ? "—" : G(Member(p, "std"), 3),
+        interval,
+        bounds};
+    std::vector<bool> numeric = {false, false, true, true, true, true, true};
+    if (after) {
+      const json& value = Member(Member(discovery, "parameters_after"), name.c_str());
+      const json& ci = Member(Member(Member(discovery, "intervals_after"), name.c_str()), "ci95");
+      cells.push_back(value.is_null() ? "—" : G(value, 6));
+      cells.push_back(ci.is_array() ? "[" + G(ci[0], 5) + ", " + G(ci[1], 5) + "]" : "—");
+      numeric.push_back(true);
+      numeric.push_back(true);
+    }
+    h += Row(cells, " class=\"parameter\" data-name=\"" + Escape(name) + "\"", numeric);
+  }
+  h += "</table>\n";
+  if (Member(report, "intervals_optimistic").is_boolean() && report["intervals_optimistic"].get<bool>()) {
+    h += "<p class=\"note warn\">The intervals assume white residuals; the residual is not white, so "
+         "they are optimistic.</p>\n";
+  }
+  page.EndSection();
+}
+
+std::string AfterLabel(const DiscoveryResult& discovery) {
+  std::string names;
+  for (const auto& n : discovery.added) names += (names.empty() ? "" : ", ") + n;
+  return "after discovery (+" + names + ")";
+}
+
+void WriteTraces(Page& page, const json& report, const FitProblem& problem, const Simulation& fit,
+                 const Simulation* after, const std::string& after_label) {
+  const HtmlReportOptions& o = page.options();
+  const std::string model = Text(Member(report, "model"));
+  const std::size_t traces = problem.traces().size();
+  page.Section("traces", "Measured and simulated");
+  std::string& h = page.html();
+  h += "<p class=\"note\">Grey: the measurement. Blue: simulated with the fitted parameters";
+  if (after) h += "; vermilion, dashed: simulated with the model and parameters " + Escape(after_label);
+  h += ". Each plot draws at most five samples per pixel column (first, last, lowest, highest, first "
+       "gap), so spikes stay visible. The second plot of each column is the first transient, "
+       "enlarged; any figure can be enlarged to the whole window with its <i>enlarge</i> link.</p>\n";
+  if (!fit.ok) h += "<p class=\"note warn\">The fit's simulation failed: " + Escape(fit.reason) + "</p>\n";
+  for (std::size_t k = 0; k < traces; ++k) {
+    const FitTrace& ft = problem.traces()[k];
+    const std::vector<double>& t = ft.trace.Column("t");
+    const std::string trace_note = traces > 1 ? " (trace " + std::to_string(k + 1) + ")" : "";
+    if (traces > 1) h += "<h3>Trace " + std::to_string(k + 1) + ": <code>" + Escape(ft.path) + "</code></h3>\n";
+    const std::pair<double, double> window =
+        FirstTransientWindow(problem, k, fit.ok ? fit.traces[k] : ft.trace);
+    std::size_t begin = 0, end = t.size();
+    while (begin < t.size() && t[begin] < window.first) ++begin;
+    end = begin;
+    while (end < t.size() && t[end] <= window.second) ++end;
+    for (int detail = 0; detail < 2; ++detail) {
+      h += "<div class=\"grid\">\n";
+      for (const auto& column : problem.observe()) {
+        const ColumnInfo info = DescribeColumn(column, model);
+        const std::size_t b = detail ? begin : 0, e = detail ? end : t.size();
+        std::vector<Series> series;
+        series.push_back({"measured", Slice(t, b, e), Slice(ft.trace.Column(column), b, e),
+                          kMeasuredColour, "", 1.0, 0.0});
+        if (fit.ok) {
+          series.push_back({"simulated, fit", Slice(t, b, e), Slice(fit.traces[k].Column(column), b, e),
+                            kFitColour, "", 1.6, 0.0});
+        }
+        if (after && after->ok) {
+          series.push_back({"simulated, " + after_label, Slice(t, b, e),
+                            Slice(after->traces[k].Column(column), b, e), kAfterColour, kAfterDash,
+                            1.6, 0.0});
+        }
+        LinePlotOptions plot;
+        plot.title = detail ? info.quantity + ": first transient" + trace_note
+                            : info.quantity + ": measured and simulated" + trace_note;
+        plot.x_label = "time";
+        plot.x_unit = "s";
+        plot.y_label = column;
+        plot.y_unit = info.unit;
+        plot.width = o.plot_width;
+        plot.height = o.plot_height;
+        plot.id_prefix = page.NextPrefix();
+        const std::string caption =
+            detail ? Escape(info.quantity) + " from " + G(window.first, 4) + " s to " +
+                         G(window.second, 4) + " s (" + std::to_string(end - begin) + " samples)."
+                   : Escape(info.quantity) + " over the whole trace (" + std::to_string(t.size()) +
+                         " samples).";
+        page.Figure(detail ? "detail" : "trace",
+                    " data-column=\"" + Escape(column) + "\" data-trace=\"" + std::to_string(k) + "\"",
+                    LinePlotSvg(plot, series), caption);
+      }
+      h += "</div>\n";
+    }
+  }
+  page.EndSection();
+}
+
+// Stems from zero with a dot at each value, offset along x by `shift` lags.
+void AddStems(std::vector<Series>& series, const json& acf, double shift, const std::string& label,
+              const char* colour) {
+  Series stems{"", {}, {}, colour, "", 1.6, 0.0};
+  Series dots{label, {}, {}, colour, "", 0.0, 3.0};
+  for (std::size_t lag = 1; lag <= acf.size(); ++lag) {
+    const double x = static_cast<double>(lag) + shift;
+    const double y = acf[lag - 1].is_number() ? acf[lag - 1].get<double>() : kNaN;
+    stems.x.insert(stems.x.end(), {x, x, x});
+    stems.y.insert(stems.y.end(), {0.0, y, kNaN});
+    dots.x.push_back(x);
+    dots.y.push_back(y);
+  }
+  series.push_back(std::move(stems));
+  series.push_back(std::move(dots));
+}
+
+void WriteResidual(Page& page, const json& report, const FitProblem& problem, const Simulation& fit,
+                   const Simulation* after, const std::string& after_label) {
+  const HtmlReportOptions& o = page.options();
+  const std::string model = Text(Member(report, "model"));
+  const std::size_t traces = problem.traces().size();
+  page.Section("residual", "Residual");
+  std::string& h = page.html();
+  h += "<p class=\"note\">Residual = measured − simulated, in the column's unit. A model that "
+       "explains the data leaves only noise: no visible pattern over time, and an autocorrelation "
+       "inside the grey band (95 % of the lags of white noise fall in ±1.96/√n).</p>\n";
+  if (fit.ok) {
+    for (std::size_t k = 0; k < traces; ++k) {
+      const FitTrace& ft = problem.traces()[k];
+      const std::string trace_note = traces > 1 ? " (trace " + std::to_string(k + 1) + ")" : "";
+      h += "<div class=\"grid\">\n";
+      for (const auto& column : problem.observe()) {
+        const ColumnInfo info = DescribeColumn(column, model);
+        std::vector<Series> series;
+        series.push_back({"residual, fit", ft.trace.Column("t"),
+                          Difference(ft.trace.Column(column), fit.traces[k].Column(column)), kFitColour,
+                          "", 1.0, 0.0});
+        if (after && after->ok) {
+          series.push_back({"residual, " + after_label, ft.trace.Column("t"),
+                            Difference(ft.trace.Column(column), after->traces[k].Column(column)),
+                            kAfterColour, "", 1.0, 0.0});
+        }
+        LinePlotOptions plot;
+        plot.title = info.quantity + ": residual" + trace_note;
+        plot.x_label = "time";
+        plot.x_unit = "s";
+        plot.y_label = column + " measured − simulated";
+        plot.y_unit = info.unit;
+        plot.width = o.plot_width;
+        plot.height = o.plot_height;
+        plot.id_prefix = page.NextPrefix();
+        plot.bands.push_back({"", false, 0.0, 0.0, "#444444", 1.0, ""});
+        page.Figure("residual",
+                    " data-column=\"" + Escape(column) + "\" data-trace=\"" + std::to_string(k) + "\"",
+                    LinePlotSvg(plot, series),
+                    "Residual of " + Escape(info.quantity) + " over time" +
+                        (after && after->ok ? ", before (blue) and after (vermilion) discovery." : "."));
+      }
+      h += "</div>\n";
+    }
+  }
+  const json& columns = Member(Member(report, "residual"), "columns");
+  const json& after_columns = Member(Member(Member(report, "discovery"), "residual_after"), "columns");
+  const bool show_after = after && after_columns.is_object();
+  h += "<div class=\"grid\">\n";
+  for (const auto& column : problem.observe()) {
+    const json& c = Member(columns, column.c_str());
+    const json& acf = Member(c, "acf");
+    if (!acf.is_array() || acf.empty()) continue;
+    const ColumnInfo info = DescribeColumn(column, model);
+    std::vector<Series> series;
+    AddStems(series, acf, show_after ? -0.17 : 0.0, "fit", kFitColour);
+    const json& after_acf = Member(Member(after_columns, column.c_str()), "acf");
+    if (show_after && after_acf.is_array()) AddStems(series, after_acf, 0.17, after_label, kAfterColour);
+    LinePlotOptions plot;
+    plot.title = info.quantity + ": autocorrelation of the residual";
+    plot.x_label = "lag";
+    plot.x_unit = "samples";
+    plot.y_label = "autocorrelation";
+    plot.x_min = 0.4;
+    plot.x_max = static_cast<double>(acf.size()) + 0.6;
+    plot.width = o.plot_width;
+    plot.height = o.plot_height;
+    plot.id_prefix = page.NextPrefix();
+    const double band = Member(c, "acf_band95").is_number() ? c["acf_band95"].get<double>() : kNaN;
+    plot.bands.push_back({"95 % band of white noise", false, -band, band, kBandColour, 0.22, ""});
+    plot.bands.push_back({"", false, 0.0, 0.0, "#444444", 1.0, ""});
+    std::string caption = "Autocorrelation of the " + Escape(info.quantity) + " residual at lags 1…" +
+                          std::to_string(acf.size()) + "; band ±" + G(band, 3) + ". Ljung-Box p = " +
+                          G(Member(c, "whiteness_p"), 3);
+    if (show_after) caption += ", after discovery p = " + G(Member(Member(after_columns, column.c_str()), "whiteness_p"), 3);
+    page.Figure("acf", " data-column=\"" + Escape(column) + "\"", LinePlotSvg(plot, series), caption + ".");
+  }
+  h += "</div>\n";
+  page.EndSection();
+}
+
+void WriteSlices(Page& page, const FitProblem& problem, const std::vector<double>& values,
+                 const json& intervals, const std::string& model_tag, const std::string& model_label,
+                 const char* colour) {
+  const HtmlReportOptions& o = page.options();
+  if (o.slice_points <= 0 || problem.num_free() == 0) return;
+  const std::vector<CostSlice> slices =
+      ComputeCostSlices(problem, values, o.slice_points, o.slice_span, o.threads);
+  std::string& h = page.html();
+  h += "<h3>" + Escape(model_label) + "</h3>\n<div class=\"grid\">\n";
+  for (const auto& slice : slices) {
+    const FreeParameter& fp = problem.free()[slice.index];
+    const std::string unit = ParameterUnit(problem.config(), slice.parameter);
+    std::vector<Series> series;
+    series.push_back({"cost", slice.x, slice.cost, colour, "", 1.6, 2.2});
+    LinePlotOptions plot;
+    plot.title = "cost along " + slice.parameter + " (" + model_tag + ")";
+    plot.x_label = slice.parameter;
+    plot.x_unit = unit;
+    plot.y_label = "cost";
+    plot.y_unit = "normalised MSE";
+    plot.x_log = fp.log_scale;
+    plot.y_log = true;
+    plot.width = o.plot_width;
+    plot.height = o.plot_height;
+    plot.id_prefix = page.NextPrefix();
+    const json& ci = Member(Member(intervals, slice.parameter.c_str()), "ci95");
+    if (ci.is_array() && ci[0].is_number() && ci[1].is_number()) {
+      plot.bands.push_back({"95 % interval", true, ci[0].get<double>(), ci[1].get<double>(), kBandColour,
+                            0.3, ""});
+    }
+    plot.bands.push_back({"estimate", true, slice.estimate, slice.estimate, "#222222", 1.0, "5 3"});
+    std::string caption = "Cost along " + Escape(slice.parameter) + " with the other parameters held, " +
+                          std::to_string(slice.x.size()) + " points from " + G(slice.x.front(), 4) +
+                          " to " + G(slice.x.back(), 4) + (unit.empty() ? "" : " " + Escape(unit)) +
+                          "; estimate " + G(slice.estimate, 5) + ".";
+    if (!slice.cost.empty() && std::isfinite(slice.cost[slice.argmin]) && slice.argmin != slice.centre) {
+      caption += " The lowest point of the slice is at " + G(slice.x[slice.argmin], 5) +
+                 ", not at the estimate.";
+    }
+    page.Figure("slice",
+                " data-parameter=\"" + Escape(slice.parameter) + "\" data-model=\"" + model_tag +
+                    "\" data-points=\"" + std::to_string(slice.x.size()) + "\" data-centre=\"" +
+                    std::to_string(slice.centre) + "\" data-argmin=\"" + std::to_string(slice.argmin) + "\"",
+                LinePlotSvg(plot, series), caption);
+  }
+  h += "</div>\n";
+}
+
+void WriteDiscovery(Page& page, const json& discovery) {
+  std::string& h = page.html();
+  page.Section("discovery", "Discovery");
+  h += "<p><b>Conclusion:</b> " + Escape(Text(Member(discovery, "conclusion"))) + "</p>\n";
+  const json& before = Member(discovery, "error_before");
+  const json& after = Member(discovery, "error_after");
+  h += "<table class=\"errors\">\n" + HeaderRow({"error", "before", "after"});
+  h += Row({"NRMSE", G(Member(before, "nrmse"), 4), G(Member(after, "nrmse"), 4)}, "", {false, true, true});
+  for (const auto& [column, value] : Member(before, "rmse").items()) {
+    h += Row({"RMSE " + Escape(column), G(value, 4), G(Member(Member(after, "rmse"), column.c_str()), 4)}, "",
+             {false, true, true});
+  }
+  h += "</table>\n";
+  const json& steps = Member(discovery, "steps");
+  if (steps.is_array() && !steps.empty()) {
+    h += "<table class=\"steps\">\n" +
+         HeaderRow({"step", "effect added", "parameters (95 % interval)", "NRMSE before → after", "ΔBIC",
+                    "evidence"});
+    for (std::size_t k = 0; k < steps.size(); ++k) {
+      const json& step = steps[k];
+      std::string parameters;
+      for (const auto& [name, value] : Member(step, "parameters").items()) {
+        if (!parameters.empty()) parameters += "<br>";
+        parameters += Escape(name) + " = " + G(value, 5);
+        const json& ci = Member(Member(Member(step, "intervals"), name.c_str()), "ci95");
+        if (ci.is_array()) parameters += " [" + G(ci[0], 4) + ", " + G(ci[1], 4) + "]";
+      }
+      h += Row({std::to_string(k + 1), "<b>" + Escape(Text(Member(step, "effect"))) + "</b>", parameters,
+                G(Member(step, "nrmse_before"), 4) + " → " + G(Member(step, "nrmse_after"), 4),
+                G(Member(step, "delta_bic"), 4), Escape(Text(Member(step, "evidence")))},
+               " class=\"discovery-step\"", {true, false, false, true, true, false});
+    }
+    h += "</table>\n";
+  }
+  auto candidates_table = [&](const json& candidates, const std::string& title) {
+    if (!candidates.is_array() || candidates.empty()) return;
+    h += "<details><summary>" + Escape(title) + "</summary>\n<table class=\"candidates\">\n" +
+         HeaderRow({"candidate", "fitted", "valid", "ΔBIC", "NRMSE", "parameters", "reason"});
+    for (const auto& c : candidates) {
+      std::string parameters;
+      for (const auto& [name, value] : Member(c, "parameters").items()) {
+        parameters += (parameters.empty() ? "" : ", ") + Escape(name) + " = " + G(value, 4);
+      }
+      const bool fitted = Member(c, "fitted").is_boolean() && c["fitted"].get<bool>();
+      const bool valid = Member(c, "valid").is_boolean() && c["valid"].get<bool>();
+      h += Row({Escape(Text(Member(c, "effect"))), fitted ? "yes" : "no", valid ? "yes" : "no",
+                fitted ? G(Member(c, "delta_bic"), 4) : "—", fitted ? G(Member(c, "nrmse"), 4) : "—",
+                parameters, Escape(Member(c, "reason").is_string() ? c["reason"].get<std::string>() : "")},
+               "", {false, false, false, true, true, false, false});
+    }
+    h += "</table>\n</details>\n";
+  };
+  for (std::size_t k = 0; k < steps.size(); ++k) {
+    candidates_table(Member(steps[k], "candidates"), "Candidates of step " + std::to_string(k + 1));
+  }
+  candidates_table(Member(discovery, "last_round"), "Candidates of the last round (nothing added)");
+  page.EndSection();
+}
+
+void WriteMethod(Page& page, const json& report) {
+  std::string& h = page.html();
+  page.Section("method", "Method summary");
+  const json& s = Member(report, "method_summary");
+  h += "<table class=\"meta method\">\n";
+  for (const char* key : {"method", "algorithm", "converged", "termination", "message", "raw_code",
+                          "evaluations", "failed_evaluations", "iterations", "wall_time_s", "seed",
+                          "threads"}) {
+    if (!s.contains(key)) continue;
+    std::string value = Text(s[key]);
+    if (std::string(key) == "wall_time_s") value = G(s[key], 4) + " s";
+    h += "<tr><th>" + std::string(key) + "</th><td>" + Escape(value) + "</td></tr>\n";
+  }
+  if (Member(s, "failure_reasons").is_object() && !s["failure_reasons"].empty()) {
+    h += "<tr><th>failure_reasons</th><td>" + Escape(s["failure_reasons"].dump()) + "</td></tr>\n";
+  }
+  for (const auto& [key, value] : Member(s, "details").items()) {
+    h += "<tr><th>details." + Escape(key) + "</th><td>" + Escape(Text(value)) + "</td></tr>\n";
+  }
+  h += "</table>\n";
+  page.EndSection();
+}
+
+void WriteValidation(Page& page, const json& validation) {
+  std::string& h = page.html();
+  page.Section("validation", "Validation on held-out traces");
+  h += "<table>\n" + HeaderRow({"held-out trace(s)", "NRMSE", "RMSE"});
+  std::string paths, rmse;
+  for (const auto& p : Member(validation, "traces")) paths += (paths.empty() ? "" : "<br>") + Escape(Text(p));
+  for (const auto& [column, value] : Member(validation, "rmse").items()) {
+    rmse += (rmse.empty() ? "" : ", ") + Escape(column) + " " + G(value, 4);
+  }
+  h += Row({paths, G(Member(validation, "nrmse"), 4), rmse}, "", {false, true, false});
+  h += "</table>\n";
+  page.EndSection();
+}
+
+}  // namespace
+
+std::vector<CostSlice> ComputeCostSlices(const FitProblem& problem, const std::vector<double>& values,
+                                         int points, double span, int threads) {
+  std::vector<CostSlice> slices;
+  if (points <= 0 || values.size() != problem.num_free()) return slices;
+  points = std::max(3, points);
+  span = std::isfinite(span) && span > 0 ? span : 0.2;
+  for (std::size_t j = 0; j < problem.num_free(); ++j) {
+    const FreeParameter& fp = problem.free()[j];
+    CostSlice slice;
+    slice.parameter = fp.name;
+    slice.index = j;
+    slice.estimate = values[j];
+    const double v = values[j];
+    const bool log = fp.log_scale && v > 0;
+    double lo, hi;
+    if (log) {
+      lo = v / (1.0 + span);
+      hi = v * (1.0 + span);
+    } else {
+      const double half = v != 0.0 ? span * std::abs(v) : 0.1 * span * (fp.upper - fp.lower);
+      lo = v - half;
+      hi = v + half;
+    }
+    const bool bounded = fp.upper > fp.lower;
+    const bool clipped = bounded && (lo < fp.lower || hi > fp.upper);
+    if (bounded) {
+      lo = std::max(lo, fp.lower);
+      hi = std::min(hi, fp.upper);
+    }
+    if (!(hi > lo)) continue;
+    const std::size_t n = static_cast<std::size_t>(points);
+    slice.x.resize(n);
+    for (std::size_t m = 0; m < n; ++m) {
+      const double f = static_cast<double>(m) / static_cast<double>(n - 1);
+      slice.x[m] = log ? std::exp(std::log(lo) + f * (std::log(hi) - std::log(lo))) : lo + f * (hi - lo);
+    }
+    slice.x.front() = lo;
+    slice.x.back() = hi;
+    // The middle point is the estimate itself when the range was not clipped, else the nearest.
+    slice.centre = n / 2;
+    if (!clipped && n % 2 == 1) {
+      slice.x[slice.centre] = v;
+    } else {
+      double best = kInf;
+      for (std::size_t m = 0; m < n; ++m) {
+        const double d = std::abs(slice.x[m] - v);
+        if (d < best) {
+          best = d;
+          slice.centre = m;
+        }
+      }
+    }
+    slice.cost.assign(n, kInf);
+    slices.push_back(std::move(slice));
+  }
+  // Every (slice, point) is one evaluation; they run in parallel, each writes its own cell.
+  std::vector<std::pair<std::size_t, std::size_t>> tasks;
+  for (std::size_t s = 0; s < slices.size(); ++s) {
+    for (std::size_t m = 0; m < slices[s].x.size(); ++m) tasks.emplace_back(s, m);
+  }
+  std::atomic<std::size_t> next{0};
+  auto work = [&] {
+    for (std::size_t t = next++; t < tasks.size(); t = next++) {
+      const auto [s, m] = tasks[t];
+      std::vector<double> point = values;
+      point[slices[s].index] = slices[s].x[m];
+      const Evaluation evaluation = problem.Evaluate(point);
+      slices[s].cost[m] = evaluation.ok ? evaluation.cost : kInf;
+    }
+  };
+  const unsigned hardware = std::max(1u, std::thread::hardware_concurrency());
+  const std::size_t workers =
+      std::min<std::size_t>(tasks.size(), threads > 0 ? static_cast<std::size_t>(threads) : hardware);
+  std::vector<std::thread> pool;
+  for (std::size_t w = 1; w < workers; ++w) pool.emplace_back(work);
+  work();
+  for (auto& thread : pool) thread.join();
+  for (auto& slice : slices) {
+    double best = kInf;
+    for (std::size_t m = 0; m < slice.cost.size(); ++m) {
+      if (slice.cost[m] < best) {
+        best = slice.cost[m];
+        slice.argmin = m;
+      }
+    }
+  }
+  return slices;
+}
+
+std::pair<double, double> FirstTransientWindow(const FitProblem& problem, std::size_t k,
+                                               const Trace& simulated) {
+  const Trace& measured = problem.traces().at(k).trace;
+  const std::vector<double>& t = measured.Column("t");
+  const std::size_t n = t.size();
+  if (n == 0) return {0.0, 0.0};
+  if (n <= 20) return {t.front(), t.back()};
+  // The input's changes: beyond 5 % of its range.
+  std::size_t start = 0, next_change = n;
+  if (measured.Has("u")) {
+    const std::vector<double>& u = measured.Column("u");
+    double u_lo = kInf, u_hi = -kInf;
+    for (double v : u) {
+      if (!std::isfinite(v)) continue;
+      u_lo = std::min(u_lo, v);
+      u_hi = std::max(u_hi, v);
+    }
+    const double threshold = 0.05 * (u_hi - u_lo);
+    if (threshold > 0) {
+      // At rest with u = 0 the transient starts where u first moves; with u != 0 at once.
+      if (std::abs(u[0]) <= threshold) {
+        while (start < n && !(std::abs(u[start] - u[0]) > threshold)) ++start;
+        if (start == n) start = 0;
+      }
+      next_change = start + 1;
+      while (next_change < n && !(std::abs(u[next_change] - u[start]) > threshold)) ++next_change;
+    }
+  }
+  // Per observed column: the time it takes to cover 63.2 % of its change over the segment.
+  double settle = 0.0;
+  bool any = false;
+  for (const auto& column : problem.observe()) {
+    const Trace& source = simulated.Has(column) && simulated.rows() == n ? simulated : measured;
+    if (!source.Has(column)) continue;
+    const std::vector<double>& y = source.Column(column);
+    double lo = kInf, hi = -kInf;
+    for (double v : y) {
+      if (!std::isfinite(v)) continue;
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+    }
+    const double y0 = y[start], y1 = y[next_change - 1];
+    if (!std::isfinite(y0) || !std::isfinite(y1) || !(std::abs(y1 - y0) > 1e-3 * (hi - lo))) continue;
+    for (std::size_t i = start; i < next_change; ++i) {
+      if ((y[i] - y0) / (y1 - y0) >= 0.632) {
+        settle = std::max(settle, t[i] - t[start]);
+        any = true;
+        break;
+      }
+    }
+  }
+  if (!any) settle = 0.5 * (t[next_change - 1] - t[start]);
+  const double length = 2.0 * settle;
+  double begin = std::max(t.front(), t[start] - 0.05 * length);
+  double end = std::min(t.back(), t[start] + length);
+  // At least 20 samples.
+  std::size_t first = 0;
+  while (first < n && t[first] < begin) ++first;
+  std::size_t count = 0;
+  for (std::size_t i = first; i < n && t[i] <= end; ++i) ++count;
+  if (count < 20) end = t[std::min(n - 1, first + 19)];
+  return {begin, end};
+}
+
+std::string MakeHtmlReport(const HtmlReportInputs& inputs, const HtmlReportOptions& options) {
+  if (!inputs.report || !inputs.problem || !inputs.result) {
+    throw std::invalid_argument("MakeHtmlReport: report, problem and result are required");
+  }
+  const json& report = *inputs.report;
+  const FitProblem& problem = *inputs.problem;
+  const FitResult& result = *inputs.result;
+  const std::string date = options.date.empty() ? NowUtc() : options.date;
+
+  const Simulation fit = SimulateAll(problem, result.values);
+  const std::unique_ptr<FitProblem> after_problem = AfterProblem(problem, inputs.discovery);
+  Simulation after;
+  std::string after_label;
+  if (after_problem) {
+    after = SimulateAll(*after_problem, inputs.discovery->final_fit.values);
+    after_label = AfterLabel(*inputs.discovery);
+  }
+  const Simulation* after_ptr = after_problem ? &after : nullptr;
+
+  Page page(options);
+  std::string& h = page.html();
+  const std::string name = Text(Member(Member(report, "config"), "name"));
+  h += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
+       "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n"
+       "<meta name=\"generator\" content=\"blmd-ident " + Escape(kVersion) + "\">\n<title>blmd-ident: " +
+       Escape(name) + "</title>\n<style>" + kStyle + "</style>\n</head>\n<body>\n";
+  WriteHeader(page, report, problem, date);
+  WriteKeyFigures(page, report);
+  WriteParameters(page, report);
+  WriteTraces(page, report, problem, fit, after_ptr, after_label);
+  WriteResidual(page, report, problem, fit, after_ptr, after_label);
+
+  page.Section("slices", "Cost along each parameter");
+  h += "<p class=\"note\">The cost (normalised MSE, the quantity the fit minimises) along one free "
+       "parameter at a time, the others held at their estimates, over ±" +
+       G(100 * options.slice_span, 3) + " % around the estimate (dashed line). A sharp, centred "
+       "valley means a well-determined parameter; a flat one, a poorly determined one. The shaded "
+       "band is the 95 % interval.</p>\n";
+  json fit_intervals = json::object();
+  for (const auto& [pname, p] : Member(report, "parameters").items()) fit_intervals[pname] = p;
+  WriteSlices(page, problem, result.values, fit_intervals, "fit",
+              after_problem ? "Fit (the config's model)" : "Fit", kFitColour);
+  if (after_problem) {
+    WriteSlices(page, *after_problem, inputs.discovery->final_fit.values,
+                Member(Member(report, "discovery"), "intervals_after"), "after",
+                "Model " + after_label, kAfterColour);
+  }
+  page.EndSection();
+
+  if (Member(report, "discovery").is_object()) WriteDiscovery(page, report["discovery"]);
+  if (Member(report, "validation").is_object()) WriteValidation(page, report["validation"]);
+  WriteMethod(page, report);
+  h += "<footer>Written by blmd-ident " + Escape(kVersion) + " on " + Escape(date) +
+       ". One self-contained file: inline SVG and CSS, no scripts, nothing fetched. "
+       "The numbers come from the JSON report of the same run (<code>--report</code>).</footer>\n"
+       "</body>\n</html>\n";
+  return h;
+}
+
+void WriteHtmlReport(const std::string& path, const HtmlReportInputs& inputs,
+                     const HtmlReportOptions& options) {
+  WriteFileAtomically(path, MakeHtmlReport(inputs, options));
+}
+
+}  // namespace blmd
