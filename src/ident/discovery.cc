@@ -582,6 +582,8 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
       }
     }
     if (tied.size() > 1) {
+      // Listed by name: which of equals comes first carries no information.
+      std::sort(tied.begin(), tied.end());
       result.ambiguous.push_back(tied);
       std::string names;
       for (const auto& n : tied) names += (names.empty() ? "" : " and ") + n;
