@@ -1,0 +1,140 @@
+#!/usr/bin/env python3
+"""The HTML report in a real browser (docs/report.md, "How it is tested").
+
+Headless Chromium opens the report and
+  1. dumps the DOM it built: every expected plot is there (the count is derived from the
+     JSON report of the same run, not from the HTML), each an inline <svg> with a drawn
+     curve, and nothing runs (no <script>);
+  2. takes a screenshot of the whole page (kept as an artefact), which must not be blank;
+  3. opens each figure alone, enlarged through its #fig-N anchor (the CSS :target zoom), and
+     takes a screenshot of it: each must show a plot (enough non-white pixels, many
+     colours, and pixels of the exact blue or vermilion of the curves);
+  4. logs to stderr throughout: no console message (uncaught error, failed resource load)
+     may appear.
+Usage: check_report.py --chromium BIN --html REPORT.html --json REPORT.json --out DIR
+Exit 0 when every check passes, 1 otherwise (the failed checks are listed)."""
+import argparse
+import json
+import os
+import re
+import subprocess
+import sys
+import tempfile
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from png_stats import stats  # noqa: E402
+
+FLAGS = [
+    "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+    "--disable-background-networking", "--disable-component-update", "--disable-sync",
+    "--hide-scrollbars", "--enable-logging=stderr", "--v=0",
+]
+CURVE_COLOURS = ["#0072b2", "#d55e00"]  # Okabe-Ito blue (fit), vermilion (after discovery)
+CONSOLE = re.compile(r"CONSOLE|Uncaught|Failed to load resource|net::ERR_")
+
+failures = []
+
+
+def check(condition, what):
+    print(("ok:   " if condition else "FAIL: ") + what)
+    if not condition:
+        failures.append(what)
+
+
+def chromium(binary, arguments, url, log_path):
+    """Runs Chromium once with a fresh profile; returns stdout, appends stderr to the log."""
+    with tempfile.TemporaryDirectory(prefix="blmd-chromium-") as profile:
+        run = subprocess.run([binary, *FLAGS, f"--user-data-dir={profile}", *arguments, url],
+                             capture_output=True, timeout=300)
+    with open(log_path, "ab") as log:
+        log.write(run.stderr)
+    if run.returncode != 0:
+        failures.append(f"chromium exited with {run.returncode} on {url}")
+    return run.stdout.decode("utf-8", "replace")
+
+
+def expected_plots(report):
+    """Per trace and observed column: the trace, its first transient, its residual; per
+    column the autocorrelation; one cost slice per free parameter, and per parameter of the
+    model after discovery when discovery added an effect."""
+    observe = report["fit"]["observe"]
+    traces = len(report["traces"])
+    free = [name for name, p in report["parameters"].items() if p.get("free")]
+    count = 3 * len(observe) * traces + len(observe) + len(free)
+    discovery = report.get("discovery")
+    if discovery and discovery.get("added"):
+        count += len(discovery["parameters_after"])
+    return count
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--chromium", default="/usr/bin/chromium")
+    parser.add_argument("--html", required=True)
+    parser.add_argument("--json", required=True)
+    parser.add_argument("--out", required=True)
+    args = parser.parse_args()
+    os.makedirs(args.out, exist_ok=True)
+    url = "file://" + os.path.abspath(args.html)
+    log = os.path.join(args.out, "chromium.log")
+    open(log, "wb").close()
+    report = json.load(open(args.json))
+    expected = expected_plots(report)
+    source = open(args.html, encoding="utf-8").read()
+
+    # 1. The DOM as the browser built it.
+    dom = chromium(args.chromium, ["--dump-dom"], url, log)
+    with open(os.path.join(args.out, "dom.html"), "w", encoding="utf-8") as f:
+        f.write(dom)
+    svgs = re.findall(r"<svg\b.*?</svg>", dom, flags=re.S)
+    figures = re.findall(r'<figure class="plot" id="(fig-\d+)" data-kind="(\w+)"', dom)
+    check(len(svgs) == expected, f"{len(svgs)} <svg> elements in the rendered DOM (expected {expected})")
+    check(len(figures) == expected, f"{len(figures)} figures in the rendered DOM (expected {expected})")
+    check(source.count("<svg ") == expected, f"{source.count('<svg ')} <svg> in the file (expected {expected})")
+    drawn = sum(1 for svg in svgs if re.search(r'<path class="curve" d="M[^"]+"', svg))
+    check(drawn == expected, f"{drawn} of {len(svgs)} plots have a drawn curve")
+    check("<script" not in dom and "<script" not in source, "no <script> in the page")
+    kinds = {}
+    for _, kind in figures:
+        kinds[kind] = kinds.get(kind, 0) + 1
+    print(f"      plots by kind: {kinds}")
+
+    # 2. The whole page.
+    page_png = os.path.join(args.out, "report.png")
+    chromium(args.chromium, ["--window-size=1280,6000", f"--screenshot={page_png}"], url, log)
+    check(os.path.exists(page_png), f"screenshot written: {page_png}")
+    if os.path.exists(page_png):
+        s = stats(page_png, CURVE_COLOURS)
+        print(f"      page: {s['width']}x{s['height']}, {s['non_white']} non-white pixels, "
+              f"{s['distinct_colours']} colours, curve pixels {s['colours']}")
+        check(s["width"] == 1280 and s["height"] == 6000, "page screenshot is 1280x6000")
+        check(s["non_white"] > 0.03 * s["pixels"], "page screenshot is not blank (> 3 % non-white)")
+        check(s["distinct_colours"] > 500, "page screenshot has > 500 colours")
+        check(min(s["colours"].values()) > 1000, "page shows both curve colours (> 1000 px each)")
+
+    # 3. Each figure alone, enlarged by its #fig-N anchor.
+    for figure_id, kind in figures:
+        png = os.path.join(args.out, f"{figure_id}.png")
+        chromium(args.chromium, ["--window-size=1000,620", f"--screenshot={png}"], f"{url}#{figure_id}", log)
+        if not os.path.exists(png):
+            check(False, f"{figure_id} ({kind}): screenshot written")
+            continue
+        s = stats(png, CURVE_COLOURS)
+        curve = max(s["colours"].values())
+        check(s["non_white"] > 0.02 * s["pixels"] and s["distinct_colours"] > 50 and curve > 150,
+              f"{figure_id} ({kind}) rendered enlarged: {s['non_white']} non-white px, "
+              f"{s['distinct_colours']} colours, {curve} px of a curve colour")
+
+    # 4. The console.
+    messages = [line for line in open(log, encoding="utf-8", errors="replace") if CONSOLE.search(line)]
+    for line in messages[:10]:
+        print("      " + line.rstrip())
+    check(not messages, f"no console messages or failed loads in {log} ({len(messages)} found)")
+
+    print(f"browser test: {'PASSED' if not failures else 'FAILED'} "
+          f"({len(failures)} failed check(s)); artefacts in {args.out}")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
