@@ -78,6 +78,15 @@ TEST(BlmdIdentCli, GateAboveNrmseExitsThreeAndStillWritesTheReport) {
   EXPECT_EQ(blmd::testing::Run(Ident("--fail-above-nrmse 0.5 --quiet")).exit_code, 0);
 }
 
+// With --discover the final model is the one after discovery: the gate reads its NRMSE
+// (0.0157 on this trace; the first fit's is 0.051).
+TEST(BlmdIdentCli, GateReadsTheNrmseAfterDiscovery) {
+  const std::string command = BinPath("blmd-ident") + " --config " + SourcePath("configs/ganesh-square.json") +
+                              " --trace " + SourcePath("testdata/dc-hidden-coulomb.csv") + " --discover --quiet";
+  EXPECT_EQ(blmd::testing::Run(command + " --fail-above-nrmse 0.03").exit_code, 0);
+  EXPECT_EQ(blmd::testing::Run(command + " --fail-above-nrmse 0.01").exit_code, 3);
+}
+
 TEST(BlmdIdentCli, AFitThatDoesNotConvergeExitsOne) {
   const CommandResult run = blmd::testing::Run(Ident("--method powell --max-evaluations 3 --quiet"));
   EXPECT_EQ(run.exit_code, 1);

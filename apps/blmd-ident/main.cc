@@ -180,7 +180,9 @@ int main(int argc, char** argv) {
       return blmd::kExitFailed;
     }
     if (fail_above >= 0.0) {
-      const auto& nrmse = report["fit"]["nrmse"];
+      // The final NRMSE: after discovery when it ran (its model is the answer), else the fit's.
+      const auto& nrmse = report.contains("discovery") ? report["discovery"]["error_after"]["nrmse"]
+                                                       : report["fit"]["nrmse"];
       if (nrmse.is_null() || nrmse.get<double>() > fail_above) {
         std::cerr << "error: final NRMSE " << (nrmse.is_null() ? std::string("n/a") : nrmse.dump())
                   << " is above --fail-above-nrmse " << fail_above << "\n";
