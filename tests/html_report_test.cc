@@ -234,6 +234,7 @@ TEST(HtmlReport, HasEveryPartOfAFitWithoutDiscovery) {
   EXPECT_EQ(Count(html, "<tr class=\"parameter\""), 2u);
   EXPECT_EQ(Count(html, "data-name=\"J\""), 1u);
   EXPECT_EQ(Count(html, "data-name=\"B\""), 1u);
+  EXPECT_LT(html.find("data-name=\"J\""), html.find("data-name=\"B\""));  // the config's order
   EXPECT_EQ(Count(html, "<td class=\"num\">1e-5</td>"), 2u);  // both start at 1e-5
   // Plots: per observed column (i, w) the trace, its first transient, the residual and its
   // autocorrelation; one cost slice per free parameter (J, B). Each is one inline SVG.
@@ -302,9 +303,11 @@ TEST(HtmlReport, ShowsTheModelBeforeAndAfterDiscovery) {
   EXPECT_EQ(Count(html, "id=\"discovery\""), 1u);
   EXPECT_EQ(Count(html, "<tr class=\"discovery-step\""), 1u);
   EXPECT_EQ(Count(html, "<b>coulomb_friction</b>"), 1u);
-  // Plots: 8 per the two columns as before, slices of the fit (J, B) and after (J, B, Tc).
+  // Plots: 8 for the two columns as before, 2 residuals after discovery, slices of the fit
+  // (J, B) and after (J, B, Tc).
   const std::vector<std::string> figures = Figures(html);
-  ASSERT_EQ(figures.size(), 13u);
+  ASSERT_EQ(figures.size(), 15u);
+  int after_residuals = 0;
   int after_slices = 0;
   for (const auto& figure : figures) {
     const std::string kind = Attribute(figure, "data-kind");
@@ -312,11 +315,13 @@ TEST(HtmlReport, ShowsTheModelBeforeAndAfterDiscovery) {
       EXPECT_EQ(Count(figure, "class=\"series\""), 3u);
       EXPECT_EQ(Count(figure, "stroke-dasharray=\"7 4\""), 2u);  // the after line and its legend
     }
-    if (kind == "residual") {
-      EXPECT_EQ(Count(figure, "class=\"series\""), 2u);
+    if (kind == "residual") {  // one model per plot, both on the same scale
+      EXPECT_EQ(Count(figure, "class=\"series\""), 1u);
+      after_residuals += Attribute(figure, "data-model") == "after";
     }
-    if (kind == "acf") {
-      EXPECT_EQ(Count(figure, "<circle cx="), 40u);  // 20 lags, before and after
+    if (kind == "acf") {  // 20 lags, before (dots) and after (rings)
+      EXPECT_EQ(Count(figure, "<circle cx="), 40u);
+      EXPECT_EQ(Count(figure, "fill=\"#ffffff\" stroke=\"#d55e00\""), 21u);  // and its legend
     }
     if (kind == "slice" && Attribute(figure, "data-model") == "after") {
       ++after_slices;
@@ -325,6 +330,7 @@ TEST(HtmlReport, ShowsTheModelBeforeAndAfterDiscovery) {
     }
   }
   EXPECT_EQ(after_slices, 3);
+  EXPECT_EQ(after_residuals, 2);
 }
 
 // The real command on a 1e6-sample trace: the page stays small because every plot draws at

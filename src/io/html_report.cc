@@ -142,7 +142,8 @@ code { font-size: .85rem; word-break: break-all; }
 .card .value { font-size: 1.35rem; font-weight: bold; }
 .card .sub { font-size: .8rem; color: #555; }
 .warn { border-left: 4px solid #d55e00; padding-left: .6rem; }
-.grid { display: grid; grid-template-columns: repeat(auto-fill, minmax(540px, 1fr)); gap: 14px; }
+.grid { display: grid; grid-template-columns: repeat(auto-fill, minmax(540px, 1fr)); gap: 14px;
+        margin-bottom: 14px; }
 figure.plot { margin: 0; border: 1px solid #e0e0e0; border-radius: 4px; padding: 6px 6px 4px;
               position: relative; background: #fff; }
 figure.plot svg { display: block; width: 100%; height: auto; }
@@ -247,6 +248,29 @@ std::vector<double> Slice(const std::vector<double>& v, std::size_t begin, std::
                              v.begin() + static_cast<std::ptrdiff_t>(end));
 }
 
+// A line series (no markers) and a marker series (no line).
+Series Line(std::string label, std::vector<double> x, std::vector<double> y, const char* colour,
+            const char* dash, double width) {
+  Series series;
+  series.label = std::move(label);
+  series.x = std::move(x);
+  series.y = std::move(y);
+  series.colour = colour;
+  series.dash = dash;
+  series.line_width = width;
+  return series;
+}
+
+Series Dots(std::string label, const char* colour, double radius, bool hollow) {
+  Series series;
+  series.label = std::move(label);
+  series.colour = colour;
+  series.line_width = 0.0;
+  series.marker_radius = radius;
+  series.hollow_markers = hollow;
+  return series;
+}
+
 std::vector<double> Difference(const std::vector<double>& a, const std::vector<double>& b) {
   std::vector<double> out(std::min(a.size(), b.size()));
   for (std::size_t i = 0; i < out.size(); ++i) out[i] = a[i] - b[i];
@@ -336,7 +360,7 @@ void WriteKeyFigures(Page& page, const json& report) {
   if (residual.contains("note")) h += "<p class=\"note warn\">" + Escape(Text(residual["note"])) + "</p>\n";
 }
 
-void WriteParameters(Page& page, const json& report) {
+void WriteParameters(Page& page, const json& report, const FitProblem& problem) {
   std::string& h = page.html();
   page.Section("parameters", "Parameters");
   const json& parameters = Member(report, "parameters");
@@ -349,8 +373,14 @@ void WriteParameters(Page& page, const json& report) {
     head.push_back("95 % interval after");
   }
   h += "<table class=\"parameters\">\n" + HeaderRow(head);
+  // The free parameters in the problem's order (J before B), then the others.
   std::vector<std::string> names;
-  for (const auto& [name, p] : parameters.items()) names.push_back(name);
+  for (const auto& fp : problem.free()) {
+    if (parameters.contains(fp.name)) names.push_back(fp.name);
+  }
+  for (const auto& [name, p] : parameters.items()) {
+    if (std::find(names.begin(), names.end(), name) == names.end()) names.push_back(name);
+  }
   if (after) {
     for (const auto& [name, value] : Member(discovery, "parameters_after").items()) {
       if (!parameters.contains(name)) names.push_back(name);
@@ -430,16 +460,16 @@ void WriteTraces(Page& page, const json& report, const FitProblem& problem, cons
         const ColumnInfo info = DescribeColumn(column, model);
         const std::size_t b = detail ? begin : 0, e = detail ? end : t.size();
         std::vector<Series> series;
-        series.push_back({"measured", Slice(t, b, e), Slice(ft.trace.Column(column), b, e),
-                          kMeasuredColour, "", 1.0, 0.0});
+        series.push_back(Line("measured", Slice(t, b, e), Slice(ft.trace.Column(column), b, e),
+                              kMeasuredColour, "", 1.0));
         if (fit.ok) {
-          series.push_back({"simulated, fit", Slice(t, b, e), Slice(fit.traces[k].Column(column), b, e),
-                            kFitColour, "", 1.6, 0.0});
+          series.push_back(Line("simulated, fit", Slice(t, b, e),
+                                Slice(fit.traces[k].Column(column), b, e), kFitColour, "", 1.6));
         }
         if (after && after->ok) {
-          series.push_back({"simulated, " + after_label, Slice(t, b, e),
-                            Slice(after->traces[k].Column(column), b, e), kAfterColour, kAfterDash,
-                            1.6, 0.0});
+          series.push_back(Line("simulated, " + after_label, Slice(t, b, e),
+                                Slice(after->traces[k].Column(column), b, e), kAfterColour, kAfterDash,
+                                1.6));
         }
         LinePlotOptions plot;
         plot.title = detail ? info.quantity + ": first transient" + trace_note
@@ -466,11 +496,11 @@ void WriteTraces(Page& page, const json& report, const FitProblem& problem, cons
   page.EndSection();
 }
 
-// Stems from zero with a dot at each value, offset along x by `shift` lags.
+// Stems from zero with a marker at each value, offset along x by `shift` lags.
 void AddStems(std::vector<Series>& series, const json& acf, double shift, const std::string& label,
-              const char* colour) {
-  Series stems{"", {}, {}, colour, "", 1.6, 0.0};
-  Series dots{label, {}, {}, colour, "", 0.0, 3.0};
+              const char* colour, bool hollow) {
+  Series stems = Line("", {}, {}, colour, "", 1.6);
+  Series dots = Dots(label, colour, 3.0, hollow);
   for (std::size_t lag = 1; lag <= acf.size(); ++lag) {
     const double x = static_cast<double>(lag) + shift;
     const double y = acf[lag - 1].is_number() ? acf[lag - 1].get<double>() : kNaN;
@@ -483,54 +513,81 @@ void AddStems(std::vector<Series>& series, const json& acf, double shift, const 
   series.push_back(std::move(dots));
 }
 
+void Range(const std::vector<double>& v, double* lo, double* hi) {
+  for (double x : v) {
+    if (!std::isfinite(x)) continue;
+    *lo = std::min(*lo, x);
+    *hi = std::max(*hi, x);
+  }
+}
+
 void WriteResidual(Page& page, const json& report, const FitProblem& problem, const Simulation& fit,
                    const Simulation* after, const std::string& after_label) {
   const HtmlReportOptions& o = page.options();
   const std::string model = Text(Member(report, "model"));
   const std::size_t traces = problem.traces().size();
+  const bool show_after = after && after->ok;
   page.Section("residual", "Residual");
   std::string& h = page.html();
   h += "<p class=\"note\">Residual = measured − simulated, in the column's unit. A model that "
        "explains the data leaves only noise: no visible pattern over time, and an autocorrelation "
-       "inside the grey band (95 % of the lags of white noise fall in ±1.96/√n).</p>\n";
+       "inside the grey band (95 % of the lags of white noise fall in ±1.96/√n).";
+  if (show_after) h += " The residual after discovery is drawn on the same scale as the fit's.";
+  h += "</p>\n";
   if (fit.ok) {
     for (std::size_t k = 0; k < traces; ++k) {
       const FitTrace& ft = problem.traces()[k];
+      const std::vector<double>& t = ft.trace.Column("t");
       const std::string trace_note = traces > 1 ? " (trace " + std::to_string(k + 1) + ")" : "";
-      h += "<div class=\"grid\">\n";
+      std::vector<std::vector<double>> fit_residual, after_residual;
+      std::vector<std::pair<double, double>> ranges;
       for (const auto& column : problem.observe()) {
-        const ColumnInfo info = DescribeColumn(column, model);
-        std::vector<Series> series;
-        series.push_back({"residual, fit", ft.trace.Column("t"),
-                          Difference(ft.trace.Column(column), fit.traces[k].Column(column)), kFitColour,
-                          "", 1.0, 0.0});
-        if (after && after->ok) {
-          series.push_back({"residual, " + after_label, ft.trace.Column("t"),
-                            Difference(ft.trace.Column(column), after->traces[k].Column(column)),
-                            kAfterColour, "", 1.0, 0.0});
+        double lo = kInf, hi = -kInf;
+        fit_residual.push_back(Difference(ft.trace.Column(column), fit.traces[k].Column(column)));
+        Range(fit_residual.back(), &lo, &hi);
+        if (show_after) {
+          after_residual.push_back(Difference(ft.trace.Column(column), after->traces[k].Column(column)));
+          Range(after_residual.back(), &lo, &hi);
         }
-        LinePlotOptions plot;
-        plot.title = info.quantity + ": residual" + trace_note;
-        plot.x_label = "time";
-        plot.x_unit = "s";
-        plot.y_label = column + " measured − simulated";
-        plot.y_unit = info.unit;
-        plot.width = o.plot_width;
-        plot.height = o.plot_height;
-        plot.id_prefix = page.NextPrefix();
-        plot.bands.push_back({"", false, 0.0, 0.0, "#444444", 1.0, ""});
-        page.Figure("residual",
-                    " data-column=\"" + Escape(column) + "\" data-trace=\"" + std::to_string(k) + "\"",
-                    LinePlotSvg(plot, series),
-                    "Residual of " + Escape(info.quantity) + " over time" +
-                        (after && after->ok ? ", before (blue) and after (vermilion) discovery." : "."));
+        const double pad = 0.05 * (hi - lo);
+        ranges.emplace_back(lo - pad, hi + pad);
       }
-      h += "</div>\n";
+      for (int which = 0; which < (show_after ? 2 : 1); ++which) {
+        h += "<div class=\"grid\">\n";
+        for (std::size_t c = 0; c < problem.observe().size(); ++c) {
+          const std::string& column = problem.observe()[c];
+          const ColumnInfo info = DescribeColumn(column, model);
+          const bool is_after = which == 1;
+          LinePlotOptions plot;
+          plot.title = info.quantity + ": residual, " + (is_after ? "after discovery" : "fit") + trace_note;
+          plot.x_label = "time";
+          plot.x_unit = "s";
+          plot.y_label = column + " measured − simulated";
+          plot.y_unit = info.unit;
+          plot.y_min = ranges[c].first;
+          plot.y_max = ranges[c].second;
+          plot.width = o.plot_width;
+          plot.height = o.plot_height;
+          plot.id_prefix = page.NextPrefix();
+          plot.bands.push_back({"", false, 0.0, 0.0, "#444444", 1.0, ""});
+          const std::vector<Series> series = {
+              Line(is_after ? "residual, " + after_label : "residual, fit", t,
+                   is_after ? after_residual[c] : fit_residual[c], is_after ? kAfterColour : kFitColour, "",
+                   1.0)};
+          page.Figure("residual",
+                      " data-column=\"" + Escape(column) + "\" data-trace=\"" + std::to_string(k) +
+                          "\" data-model=\"" + (is_after ? "after" : "fit") + "\"",
+                      LinePlotSvg(plot, series),
+                      "Residual of " + Escape(info.quantity) + " over time, " +
+                          (is_after ? "model " + Escape(after_label) : std::string("the fit")) + ".");
+        }
+        h += "</div>\n";
+      }
     }
   }
   const json& columns = Member(Member(report, "residual"), "columns");
   const json& after_columns = Member(Member(Member(report, "discovery"), "residual_after"), "columns");
-  const bool show_after = after && after_columns.is_object();
+  const bool show_after_acf = show_after && after_columns.is_object();
   h += "<div class=\"grid\">\n";
   for (const auto& column : problem.observe()) {
     const json& c = Member(columns, column.c_str());
@@ -538,9 +595,11 @@ void WriteResidual(Page& page, const json& report, const FitProblem& problem, co
     if (!acf.is_array() || acf.empty()) continue;
     const ColumnInfo info = DescribeColumn(column, model);
     std::vector<Series> series;
-    AddStems(series, acf, show_after ? -0.17 : 0.0, "fit", kFitColour);
+    AddStems(series, acf, show_after_acf ? -0.17 : 0.0, "fit", kFitColour, false);
     const json& after_acf = Member(Member(after_columns, column.c_str()), "acf");
-    if (show_after && after_acf.is_array()) AddStems(series, after_acf, 0.17, after_label, kAfterColour);
+    if (show_after_acf && after_acf.is_array()) {
+      AddStems(series, after_acf, 0.17, after_label, kAfterColour, true);
+    }
     LinePlotOptions plot;
     plot.title = info.quantity + ": autocorrelation of the residual";
     plot.x_label = "lag";
@@ -557,7 +616,7 @@ void WriteResidual(Page& page, const json& report, const FitProblem& problem, co
     std::string caption = "Autocorrelation of the " + Escape(info.quantity) + " residual at lags 1…" +
                           std::to_string(acf.size()) + "; band ±" + G(band, 3) + ". Ljung-Box p = " +
                           G(Member(c, "whiteness_p"), 3);
-    if (show_after) caption += ", after discovery p = " + G(Member(Member(after_columns, column.c_str()), "whiteness_p"), 3);
+    if (show_after_acf) caption += ", after discovery p = " + G(Member(Member(after_columns, column.c_str()), "whiteness_p"), 3);
     page.Figure("acf", " data-column=\"" + Escape(column) + "\"", LinePlotSvg(plot, series), caption + ".");
   }
   h += "</div>\n";
@@ -577,7 +636,9 @@ void WriteSlices(Page& page, const FitProblem& problem, const std::vector<double
     const FreeParameter& fp = problem.free()[slice.index];
     const std::string unit = ParameterUnit(problem.config(), slice.parameter);
     std::vector<Series> series;
-    series.push_back({"cost", slice.x, slice.cost, colour, "", 1.6, 2.2});
+    Series curve = Line("cost", slice.x, slice.cost, colour, "", 1.6);
+    curve.marker_radius = 2.2;
+    series.push_back(std::move(curve));
     LinePlotOptions plot;
     plot.title = "cost along " + slice.parameter + " (" + model_tag + ")";
     plot.x_label = slice.parameter;
@@ -891,7 +952,7 @@ std::string MakeHtmlReport(const HtmlReportInputs& inputs, const HtmlReportOptio
        Escape(name) + "</title>\n<style>" + kStyle + "</style>\n</head>\n<body>\n";
   WriteHeader(page, report, problem, date);
   WriteKeyFigures(page, report);
-  WriteParameters(page, report);
+  WriteParameters(page, report, problem);
   WriteTraces(page, report, problem, fit, after_ptr, after_label);
   WriteResidual(page, report, problem, fit, after_ptr, after_label);
 

@@ -1382,8 +1382,11 @@ std::string LinePlotSvg(const LinePlotOptions& options, const std::vector<Series
                (s.dash.empty() ? "" : " stroke-dasharray=\"" + Escape(s.dash) + "\"") + "/>";
     }
     if (s.marker_radius > 0 || s.line_width <= 0) {
-      symbol += "<circle r=\"" + Num(std::max(2.5, s.marker_radius)) + "\" fill=\"" +
-                Escape(colours.back()) + "\"/>";
+      symbol += "<circle r=\"" + Num(std::max(2.5, s.marker_radius)) + "\" " +
+                (s.hollow_markers
+                     ? "fill=\"#ffffff\" stroke=\"" + Escape(colours.back()) + "\" stroke-width=\"1.5\""
+                     : "fill=\"" + Escape(colours.back()) + "\"") +
+                "/>";
     }
     legend.push_back({symbol, s.label});
   }
@@ -1501,9 +1504,12 @@ std::string LinePlotSvg(const LinePlotOptions& options, const std::vector<Series
              (s.dash.empty() ? "" : " stroke-dasharray=\"" + Escape(s.dash) + "\"") + "/>\n";
     }
     const double r = s.marker_radius > 0 ? s.marker_radius : 2.0;
+    const std::string paint = s.hollow_markers
+                                  ? "fill=\"#ffffff\" stroke=\"" + colour + "\" stroke-width=\"1.5\""
+                                  : "fill=\"" + colour + "\"";
     for (const auto& [x, y] : dots) {
-      out += "<circle cx=\"" + Num(x, 1) + "\" cy=\"" + Num(y, 1) + "\" r=\"" + Num(r) +
-             "\" fill=\"" + colour + "\"/>\n";
+      out += "<circle cx=\"" + Num(x, 1) + "\" cy=\"" + Num(y, 1) + "\" r=\"" + Num(r) + "\" " + paint +
+             "/>\n";
     }
     out += "</g>\n";
   }

@@ -55,15 +55,16 @@ def chromium(binary, arguments, url, log_path):
 
 def expected_plots(report):
     """Per trace and observed column: the trace, its first transient, its residual; per
-    column the autocorrelation; one cost slice per free parameter, and per parameter of the
-    model after discovery when discovery added an effect."""
+    column the autocorrelation; one cost slice per free parameter. When discovery added an
+    effect, also per trace and column the residual after discovery, and one slice per
+    parameter of the final model."""
     observe = report["fit"]["observe"]
     traces = len(report["traces"])
     free = [name for name, p in report["parameters"].items() if p.get("free")]
     count = 3 * len(observe) * traces + len(observe) + len(free)
     discovery = report.get("discovery")
     if discovery and discovery.get("added"):
-        count += len(discovery["parameters_after"])
+        count += len(observe) * traces + len(discovery["parameters_after"])
     return count
 
 

@@ -5,8 +5,9 @@
 // version); the key figures; the parameter table (initial value, estimate, standard
 // deviation, 95 % interval, bounds, and the values after discovery); measured vs simulated
 // for each observed column of each trace, with the fit's parameters and, when discovery
-// ran, the final model's; a detail of the first transient of each; the residual over time;
-// its autocorrelation with the 95 % band; the cost along each free parameter through the
+// ran, the final model's; a detail of the first transient of each; the residual over time
+// (the fit's, and the final model's on the same scale); its autocorrelation with the 95 %
+// band; the cost along each free parameter through the
 // optimum (a 1-D slice, the others held); the discovery steps with the error before and
 // after; the method's summary.
 //
@@ -17,8 +18,9 @@
 //
 // Elements that tests and readers can find:
 //   figure.plot[data-kind]      one per plot: trace | detail | residual | acf | slice;
-//                               data-column (trace plots), data-trace (trace index),
-//                               data-parameter, data-model (fit | after) for slices
+//                               data-column, data-trace (trace index) on plots of a column,
+//                               data-model (fit | after) on residuals and slices,
+//                               data-parameter, data-points, data-centre, data-argmin on slices
 //   tr.parameter[data-name]     one row per parameter of the table
 //   tr.discovery-step           one row per effect added by discovery
 #pragma once

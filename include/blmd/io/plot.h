@@ -53,6 +53,7 @@ struct Series {
   std::string dash;            // SVG stroke-dasharray, e.g. "6 3"; empty: solid
   double line_width = 1.5;     // px; 0: no line (markers only)
   double marker_radius = 0.0;  // px; > 0: a dot at every drawn sample
+  bool hollow_markers = false;  // markers as rings (white inside): tells series apart in grey
 };
 
 // A shaded band or a reference line across a LinePlotSvg, drawn under the series (e.g. the
