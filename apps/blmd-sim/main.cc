@@ -75,6 +75,12 @@ int main(int argc, char** argv) {
       if (input.Has("open")) recorded.open = input.Column("open");
       // The run covers the recorded span at the recorded instants.
       config.experiment.duration = recorded.times.back() - recorded.times.front();
+      if (const std::string error = blmd::RunLengthError(config.experiment.duration,
+                                                         config.simulation.dt, 0.0);
+          !error.empty()) {
+        throw blmd::InputError(input_path + ": the recorded input spans " +
+                               blmd::FormatNumber(config.experiment.duration) + " s: " + error);
+      }
     }
     blmd::Trace trace;
     blmd::SimStatus status;
@@ -92,8 +98,15 @@ int main(int argc, char** argv) {
       status = config.model->Simulate(request, &trace);
     }
     if (!status.ok()) {
+      // A run the user asked for failed: exit 1, one line, nothing written.
       std::cerr << "error: " << config_path << ": " << status.message << " at t = "
-                << Fixed(status.at_time) << " s\n";
+                << Fixed(status.at_time) << " s";
+      if (status.code == blmd::SimStatus::Code::kDiverged) {
+        std::cerr << "; the step simulation.dt = " << blmd::FormatNumber(config.simulation.dt)
+                  << " s may be too large for the model's fastest dynamics, or a parameter is "
+                     "unphysical: reduce dt or check the parameters";
+      }
+      std::cerr << "\n";
       return blmd::kExitFailed;
     }
     for (auto& [column, sigma, relative] : noise) {

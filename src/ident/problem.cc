@@ -14,6 +14,15 @@ FitProblem::FitProblem(Config config, std::vector<FitTrace> traces,
       traces_(std::move(traces)),
       observe_(std::move(observe)),
       free_(std::move(free)) {
+  for (const auto& fit_trace : traces_) {
+    if (!fit_trace.trace.Has("t") || fit_trace.trace.rows() == 0) continue;
+    const auto& t = fit_trace.trace.Column("t");
+    if (const std::string error = RunLengthError(t.back() - t.front(), config_.simulation.dt, 0.0);
+        !error.empty()) {
+      throw InputError(fit_trace.path + ": the trace spans " + FormatNumber(t.back() - t.front()) +
+                       " s: " + error);
+    }
+  }
   variance_.assign(observe_.size(), 0.0);
   samples_per_column_.assign(observe_.size(), 0);
   for (std::size_t c = 0; c < observe_.size(); ++c) {
@@ -33,8 +42,14 @@ FitProblem::FitProblem(Config config, std::vector<FitTrace> traces,
     }
     variance = n ? variance / static_cast<double>(n) : 0.0;
     if (!(variance > 0.0)) {
-      throw InputError("observed column '" + observe_[c] +
-                       "' is constant in the trace(s): it cannot inform the fit");
+      throw InputError(Where() + "observed column '" + observe_[c] + "' is constant" +
+                       (traces_.size() > 1 ? " over all these traces" : "") +
+                       ": it cannot inform the fit (observe another column with --observe)");
+    }
+    if (!std::isfinite(variance)) {
+      throw InputError(Where() + "observed column '" + observe_[c] +
+                       "' holds values too large to fit (its variance overflows a double); "
+                       "rescale it with --scale " + observe_[c] + "=FACTOR");
     }
     variance_[c] = variance;
     samples_per_column_[c] = n;
@@ -45,6 +60,14 @@ FitProblem::FitProblem(Config config, std::vector<FitTrace> traces,
       residual_columns_.insert(residual_columns_.end(), fit_trace.trace.rows(), static_cast<int>(c));
     }
   }
+}
+
+std::string FitProblem::Where() const {
+  std::string where;
+  for (const auto& fit_trace : traces_) {
+    if (!fit_trace.path.empty()) where += (where.empty() ? "" : ", ") + fit_trace.path;
+  }
+  return where.empty() ? where : where + ": ";
 }
 
 double FitProblem::column_weight(std::size_t c) const {

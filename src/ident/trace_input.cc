@@ -18,17 +18,15 @@ std::vector<double> Differentiate(const std::vector<double>& t, const std::vecto
 
 FitTrace LoadFitTrace(const std::string& path, const TraceInputOptions& options,
                       const InitialState& default_initial) {
-  const std::string bytes = ReadFileText(path);
   CsvReadOptions csv;
   csv.time_column = "";  // checked after mapping
-  Trace trace = ParseTraceCsv(bytes, path, csv);
+  std::string sha256;
+  Trace trace = ReadTraceCsv(path, csv, &sha256);
   // Column mapping: header -> standard name.
   for (const auto& [standard, header] : options.columns) {
     if (!trace.Has(header)) {
-      std::string have;
-      for (const auto& name : trace.names()) have += (have.empty() ? "" : ",") + name;
       throw InputError(path + ": --column " + standard + "=" + header + ": no column '" + header +
-                       "' (header has: " + have + ")");
+                       "' (header has: " + HeaderSummary(trace.names()) + ")");
     }
     if (standard != header && trace.Has(standard)) {
       trace.Rename(standard, standard + "_original");
@@ -43,16 +41,18 @@ FitTrace LoadFitTrace(const std::string& path, const TraceInputOptions& options,
   for (const auto& [target, source] : options.derive) required.push_back(source);
   for (const auto& name : required) {
     if (!trace.Has(name)) {
-      std::string have;
-      for (const auto& h : trace.names()) have += (have.empty() ? "" : ",") + h;
-      throw InputError(path + ": missing required column '" + name + "' (header has: " + have +
-                       "; map another header with --column " + name + "=HEADER)");
+      throw InputError(path + ": missing required column '" + name + "' (header has: " +
+                       HeaderSummary(trace.names()) + "; map another header with --column " +
+                       name + "=HEADER)");
     }
   }
   const auto& t = trace.Column("t");
+  // The file's field of the time column (the mapped header's, when --column t=... is given).
+  const auto t_header = options.columns.find("t");
+  const long t_field = trace.Find(t_header == options.columns.end() ? "t" : t_header->second) + 1;
   for (std::size_t k = 1; k < t.size(); ++k) {
     if (!(t[k] > t[k - 1])) {
-      throw InputError(path, static_cast<long>(trace.comments.size() + k + 2), 0,
+      throw InputError(path, static_cast<long>(trace.comments.size() + k + 2), t_field,
                        "time 't' must strictly increase (" + FormatNumber(t[k]) +
                            (t[k] == t[k - 1] ? " repeats " : " follows ") + FormatNumber(t[k - 1]) +
                            ")");
@@ -63,17 +63,16 @@ FitTrace LoadFitTrace(const std::string& path, const TraceInputOptions& options,
   }
   for (const auto& name : options.required) {
     if (!trace.Has(name)) {
-      std::string have;
-      for (const auto& h : trace.names()) have += (have.empty() ? "" : ",") + h;
-      throw InputError(path + ": missing observed column '" + name + "' (header has: " + have +
-                       "; map another header with --column " + name + "=HEADER)");
+      throw InputError(path + ": missing observed column '" + name + "' (header has: " +
+                       HeaderSummary(trace.names()) + "; map another header with --column " +
+                       name + "=HEADER)");
     }
   }
   if (trace.rows() < 3) throw InputError(path + ": a fit needs at least 3 samples");
 
   FitTrace fit;
   fit.path = path;
-  fit.sha256 = Sha256Hex(bytes);
+  fit.sha256 = std::move(sha256);
   fit.input.kind = InputSignal::Kind::kRecorded;
   fit.input.times = trace.Column("t");
   fit.input.values = trace.Column("u");

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <unordered_map>
 
 #include "blmd/error.h"
@@ -28,8 +29,64 @@ class PositionIndex {
     const auto it = positions_.find(pointer);
     return it == positions_.end() ? Position{} : it->second;
   }
+  // The pointer of the first object key that occurs twice in its object ("" when none),
+  // and where its second occurrence is.
+  const std::string& duplicate() const { return duplicate_; }
+  Position duplicate_at() const { return duplicate_at_; }
 
  private:
+  // Decodes the escape at text[k] ('\\') into *out (UTF-8); returns the bytes it took.
+  static std::size_t Unescape(const std::string& text, std::size_t k, std::string* out) {
+    const char e = text[k + 1];
+    switch (e) {
+      case 'b': *out += '\b'; return 2;
+      case 'f': *out += '\f'; return 2;
+      case 'n': *out += '\n'; return 2;
+      case 'r': *out += '\r'; return 2;
+      case 't': *out += '\t'; return 2;
+      case 'u': break;
+      default: *out += e; return 2;  // \" \\ \/
+    }
+    auto hex4 = [&](std::size_t at, unsigned* value) {
+      if (at + 4 > text.size()) return false;
+      *value = 0;
+      for (std::size_t d = at; d < at + 4; ++d) {
+        const char h = text[d];
+        const int digit = h >= '0' && h <= '9' ? h - '0'
+                          : h >= 'a' && h <= 'f' ? h - 'a' + 10
+                          : h >= 'A' && h <= 'F' ? h - 'A' + 10 : -1;
+        if (digit < 0) return false;
+        *value = *value * 16 + static_cast<unsigned>(digit);
+      }
+      return true;
+    };
+    unsigned code = 0;
+    if (!hex4(k + 2, &code)) return 2;
+    std::size_t used = 6;
+    unsigned low = 0;
+    if (code >= 0xD800 && code <= 0xDBFF && k + 7 < text.size() && text[k + 6] == '\\' &&
+        text[k + 7] == 'u' && hex4(k + 8, &low) && low >= 0xDC00 && low <= 0xDFFF) {
+      code = 0x10000 + ((code - 0xD800) << 10) + (low - 0xDC00);
+      used = 12;
+    }
+    if (code < 0x80) {
+      *out += static_cast<char>(code);
+    } else if (code < 0x800) {
+      *out += static_cast<char>(0xC0 | (code >> 6));
+      *out += static_cast<char>(0x80 | (code & 0x3F));
+    } else if (code < 0x10000) {
+      *out += static_cast<char>(0xE0 | (code >> 12));
+      *out += static_cast<char>(0x80 | ((code >> 6) & 0x3F));
+      *out += static_cast<char>(0x80 | (code & 0x3F));
+    } else {
+      *out += static_cast<char>(0xF0 | (code >> 18));
+      *out += static_cast<char>(0x80 | ((code >> 12) & 0x3F));
+      *out += static_cast<char>(0x80 | ((code >> 6) & 0x3F));
+      *out += static_cast<char>(0x80 | (code & 0x3F));
+    }
+    return used;
+  }
+
   struct Frame {
     bool is_object;
     std::string pointer;
@@ -66,9 +123,9 @@ class PositionIndex {
         ++k;
         while (k < text.size() && text[k] != '"') {
           if (text[k] == '\\' && k + 1 < text.size()) {
-            value += text[k + 1];
-            k += 2;
-            column += 2;
+            const std::size_t used = Unescape(text, k, &value);
+            k += used;
+            column += static_cast<long>(used);
             continue;
           }
           if (text[k] == '\n') return;  // malformed: the parser will report it
@@ -79,7 +136,12 @@ class PositionIndex {
         if (!stack.empty() && stack.back().is_object && stack.back().expecting_key) {
           stack.back().key = value;
           stack.back().expecting_key = false;
-          positions_.emplace(stack.back().pointer + "/" + value, Position{here_line, here_column});
+          const std::string pointer = stack.back().pointer + "/" + value;
+          if (!positions_.emplace(pointer, Position{here_line, here_column}).second &&
+              duplicate_.empty()) {
+            duplicate_ = pointer;  // the first key written twice (the JSON keeps one)
+            duplicate_at_ = Position{here_line, here_column};
+          }
         } else {
           value_started(here_line, here_column);
         }
@@ -102,6 +164,89 @@ class PositionIndex {
   }
 
   std::unordered_map<std::string, Position> positions_;
+  std::string duplicate_;
+  Position duplicate_at_;
+};
+
+// Line and column (1-based, in bytes) of byte `offset` of `text`.
+Position PositionOf(const std::string& text, std::size_t offset) {
+  Position p{1, 1};
+  const std::size_t end = std::min(offset, text.size());
+  for (std::size_t k = 0; k < end; ++k) {
+    if (text[k] == '\n') {
+      ++p.line;
+      p.column = 1;
+    } else {
+      ++p.column;
+    }
+  }
+  return p;
+}
+
+// Control and non-ASCII bytes of a parser message as \xNN: one clean line whatever the file.
+std::string Printable(const std::string& text) {
+  static const char* hex = "0123456789abcdef";
+  std::string out;
+  for (const char ch : text) {
+    const unsigned char c = static_cast<unsigned char>(ch);
+    if (c < 0x20 || c >= 0x7f) {
+      out += "\\x";
+      out += hex[c >> 4];
+      out += hex[c & 15];
+    } else {
+      out += ch;
+    }
+  }
+  return out;
+}
+
+// Nesting depth at which a config is refused (the real ones nest 4 deep): deeper input is
+// not a config, and the position index would cost depth² to build.
+constexpr int kMaxNesting = 64;
+
+// Offset of the bracket that opens level kMaxNesting + 1, or npos.
+std::size_t TooDeep(const std::string& text) {
+  int depth = 0;
+  bool in_string = false;
+  for (std::size_t k = 0; k < text.size(); ++k) {
+    const char c = text[k];
+    if (in_string) {
+      if (c == '\\') {
+        ++k;
+      } else if (c == '"') {
+        in_string = false;
+      }
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '{' || c == '[') {
+      if (++depth > kMaxNesting) return k;
+    } else if (c == '}' || c == ']') {
+      --depth;
+    }
+  }
+  return std::string::npos;
+}
+
+// Receives nlohmann's SAX events only to learn where a number overflows (the DOM parser
+// reports it without a position).
+struct ErrorLocator {
+  std::size_t position = 0;
+  bool null() { return true; }
+  bool boolean(bool) { return true; }
+  bool number_integer(nlohmann::json::number_integer_t) { return true; }
+  bool number_unsigned(nlohmann::json::number_unsigned_t) { return true; }
+  bool number_float(nlohmann::json::number_float_t, const std::string&) { return true; }
+  bool string(std::string&) { return true; }
+  bool binary(nlohmann::json::binary_t&) { return true; }
+  bool start_object(std::size_t) { return true; }
+  bool key(std::string&) { return true; }
+  bool end_object() { return true; }
+  bool start_array(std::size_t) { return true; }
+  bool end_array() { return true; }
+  bool parse_error(std::size_t at, const std::string&, const nlohmann::detail::exception&) {
+    position = at;
+    return false;
+  }
 };
 
 std::string TypeName(const json& value) {
@@ -308,6 +453,26 @@ InputSignal ReadInput(const Reader& reader, const json& input, const std::string
 
 }  // namespace
 
+std::string RunLengthError(double span, double dt, double samples) {
+  constexpr double kMaxSteps = 1e10, kMaxSamples = 1e8;
+  auto short_form = [](double v) {
+    char buffer[32];
+    std::snprintf(buffer, sizeof buffer, "%.3g", v);
+    return std::string(buffer);
+  };
+  const double steps = span / dt;
+  if (!(steps <= kMaxSteps)) {
+    return "a run of " + short_form(span) + " s at simulation.dt = " + short_form(dt) +
+           " s is " + short_form(steps) + " steps, more than 1e10; raise dt or shorten the run";
+  }
+  if (!(samples <= kMaxSamples)) {
+    return short_form(samples) +
+           " output samples (duration x sample_rate), more than 1e8; lower the rate or "
+           "shorten the run";
+  }
+  return {};
+}
+
 std::string NearestName(const std::string& word, const std::vector<std::string>& candidates) {
   auto lower = [](std::string s) {
     for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -341,30 +506,48 @@ std::string NearestName(const std::string& word, const std::vector<std::string>&
 Config LoadConfig(const std::string& path) { return ParseConfig(ReadFileText(path), path); }
 
 Config ParseConfig(const std::string& text, const std::string& path) {
+  if (const std::size_t at = TooDeep(text); at != std::string::npos) {
+    const Position p = PositionOf(text, at);
+    throw InputError(path, p.line, p.column,
+                     "JSON nested deeper than " + std::to_string(kMaxNesting) +
+                         " levels: not a config");
+  }
   json root;
   try {
     root = json::parse(text);
   } catch (const json::parse_error& error) {
-    long line = 1, column = 1;
-    const std::size_t end = std::min<std::size_t>(error.byte ? error.byte - 1 : 0, text.size());
-    for (std::size_t k = 0; k < end; ++k) {
-      if (text[k] == '\n') {
-        ++line;
-        column = 1;
-      } else {
-        ++column;
-      }
-    }
+    const Position p = PositionOf(text, error.byte ? error.byte - 1 : 0);
     // "[json.exception.parse_error.101] parse error at line 3, column 30: <what>": keep
     // <what>, which may itself contain ": " ("last read: '0.04.'").
     std::string what = error.what();
     const auto column_at = what.find(", column ");
     const auto colon = what.find(": ", column_at == std::string::npos ? 0 : column_at);
     if (colon != std::string::npos) what = what.substr(colon + 2);
-    throw InputError(path, line, column, "invalid JSON: " + what);
+    throw InputError(path, p.line, p.column, "invalid JSON: " + Printable(what));
+  } catch (const json::exception& error) {
+    // A number beyond the double range: "[json.exception.out_of_range.406] number overflow
+    // parsing '1e400'".
+    ErrorLocator locator;
+    json::sax_parse(text, &locator);
+    const Position p = PositionOf(text, locator.position ? locator.position - 1 : 0);
+    std::string what = error.what();
+    const auto bracket = what.find("] ");
+    if (bracket != std::string::npos) what = what.substr(bracket + 2);
+    throw InputError(path, p.line, p.column,
+                     "invalid JSON: " + Printable(what) + " (beyond the double range)");
   }
   const PositionIndex index(text);
   const Reader reader(path, index);
+  if (!index.duplicate().empty()) {
+    const std::string& pointer = index.duplicate();
+    const auto slash = pointer.rfind('/');
+    const Position first = index.Find(pointer);
+    throw InputError(path, index.duplicate_at().line, index.duplicate_at().column,
+                     "duplicate key '" + Printable(pointer.substr(slash + 1)) + "' in '" +
+                         Reader::Label(pointer.substr(0, slash)) + "' (first at line " +
+                         std::to_string(first.line) +
+                         "): JSON keeps only one of them; remove the other");
+  }
   reader.RequireObject(root, "");
   reader.CheckKeys(root, "", {"name", "description", "notes", "model", "parameters", "effects",
                               "simulation", "experiment", "identification"});
@@ -542,6 +725,13 @@ Config ParseConfig(const std::string& text, const std::string& path) {
   if (experiment.sample_rate * config.simulation.dt > 1.0 + 1e-9) {
     reader.Fail("/experiment/sample_rate", "sample_rate is faster than the simulation step 1/dt");
   }
+  if (const std::string error = RunLengthError(experiment.duration, config.simulation.dt,
+                                               experiment.duration * experiment.sample_rate + 1.0);
+      !error.empty()) {
+    const bool has_duration = root.contains("experiment") && root["experiment"].is_object() &&
+                              root["experiment"].contains("duration");
+    reader.Fail(has_duration ? "/experiment/duration" : "/simulation/dt", "experiment: " + error);
+  }
 
   // Identification.
   IdentificationSettings& ident = config.identification;
@@ -578,7 +768,12 @@ Config ParseConfig(const std::string& text, const std::string& path) {
     };
     if (id.contains("free")) {
       for (std::size_t k = 0; k < ident.free.size(); ++k) {
-        check_known(ident.free[k], "/identification/free/" + std::to_string(k));
+        const std::string pointer = "/identification/free/" + std::to_string(k);
+        check_known(ident.free[k], pointer);
+        if (std::find(ident.free.begin(), ident.free.begin() + static_cast<long>(k),
+                      ident.free[k]) != ident.free.begin() + static_cast<long>(k)) {
+          reader.Fail(pointer, "free parameter '" + ident.free[k] + "' is listed twice");
+        }
       }
     }
     if (id.contains("bounds")) {

@@ -86,6 +86,9 @@ class FitProblem {
   SimStatus Simulate(std::size_t k, const std::vector<double>& values, Trace* out) const;
 
  private:
+  // "a.csv, b.csv: " naming the traces for an error message ("" when they have no path).
+  std::string Where() const;
+
   Config config_;
   std::vector<FitTrace> traces_;
   std::vector<std::string> observe_;

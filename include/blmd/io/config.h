@@ -48,6 +48,10 @@ struct Config {
 Config LoadConfig(const std::string& path);
 Config ParseConfig(const std::string& text, const std::string& path);
 
+// Why a run of `span` seconds at step `dt` writing `samples` samples is refused (more
+// than 1e10 steps or 1e8 samples: hours of computing or gigabytes), "" when it is fine.
+std::string RunLengthError(double span, double dt, double samples);
+
 // Closest of `candidates` to `word` by edit distance, "" when none is close.
 std::string NearestName(const std::string& word, const std::vector<std::string>& candidates);
 

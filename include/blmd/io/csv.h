@@ -17,10 +17,17 @@ struct CsvReadOptions {
   std::string time_column = "t";
 };
 
-Trace ReadTraceCsv(const std::string& path, const CsvReadOptions& options = {});
+// Reads the file in chunks (the text is never held whole: memory is about the numbers'
+// size, 8 bytes per value). When `sha256` is given it receives the SHA-256 of the bytes.
+Trace ReadTraceCsv(const std::string& path, const CsvReadOptions& options = {},
+                   std::string* sha256 = nullptr);
 // Parses CSV text; `path` only labels errors.
 Trace ParseTraceCsv(const std::string& text, const std::string& path,
                     const CsvReadOptions& options = {});
+
+// A header for a message: the names joined by ',', cut after about 80 characters with
+// ",... (N columns)" so that one line stays one readable line.
+std::string HeaderSummary(const std::vector<std::string>& names);
 
 // Shortest text that reads back to the same double (round trip exact).
 std::string FormatNumber(double value);

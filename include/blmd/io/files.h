@@ -1,11 +1,14 @@
 // File helpers: whole-file reads with clear errors, atomic writes, content hashes.
 #pragma once
 
+#include <array>
+#include <cstdint>
 #include <string>
+#include <string_view>
 
 namespace blmd {
 
-// Throws InputError("<path>: cannot read: <reason>").
+// Throws InputError("<path>: cannot read: <reason>"), also for a folder.
 std::string ReadFileText(const std::string& path);
 
 // Writes `content` to a temporary file beside `path`, flushes it to disk and renames it
@@ -19,5 +22,21 @@ void InstallCleanupOnSignal();
 
 // Lower-case hex SHA-256 of a byte string.
 std::string Sha256Hex(const std::string& bytes);
+
+// SHA-256 (FIPS 180-4) fed in pieces, for files read in chunks.
+class Sha256 {
+ public:
+  Sha256();
+  void Update(std::string_view bytes);
+  // Lower-case hex digest of everything fed; the object is spent afterwards.
+  std::string HexDigest();
+
+ private:
+  void Block(const unsigned char* block);
+  std::array<std::uint32_t, 8> state_;
+  std::array<unsigned char, 64> buffer_{};
+  std::size_t buffered_ = 0;
+  std::uint64_t length_ = 0;  // bytes fed
+};
 
 }  // namespace blmd
