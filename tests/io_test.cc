@@ -515,7 +515,8 @@ TEST(ConfigErrors, ExperimentAndSimulation) {
   EXPECT_EQ(ConfigError(with("\"experiment\": { \"input\": { \"type\": \"steps\", \"times\": [0, 0], \"values\": [1, 2] } }")),
             "config.json:11:60: step times must increase");
   EXPECT_EQ(ConfigError(with("\"experiment\": { \"sample_rate\": 1e6 }")),
-            "config.json:11:19: sample_rate is faster than the simulation step 1/dt");
+            "config.json:11:19: sample_rate 1000000 Hz is faster than the simulation step "
+            "allows (1/dt = 100000 Hz); lower it or reduce dt");
   EXPECT_EQ(ConfigError(with("\"experiment\": { \"coast_off_time\": -1 }")),
             "config.json:11:19: coast_off_time must be >= 0 (s)");
   EXPECT_EQ(ConfigError(with("\"experiment\": { \"pid\": { \"Kp\": 1, \"u_max\": 0 } }")),

@@ -78,8 +78,7 @@ int main(int argc, char** argv) {
       if (const std::string error = blmd::RunLengthError(config.experiment.duration,
                                                          config.simulation.dt, 0.0);
           !error.empty()) {
-        throw blmd::InputError(input_path + ": the recorded input spans " +
-                               blmd::FormatNumber(config.experiment.duration) + " s: " + error);
+        throw blmd::InputError(input_path + ": " + error);
       }
     }
     blmd::Trace trace;

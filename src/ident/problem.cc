@@ -19,8 +19,7 @@ FitProblem::FitProblem(Config config, std::vector<FitTrace> traces,
     const auto& t = fit_trace.trace.Column("t");
     if (const std::string error = RunLengthError(t.back() - t.front(), config_.simulation.dt, 0.0);
         !error.empty()) {
-      throw InputError(fit_trace.path + ": the trace spans " + FormatNumber(t.back() - t.front()) +
-                       " s: " + error);
+      throw InputError(fit_trace.path + ": " + error);
     }
   }
   variance_.assign(observe_.size(), 0.0);

@@ -19,7 +19,10 @@ std::vector<double> Differentiate(const std::vector<double>& t, const std::vecto
 FitTrace LoadFitTrace(const std::string& path, const TraceInputOptions& options,
                       const InitialState& default_initial) {
   CsvReadOptions csv;
-  csv.time_column = "";  // checked after mapping
+  // The reader checks the file's time column (the header mapped to t); scaling may still
+  // reverse it, so t is checked again below.
+  const auto t_header = options.columns.find("t");
+  csv.time_column = t_header == options.columns.end() ? "t" : t_header->second;
   std::string sha256;
   Trace trace = ReadTraceCsv(path, csv, &sha256);
   // Column mapping: header -> standard name.
@@ -47,14 +50,12 @@ FitTrace LoadFitTrace(const std::string& path, const TraceInputOptions& options,
     }
   }
   const auto& t = trace.Column("t");
-  // The file's field of the time column (the mapped header's, when --column t=... is given).
-  const auto t_header = options.columns.find("t");
-  const long t_field = trace.Find(t_header == options.columns.end() ? "t" : t_header->second) + 1;
+  const long t_field = trace.Find(csv.time_column) + 1;  // the file's field of the time
   for (std::size_t k = 1; k < t.size(); ++k) {
     if (!(t[k] > t[k - 1])) {
       throw InputError(path, static_cast<long>(trace.comments.size() + k + 2), t_field,
-                       "time 't' must strictly increase (" + FormatNumber(t[k]) +
-                           (t[k] == t[k - 1] ? " repeats " : " follows ") + FormatNumber(t[k - 1]) +
+                       "time 't' must strictly increase (" + DisplayNumber(t[k]) +
+                           (t[k] == t[k - 1] ? " repeats " : " follows ") + DisplayNumber(t[k - 1]) +
                            ")");
     }
   }
@@ -68,7 +69,10 @@ FitTrace LoadFitTrace(const std::string& path, const TraceInputOptions& options,
                        name + "=HEADER)");
     }
   }
-  if (trace.rows() < 3) throw InputError(path + ": a fit needs at least 3 samples");
+  if (trace.rows() < 3) {
+    throw InputError(path + ": " + std::to_string(trace.rows()) + " sample" +
+                     (trace.rows() == 1 ? "" : "s") + " only: a fit needs at least 3");
+  }
 
   FitTrace fit;
   fit.path = path;

@@ -1,8 +1,11 @@
 #include "blmd/io/config.h"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <unordered_map>
 
 #include "blmd/error.h"
@@ -198,6 +201,36 @@ std::string Printable(const std::string& text) {
     }
   }
   return out;
+}
+
+// A number for a message, %g with `digits` significant digits (1/dt prints as 100000).
+std::string Short(double value, int digits = 6) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.*g", digits, value);
+  return buffer;
+}
+
+// The usual reason behind a JSON syntax error, from the text the parser read last
+// ("last read: '...'"): a comment, single quotes, NaN or Infinity.
+std::string SyntaxHint(const std::string& what) {
+  const auto from = what.find("last read: '");
+  if (from == std::string::npos) return {};
+  const auto to = what.find("'; ", from + 12);
+  std::string token =
+      what.substr(from + 12, to == std::string::npos ? std::string::npos : to - from - 12);
+  if (to == std::string::npos && !token.empty() && token.back() == '\'') token.pop_back();
+  if (token.empty()) return {};
+  if (token.back() == '/') return " (JSON has no comments)";
+  if (token.back() == '\'') return " (JSON strings and keys take double quotes)";
+  std::size_t word = token.size();
+  while (word > 0 && std::isalpha(static_cast<unsigned char>(token[word - 1]))) --word;
+  std::string tail = token.substr(word);
+  for (auto& c : tail) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (!tail.empty() && (std::string("nan").rfind(tail, 0) == 0 ||
+                        std::string("infinity").rfind(tail, 0) == 0)) {
+    return " (NaN and Infinity are not JSON numbers)";
+  }
+  return {};
 }
 
 // Nesting depth at which a config is refused (the real ones nest 4 deep): deeper input is
@@ -439,6 +472,10 @@ InputSignal ReadInput(const Reader& reader, const json& input, const std::string
     }
     CsvReadOptions options;
     options.required = {"t", column};
+    if (access(file.c_str(), R_OK) != 0) {
+      reader.Fail(pointer + "/file", "recorded input '" + file + "' cannot be read: " +
+                                         std::strerror(errno));
+    }
     const Trace trace = ReadTraceCsv(file, options);
     signal.kind = InputSignal::Kind::kRecorded;
     signal.times = trace.Column("t");
@@ -455,11 +492,7 @@ InputSignal ReadInput(const Reader& reader, const json& input, const std::string
 
 std::string RunLengthError(double span, double dt, double samples) {
   constexpr double kMaxSteps = 1e10, kMaxSamples = 1e8;
-  auto short_form = [](double v) {
-    char buffer[32];
-    std::snprintf(buffer, sizeof buffer, "%.3g", v);
-    return std::string(buffer);
-  };
+  auto short_form = [](double v) { return Short(v, 3); };
   const double steps = span / dt;
   if (!(steps <= kMaxSteps)) {
     return "a run of " + short_form(span) + " s at simulation.dt = " + short_form(dt) +
@@ -523,7 +556,7 @@ Config ParseConfig(const std::string& text, const std::string& path) {
     const auto column_at = what.find(", column ");
     const auto colon = what.find(": ", column_at == std::string::npos ? 0 : column_at);
     if (colon != std::string::npos) what = what.substr(colon + 2);
-    throw InputError(path, p.line, p.column, "invalid JSON: " + Printable(what));
+    throw InputError(path, p.line, p.column, "invalid JSON: " + Printable(what) + SyntaxHint(what));
   } catch (const json::exception& error) {
     // A number beyond the double range: "[json.exception.out_of_range.406] number overflow
     // parsing '1e400'".
@@ -614,7 +647,8 @@ Config ParseConfig(const std::string& text, const std::string& path) {
                                  (near.empty() ? "" : " (did you mean '" + near + "'?)"));
       }
       if (std::find(info->models.begin(), info->models.end(), model_name) == info->models.end()) {
-        reader.Fail(pointer, "effect '" + effect_name + "' does not apply to model " + model_name);
+        reader.Fail(pointer, "effect '" + effect_name + "' does not apply to model " + model_name +
+                                 " (only to " + Join(info->models) + ")");
       }
       reader.RequireObject(effect_values, pointer);
       std::vector<std::string> effect_params;
@@ -723,7 +757,10 @@ Config ParseConfig(const std::string& text, const std::string& path) {
     }
   }
   if (experiment.sample_rate * config.simulation.dt > 1.0 + 1e-9) {
-    reader.Fail("/experiment/sample_rate", "sample_rate is faster than the simulation step 1/dt");
+    reader.Fail("/experiment/sample_rate",
+                "sample_rate " + DisplayNumber(experiment.sample_rate) +
+                    " Hz is faster than the simulation step allows (1/dt = " +
+                    Short(1.0 / config.simulation.dt) + " Hz); lower it or reduce dt");
   }
   if (const std::string error = RunLengthError(experiment.duration, config.simulation.dt,
                                                experiment.duration * experiment.sample_rate + 1.0);
@@ -861,7 +898,8 @@ void Config::AddEffect(const std::string& effect, const ParameterSet& values) {
   const EffectInfo& info = FindEffect(effect);
   const std::string model_name(model->name());
   if (std::find(info.models.begin(), info.models.end(), model_name) == info.models.end()) {
-    throw InputError("effect '" + effect + "' does not apply to model " + model_name);
+    throw InputError("effect '" + effect + "' does not apply to model " + model_name + " (only to " +
+                     Join(info.models) + ")");
   }
   for (const auto& [key, value] : values.entries()) {
     bool known = false;

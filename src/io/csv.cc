@@ -130,6 +130,11 @@ class TraceParser {
   void Line(std::string_view line, bool unterminated) {
     ++line_number_;
     if (!line.empty() && line.back() == '\r') {
+      const std::size_t first_cr = line.find('\r');
+      if (first_cr + 1 < line.size()) {  // CRs inside too: CR alone ends the lines
+        Fail(line_number_, static_cast<long>(first_cr + 1),
+             "lines end with CR alone (old Mac line endings); convert the file with mac2unix");
+      }
       Fail(line_number_, static_cast<long>(line.size()),
            "line ends with CR (Windows line endings); convert the file with dos2unix");
     }
@@ -158,7 +163,7 @@ class TraceParser {
       const unsigned char c = static_cast<unsigned char>(line[k]);
       if (c == '\r') {
         Fail(line_number_, static_cast<long>(k + 1),
-             "CR inside a line (old Mac line endings?); convert the file with mac2unix");
+             "lines end with CR alone (old Mac line endings); convert the file with mac2unix");
       }
       if ((c < 0x20 && c != '\t') || c == 0x7f) {
         Fail(line_number_, 0, "binary data (control byte " + Hex(c) + "): not a CSV text file");
@@ -255,9 +260,9 @@ class TraceParser {
       const double t = columns_[time_index_].back();
       if (rows_ > 0 && !(t > previous_time_)) {
         Fail(line_number_, static_cast<long>(time_index_ + 1),
-             "time '" + options_.time_column + "' must strictly increase (" + FormatNumber(t) +
-                 (t == previous_time_ ? " repeats " : " follows ") + FormatNumber(previous_time_) +
-                 ")");
+             "time '" + options_.time_column + "' must strictly increase (" + DisplayNumber(t) +
+                 (t == previous_time_ ? " repeats " : " follows ") +
+                 DisplayNumber(previous_time_) + ")");
       }
       previous_time_ = t;
     }
@@ -386,6 +391,15 @@ std::string FormatNumber(double value) {
   char buffer[64];
   const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
   return std::string(buffer, result.ptr);
+}
+
+std::string DisplayNumber(double value) {
+  const std::string shortest = FormatNumber(value);
+  char buffer[400];
+  const auto result = std::to_chars(buffer, buffer + sizeof buffer, value, std::chars_format::fixed);
+  if (result.ec != std::errc()) return shortest;
+  std::string fixed(buffer, result.ptr);
+  return fixed.size() <= shortest.size() + 2 ? fixed : shortest;
 }
 
 std::string FormatTraceCsv(const Trace& trace) {

@@ -31,6 +31,9 @@ std::string HeaderSummary(const std::vector<std::string>& names);
 
 // Shortest text that reads back to the same double (round trip exact).
 std::string FormatNumber(double value);
+// For messages: the number as a person writes it, 0.0001 rather than 1e-04 (the plain form
+// when it is at most two characters longer than the shortest); still round-trip exact.
+std::string DisplayNumber(double value);
 std::string FormatTraceCsv(const Trace& trace);
 // Written to a temporary file in the same folder, then renamed (atomic).
 void WriteTraceCsv(const Trace& trace, const std::string& path);
