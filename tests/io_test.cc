@@ -18,6 +18,7 @@
 #include "blmd/error.h"
 #include "blmd/io/config.h"
 #include "blmd/io/csv.h"
+#include "blmd/io/files.h"
 #include "blmd/random.h"
 #include "support/test_support.h"
 
@@ -119,6 +120,55 @@ TEST(TraceCsv, AcceptedNumberForms) {
   Trace negative_zero;
   negative_zero.Set("t", {-0.0});
   EXPECT_EQ(FormatTraceCsv(negative_zero), "t\n0\n");
+}
+
+// ReadTraceCsv reads a file in pieces (4 MiB by default); a line cut between two reads, a
+// line longer than the buffer and the last line without '\n' read as ParseTraceCsv reads
+// the whole text: the same values, or the same message. Every piece size from 1 byte.
+TEST(TraceCsv, ReadingInPiecesMatchesTheWholeText) {
+  testing::TempDir dir;
+  const std::vector<std::string> texts = {
+      "# c\nt,u,w\n0,1,2\n0.1,-3.5,1e-300\n0.2,4,5",
+      "t,u\n0,1\n0.1,2\n",
+      "t,u\n0,1\n0.1,2\n\n",                             // one final blank line is fine
+      "t,u\n0,1\n\n0.1,2\n",                             // a blank line inside is not
+      "t,u\n0,1\n0.1," + std::string(300, '7') + "\n",  // a line longer than small pieces
+      std::string("\xEF\xBB\xBFt,u\n0,1\n"),
+      std::string("t,u\n0,1\n0.1,2\n0.2,\0\n", 20),
+      "t,u\r\n0,1\r\n",
+      "t,u\n0,1\n0.1,1\n0.05,1\n",
+      "t,u\n0,1\n0.1,1",
+      "t,u\n0,1\n0.1,",
+      "",
+      "# only\n",
+  };
+  for (std::size_t k = 0; k < texts.size(); ++k) {
+    const std::string& text = texts[k];
+    const std::string path = dir.Write("t.csv", text);
+    std::string whole_error;
+    Trace whole;
+    try {
+      whole = ParseTraceCsv(text, path);
+    } catch (const InputError& error) {
+      whole_error = error.what();
+    }
+    for (std::size_t piece = 1; piece <= 40; ++piece) {
+      SCOPED_TRACE("text " + std::to_string(k) + ", pieces of " + std::to_string(piece) + " bytes");
+      CsvReadOptions options;
+      options.read_chunk_bytes = piece;
+      std::string sha;
+      try {
+        const Trace read = ReadTraceCsv(path, options, &sha);
+        EXPECT_EQ(whole_error, "");
+        EXPECT_EQ(read.names(), whole.names());
+        EXPECT_EQ(read.comments, whole.comments);
+        for (std::size_t c = 0; c < read.num_columns(); ++c) EXPECT_EQ(read.Column(c), whole.Column(c));
+        EXPECT_EQ(sha, Sha256Hex(text));
+      } catch (const InputError& error) {
+        EXPECT_EQ(error.what(), whole_error);
+      }
+    }
+  }
 }
 
 // ---------------------------------------------------------------------------------------

@@ -77,6 +77,9 @@ std::size_t InvalidUtf8(std::string_view s) {
   return std::string_view::npos;
 }
 
+// Bytes at the start of the input examined for a byte-order mark and binary data.
+constexpr std::size_t kSniffBytes = 64 << 10;
+
 // The reader's state machine, fed the file's bytes in pieces (a whole text at once, or a
 // file chunk by chunk); every problem is an InputError naming the file, line and field.
 class TraceParser {
@@ -84,20 +87,24 @@ class TraceParser {
   TraceParser(const std::string& path, const CsvReadOptions& options, std::size_t total_bytes)
       : path_(path), options_(options), total_bytes_(total_bytes) {}
 
+  // Looks at the first kSniffBytes of the input (all of it when shorter) before any line
+  // is parsed, so that a byte-order mark or binary data is named as such whatever else is
+  // wrong, and in the same way however the input is cut into pieces.
+  void Sniff(std::string_view head) {
+    if (head.size() >= 3 && static_cast<unsigned char>(head[0]) == 0xEF &&
+        static_cast<unsigned char>(head[1]) == 0xBB && static_cast<unsigned char>(head[2]) == 0xBF) {
+      Fail(1, 1, "file starts with a UTF-8 byte-order mark; save it as plain UTF-8/ASCII");
+    }
+    if (const void* nul = std::memchr(head.data(), '\0', head.size())) {
+      const auto* at = static_cast<const char*>(nul);
+      Fail(1 + static_cast<long>(std::count(head.data(), at, '\n')), 0,
+           "binary data (NUL byte): not a CSV text file");
+    }
+  }
+
   // Parses the complete lines at the start of `data` and returns how many bytes they
   // took; at the end of the input (`at_end`) the rest is the last line, without '\n'.
   std::size_t Consume(std::string_view data, bool at_end) {
-    if (bytes_seen_ == 0 && !data.empty()) {
-      if (data.size() >= 3 && static_cast<unsigned char>(data[0]) == 0xEF &&
-          static_cast<unsigned char>(data[1]) == 0xBB && static_cast<unsigned char>(data[2]) == 0xBF) {
-        Fail(1, 1, "file starts with a UTF-8 byte-order mark; save it as plain UTF-8/ASCII");
-      }
-    }
-    if (const void* nul = std::memchr(data.data(), '\0', data.size())) {
-      const auto* at = static_cast<const char*>(nul);
-      const long line = line_number_ + 1 + static_cast<long>(std::count(data.data(), at, '\n'));
-      Fail(line, 0, "binary data (NUL byte): not a CSV text file");
-    }
     std::size_t pos = 0;
     while (pos < data.size()) {
       const void* newline = std::memchr(data.data() + pos, '\n', data.size() - pos);
@@ -129,6 +136,9 @@ class TraceParser {
 
   void Line(std::string_view line, bool unterminated) {
     ++line_number_;
+    if (std::memchr(line.data(), '\0', line.size())) {
+      Fail(line_number_, 0, "binary data (NUL byte): not a CSV text file");
+    }
     if (!line.empty() && line.back() == '\r') {
       const std::size_t first_cr = line.find('\r');
       if (first_cr + 1 < line.size()) {  // CRs inside too: CR alone ends the lines
@@ -339,26 +349,54 @@ Trace ReadTraceCsv(const std::string& path, const CsvReadOptions& options, std::
   if (fstat(fd, &info) != 0) throw InputError(path + ": cannot read: " + std::strerror(errno));
   if (S_ISDIR(info.st_mode)) throw InputError(path + ": cannot read: " + std::strerror(EISDIR));
   const std::size_t size = S_ISREG(info.st_mode) ? static_cast<std::size_t>(info.st_size) : 0;
+  auto read_some = [&](char* into, std::size_t bytes) {
+    while (true) {
+      const ssize_t n = read(fd, into, bytes);
+      if (n >= 0) return static_cast<std::size_t>(n);
+      if (errno != EINTR) throw InputError(path + ": cannot read: " + std::strerror(errno));
+    }
+  };
   TraceParser parser(path, options, size);
   Sha256 hash;
-  // Chunks of 4 MiB; the part of a line that straddles two chunks is moved to the front.
-  // A line longer than the buffer doubles it.
-  std::vector<char> buffer(std::min<std::size_t>(std::size_t{4} << 20, size + 1));
+  // Chunks of options.read_chunk_bytes; the part of a line that straddles two chunks is
+  // moved to the front, and a line longer than the buffer doubles it. The first
+  // kSniffBytes are gathered before any line is parsed.
+  const std::size_t chunk = std::max<std::size_t>(1, options.read_chunk_bytes);
+  std::vector<char> buffer(std::max(kSniffBytes, std::min(chunk, size + 1)));
   std::size_t held = 0;
+  bool at_end = false;
+  while (held < kSniffBytes && !at_end) {
+    const std::size_t n = read_some(buffer.data() + held, std::min(chunk, kSniffBytes - held));
+    at_end = n == 0;
+    held += n;
+  }
+  parser.Sniff(std::string_view(buffer.data(), held));
+  if (sha256) hash.Update(std::string_view(buffer.data(), held));
   while (true) {
-    if (held == buffer.size()) buffer.resize(buffer.size() * 2);
-    const ssize_t n = read(fd, buffer.data() + held, buffer.size() - held);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      throw InputError(path + ": cannot read: " + std::strerror(errno));
+    // Parse what is held in chunk-sized windows (the first pass parses the sniffed head).
+    std::size_t start = 0;
+    while (start < held) {
+      const std::size_t window = std::min(held - start, chunk);
+      const bool last = at_end && start + window == held;
+      const std::size_t used = parser.Consume(std::string_view(buffer.data() + start, window), last);
+      if (used == 0 && !last) {
+        if (start + window == held) break;  // an incomplete line: read more
+        // A line longer than the window: widen it to everything held.
+        const std::size_t wide = parser.Consume(std::string_view(buffer.data() + start, held - start), at_end);
+        start += wide;
+        break;
+      }
+      start += used;
+      if (last) break;
     }
-    if (sha256) hash.Update(std::string_view(buffer.data() + held, static_cast<std::size_t>(n)));
-    held += static_cast<std::size_t>(n);
-    const bool at_end = n == 0;
-    const std::size_t used = parser.Consume(std::string_view(buffer.data(), held), at_end);
-    std::memmove(buffer.data(), buffer.data() + used, held - used);
-    held -= used;
+    std::memmove(buffer.data(), buffer.data() + start, held - start);
+    held -= start;
     if (at_end) break;
+    if (held == buffer.size()) buffer.resize(buffer.size() * 2);
+    const std::size_t n = read_some(buffer.data() + held, std::min(chunk, buffer.size() - held));
+    if (sha256) hash.Update(std::string_view(buffer.data() + held, n));
+    held += n;
+    at_end = n == 0;
   }
   Trace trace = parser.Finish();
   if (sha256) *sha256 = hash.HexDigest();
@@ -368,6 +406,7 @@ Trace ReadTraceCsv(const std::string& path, const CsvReadOptions& options, std::
 Trace ParseTraceCsv(const std::string& text, const std::string& path,
                     const CsvReadOptions& options) {
   TraceParser parser(path, options, text.size());
+  parser.Sniff(std::string_view(text).substr(0, kSniffBytes));
   parser.Consume(text, true);
   return parser.Finish();
 }

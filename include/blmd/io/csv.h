@@ -15,6 +15,9 @@ struct CsvReadOptions {
   std::vector<std::string> required;
   // Column whose values must strictly increase (empty: none).
   std::string time_column = "t";
+  // ReadTraceCsv reads the file this many bytes at a time (tests use tiny pieces to check
+  // that lines cut between reads are read the same).
+  std::size_t read_chunk_bytes = std::size_t{4} << 20;
 };
 
 // Reads the file in chunks (the text is never held whole: memory is about the numbers'
