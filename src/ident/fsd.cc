@@ -66,7 +66,13 @@ class FsdRun {
       : cost_(cost), s_(s), scale_(scale) {}
 
   // Normalised cost (divided by the probe spread); +inf stays +inf.
-  double U(const std::vector<double>& x) { return cost_.ScaledCost(x) / scale_; }
+  // Each walker counts its own evaluations (thread_local: a walker runs on one thread), so
+  // a budget stops every walker at the same point of its own schedule whatever the threads.
+  static thread_local long walker_evaluations;
+  double U(const std::vector<double>& x) {
+    ++walker_evaluations;
+    return cost_.ScaledCost(x) / scale_;
+  }
 
   // Forward-difference gradient at x (cost at x known), stepping inward at the boundary.
   std::vector<double> Gradient(const std::vector<double>& x, double ux) {
@@ -88,11 +94,12 @@ class FsdRun {
     }
   }
 
-  // Evaluation budget shared by all walkers (0: none), checked at burst boundaries.
+  // Evaluation budget of each walker (0: none), checked at burst boundaries.
   long budget = 0;
-  bool Exhausted() const { return budget > 0 && cost_.evaluations() >= budget; }
+  bool Exhausted() const { return budget > 0 && walker_evaluations >= budget; }
 
   void RunWalker(Walker& w, Random& random, double a) {
+    walker_evaluations = 0;
     const std::size_t n = w.x.size();
     w.cost = U(w.x);
     Consider(w, w.x, w.cost);
@@ -138,6 +145,8 @@ class FsdRun {
   const FsdSettings& s_;
   double scale_;
 };
+
+thread_local long FsdRun::walker_evaluations = 0;
 
 }  // namespace
 
@@ -218,8 +227,9 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
 
   FsdRun run(cost, s, scale);
   if (options.max_evaluations > 0) {
-    // The polish gets its own budget (polish_evaluations per point) on top.
-    run.budget = options.max_evaluations;
+    // Shared out among the walkers after the probes, each counting its own (repeatable);
+    // the polish gets its own budget (polish_evaluations per point) on top.
+    run.budget = std::max<long>(1, (options.max_evaluations - s.probes) / s.walkers);
   }
   {
     std::vector<std::thread> pool;
