@@ -112,6 +112,10 @@ TEST(TraceCsv, AcceptedNumberForms) {
   EXPECT_FALSE(std::signbit(trace.Column("w")[0]));
   EXPECT_EQ(trace.Column("w")[1], 1e-310);  // subnormal, kept
   EXPECT_EQ(trace.Column("w")[2], 7.0);
+  // A comment may be indented; then no column name can start with '#' (found by fuzzing:
+  // a first name "#w" would be written back as a comment line).
+  EXPECT_EQ(ParseTraceCsv("  # indented\n\t#tab\nt,u\n0,1\n", "ok.csv").comments,
+            (std::vector<std::string>{"indented", "tab"}));
   // A final line without a newline is fine when it is complete.
   EXPECT_EQ(ParseTraceCsv("t,u\n0,1\n0.1,2", "x.csv").rows(), 2u);
   // Columns besides the standard ones are carried along.

@@ -31,7 +31,8 @@ inline int Main(CLI::App& app, int argc, char** argv, const std::function<int()>
     std::cout << app.version() << "\n";
     return kExitOk;
   } catch (const CLI::ParseError& error) {
-    std::cerr << "error: " << error.what() << " (see " << app.get_name() << " --help)\n";
+    std::cerr << "error: " << InputError::OneLine(error.what()) << " (see " << app.get_name()
+              << " --help)\n";
     return kExitBadInput;
   }
   try {
@@ -43,7 +44,7 @@ inline int Main(CLI::App& app, int argc, char** argv, const std::function<int()>
     std::cerr << "error: out of memory\n";
     return kExitFailed;
   } catch (const std::exception& error) {
-    std::cerr << "error: internal: " << error.what() << "\n";
+    std::cerr << "error: internal: " << InputError::OneLine(error.what()) << "\n";
     return kExitFailed;
   }
 }

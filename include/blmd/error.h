@@ -11,14 +11,18 @@
 namespace blmd {
 
 // One clear line: "<where>: <what>", where = "file:line:column" (line/column when known).
+// Control characters (a newline in a file name, a NUL in a JSON key) are shown as \xNN, so
+// the message is always one printable line.
 class InputError : public std::runtime_error {
  public:
-  explicit InputError(const std::string& message) : std::runtime_error(message) {}
+  explicit InputError(const std::string& message) : std::runtime_error(OneLine(message)) {}
   InputError(const std::string& file, long line, long column, const std::string& message)
-      : std::runtime_error(Format(file, line, column, message)) {}
+      : std::runtime_error(OneLine(Format(file, line, column, message))) {}
 
   static std::string Format(const std::string& file, long line, long column,
                             const std::string& message);
+  // `text` with its control characters (bytes below 0x20, and 0x7f) written as \xNN.
+  static std::string OneLine(const std::string& text);
 };
 
 // Exit codes of every command (interface.md).

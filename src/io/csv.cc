@@ -148,12 +148,15 @@ class TraceParser {
       Fail(line_number_, static_cast<long>(line.size()),
            "line ends with CR (Windows line endings); convert the file with dos2unix");
     }
+    // A comment starts with '#', after optional spaces or tabs (so no column name does).
+    const std::string_view content = Trim(line);
+    const bool comment = !content.empty() && content.front() == '#';
     if (!have_header_) {
-      if (!line.empty() && line.front() == '#') {
-        trace_.comments.emplace_back(Trim(line.substr(1)));
+      if (comment) {
+        trace_.comments.emplace_back(Trim(content.substr(1)));
         return;
       }
-      if (Trim(line).empty()) Fail(line_number_, 1, "empty line where the header row was expected");
+      if (content.empty()) Fail(line_number_, 1, "empty line where the header row was expected");
       Header(line);
       return;
     }
@@ -162,9 +165,7 @@ class TraceParser {
       blank_line_ = line_number_;
       return;
     }
-    if (line.front() == '#') {
-      Fail(line_number_, 1, "comment line inside the data (only before the header)");
-    }
+    if (comment) Fail(line_number_, 1, "comment line inside the data (only before the header)");
     Row(line, unterminated);
   }
 

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <numbers>
 
 #include "blmd/sim/effects.h"
 #include "sim/sampler.h"
@@ -29,8 +28,6 @@ ParamInfo Optional(ParamInfo info) {
   info.default_value = 0.0;
   return info;
 }
-
-constexpr double kTwoPiOver3 = 2.0 * std::numbers::pi / 3.0;
 
 // Time within [a, b] during which a switch commanded on since t_edge conducts, given the
 // turn-on delay delta.
