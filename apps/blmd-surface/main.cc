@@ -16,6 +16,8 @@
 #include "blmd/io/flags.h"
 #include "blmd/io/plot.h"
 #include "blmd/io/surface_file.h"
+#include "blmd/sim/effects.h"
+#include "blmd/sim/model.h"
 
 namespace {
 
@@ -32,6 +34,83 @@ std::string Clock(double seconds) {
   const long s = std::lround(seconds);
   std::snprintf(buffer, sizeof buffer, "%ld:%02ld", s / 60, s % 60);
   return buffer;
+}
+
+// Description of a grid axis' parameter: the model's (when the model is known), else an
+// effect's; nullptr when neither has it (the axis is then drawn without a unit).
+const blmd::ParamInfo* FindParameterInfo(const std::string& model, const std::string& name) {
+  for (const blmd::Model* candidate : blmd::ModelRegistry()) {
+    if (candidate->name() != model) continue;
+    if (const blmd::ParamInfo* info = candidate->FindParameter(name)) return info;
+  }
+  for (const auto& effect : blmd::EffectRegistry()) {
+    for (const auto& info : effect.parameters) {
+      if (info.name == name) return &info;
+    }
+  }
+  return nullptr;
+}
+
+// `blmd-surface plot`: draws a surface CSV (unsharded, merged or one shard) as SVG.
+int PlotSurfaceFile(const std::string& csv_path, const std::string& svg_path, const std::string& title,
+                    bool quiet) {
+  const blmd::SurfaceFile file = blmd::ReadSurfaceCsv(csv_path);
+  constexpr std::size_t kMaxDrawn = 4'000'000;  // SurfaceSvg's limit
+  if (file.grid_size > kMaxDrawn) {
+    throw blmd::InputError(csv_path + ": a grid of " + std::to_string(file.grid_size) +
+                           " points is too large to draw (at most " + std::to_string(kMaxDrawn) + ")");
+  }
+  // The whole grid; on a shard the points outside its slice are missing (NaN), so a local
+  // minimum is only reported where all its neighbours are in the file.
+  const std::vector<blmd::SurfacePoint> points = blmd::SurfaceGridPoints(file);
+  const std::vector<std::size_t> minima = blmd::LocalMinima(file.axes, points);
+  std::string observe_text;
+  for (std::size_t c = 0; c < file.observe.size(); ++c) observe_text += (c ? "," : "") + file.observe[c];
+  blmd::SurfacePlotOptions plot;
+  plot.title = title;
+  if (plot.title.empty()) {
+    const auto slash = csv_path.find_last_of('/');
+    plot.title = (slash == std::string::npos ? csv_path : csv_path.substr(slash + 1)) + ": cost over ";
+    for (std::size_t a = 0; a < file.axes.size(); ++a) plot.title += (a ? ", " : "") + file.axes[a].name;
+    plot.title += " (observe " + observe_text + ")";
+    if (file.is_shard()) {
+      plot.title += ", shard " + std::to_string(file.metadata.shard_index) + "/" +
+                    std::to_string(file.metadata.shard_count);
+    }
+  }
+  for (const auto& axis : file.axes) {
+    const blmd::ParamInfo* info = FindParameterInfo(file.model, axis.name);
+    plot.units.push_back(info ? info->unit : "");
+  }
+  const std::string svg = blmd::SurfaceSvg(file.axes, points, minima, plot);
+  blmd::WriteFileAtomically(svg_path, svg);
+  if (quiet) return blmd::kExitOk;
+
+  std::size_t best = points.size(), failed = 0;
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    if (!std::isfinite(points[k].evaluation.cost)) continue;
+    if (best == points.size() || points[k].evaluation.cost < points[best].evaluation.cost) best = k;
+  }
+  for (const auto& point : file.points) failed += point.evaluation.ok ? 0 : 1;
+  auto where = [&](std::size_t k) {
+    std::string text;
+    for (std::size_t a = 0; a < file.axes.size(); ++a) {
+      text += " " + file.axes[a].name + " = " + G(points[k].coordinates[a], 6);
+    }
+    return text + ", cost " + G(points[k].evaluation.cost);
+  };
+  std::cout << "blmd-surface: plotted " << file.points.size() << " points";
+  if (file.is_shard()) {
+    std::cout << " (shard " << file.metadata.shard_index << "/" << file.metadata.shard_count << " of "
+              << file.grid_size << ")";
+  }
+  std::cout << " of " << csv_path << " -> " << svg_path << "\n";
+  if (best < points.size()) std::cout << "  grid minimum:" << where(best) << "\n";
+  std::cout << "  local minima: " << minima.size()
+            << (file.is_shard() ? " (only where every neighbour is in the shard)" : "") << "\n";
+  for (std::size_t k : minima) std::cout << "   " << where(k) << (k == best ? "  (global)" : "") << "\n";
+  if (failed) std::cout << "  failed points: " << failed << " (cost inf)\n";
+  return blmd::kExitOk;
 }
 
 }  // namespace
@@ -61,8 +140,16 @@ int main(int argc, char** argv) {
   std::string merge_out;
   merge->add_option("parts", parts, "shard CSV files")->required();
   merge->add_option("--out", merge_out, "merged CSV to write")->required();
+  CLI::App* plot = app.add_subcommand(
+      "plot", "draw a surface CSV (unsharded, merged, or one shard) as SVG, like --svg");
+  std::string plot_csv, plot_svg, plot_title;
+  plot->add_option("surface", plot_csv, "surface CSV written by blmd-surface or merge")->required();
+  plot->add_option("--svg", plot_svg, "SVG to write")->required();
+  plot->add_option("--title", plot_title, "title (default: \"FILE: cost over P[, Q] (observe COLS)\")");
+  plot->add_flag("--quiet", quiet, "no summary");
 
   return blmd::app::Main(app, argc, argv, [&]() -> int {
+    if (plot->parsed()) return PlotSurfaceFile(plot_csv, plot_svg, plot_title, quiet);
     if (merge->parsed()) {
       const std::string merged = blmd::MergeSurfaceParts(parts);
       blmd::WriteFileAtomically(merge_out, merged);
