@@ -153,6 +153,7 @@ class TraceParser {
     const bool comment = !content.empty() && content.front() == '#';
     if (!have_header_) {
       if (comment) {
+        CheckText(line);
         trace_.comments.emplace_back(Trim(content.substr(1)));
         return;
       }
@@ -169,7 +170,9 @@ class TraceParser {
     Row(line, unterminated);
   }
 
-  void Header(std::string_view line) {
+  // Comment and header lines are text: a control byte (but tab) means binary data, a CR
+  // inside a line means CR line ends.
+  void CheckText(std::string_view line) const {
     for (std::size_t k = 0; k < line.size(); ++k) {
       const unsigned char c = static_cast<unsigned char>(line[k]);
       if (c == '\r') {
@@ -180,6 +183,10 @@ class TraceParser {
         Fail(line_number_, 0, "binary data (control byte " + Hex(c) + "): not a CSV text file");
       }
     }
+  }
+
+  void Header(std::string_view line) {
+    CheckText(line);
     if (const std::size_t bad = InvalidUtf8(line); bad != std::string_view::npos) {
       Fail(line_number_, 0,
            "header is not UTF-8 text (byte " + Hex(static_cast<unsigned char>(line[bad])) +
