@@ -64,7 +64,7 @@ TEST(NumericalFaults, BlmdSimDivergenceExitsOneWithOneLineAndWritesNothing) {
   const std::string config = dir.Write("diverges.json", DragConfig(0.1, 2.26e-5));
   const std::string expected =
       "error: " + config +
-      ": simulation diverged (non-finite or |state| above the limit) at t = 0.013 s; the step "
+      ": simulation diverged (non-finite or |state| > 1e+09) at t = 0.013 s; the step "
       "simulation.dt = 0.001 s may be too large for the model's fastest dynamics, or a "
       "parameter is unphysical: reduce dt or check the parameters\n";
   const std::string out = dir.File("trace.csv");
@@ -127,7 +127,7 @@ TEST(NumericalFaults, SurfaceCountsDivergedPointsAndGoesOn) {
   EXPECT_LT(expected_failures, 15);  // ... and part does not
   EXPECT_EQ(report["failed_points"], expected_failures);
   EXPECT_EQ(report["failure_reasons"],
-            nlohmann::json({{"simulation diverged (non-finite or |state| above the limit)", expected_failures}}));
+            nlohmann::json({{"simulation diverged (non-finite or |state| > 1e+09)", expected_failures}}));
   EXPECT_NEAR(report["minimum"]["Cd"].get<double>(), 1e-4, 1e-16);
   EXPECT_NEAR(report["minimum"]["J"].get<double>(), 1e-5, 1e-17);
   // The CSV: a failed point is `inf` cost with empty mse fields (docs/cli.md), never NaN.
@@ -142,7 +142,7 @@ TEST(NumericalFaults, SurfaceCountsDivergedPointsAndGoesOn) {
   ASSERT_EQ(summary.exit_code, 0);
   EXPECT_NE(summary.out.find("failed points: " + std::to_string(expected_failures) + " (cost inf); " +
                              std::to_string(expected_failures) +
-                             " x simulation diverged (non-finite or |state| above the limit)"),
+                             " x simulation diverged (non-finite or |state| > 1e+09)"),
             std::string::npos)
       << summary.out;
 }
@@ -167,7 +167,7 @@ TEST(NumericalFaults, IdentCountsFailedEvaluationsAndTheReportHasNoNonFiniteNumb
   EXPECT_GT(failed, 0);
   EXPECT_LT(failed, report["fit"]["evaluations"].get<long>());
   const auto& reasons = report["method_summary"]["failure_reasons"];
-  ASSERT_TRUE(reasons.contains("simulation diverged (non-finite or |state| above the limit)")) << reasons;
+  ASSERT_TRUE(reasons.contains("simulation diverged (non-finite or |state| > 1e+09)")) << reasons;
   long counted = 0;
   for (const auto& [reason, n] : reasons.items()) counted += n.get<long>();
   EXPECT_EQ(counted, failed);

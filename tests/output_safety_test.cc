@@ -94,6 +94,33 @@ void InterruptSweep(int signal_number) {
 TEST(OutputSafety, SigintDuringASweepKeepsTheOldOutput) { InterruptSweep(SIGINT); }
 TEST(OutputSafety, SigtermDuringASweepKeepsTheOldOutput) { InterruptSweep(SIGTERM); }
 
+// An output that cannot be written is found before the work, not after it: a sweep of
+// 800 BLMD points (about 12 s) with a missing output folder fails at once.
+TEST(OutputSafety, AnUnwritableOutputIsReportedBeforeTheWork) {
+  TempDir dir;
+  const std::string sweep = BinPath("blmd-surface") + " --config " + SourcePath("configs/blmd-d31x.json") +
+                            " --trace " + SourcePath("testdata/blmd-d31x-step.csv") +
+                            " --grid J=6e-4:2.4e-3:40 --grid B=1e-5:5e-3:20 --threads 1 --quiet";
+  const auto started = std::chrono::steady_clock::now();
+  CommandResult run = blmd::testing::Run(sweep + " --out " + dir.File("missing/surface.csv"));
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_EQ(run.err, "error: " + dir.File("missing/surface.csv") + ": cannot write in folder '" +
+                         dir.File("missing") + "': No such file or directory\n");
+  run = blmd::testing::Run(sweep + " --out " + dir.File("s.csv") + " --svg " + dir.path());
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_EQ(run.err, "error: " + dir.path() + ": cannot write: Is a directory\n");
+  run = blmd::testing::Run(BinPath("blmd-ident") + " --config " + SourcePath("configs/blmd-d31x.json") +
+                           " --trace " + SourcePath("testdata/blmd-d31x-step.csv") + " --report " +
+                           dir.File("missing/report.json"));
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_EQ(run.err, "error: " + dir.File("missing/report.json") + ": cannot write in folder '" +
+                         dir.File("missing") + "': No such file or directory\n");
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  EXPECT_LT(seconds, 6.0);  // three starts, no sweep and no fit
+  EXPECT_EQ(Temporaries(dir.path()), std::vector<std::string>{});
+}
+
 // The write itself interrupted: a child rewrites a 16 MB file in a loop and is killed
 // the moment a temporary is seen beside it (so the signal lands while writing, syncing or
 // renaming). Afterwards the file is the old content or the whole new one, and the signal

@@ -39,7 +39,7 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"config", "trace"}));
   app.add_flag("--discover", discover, "find the effects the model lacks, add them, refit");
   app.add_option("--bic-margin", bic_margin, "discovery: BIC fall needed to add an effect (default 10)")
-      ->check(CLI::PositiveNumber);
+      ->check(blmd::app::PositiveNumber());
   app.add_option("--max-effects", max_effects, "discovery: most effects to add (default 3)")
       ->check(CLI::Range(1, 20));
   app.add_option("--candidates", candidates_text, "discovery: effects to consider, e.g. coulomb_friction,load_torque");
@@ -50,7 +50,8 @@ int main(int argc, char** argv) {
   app.add_option("--scale", scales, "multiply a column, NAME=FACTOR (repeatable)");
   app.add_option("--derive", derives, "derive a velocity from a position, e.g. w=theta");
   app.add_option("--seed", seed, "random seed (fsd)");
-  app.add_option("--threads", threads, "worker threads (0: all cores)")->check(CLI::NonNegativeNumber);
+  app.add_option("--threads", threads, "worker threads (0: all cores)")
+      ->check(blmd::app::NonNegativeWholeNumber());
   app.add_flag("--quiet", quiet, "print nothing but errors");
   app.add_option("--fail-above-nrmse", fail_above, "exit 3 when the final NRMSE exceeds X");
 
@@ -117,6 +118,7 @@ int main(int argc, char** argv) {
     for (const auto& path : validates) {
       validation_traces.push_back(blmd::LoadFitTrace(path, input_options, config.experiment.initial));
     }
+    if (!report_path.empty()) blmd::CheckWritable(report_path);  // before the fit, not after
     if (!report_path.empty() || !html_path.empty()) blmd::InstallCleanupOnSignal();
 
     const blmd::FitProblem problem(config, std::move(fit_traces), observe, free);

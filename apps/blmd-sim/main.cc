@@ -6,6 +6,7 @@
 #include "../common/app_main.h"
 #include "blmd/io/config.h"
 #include "blmd/io/csv.h"
+#include "blmd/io/files.h"
 #include "blmd/io/flags.h"
 #include "blmd/random.h"
 #include "blmd/run.h"
@@ -81,6 +82,7 @@ int main(int argc, char** argv) {
         throw blmd::InputError(input_path + ": " + error);
       }
     }
+    blmd::CheckWritable(out_path);  // before the run, not after it
     blmd::Trace trace;
     blmd::SimStatus status;
     if (input_path.empty()) {

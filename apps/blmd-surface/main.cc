@@ -130,7 +130,8 @@ int main(int argc, char** argv) {
   app.add_option("--column", columns, "map a standard column to a header, NAME=HEADER");
   app.add_option("--scale", scales, "multiply a column, NAME=FACTOR");
   app.add_option("--derive", derives, "derive a velocity from a position, w=theta");
-  app.add_option("--threads", threads, "worker threads (0: all cores)")->check(CLI::NonNegativeNumber);
+  app.add_option("--threads", threads, "worker threads (0: all cores)")
+      ->check(blmd::app::NonNegativeWholeNumber());
   app.add_option("--shard", shard_text, "compute only slice K of N, K/N (1-based)");
   app.add_option("--svg", svg_path, "write a heat map (2-D) or curve (1-D) SVG");
   app.add_flag("--json", json, "print the surface as JSON on stdout instead of the summary");
@@ -237,6 +238,8 @@ int main(int argc, char** argv) {
       p.initial = config.parameters.Get(axis.name);
       free.push_back(p);
     }
+    blmd::CheckWritable(out_path);  // before the sweep, not after it
+    if (!svg_path.empty()) blmd::CheckWritable(svg_path);
     blmd::InstallCleanupOnSignal();
     const std::string config_sha = blmd::Sha256Hex(blmd::ReadFileText(config_path));
     const blmd::FitProblem problem(config, std::move(traces), observe, free);

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <cmath>
 #include <exception>
 #include <functional>
 #include <iostream>
@@ -15,6 +16,39 @@ namespace blmd::app {
 
 inline void AddVersionFlag(CLI::App& app, const std::string& tool) {
   app.set_version_flag("--version", tool + " " + kVersion);
+}
+
+// Range checks with a readable message ("--threads: must be a whole number >= 0, not -1");
+// CLI11's own print the range's ends in full (up to 1.8e308 written out).
+inline CLI::Validator NonNegativeWholeNumber() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        std::size_t used = 0;
+        long value = -1;
+        try {
+          value = std::stol(text, &used);
+        } catch (const std::exception&) {
+        }
+        if (used != text.size() || value < 0) return "must be a whole number >= 0, not " + text;
+        return {};
+      },
+      "N>=0");
+}
+inline CLI::Validator PositiveNumber() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        std::size_t used = 0;
+        double value = 0.0;
+        try {
+          value = std::stod(text, &used);
+        } catch (const std::exception&) {
+        }
+        if (used != text.size() || !(value > 0.0) || !std::isfinite(value)) {
+          return "must be a number > 0, not " + text;
+        }
+        return {};
+      },
+      "X>0");
 }
 
 // Parses, then runs `body`. InputError and bad flags -> one line on stderr, exit 2.

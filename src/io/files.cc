@@ -89,6 +89,25 @@ void InstallCleanupOnSignal() {
   });
 }
 
+void CheckWritable(const std::string& path) {
+  struct stat info {};
+  if (stat(path.c_str(), &info) == 0 && S_ISDIR(info.st_mode)) {
+    throw InputError(path + ": cannot write: " + std::strerror(EISDIR));
+  }
+  const std::string folder = Folder(path);
+  int error = 0;
+  if (stat(folder.c_str(), &info) != 0) {
+    error = errno;
+  } else if (!S_ISDIR(info.st_mode)) {
+    error = ENOTDIR;
+  } else if (access(folder.c_str(), W_OK | X_OK) != 0) {
+    error = errno;
+  }
+  if (error != 0) {
+    throw InputError(path + ": cannot write in folder '" + folder + "': " + std::strerror(error));
+  }
+}
+
 void WriteFileAtomically(const std::string& path, const std::string& content) {
   InstallCleanupOnSignal();
   std::string temp = path + ".tmp.XXXXXX";

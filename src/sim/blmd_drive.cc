@@ -277,7 +277,7 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
     pack(demand, now.data());
     if (!internal::AllFinite(now.data() + 1, 5, settings.divergence_limit)) {
       return {SimStatus::Code::kDiverged,
-              "simulation diverged (non-finite or |state| above the limit)", t_high};
+              internal::DivergedMessage(settings.divergence_limit), t_high};
     }
     sampler.Record(t_low, prev.data(), t_high, now.data());
     prev = now;

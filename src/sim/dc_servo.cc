@@ -170,7 +170,7 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
     now = {u, i + drive.i0, w, theta, reference};
     if (!internal::AllFinite(now.data() + 1, 3, request.settings.divergence_limit)) {
       return {SimStatus::Code::kDiverged,
-              "simulation diverged (non-finite or |state| above the limit)", t_next};
+              internal::DivergedMessage(request.settings.divergence_limit), t_next};
     }
     sampler.Record(t, prev.data(), t_next, now.data());
     prev = now;

@@ -94,7 +94,7 @@ SimStatus RigidLoadModel::Simulate(const SimulationRequest& request, Trace* out)
     }
     now = {input.At(t_next + 0.5 * dt), w, theta};
     if (!internal::AllFinite(now.data() + 1, 2, request.settings.divergence_limit)) {
-      return {SimStatus::Code::kDiverged, "simulation diverged (non-finite or |state| above the limit)",
+      return {SimStatus::Code::kDiverged, internal::DivergedMessage(request.settings.divergence_limit),
               t_next};
     }
     sampler.Record(t, prev.data(), t_next, now.data());

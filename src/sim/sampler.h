@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstddef>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -57,6 +58,14 @@ inline bool AllFinite(const double* values, std::size_t n, double limit) {
     if (!std::isfinite(values[k]) || std::abs(values[k]) > limit) return false;
   }
   return true;
+}
+
+// The reason of a kDiverged status, the same for every model and every step (failures are
+// counted by reason): "simulation diverged (non-finite or |state| > 1e+09)".
+inline std::string DivergedMessage(double limit) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%g", limit);
+  return std::string("simulation diverged (non-finite or |state| > ") + buffer + ")";
 }
 
 }  // namespace blmd::internal

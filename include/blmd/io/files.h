@@ -17,6 +17,11 @@ std::string ReadFileText(const std::string& path);
 // Throws InputError when the folder cannot be written.
 void WriteFileAtomically(const std::string& path, const std::string& content);
 
+// Checks, before long work, that `path` can be written later: its folder exists and is
+// writable and `path` is not a folder. Throws InputError with the same message the write
+// would give ("<path>: cannot write in folder '<folder>': <reason>").
+void CheckWritable(const std::string& path);
+
 // Installs the SIGINT/SIGTERM handler that removes pending temporaries (idempotent).
 void InstallCleanupOnSignal();
 
