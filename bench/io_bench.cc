@@ -45,7 +45,8 @@ void Generate(const std::string& path) {
   for (long k = 0; k < kRows; ++k) {
     const double t = static_cast<double>(k) * 1e-4;
     const double u = (k / 5000) % 2 ? -24.0 : 24.0;
-    const double i = 1.9 * std::sin(2.0 * std::numbers::pi * 3.0 * t) + 1e-3 * std::cos(0.37 * static_cast<double>(k));
+    const double i = 1.9 * std::sin(2.0 * std::numbers::pi * 3.0 * t) +
+                     1e-3 * std::cos(0.37 * static_cast<double>(k));
     const double w = 420.0 * (1.0 - std::exp(-t)) * std::cos(2.0 * std::numbers::pi * 0.5 * t);
     chunk += blmd::FormatNumber(t);
     chunk += ',';
@@ -110,7 +111,8 @@ void BM_ReadTraceCsv5M(benchmark::State& state) {
   }
   const double numeric_mb = static_cast<double>(kRows) * kColumns * 8.0 / 1e6;
   state.counters["file_MB"] = megabytes;
-  state.counters["MB_per_s"] = benchmark::Counter(megabytes, benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["MB_per_s"] =
+      benchmark::Counter(megabytes, benchmark::Counter::kIsIterationInvariantRate);
   state.counters["numeric_MB"] = numeric_mb;
   if (peak_known) {
     state.counters["peak_rss_MB"] = peak_mb;

@@ -25,7 +25,8 @@ void CheckConfig(const blmd::Config& config) {
   for (const auto& [name, value] : config.parameters.entries()) {
     if (!std::isfinite(value)) Broken("non-finite parameter", name);
   }
-  if (!config.model->Validate(config.parameters, config.simulation).empty()) Broken("invalid parameters");
+  if (!config.model->Validate(config.parameters, config.simulation).empty())
+    Broken("invalid parameters");
   if (!(config.simulation.dt > 0.0)) Broken("dt not positive");
   const auto& experiment = config.experiment;
   if (!(experiment.duration > 0.0) || !(experiment.sample_rate > 0.0)) Broken("empty experiment");
@@ -35,8 +36,9 @@ void CheckConfig(const blmd::Config& config) {
     if (!config.parameters.Has(name)) Broken("unknown free parameter", name);
     const auto [lower, upper] = config.Bounds(name);
     if (!(lower < upper)) Broken("empty bounds", name);
-    const double start = config.identification.initial.Has(name) ? config.identification.initial.Get(name)
-                                                                  : config.parameters.Get(name);
+    const double start = config.identification.initial.Has(name)
+                             ? config.identification.initial.Get(name)
+                             : config.parameters.Get(name);
     if (!(start >= lower && start <= upper)) Broken("start outside the bounds", name);
   }
 }

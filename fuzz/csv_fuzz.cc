@@ -51,7 +51,8 @@ void CheckTrace(const blmd::Trace& trace, const blmd::CsvReadOptions& options) {
       if (!(t[k] > t[k - 1])) Broken("t not strictly increasing");
     }
   }
-  const blmd::Trace back = blmd::ParseTraceCsv(blmd::FormatTraceCsv(trace), "round-trip.csv", options);
+  const blmd::Trace back =
+      blmd::ParseTraceCsv(blmd::FormatTraceCsv(trace), "round-trip.csv", options);
   if (back.names() != trace.names() || back.rows() != trace.rows()) Broken("round trip shape");
   for (std::size_t c = 0; c < trace.num_columns(); ++c) {
     for (std::size_t r = 0; r < trace.rows(); ++r) {
@@ -68,7 +69,8 @@ void CheckPieces(const std::string& text, std::size_t piece, const blmd::Trace* 
                  const std::string& whole_error) {
   static const int fd = memfd_create("csv_fuzz", 0);
   if (fd < 0) return;
-  if (ftruncate(fd, 0) != 0 || pwrite(fd, text.data(), text.size(), 0) != static_cast<ssize_t>(text.size())) {
+  if (ftruncate(fd, 0) != 0 ||
+      pwrite(fd, text.data(), text.size(), 0) != static_cast<ssize_t>(text.size())) {
     return;
   }
   const std::string path = "/proc/self/fd/" + std::to_string(fd);
@@ -77,7 +79,8 @@ void CheckPieces(const std::string& text, std::size_t piece, const blmd::Trace* 
   try {
     const blmd::Trace read = blmd::ReadTraceCsv(path, options);
     if (!whole) Broken("pieces read what the whole text rejects:", whole_error);
-    if (read.names() != whole->names() || read.comments != whole->comments) Broken("pieces: header");
+    if (read.names() != whole->names() || read.comments != whole->comments)
+      Broken("pieces: header");
     for (std::size_t c = 0; c < read.num_columns(); ++c) {
       if (read.Column(c) != whole->Column(c)) Broken("pieces: values");
     }
@@ -104,10 +107,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   try {
     const blmd::Trace trace = blmd::ParseTraceCsv(text, path, options);
     CheckTrace(trace, options);
-    if (options.required.empty() && options.time_column == "t") CheckPieces(text, piece, &trace, "");
+    if (options.required.empty() && options.time_column == "t")
+      CheckPieces(text, piece, &trace, "");
   } catch (const blmd::InputError& error) {
     CheckMessage(error.what(), path);
-    if (options.required.empty() && options.time_column == "t") CheckPieces(text, piece, nullptr, error.what());
+    if (options.required.empty() && options.time_column == "t")
+      CheckPieces(text, piece, nullptr, error.what());
   }
   return 0;
 }

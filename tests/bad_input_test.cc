@@ -4,8 +4,8 @@
 // output alone: an absent output stays absent, an existing one keeps its bytes and mtime,
 // and no temporary is left beside it. A case whose .expected file is empty is valid input
 // (exit 0). The largest cases (10 000 columns, 1 MB lines) are generated here.
-#include <gtest/gtest.h>
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <sys/stat.h>
 
 #include <algorithm>
@@ -29,7 +29,8 @@ std::string Slurp(const std::string& path) {
 }
 
 std::string ReplaceAll(std::string text, const std::string& from, const std::string& to) {
-  for (std::size_t at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size())) {
+  for (std::size_t at = text.find(from); at != std::string::npos;
+       at = text.find(from, at + to.size())) {
     text.replace(at, from.size(), to);
   }
   return text;
@@ -52,12 +53,14 @@ std::vector<std::string> Commands(Kind kind) {
   const std::string trace = SourcePath("testdata/ganesh-noload-step.csv");
   const std::string grid = " --grid J=1e-5:3e-5:2 --quiet --out '{OUT}'";
   if (kind == Kind::kTrace) {
-    return {BinPath("blmd-ident") + " --config " + noload + " --trace '{IN}' --quiet --report '{OUT}'",
-            BinPath("blmd-surface") + " --config " + noload + " --trace '{IN}'" + grid};
+    return {
+        BinPath("blmd-ident") + " --config " + noload + " --trace '{IN}' --quiet --report '{OUT}'",
+        BinPath("blmd-surface") + " --config " + noload + " --trace '{IN}'" + grid};
   }
-  return {BinPath("blmd-sim") + " --config '{IN}' --quiet --out '{OUT}'",
-          BinPath("blmd-surface") + " --config '{IN}' --trace " + trace + grid,
-          BinPath("blmd-ident") + " --config '{IN}' --trace " + trace + " --quiet --report '{OUT}'"};
+  return {
+      BinPath("blmd-sim") + " --config '{IN}' --quiet --out '{OUT}'",
+      BinPath("blmd-surface") + " --config '{IN}' --trace " + trace + grid,
+      BinPath("blmd-ident") + " --config '{IN}' --trace " + trace + " --quiet --report '{OUT}'"};
 }
 
 // Runs `input` through every command of its kind and checks the contract. `expected` is
@@ -131,8 +134,9 @@ std::vector<FileCase> FileCases() {
       const std::string stem = name.substr(0, name.size() - extension.size());
       FileCase c;
       c.test_name = folder + "_" + stem;
-      std::replace_if(c.test_name.begin(), c.test_name.end(),
-                      [](char ch) { return !std::isalnum(static_cast<unsigned char>(ch)); }, '_');
+      std::replace_if(
+          c.test_name.begin(), c.test_name.end(),
+          [](char ch) { return !std::isalnum(static_cast<unsigned char>(ch)); }, '_');
       c.kind = kind;
       c.input = root + "/" + name;
       c.expected = root + "/" + stem + ".expected";
@@ -197,8 +201,8 @@ TEST(BadInputGenerated, TenThousandColumnsInTheHeader) {
 
 TEST(BadInputGenerated, OneMegabyteNumber) {
   TempDir dir;
-  const std::string input =
-      dir.Write("long-number.csv", kHeader + kRow + "0.0001,24," + std::string(1 << 20, '7') + ",0\n");
+  const std::string input = dir.Write(
+      "long-number.csv", kHeader + kRow + "0.0001,24," + std::string(1 << 20, '7') + ",0\n");
   CheckInput(Kind::kTrace, input,
              "error: {FILE}:3:3: column 'i' value "
              "\"7777777777777777777777777777777777777777...\" is out of the double range\n");
@@ -206,7 +210,8 @@ TEST(BadInputGenerated, OneMegabyteNumber) {
 
 TEST(BadInputGenerated, OneMegabyteLineWithoutCommas) {
   TempDir dir;
-  const std::string input = dir.Write("long-line.csv", kHeader + kRow + std::string(1 << 20, 'x') + "\n");
+  const std::string input =
+      dir.Write("long-line.csv", kHeader + kRow + std::string(1 << 20, 'x') + "\n");
   CheckInput(Kind::kTrace, input,
              "error: {FILE}:3:1: column 't' is not a number "
              "(\"xxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxx...\")\n");
@@ -228,7 +233,8 @@ TEST(BadInputGenerated, FoldersAndMissingFiles) {
   CheckInput(Kind::kTrace, dir.File("folder.csv"), "error: {FILE}: cannot read: Is a directory\n");
   CheckInput(Kind::kTrace, dir.File("absent.csv"),
              "error: {FILE}: cannot read: No such file or directory\n");
-  CheckInput(Kind::kConfig, dir.File("folder.json"), "error: {FILE}: cannot read: Is a directory\n");
+  CheckInput(Kind::kConfig, dir.File("folder.json"),
+             "error: {FILE}: cannot read: Is a directory\n");
   CheckInput(Kind::kConfig, dir.File("absent.json"),
              "error: {FILE}: cannot read: No such file or directory\n");
 }

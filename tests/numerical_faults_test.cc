@@ -68,7 +68,8 @@ TEST(NumericalFaults, BlmdSimDivergenceExitsOneWithOneLineAndWritesNothing) {
       "simulation.dt = 0.001 s may be too large for the model's fastest dynamics, or a "
       "parameter is unphysical: reduce dt or check the parameters\n";
   const std::string out = dir.File("trace.csv");
-  CommandResult run = blmd::testing::Run(BinPath("blmd-sim") + " --config " + config + " --out " + out);
+  CommandResult run =
+      blmd::testing::Run(BinPath("blmd-sim") + " --config " + config + " --out " + out);
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_EQ(run.err, expected);
   EXPECT_EQ(run.out, "");
@@ -93,11 +94,15 @@ TEST(NumericalFaults, SurfaceCountsDivergedPointsAndGoesOn) {
   TempDir dir;
   const std::string config = dir.Write("drag.json", DragConfig(1e-4, 2.26e-5));
   const std::string trace = dir.File("trace.csv");
-  ASSERT_EQ(blmd::testing::Run(BinPath("blmd-sim") + " --quiet --config " + config + " --out " + trace).exit_code, 0);
+  ASSERT_EQ(
+      blmd::testing::Run(BinPath("blmd-sim") + " --quiet --config " + config + " --out " + trace)
+          .exit_code,
+      0);
   const std::string out = dir.File("surface.csv");
   const std::string grid = " --grid Cd=log:1e-4:1:5 --grid J=log:1e-6:1e-4:3";
-  const CommandResult run = blmd::testing::Run(BinPath("blmd-surface") + " --config " + config + " --trace " +
-                                               trace + grid + " --out " + out + " --json");
+  const CommandResult run =
+      blmd::testing::Run(BinPath("blmd-surface") + " --config " + config + " --trace " + trace +
+                         grid + " --out " + out + " --json");
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_EQ(run.err, "");
   EXPECT_FALSE(HasNonFiniteText(run.out)) << run.out;
@@ -110,8 +115,9 @@ TEST(NumericalFaults, SurfaceCountsDivergedPointsAndGoesOn) {
       EXPECT_NEAR(point["Cd"].get<double>() / Cd, 1.0, 1e-12);
       EXPECT_NEAR(point["J"].get<double>() / J, 1.0, 1e-12);
       const std::string single = dir.Write("point.json", DragConfig(Cd, J));
-      const int sim_exit = blmd::testing::Run(BinPath("blmd-sim") + " --quiet --config " + single + " --out " +
-                                              dir.File("point.csv")).exit_code;
+      const int sim_exit = blmd::testing::Run(BinPath("blmd-sim") + " --quiet --config " + single +
+                                              " --out " + dir.File("point.csv"))
+                               .exit_code;
       ASSERT_TRUE(sim_exit == 0 || sim_exit == 1);
       SCOPED_TRACE("Cd = " + std::to_string(Cd) + ", J = " + std::to_string(J));
       if (sim_exit == 1) {
@@ -126,22 +132,25 @@ TEST(NumericalFaults, SurfaceCountsDivergedPointsAndGoesOn) {
   EXPECT_GT(expected_failures, 0);   // part of the grid diverges ...
   EXPECT_LT(expected_failures, 15);  // ... and part does not
   EXPECT_EQ(report["failed_points"], expected_failures);
-  EXPECT_EQ(report["failure_reasons"],
-            nlohmann::json({{"simulation diverged (non-finite or |state| > 1e+09)", expected_failures}}));
+  EXPECT_EQ(
+      report["failure_reasons"],
+      nlohmann::json({{"simulation diverged (non-finite or |state| > 1e+09)", expected_failures}}));
   EXPECT_NEAR(report["minimum"]["Cd"].get<double>(), 1e-4, 1e-16);
   EXPECT_NEAR(report["minimum"]["J"].get<double>(), 1e-5, 1e-17);
   // The CSV: a failed point is `inf` cost with empty mse fields (docs/cli.md), never NaN.
   const std::string csv = Slurp(out);
   EXPECT_EQ(csv.find("nan"), std::string::npos);
   int inf_rows = 0;
-  for (std::size_t at = csv.find(",,,inf\n"); at != std::string::npos; at = csv.find(",,,inf\n", at + 1)) ++inf_rows;
+  for (std::size_t at = csv.find(",,,inf\n"); at != std::string::npos;
+       at = csv.find(",,,inf\n", at + 1))
+    ++inf_rows;
   EXPECT_EQ(inf_rows, expected_failures);
   // The summary counts them with their reason.
-  const CommandResult summary = blmd::testing::Run(BinPath("blmd-surface") + " --config " + config + " --trace " +
-                                                   trace + grid + " --out " + out);
+  const CommandResult summary = blmd::testing::Run(BinPath("blmd-surface") + " --config " + config +
+                                                   " --trace " + trace + grid + " --out " + out);
   ASSERT_EQ(summary.exit_code, 0);
-  EXPECT_NE(summary.out.find("failed points: " + std::to_string(expected_failures) + " (cost inf); " +
-                             std::to_string(expected_failures) +
+  EXPECT_NE(summary.out.find("failed points: " + std::to_string(expected_failures) +
+                             " (cost inf); " + std::to_string(expected_failures) +
                              " x simulation diverged (non-finite or |state| > 1e+09)"),
             std::string::npos)
       << summary.out;
@@ -154,11 +163,16 @@ TEST(NumericalFaults, IdentCountsFailedEvaluationsAndTheReportHasNoNonFiniteNumb
   TempDir dir;
   const std::string config = dir.Write("drag.json", DragConfig(1e-4, 2.26e-5));
   const std::string trace = dir.File("trace.csv");
-  ASSERT_EQ(blmd::testing::Run(BinPath("blmd-sim") + " --quiet --config " + config + " --out " + trace).exit_code, 0);
+  ASSERT_EQ(
+      blmd::testing::Run(BinPath("blmd-sim") + " --quiet --config " + config + " --out " + trace)
+          .exit_code,
+      0);
   const std::string report_path = dir.File("report.json");
-  const CommandResult run = blmd::testing::Run(BinPath("blmd-ident") + " --config " + config + " --trace " + trace +
-                                               " --method fsd --report " + report_path);
-  ASSERT_TRUE(run.exit_code == 0 || run.exit_code == 1) << run.err;  // converged or not: not the point
+  const CommandResult run =
+      blmd::testing::Run(BinPath("blmd-ident") + " --config " + config + " --trace " + trace +
+                         " --method fsd --report " + report_path);
+  ASSERT_TRUE(run.exit_code == 0 || run.exit_code == 1)
+      << run.err;  // converged or not: not the point
   EXPECT_FALSE(HasNonFiniteText(run.out)) << run.out;
   const std::string text = Slurp(report_path);
   EXPECT_FALSE(HasNonFiniteText(text));

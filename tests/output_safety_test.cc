@@ -58,12 +58,22 @@ void InterruptSweep(int signal_number) {
   TempDir dir;
   const std::string out = dir.Write("surface.csv", "old surface\n");
   const std::string svg = dir.Write("surface.svg", "<svg>old</svg>\n");
-  const std::vector<std::string> arguments = {
-      BinPath("blmd-surface"),
-      "--config", SourcePath("configs/blmd-d31x.json"),
-      "--trace", SourcePath("testdata/blmd-d31x-step.csv"),
-      "--grid", "J=6e-4:2.4e-3:40", "--grid", "B=1e-5:5e-3:20",
-      "--threads", "1", "--quiet", "--out", out, "--svg", svg};
+  const std::vector<std::string> arguments = {BinPath("blmd-surface"),
+                                              "--config",
+                                              SourcePath("configs/blmd-d31x.json"),
+                                              "--trace",
+                                              SourcePath("testdata/blmd-d31x-step.csv"),
+                                              "--grid",
+                                              "J=6e-4:2.4e-3:40",
+                                              "--grid",
+                                              "B=1e-5:5e-3:20",
+                                              "--threads",
+                                              "1",
+                                              "--quiet",
+                                              "--out",
+                                              out,
+                                              "--svg",
+                                              svg};
   std::vector<char*> argv;
   for (const auto& argument : arguments) argv.push_back(const_cast<char*>(argument.c_str()));
   argv.push_back(nullptr);
@@ -76,8 +86,8 @@ void InterruptSweep(int signal_number) {
   ASSERT_EQ(posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ), 0);
   posix_spawn_file_actions_destroy(&actions);
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
-  ASSERT_EQ(WaitFor(pid, 0.0), -1) << "the sweep ended before it was interrupted: "
-                                   << Slurp(dir.File("stderr"));
+  ASSERT_EQ(WaitFor(pid, 0.0), -1)
+      << "the sweep ended before it was interrupted: " << Slurp(dir.File("stderr"));
   ASSERT_EQ(kill(pid, signal_number), 0);
   const int status = WaitFor(pid, 20.0);
   ASSERT_NE(status, -1) << "still running 20 s after the signal";
@@ -98,8 +108,9 @@ TEST(OutputSafety, SigtermDuringASweepKeepsTheOldOutput) { InterruptSweep(SIGTER
 // 800 BLMD points (about 12 s) with a missing output folder fails at once.
 TEST(OutputSafety, AnUnwritableOutputIsReportedBeforeTheWork) {
   TempDir dir;
-  const std::string sweep = BinPath("blmd-surface") + " --config " + SourcePath("configs/blmd-d31x.json") +
-                            " --trace " + SourcePath("testdata/blmd-d31x-step.csv") +
+  const std::string sweep = BinPath("blmd-surface") + " --config " +
+                            SourcePath("configs/blmd-d31x.json") + " --trace " +
+                            SourcePath("testdata/blmd-d31x-step.csv") +
                             " --grid J=6e-4:2.4e-3:40 --grid B=1e-5:5e-3:20 --threads 1 --quiet";
   const auto started = std::chrono::steady_clock::now();
   CommandResult run = blmd::testing::Run(sweep + " --out " + dir.File("missing/surface.csv"));
@@ -109,9 +120,9 @@ TEST(OutputSafety, AnUnwritableOutputIsReportedBeforeTheWork) {
   run = blmd::testing::Run(sweep + " --out " + dir.File("s.csv") + " --svg " + dir.path());
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_EQ(run.err, "error: " + dir.path() + ": cannot write: Is a directory\n");
-  run = blmd::testing::Run(BinPath("blmd-ident") + " --config " + SourcePath("configs/blmd-d31x.json") +
-                           " --trace " + SourcePath("testdata/blmd-d31x-step.csv") + " --report " +
-                           dir.File("missing/report.json"));
+  run = blmd::testing::Run(
+      BinPath("blmd-ident") + " --config " + SourcePath("configs/blmd-d31x.json") + " --trace " +
+      SourcePath("testdata/blmd-d31x-step.csv") + " --report " + dir.File("missing/report.json"));
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_EQ(run.err, "error: " + dir.File("missing/report.json") + ": cannot write in folder '" +
                          dir.File("missing") + "': No such file or directory\n");

@@ -92,7 +92,8 @@ class TraceParser {
   // wrong, and in the same way however the input is cut into pieces.
   void Sniff(std::string_view head) {
     if (head.size() >= 3 && static_cast<unsigned char>(head[0]) == 0xEF &&
-        static_cast<unsigned char>(head[1]) == 0xBB && static_cast<unsigned char>(head[2]) == 0xBF) {
+        static_cast<unsigned char>(head[1]) == 0xBB &&
+        static_cast<unsigned char>(head[2]) == 0xBF) {
       Fail(1, 1, "file starts with a UTF-8 byte-order mark; save it as plain UTF-8/ASCII");
     }
     if (const void* nul = std::memchr(head.data(), '\0', head.size())) {
@@ -109,7 +110,8 @@ class TraceParser {
     while (pos < data.size()) {
       const void* newline = std::memchr(data.data() + pos, '\n', data.size() - pos);
       if (!newline) break;
-      const std::size_t end = static_cast<std::size_t>(static_cast<const char*>(newline) - data.data());
+      const std::size_t end =
+          static_cast<std::size_t>(static_cast<const char*>(newline) - data.data());
       Line(data.substr(pos, end - pos), false);
       pos = end + 1;
     }
@@ -233,8 +235,9 @@ class TraceParser {
     have_header_ = true;
     for (const auto& required : options_.required) {
       if (std::find(names_.begin(), names_.end(), required) == names_.end()) {
-        Fail(0, 0, "missing required column '" + required + "' (header has: " +
-                       HeaderSummary(names_) + ")");
+        Fail(0, 0,
+             "missing required column '" + required + "' (header has: " + HeaderSummary(names_) +
+                 ")");
       }
     }
     if (!options_.time_column.empty()) {
@@ -252,14 +255,16 @@ class TraceParser {
     std::size_t column_index = 0;
     const std::size_t width = names_.size();
     while (true) {
-      const char* comma = static_cast<const char*>(std::memchr(cursor, ',', static_cast<std::size_t>(end - cursor)));
+      const char* comma = static_cast<const char*>(
+          std::memchr(cursor, ',', static_cast<std::size_t>(end - cursor)));
       const char* field_end = comma ? comma : end;
       if (column_index >= width) {
         Fail(line_number_, static_cast<long>(column_index + 1),
              "too many fields: the header has " + std::to_string(width) + " columns");
       }
-      const double value = Number(Trim(std::string_view(cursor, static_cast<std::size_t>(field_end - cursor))),
-                                  column_index, unterminated);
+      const double value =
+          Number(Trim(std::string_view(cursor, static_cast<std::size_t>(field_end - cursor))),
+                 column_index, unterminated);
       std::vector<double>& column = columns_[column_index];
       if (column.size() == column.capacity() && column.size() >= 4096) {
         column.reserve(column.size() + column.size() / 4);  // grow by 25 %, not 100 %
@@ -279,8 +284,8 @@ class TraceParser {
       if (rows_ > 0 && !(t > previous_time_)) {
         Fail(line_number_, static_cast<long>(time_index_ + 1),
              "time '" + options_.time_column + "' must strictly increase (" + DisplayNumber(t) +
-                 (t == previous_time_ ? " repeats " : " follows ") +
-                 DisplayNumber(previous_time_) + ")");
+                 (t == previous_time_ ? " repeats " : " follows ") + DisplayNumber(previous_time_) +
+                 ")");
       }
       previous_time_ = t;
     }
@@ -386,11 +391,13 @@ Trace ReadTraceCsv(const std::string& path, const CsvReadOptions& options, std::
     while (start < held) {
       const std::size_t window = std::min(held - start, chunk);
       const bool last = at_end && start + window == held;
-      const std::size_t used = parser.Consume(std::string_view(buffer.data() + start, window), last);
+      const std::size_t used =
+          parser.Consume(std::string_view(buffer.data() + start, window), last);
       if (used == 0 && !last) {
         if (start + window == held) break;  // an incomplete line: read more
         // A line longer than the window: widen it to everything held.
-        const std::size_t wide = parser.Consume(std::string_view(buffer.data() + start, held - start), at_end);
+        const std::size_t wide =
+            parser.Consume(std::string_view(buffer.data() + start, held - start), at_end);
         start += wide;
         break;
       }
@@ -443,7 +450,8 @@ std::string FormatNumber(double value) {
 std::string DisplayNumber(double value) {
   const std::string shortest = FormatNumber(value);
   char buffer[400];
-  const auto result = std::to_chars(buffer, buffer + sizeof buffer, value, std::chars_format::fixed);
+  const auto result =
+      std::to_chars(buffer, buffer + sizeof buffer, value, std::chars_format::fixed);
   if (result.ec != std::errc()) return shortest;
   std::string fixed(buffer, result.ptr);
   return fixed.size() <= shortest.size() + 2 ? fixed : shortest;

@@ -61,7 +61,8 @@ std::string ReadFileText(const std::string& path) {
     throw InputError(path + ": cannot read: " + std::strerror(saved));
   }
   std::string text;
-  if (S_ISREG(info.st_mode) && info.st_size > 0) text.reserve(static_cast<std::size_t>(info.st_size));
+  if (S_ISREG(info.st_mode) && info.st_size > 0)
+    text.reserve(static_cast<std::size_t>(info.st_size));
   char chunk[1 << 16];
   while (true) {
     const ssize_t n = read(fd, chunk, sizeof chunk);
@@ -125,8 +126,8 @@ void WriteFileAtomically(const std::string& path, const std::string& content) {
   const int slot = fd < 0 ? -1 : Register(name.data());
   pthread_sigmask(SIG_SETMASK, &previous, nullptr);
   if (fd < 0) {
-    throw InputError(path + ": cannot write in folder '" + Folder(path) + "': " +
-                     std::strerror(saved_errno));
+    throw InputError(path + ": cannot write in folder '" + Folder(path) +
+                     "': " + std::strerror(saved_errno));
   }
   auto fail = [&](const std::string& what) {
     const int saved = errno;
@@ -163,21 +164,19 @@ void WriteFileAtomically(const std::string& path, const std::string& content) {
 // FIPS 180-4 SHA-256.
 namespace {
 constexpr std::uint32_t kSha256Round[64] = {
-    0x428a2f98, 0x71374491, 0xb5c0fbcf, 0xe9b5dba5, 0x3956c25b, 0x59f111f1, 0x923f82a4,
-    0xab1c5ed5, 0xd807aa98, 0x12835b01, 0x243185be, 0x550c7dc3, 0x72be5d74, 0x80deb1fe,
-    0x9bdc06a7, 0xc19bf174, 0xe49b69c1, 0xefbe4786, 0x0fc19dc6, 0x240ca1cc, 0x2de92c6f,
-    0x4a7484aa, 0x5cb0a9dc, 0x76f988da, 0x983e5152, 0xa831c66d, 0xb00327c8, 0xbf597fc7,
-    0xc6e00bf3, 0xd5a79147, 0x06ca6351, 0x14292967, 0x27b70a85, 0x2e1b2138, 0x4d2c6dfc,
-    0x53380d13, 0x650a7354, 0x766a0abb, 0x81c2c92e, 0x92722c85, 0xa2bfe8a1, 0xa81a664b,
-    0xc24b8b70, 0xc76c51a3, 0xd192e819, 0xd6990624, 0xf40e3585, 0x106aa070, 0x19a4c116,
-    0x1e376c08, 0x2748774c, 0x34b0bcb5, 0x391c0cb3, 0x4ed8aa4a, 0x5b9cca4f, 0x682e6ff3,
-    0x748f82ee, 0x78a5636f, 0x84c87814, 0x8cc70208, 0x90befffa, 0xa4506ceb, 0xbef9a3f7,
-    0xc67178f2};
+    0x428a2f98, 0x71374491, 0xb5c0fbcf, 0xe9b5dba5, 0x3956c25b, 0x59f111f1, 0x923f82a4, 0xab1c5ed5,
+    0xd807aa98, 0x12835b01, 0x243185be, 0x550c7dc3, 0x72be5d74, 0x80deb1fe, 0x9bdc06a7, 0xc19bf174,
+    0xe49b69c1, 0xefbe4786, 0x0fc19dc6, 0x240ca1cc, 0x2de92c6f, 0x4a7484aa, 0x5cb0a9dc, 0x76f988da,
+    0x983e5152, 0xa831c66d, 0xb00327c8, 0xbf597fc7, 0xc6e00bf3, 0xd5a79147, 0x06ca6351, 0x14292967,
+    0x27b70a85, 0x2e1b2138, 0x4d2c6dfc, 0x53380d13, 0x650a7354, 0x766a0abb, 0x81c2c92e, 0x92722c85,
+    0xa2bfe8a1, 0xa81a664b, 0xc24b8b70, 0xc76c51a3, 0xd192e819, 0xd6990624, 0xf40e3585, 0x106aa070,
+    0x19a4c116, 0x1e376c08, 0x2748774c, 0x34b0bcb5, 0x391c0cb3, 0x4ed8aa4a, 0x5b9cca4f, 0x682e6ff3,
+    0x748f82ee, 0x78a5636f, 0x84c87814, 0x8cc70208, 0x90befffa, 0xa4506ceb, 0xbef9a3f7, 0xc67178f2};
 }  // namespace
 
 Sha256::Sha256()
-    : state_{0x6a09e667, 0xbb67ae85, 0x3c6ef372, 0xa54ff53a, 0x510e527f, 0x9b05688c,
-             0x1f83d9ab, 0x5be0cd19} {}
+    : state_{0x6a09e667, 0xbb67ae85, 0x3c6ef372, 0xa54ff53a,
+             0x510e527f, 0x9b05688c, 0x1f83d9ab, 0x5be0cd19} {}
 
 void Sha256::Block(const unsigned char* p) {
   auto rotr = [](std::uint32_t x, int n) { return (x >> n) | (x << (32 - n)); };
@@ -242,7 +241,8 @@ std::string Sha256::HexDigest() {
   const std::uint64_t bit_length = length_ * 8;
   unsigned char tail[72] = {0x80};
   const std::size_t pad = (buffered_ < 56 ? 56 : 120) - buffered_;
-  for (int k = 0; k < 8; ++k) tail[pad + k] = static_cast<unsigned char>(bit_length >> (56 - 8 * k));
+  for (int k = 0; k < 8; ++k)
+    tail[pad + k] = static_cast<unsigned char>(bit_length >> (56 - 8 * k));
   Update(std::string_view(reinterpret_cast<const char*>(tail), pad + 8));
   static const char* hex = "0123456789abcdef";
   std::string out;
