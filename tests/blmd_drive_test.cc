@@ -285,7 +285,10 @@ TEST(BlmdDrive, BlankingLossOfTheFundamentalOpposesTheCurrent) {
       const std::complex<double> rotor = std::polar(1.0, -angle) * d_angle;
       v += va[k] * rotor;  // step-average voltage of the step ending at row k
       i += 0.5 * (ia[k] + ia[k - 1]) * rotor;
-      const double mean_current = (prefix[k + period / 2] - prefix[k - period / 2]) / period;
+      // The carrier period centred on row k, shifted back at the end of the run (it read up
+      // to 100 rows past the end of `prefix` there; found by AddressSanitizer).
+      const std::size_t window_end = std::min(k + period / 2, ia.size());
+      const double mean_current = (prefix[window_end] - prefix[window_end - period]) / period;
       s += (mean_current < 0.0 ? loss : -loss) * rotor;
       span += d_angle;
     }
