@@ -17,7 +17,8 @@ int main(int argc, char** argv) {
   CLI::App app{"blmd-ident: identify J, B (and any other free parameter) from a recorded trace"};
   blmd::app::AddVersionFlag(app, "blmd-ident");
   std::string config_path, method, observe_text, free_text, report_path, initial_state = "config";
-  std::string html_path;
+  std::string html_path, split;
+  std::vector<std::string> selects;
   std::vector<std::string> traces, validates, columns, scales, derives, method_options, initials;
   std::uint64_t seed = 1;
   int threads = 0, max_evaluations = 0;
@@ -49,6 +50,8 @@ int main(int argc, char** argv) {
   app.add_option("--column", columns, "map a standard column to a header, NAME=HEADER (repeatable)");
   app.add_option("--scale", scales, "multiply a column, NAME=FACTOR (repeatable)");
   app.add_option("--derive", derives, "derive a velocity from a position, e.g. w=theta");
+  app.add_option("--select", selects, "keep the rows with NAME in VALUE[,VALUE...] or LO:HI (repeatable)");
+  app.add_option("--split", split, "cut each trace into one experiment per block of equal COLUMN values");
   app.add_option("--seed", seed, "random seed (fsd)");
   app.add_option("--threads", threads, "worker threads (0: all cores)")
       ->check(blmd::app::NonNegativeWholeNumber());
@@ -97,6 +100,8 @@ int main(int argc, char** argv) {
     }
     input_options.required = observe;
     input_options.initial_from_trace = initial_state == "trace";
+    for (const auto& text : selects) input_options.select.push_back(blmd::ParseRowSelection(text));
+    input_options.split = split;
 
     nlohmann::json options_json = config.identification.method == method
                                       ? config.identification.options
@@ -112,11 +117,15 @@ int main(int argc, char** argv) {
     }
     std::vector<blmd::FitTrace> fit_traces;
     for (const auto& path : traces) {
-      fit_traces.push_back(blmd::LoadFitTrace(path, input_options, config.experiment.initial));
+      for (auto& part : blmd::LoadFitTraces(path, input_options, config.experiment.initial)) {
+        fit_traces.push_back(std::move(part));
+      }
     }
     std::vector<blmd::FitTrace> validation_traces;
     for (const auto& path : validates) {
-      validation_traces.push_back(blmd::LoadFitTrace(path, input_options, config.experiment.initial));
+      for (auto& part : blmd::LoadFitTraces(path, input_options, config.experiment.initial)) {
+        validation_traces.push_back(std::move(part));
+      }
     }
     if (!report_path.empty()) blmd::CheckWritable(report_path);  // before the fit, not after
     if (!report_path.empty() || !html_path.empty()) blmd::InstallCleanupOnSignal();

@@ -119,7 +119,8 @@ int main(int argc, char** argv) {
   CLI::App app{"blmd-surface: sweep the MSE cost over a grid of parameters"};
   blmd::app::AddVersionFlag(app, "blmd-surface");
   std::string config_path, trace_path, out_path, observe_text, svg_path, shard_text;
-  std::vector<std::string> grids, columns, scales, derives;
+  std::vector<std::string> grids, columns, scales, derives, selects;
+  std::string split, initial_state = "config";
   int threads = 0;
   bool json = false, quiet = false;
   app.add_option("--config", config_path, "model (JSON)");
@@ -130,6 +131,10 @@ int main(int argc, char** argv) {
   app.add_option("--column", columns, "map a standard column to a header, NAME=HEADER");
   app.add_option("--scale", scales, "multiply a column, NAME=FACTOR");
   app.add_option("--derive", derives, "derive a velocity from a position, w=theta");
+  app.add_option("--select", selects, "keep the rows with NAME in VALUE[,VALUE...] or LO:HI (repeatable)");
+  app.add_option("--split", split, "cut the trace into one experiment per block of equal COLUMN values");
+  app.add_option("--initial-state", initial_state, "config|trace: initial w, theta, i")
+      ->check(CLI::IsMember({"config", "trace"}));
   app.add_option("--threads", threads, "worker threads (0: all cores)")
       ->check(blmd::app::NonNegativeWholeNumber());
   app.add_option("--shard", shard_text, "compute only slice K of N, K/N (1-based)");
@@ -223,8 +228,18 @@ int main(int argc, char** argv) {
       input_options.derive.emplace_back(target, source);
     }
     input_options.required = observe;
-    std::vector<blmd::FitTrace> traces;
-    traces.push_back(blmd::LoadFitTrace(trace_path, input_options, config.experiment.initial));
+    input_options.initial_from_trace = initial_state == "trace";
+    std::string rows_line;  // the row selection, recorded in the CSV so merge tells sweeps apart
+    for (const auto& text : selects) {
+      input_options.select.push_back(blmd::ParseRowSelection(text));
+      rows_line += " --select " + text;
+    }
+    input_options.split = split;
+    if (!split.empty()) rows_line += " --split " + split;
+    if (initial_state == "trace") rows_line += " --initial-state trace";
+    std::vector<blmd::FitTrace> traces =
+        blmd::LoadFitTraces(trace_path, input_options, config.experiment.initial);
+    const std::size_t experiments = traces.size();
     const std::string trace_sha = traces.front().sha256;
 
     // The grid axes are the free parameters; bounds are the grid's (the cost does not clip).
@@ -279,6 +294,10 @@ int main(int argc, char** argv) {
     std::string observe_line = "observe: ";
     for (std::size_t c = 0; c < observe.size(); ++c) observe_line += (c ? "," : "") + observe[c];
     metadata.lines.push_back(observe_line);
+    if (!rows_line.empty()) {
+      metadata.lines.push_back("rows:" + rows_line + " (" + std::to_string(experiments) + " experiment" +
+                               (experiments == 1 ? "" : "s") + ")");
+    }
     for (const auto& axis : axes) metadata.lines.push_back("grid: " + axis.Spec());
     metadata.shard_index = shard_index;
     metadata.shard_count = shard_count;

@@ -1,10 +1,88 @@
 #include "blmd/ident/trace_input.h"
 
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <limits>
+#include <set>
+
 #include "blmd/error.h"
 #include "blmd/io/csv.h"
 #include "blmd/io/files.h"
 
 namespace blmd {
+namespace {
+
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
+std::string SelectFormatError(const std::string& text) {
+  return "--select '" + text + "': expected NAME=VALUE[,VALUE...] or NAME=LO:HI (LO or HI may be left out)";
+}
+
+// A finite decimal number, the whole of `field`.
+double SelectNumber(const std::string& text, const std::string& field) {
+  const char* begin = field.data();
+  const char* end = field.data() + field.size();
+  if (begin != end && *begin == '+') ++begin;
+  double value = 0.0;
+  const auto [ptr, ec] = std::from_chars(begin, end, value);
+  if (field.empty() || begin == end || ec != std::errc() || ptr != end || !std::isfinite(value)) {
+    throw InputError("--select " + text + ": '" + field + "' is not a finite number");
+  }
+  return value;
+}
+
+// Lowest and highest value of a column, for "no row matches" messages.
+std::string Span(const std::vector<double>& values) {
+  const auto [low, high] = std::minmax_element(values.begin(), values.end());
+  return DisplayNumber(*low) + " ... " + DisplayNumber(*high);
+}
+
+}  // namespace
+
+bool RowSelection::Matches(double value) const {
+  for (const auto& [low, high] : ranges) {
+    if (value >= low && value <= high) return true;
+  }
+  return false;
+}
+
+RowSelection ParseRowSelection(const std::string& text) {
+  const std::size_t equals = text.find('=');
+  if (equals == std::string::npos || equals == 0 || equals + 1 == text.size()) {
+    throw InputError(SelectFormatError(text));
+  }
+  RowSelection selection;
+  selection.column = text.substr(0, equals);
+  selection.text = text;
+  const std::string spec = text.substr(equals + 1);
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t comma = spec.find(',', start);
+    const std::string item = spec.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+    if (item.empty()) throw InputError(SelectFormatError(text));
+    const std::size_t colon = item.find(':');
+    if (colon == std::string::npos) {
+      const double value = SelectNumber(text, item);
+      selection.ranges.emplace_back(value, value);
+    } else {
+      const std::string low_text = item.substr(0, colon), high_text = item.substr(colon + 1);
+      if ((low_text.empty() && high_text.empty()) || high_text.find(':') != std::string::npos) {
+        throw InputError(SelectFormatError(text));
+      }
+      const double low = low_text.empty() ? -kInfinity : SelectNumber(text, low_text);
+      const double high = high_text.empty() ? kInfinity : SelectNumber(text, high_text);
+      if (low > high) {
+        throw InputError("--select " + text + ": the range " + item +
+                         " is inverted (LO must not exceed HI)");
+      }
+      selection.ranges.emplace_back(low, high);
+    }
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return selection;
+}
 
 std::vector<double> Differentiate(const std::vector<double>& t, const std::vector<double>& x) {
   const std::size_t n = x.size();
@@ -16,15 +94,24 @@ std::vector<double> Differentiate(const std::vector<double>& t, const std::vecto
   return d;
 }
 
-FitTrace LoadFitTrace(const std::string& path, const TraceInputOptions& options,
-                      const InitialState& default_initial) {
+std::vector<FitTrace> LoadFitTraces(const std::string& path, const TraceInputOptions& options,
+                                    const InitialState& default_initial) {
+  const bool by_rows = !options.select.empty() || !options.split.empty();
   CsvReadOptions csv;
   // The reader checks the file's time column (the header mapped to t); scaling may still
-  // reverse it, so t is checked again below.
+  // reverse it, so t is checked again below. With --select or --split the time need only
+  // increase within each experiment (a logger may restart its clock per run): the reader
+  // does not check it, each experiment is checked below.
   const auto t_header = options.columns.find("t");
-  csv.time_column = t_header == options.columns.end() ? "t" : t_header->second;
+  const std::string time_header = t_header == options.columns.end() ? "t" : t_header->second;
+  csv.time_column = by_rows ? "" : time_header;
   std::string sha256;
   Trace trace = ReadTraceCsv(path, csv, &sha256);
+  // The file's field (1-based) holding a column, before mapping added columns at the end.
+  std::map<std::string, long> file_field;
+  for (std::size_t c = 0; c < trace.num_columns(); ++c) {
+    file_field[trace.names()[c]] = static_cast<long>(c + 1);
+  }
   // Column mapping: header -> standard name.
   for (const auto& [standard, header] : options.columns) {
     if (!trace.Has(header)) {
@@ -36,6 +123,11 @@ FitTrace LoadFitTrace(const std::string& path, const TraceInputOptions& options,
     }
     if (standard != header) trace.Set(standard, trace.Column(header));
   }
+  const auto field_of = [&](const std::string& name) -> long {
+    const auto mapped = options.columns.find(name);
+    const auto found = file_field.find(mapped == options.columns.end() ? name : mapped->second);
+    return found == file_field.end() ? 0 : found->second;
+  };
   for (const auto& [name, factor] : options.scales) {
     if (!trace.Has(name)) throw InputError(path + ": --scale " + name + ": no column '" + name + "'");
     for (double& v : trace.Column(name)) v *= factor;
@@ -49,46 +141,159 @@ FitTrace LoadFitTrace(const std::string& path, const TraceInputOptions& options,
                        name + "=HEADER)");
     }
   }
-  const auto& t = trace.Column("t");
-  const long t_field = trace.Find(csv.time_column) + 1;  // the file's field of the time
-  for (std::size_t k = 1; k < t.size(); ++k) {
-    if (!(t[k] > t[k - 1])) {
-      throw InputError(path, static_cast<long>(trace.comments.size() + k + 2), t_field,
-                       "time 't' must strictly increase (" + DisplayNumber(t[k]) +
-                           (t[k] == t[k - 1] ? " repeats " : " follows ") + DisplayNumber(t[k - 1]) +
-                           ")");
+  for (const auto& selection : options.select) {
+    if (!trace.Has(selection.column)) {
+      throw InputError(path + ": --select " + selection.text + ": no column '" + selection.column +
+                       "' (header has: " + HeaderSummary(trace.names()) + ")");
     }
   }
-  for (const auto& [target, source] : options.derive) {
-    trace.Set(target, Differentiate(trace.Column("t"), trace.Column(source)));
-  }
-  for (const auto& name : options.required) {
-    if (!trace.Has(name)) {
-      throw InputError(path + ": missing observed column '" + name + "' (header has: " +
-                       HeaderSummary(trace.names()) + "; map another header with --column " +
-                       name + "=HEADER)");
-    }
-  }
-  if (trace.rows() < 3) {
-    throw InputError(path + ": " + std::to_string(trace.rows()) + " sample" +
-                     (trace.rows() == 1 ? "" : "s") + " only: a fit needs at least 3");
+  if (!options.split.empty() && !trace.Has(options.split)) {
+    throw InputError(path + ": --split " + options.split + ": no column '" + options.split +
+                     "' (header has: " + HeaderSummary(trace.names()) + ")");
   }
 
-  FitTrace fit;
-  fit.path = path;
-  fit.sha256 = std::move(sha256);
-  fit.input.kind = InputSignal::Kind::kRecorded;
-  fit.input.times = trace.Column("t");
-  fit.input.values = trace.Column("u");
-  if (trace.Has("open")) fit.input.open = trace.Column("open");
-  fit.initial = default_initial;
-  if (options.initial_from_trace) {
-    if (trace.Has("w")) fit.initial.w = trace.Column("w").front();
-    if (trace.Has("theta")) fit.initial.theta = trace.Column("theta").front();
-    if (trace.Has("i")) fit.initial.i = trace.Column("i").front();
+  // Rows kept by the selections; then the experiments: blocks of consecutive kept rows,
+  // cut where the split column changes. Line of row k: comments, the header, then k + 1.
+  const long first_line = static_cast<long>(trace.comments.size()) + 2;
+  const auto line_of = [&](std::size_t row) { return first_line + static_cast<long>(row); };
+  std::vector<std::size_t> kept;
+  kept.reserve(trace.rows());
+  for (std::size_t k = 0; k < trace.rows(); ++k) {
+    bool keep = true;
+    for (const auto& selection : options.select) {
+      keep = keep && selection.Matches(trace.Column(selection.column)[k]);
+    }
+    if (keep) kept.push_back(k);
   }
-  fit.trace = std::move(trace);
-  return fit;
+  if (kept.empty()) {
+    std::string what;
+    for (const auto& selection : options.select) {
+      what += std::string(what.empty() ? "" : ", ") + "'" + selection.column + "' holds " +
+              Span(trace.Column(selection.column));
+    }
+    std::string flags;
+    for (const auto& selection : options.select) flags += " --select " + selection.text;
+    throw InputError(path + ": no row matches" + flags + " (" + what + ")");
+  }
+  struct Block {
+    std::size_t begin = 0, end = 0;  // rows [begin, end)
+    double value = 0.0;              // of the split column
+  };
+  std::vector<Block> blocks;
+  const std::vector<double>* split_values = options.split.empty() ? nullptr : &trace.Column(options.split);
+  for (std::size_t row : kept) {
+    const double value = split_values ? (*split_values)[row] : 0.0;
+    if (!blocks.empty() && value == blocks.back().value) {
+      if (row == blocks.back().end) {
+        ++blocks.back().end;
+        continue;
+      }
+      // The same experiment resumes after rows the selection dropped.
+      const std::string part =
+          split_values ? "the rows with " + options.split + " = " + DisplayNumber(value) : "the rows kept";
+      throw InputError(path, line_of(row), 1,
+                       "--select keeps " + part + " in more than one block (line " +
+                           std::to_string(line_of(blocks.back().end - 1)) + ", then line " +
+                           std::to_string(line_of(row)) +
+                           "): one experiment must be an unbroken block of rows; narrow the "
+                           "selection" + (split_values ? "" : ", or cut the file with --split COLUMN"));
+    }
+    if (split_values) {
+      for (const Block& earlier : blocks) {
+        if (earlier.value == value) {
+          throw InputError(path, line_of(row), field_of(options.split),
+                           "--split " + options.split + ": " + options.split + " = " +
+                               DisplayNumber(value) + " appears again (its first block is lines " +
+                               std::to_string(line_of(earlier.begin)) + "-" +
+                               std::to_string(line_of(earlier.end - 1)) +
+                               "); the rows of one experiment must be an unbroken block");
+        }
+      }
+    }
+    blocks.push_back({row, row + 1, value});
+  }
+
+  std::string selection_name;
+  for (const auto& selection : options.select) {
+    selection_name += (selection_name.empty() ? "" : ",") + selection.text;
+  }
+  std::vector<FitTrace> experiments;
+  experiments.reserve(blocks.size());
+  for (const Block& block : blocks) {
+    std::string name = path;
+    if (split_values) {
+      name += "[" + options.split + "=" + DisplayNumber(block.value) + "]";
+    } else if (by_rows) {
+      name += "[" + selection_name + "]";
+    }
+    Trace part;
+    if (!by_rows) {
+      part = std::move(trace);
+    } else {
+      part.comments = trace.comments;
+      for (std::size_t c = 0; c < trace.num_columns(); ++c) {
+        const auto& column = trace.Column(c);
+        part.Set(trace.names()[c], std::vector<double>(column.begin() + static_cast<long>(block.begin),
+                                                        column.begin() + static_cast<long>(block.end)));
+      }
+    }
+    const auto& t = part.Column("t");
+    for (std::size_t k = 1; k < t.size(); ++k) {
+      if (!(t[k] > t[k - 1])) {
+        throw InputError(path, line_of(block.begin + k), field_of("t"),
+                         "time 't' must strictly increase (" + DisplayNumber(t[k]) +
+                             (t[k] == t[k - 1] ? " repeats " : " follows ") + DisplayNumber(t[k - 1]) +
+                             ")" + (split_values ? " within " + options.split + " = " + DisplayNumber(block.value) : ""));
+      }
+    }
+    for (const auto& [target, source] : options.derive) {
+      part.Set(target, Differentiate(part.Column("t"), part.Column(source)));
+    }
+    for (const auto& required_name : options.required) {
+      if (!part.Has(required_name)) {
+        throw InputError(path + ": missing observed column '" + required_name + "' (header has: " +
+                         HeaderSummary(part.names()) + "; map another header with --column " +
+                         required_name + "=HEADER)");
+      }
+    }
+    if (part.rows() < 3) {
+      const std::string samples = std::to_string(part.rows()) + " sample" + (part.rows() == 1 ? "" : "s");
+      if (!by_rows) throw InputError(path + ": " + samples + " only: a fit needs at least 3");
+      throw InputError(path, line_of(block.begin), 0,
+                       name.substr(path.size()) + " has " + samples + " only (line" +
+                           (part.rows() == 1 ? " " + std::to_string(line_of(block.begin))
+                                             : "s " + std::to_string(line_of(block.begin)) + "-" +
+                                                   std::to_string(line_of(block.end - 1))) +
+                           "): a fit needs at least 3 per experiment");
+    }
+
+    FitTrace fit;
+    fit.path = name;
+    fit.sha256 = sha256;
+    fit.input.kind = InputSignal::Kind::kRecorded;
+    fit.input.times = part.Column("t");
+    fit.input.values = part.Column("u");
+    if (part.Has("open")) fit.input.open = part.Column("open");
+    fit.initial = default_initial;
+    if (options.initial_from_trace) {
+      if (part.Has("w")) fit.initial.w = part.Column("w").front();
+      if (part.Has("theta")) fit.initial.theta = part.Column("theta").front();
+      if (part.Has("i")) fit.initial.i = part.Column("i").front();
+    }
+    fit.trace = std::move(part);
+    experiments.push_back(std::move(fit));
+  }
+  return experiments;
+}
+
+FitTrace LoadFitTrace(const std::string& path, const TraceInputOptions& options,
+                      const InitialState& default_initial) {
+  std::vector<FitTrace> experiments = LoadFitTraces(path, options, default_initial);
+  if (experiments.size() != 1) {
+    throw InputError(path + ": --split " + options.split + " gives " +
+                     std::to_string(experiments.size()) + " experiments where one trace is expected");
+  }
+  return std::move(experiments.front());
 }
 
 }  // namespace blmd
