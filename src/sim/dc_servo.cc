@@ -45,7 +45,7 @@ SimulationSettings DcServoModel::default_settings() const {
   return settings;
 }
 
-SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) const {
+SimStatus DcServoModel::SimulateReference(const SimulationRequest& request, Trace* out) const {
   const ParameterSet& values = *request.parameters;
   const Experiment& experiment = *request.experiment;
   const std::vector<double>& times = *request.sample_times;

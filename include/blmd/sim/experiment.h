@@ -34,6 +34,10 @@ class InputCursor {
   explicit InputCursor(const InputSignal& signal) : signal_(signal) {}
   double At(double t);
   bool OpenAt(double t);
+  // The earliest time after t at which At() or OpenAt() may change (t itself when it
+  // cannot tell cheaply, e.g. a square wave; +infinity when never): a fast path reads the
+  // signal again only once its time reaches this.
+  double NextChange(double t);
 
  private:
   void Advance(double t);
