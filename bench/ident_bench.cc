@@ -6,6 +6,8 @@
 // Target (surface issue): a 31 x 31 BLMD grid over the 160 ms trace under 60 s on 2 cores.
 #include <benchmark/benchmark.h>
 
+#include <cstdlib>
+#include <iterator>
 #include <string>
 
 #include "blmd/ident/problem.h"
@@ -15,7 +17,9 @@
 
 namespace {
 
-std::string Source(const std::string& relative) { return std::string(BLMD_SOURCE_DIR) + "/" + relative; }
+std::string Source(const std::string& relative) {
+  return std::string(BLMD_SOURCE_DIR) + "/" + relative;
+}
 
 blmd::FitProblem MakeProblem(const std::string& config_name, const std::string& trace_name,
                              const std::vector<std::string>& observe,
@@ -70,7 +74,54 @@ void BM_SurfaceBlmd(benchmark::State& state) {
       benchmark::Counter(static_cast<double>(n) * n, benchmark::Counter::kIsIterationInvariantRate);
 }
 BENCHMARK(BM_SurfaceBlmd)->Args({8, 1})->Args({8, 2})->Unit(benchmark::kMillisecond)->UseRealTime();
-// The issue's 31 x 31 grid, once, on 2 threads.
+// The issue's 31 x 31 grid, once, on 2 threads (not in scripts/bench's default set).
 BENCHMARK(BM_SurfaceBlmd)->Args({31, 2})->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+
+// blmd-ident end to end (process start, CSV read, fit, report) per method on a bundled
+// trace, wall time; the output goes to /dev/null. Args: the case index below.
+struct IdentCase {
+  const char* label;
+  const char* arguments;
+};
+const IdentCase kIdentCases[] = {
+    // The issue's target: ceres on a 6 000-sample dc_servo trace <= 50 ms.
+    {"dc_6000_ceres",
+     "--config configs/ganesh-staircase.json --trace testdata/dc-hidden-drag.csv "
+     "--method ceres"},
+    {"dc_10000_ceres",
+     "--config configs/ganesh-noload.json --trace testdata/ganesh-noload-step.csv "
+     "--method ceres"},
+    {"dc_10000_powell",
+     "--config configs/ganesh-noload.json --trace testdata/ganesh-noload-step.csv "
+     "--method powell"},
+    {"dc_10000_fsd",
+     "--config configs/ganesh-noload.json --trace testdata/ganesh-noload-step.csv "
+     "--method fsd --threads 1"},
+    {"dc_coastdown_classic",
+     "--config configs/ganesh-coastdown.json --trace "
+     "testdata/ganesh-coastdown.csv --method classic"},
+    {"blmd_8000_ceres",
+     "--config configs/blmd-d31x.json --trace testdata/blmd-d31x-step.csv "
+     "--method ceres --initial J=1.0e-3 --initial B=4e-4"},
+};
+
+void BM_BlmdIdent(benchmark::State& state) {
+  const IdentCase& c = kIdentCases[state.range(0)];
+  state.SetLabel(c.label);
+  const std::string command = std::string("cd ") + BLMD_SOURCE_DIR + " && " + BLMD_BIN_DIR +
+                              "/blmd-ident " + c.arguments + " > /dev/null 2>&1";
+  for (auto _ : state) {
+    const int status = std::system(command.c_str());
+    if (status != 0) {
+      state.SkipWithError(("exit status " + std::to_string(status) + ": " + command).c_str());
+      break;
+    }
+  }
+}
+BENCHMARK(BM_BlmdIdent)
+    ->DenseRange(0, static_cast<int>(std::size(kIdentCases)) - 1)
+    ->Iterations(1)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 }  // namespace

@@ -1,18 +1,20 @@
 // Simulator speed: one whole experiment per iteration, as identification runs it (every cost
-// evaluation is one such run). Counters: `steps` per run, `sec_per_step` (printed with an SI
-// prefix, e.g. "62n" = 62 ns per integration step). The wall time per iteration is the time
-// of one run. Target (issue): the 160 ms default blmd run at dt = 1 µs under 20 ms on one
-// core in Release.
+// evaluation is one such run). Counters: `steps` per run and `ns_per_step` (CPU time of one
+// run / steps). Each model is measured on its fast path (Simulate, what everything uses) and
+// on its reference path (SimulateReference, the straightforward loop kept as the truth).
+// Targets (issue 7): blmd <= 10 ns per 1 µs step, dc_servo <= 5 ns per step, one core.
 //
 //   build/bin/blmd_bench --benchmark_filter='BM_(Blmd|DcServo)' \
 //       --benchmark_repetitions=10 --benchmark_report_aggregates_only=true
+// or scripts/bench (one table of medians).
 #include <benchmark/benchmark.h>
 
 #include <cmath>
 #include <string>
 
 #include "blmd/io/config.h"
-#include "blmd/run.h"
+#include "blmd/sim/blmd_drive.h"
+#include "blmd/sim/dc_servo.h"
 
 namespace {
 
@@ -20,11 +22,23 @@ blmd::Config LoadBundled(const std::string& name) {
   return blmd::LoadConfig(std::string(BLMD_SOURCE_DIR) + "/configs/" + name);
 }
 
-void RunConfig(benchmark::State& state, const blmd::Config& config) {
-  const double steps = std::round(config.experiment.duration / config.simulation.dt);
+enum class Path { kFast, kReference };
+
+template <typename ModelT>
+void RunConfig(benchmark::State& state, const blmd::Config& config, Path path) {
+  const auto& model = dynamic_cast<const ModelT&>(*config.model);
+  const std::vector<double> times = config.experiment.SampleTimes();
+  blmd::SimulationRequest request;
+  request.parameters = &config.parameters;
+  request.effects = &config.effects;
+  request.experiment = &config.experiment;
+  request.settings = config.simulation;
+  request.sample_times = &times;
+  const double steps = std::round((times.back() - times.front()) / config.simulation.dt);
   blmd::Trace trace;
   for (auto _ : state) {
-    const blmd::SimStatus status = blmd::RunExperiment(config, &trace);
+    const blmd::SimStatus status = path == Path::kFast ? model.Simulate(request, &trace)
+                                                       : model.SimulateReference(request, &trace);
     if (!status.ok()) {
       state.SkipWithError(status.message.c_str());
       break;
@@ -33,23 +47,28 @@ void RunConfig(benchmark::State& state, const blmd::Config& config) {
     benchmark::ClobberMemory();
   }
   state.counters["steps"] = steps;
-  state.counters["sec_per_step"] = benchmark::Counter(
-      steps, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  // CPU time per step in ns (kIsIterationInvariantRate | kInvert gives seconds per step).
+  state.counters["ns_per_step"] = benchmark::Counter(
+      steps * 1e-9, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 
 // The issue's reference run: configs/blmd-d31x.json, 1 V torque-demand step, 160 ms at
 // dt = 1 µs (160 000 steps), outputs at 50 kHz.
 void BM_BlmdDefaultRun(benchmark::State& state) {
-  const blmd::Config config = LoadBundled("blmd-d31x.json");
-  RunConfig(state, config);
+  RunConfig<blmd::BlmdDriveModel>(state, LoadBundled("blmd-d31x.json"), Path::kFast);
 }
 BENCHMARK(BM_BlmdDefaultRun)->Unit(benchmark::kMillisecond);
+
+void BM_BlmdDefaultRunReference(benchmark::State& state) {
+  RunConfig<blmd::BlmdDriveModel>(state, LoadBundled("blmd-d31x.json"), Path::kReference);
+}
+BENCHMARK(BM_BlmdDefaultRunReference)->Unit(benchmark::kMillisecond);
 
 // The same without regula falsi (the comparator sampled at step ends).
 void BM_BlmdDefaultRunNoRegulaFalsi(benchmark::State& state) {
   blmd::Config config = LoadBundled("blmd-d31x.json");
   config.simulation.regula_falsi = false;
-  RunConfig(state, config);
+  RunConfig<blmd::BlmdDriveModel>(state, config, Path::kFast);
 }
 BENCHMARK(BM_BlmdDefaultRunNoRegulaFalsi)->Unit(benchmark::kMillisecond);
 
@@ -57,15 +76,19 @@ BENCHMARK(BM_BlmdDefaultRunNoRegulaFalsi)->Unit(benchmark::kMillisecond);
 void BM_BlmdDefaultRunDiagnostics(benchmark::State& state) {
   blmd::Config config = LoadBundled("blmd-d31x.json");
   config.simulation.diagnostics = true;
-  RunConfig(state, config);
+  RunConfig<blmd::BlmdDriveModel>(state, config, Path::kFast);
 }
 BENCHMARK(BM_BlmdDefaultRunDiagnostics)->Unit(benchmark::kMillisecond);
 
 // DC servo, configs/ganesh-noload.json: 24 V step, 1 s at dt = 10 µs (100 000 steps).
 void BM_DcServoNoLoadRun(benchmark::State& state) {
-  const blmd::Config config = LoadBundled("ganesh-noload.json");
-  RunConfig(state, config);
+  RunConfig<blmd::DcServoModel>(state, LoadBundled("ganesh-noload.json"), Path::kFast);
 }
 BENCHMARK(BM_DcServoNoLoadRun)->Unit(benchmark::kMillisecond);
+
+void BM_DcServoNoLoadRunReference(benchmark::State& state) {
+  RunConfig<blmd::DcServoModel>(state, LoadBundled("ganesh-noload.json"), Path::kReference);
+}
+BENCHMARK(BM_DcServoNoLoadRunReference)->Unit(benchmark::kMillisecond);
 
 }  // namespace

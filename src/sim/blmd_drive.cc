@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "blmd/sim/effects.h"
+#include "sim/blmd_legs.h"
 #include "sim/sampler.h"
 
 namespace blmd {
@@ -27,20 +28,6 @@ ParamInfo Optional(ParamInfo info) {
   info.optional = true;
   info.default_value = 0.0;
   return info;
-}
-
-// Time within [a, b] during which a switch commanded on since t_edge conducts, given the
-// turn-on delay delta.
-double ConductingTime(double a, double b, double t_edge, double delta) {
-  return std::max(0.0, b - std::max(a, t_edge + delta));
-}
-
-// Time within [a, b] during which i(t) = i0 + slope (t - t0) is negative.
-double NegativeTime(double a, double b, double t0, double i0, double slope) {
-  if (slope == 0.0) return i0 < 0.0 ? b - a : 0.0;
-  const double t_zero = t0 - i0 / slope;  // i(t_zero) = 0
-  if (slope > 0.0) return std::clamp(t_zero, a, b) - a;  // negative before t_zero
-  return b - std::clamp(t_zero, a, b);                   // negative after t_zero
 }
 
 struct Leg {
@@ -93,7 +80,7 @@ std::string BlmdDriveModel::Validate(const ParameterSet& values,
   return {};
 }
 
-SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out) const {
+SimStatus BlmdDriveModel::SimulateReference(const SimulationRequest& request, Trace* out) const {
   const ParameterSet& values = *request.parameters;
   const Experiment& experiment = *request.experiment;
   const std::vector<double>& times = *request.sample_times;
@@ -143,7 +130,6 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
 
   const double t_start = times.front();
   std::array<double, 3> current = {0.0, 0.0, 0.0};  // A, into the winding
-  std::array<double, 3> slope = {0.0, 0.0, 0.0};  // A/s, di_j/dt over the last step
   double w = experiment.initial.w, theta = experiment.initial.theta;
   std::array<double, 3> integral = {0.0, 0.0, 0.0};  // V, compensator integrator
   std::array<double, 3> lead_out = {0.0, 0.0, 0.0};  // V, lead-lag output
@@ -192,7 +178,7 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
     const double carrier_low = carrier_at(index_in_period);
     const double carrier_high = carrier_at(index_in_period + 1);
     if (++index_in_period == 2 * steps_per_half_period) index_in_period = 0;
-    std::array<double, 3> leg_voltage;
+    std::array<double, 3> switched, off, hold;
     for (int j = 0; j < 3; ++j) {
       const double error = Kc * demand * cosine[j] - Kf * current[j];
       lead_out[j] = lag_norm * ((Tp / dt) * lead_out[j] +
@@ -212,16 +198,12 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
         leg.upper_commanded = d_low < 0.0;
         leg.t_edge = t_low - 2.0 * delta - dt;  // settled before the run
       }
-      double upper_on = 0.0, lower_on = 0.0;    // s, conduction times inside the step
-      double diode_up = 0.0;                    // s, both off with the upper diode conducting
+      double upper_on = 0.0, off_time = 0.0;  // s, upper switch on / both off, in the step
       auto conduct = [&](double a, double b) {  // [a, b] under the present command
-        (leg.upper_commanded ? upper_on : lower_on) += ConductingTime(a, b, leg.t_edge, delta);
-        // Blanking part [a, min(b, t_edge + delta)]: both switches off, the diodes carry
-        // the current, the upper one (leg at Ud) while i_j < 0 (eq. 13). The current is
-        // extrapolated linearly across the step from its last change, so the diode time
-        // moves continuously with the zero crossing instead of jumping a whole step.
-        const double off_end = std::min(b, leg.t_edge + delta);
-        if (off_end > a) diode_up += NegativeTime(a, off_end, t_low, current[j], slope[j]);
+        if (leg.upper_commanded) upper_on += internal::ConductingTime(a, b, leg.t_edge, delta);
+        // Blanking part [a, min(b, t_edge + delta)]: both switches off; the diodes (or
+        // neither: an open phase) decide the leg voltage, see internal::LegSolver.
+        off_time += std::max(0.0, std::min(b, leg.t_edge + delta) - a);
       };
       // Comparator at the step start with this step's control voltage: the control may have
       // moved across the carrier since the previous step (an edge at t_low).
@@ -242,9 +224,18 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
       } else {
         conduct(t_low, t_high);
       }
-      leg_voltage[j] = Ud * (upper_on + diode_up) / dt;
+      switched[j] = Ud * upper_on / dt;
+      off[j] = off_time / dt;
+      hold[j] = Ke * w * cosine[j] - Ls / dt * current[j];
     }
     first_step = false;
+    // Diodes and open phases, decided at the step's end (eqs. 12-14).
+    std::array<double, 3> leg_voltage = switched;
+    std::array<bool, 3> open = {false, false, false};
+    if (off[0] > 0.0 || off[1] > 0.0 || off[2] > 0.0) {
+      internal::LegSolver::Solve(switched.data(), off.data(), hold.data(), current.data(), Ud,
+                                 leg_voltage.data(), open.data());
+    }
     neutral_voltage = (leg_voltage[0] + leg_voltage[1] + leg_voltage[2]) / 3.0;
 
     // Windings (backward Euler), back-EMF from the step-start speed and angle.
@@ -252,9 +243,7 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
     for (int j = 0; j < 3; ++j) {
       phase_voltage[j] = leg_voltage[j] - neutral_voltage;
       const double emf = Ke * w * cosine[j];
-      const double previous = current[j];
-      current[j] = (current[j] + dt / Ls * (phase_voltage[j] - emf)) * current_gain;
-      slope[j] = (current[j] - previous) / dt;
+      current[j] = open[j] ? 0.0 : (current[j] + dt / Ls * (phase_voltage[j] - emf)) * current_gain;
       torque += Ke * current[j] * cosine[j];
     }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace blmd {
 
@@ -52,6 +53,25 @@ bool InputCursor::OpenAt(double t) {
   if (signal_.open.empty() || signal_.times.empty() || t < signal_.times.front()) return false;
   Advance(t);
   return signal_.open[index_] != 0.0;
+}
+
+double InputCursor::NextChange(double t) {
+  constexpr double kNever = std::numeric_limits<double>::infinity();
+  switch (signal_.kind) {
+    case InputSignal::Kind::kStep:
+      return t < signal_.t0 ? signal_.t0 : kNever;
+    case InputSignal::Kind::kSquare:
+      return t;
+    case InputSignal::Kind::kSteps:
+    case InputSignal::Kind::kRecorded: {
+      const auto& times = signal_.times;
+      if (times.empty()) return kNever;
+      if (t < times.front()) return times.front();
+      Advance(t);
+      return index_ + 1 < times.size() ? times[index_ + 1] : kNever;
+    }
+  }
+  return t;
 }
 
 std::vector<double> Experiment::SampleTimes() const {

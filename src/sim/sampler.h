@@ -68,4 +68,16 @@ inline std::string DivergedMessage(double limit) {
   return std::string("simulation diverged (non-finite or |state| > ") + buffer + ")";
 }
 
+// True when the request forces the position-dependent effects onto a given angle
+// (SimulationSettings::effect_angle, where the settings have it): the fast paths leave such
+// runs to their reference paths, which implement it.
+template <typename Settings>
+bool ForcedEffectAngle(const Settings& settings) {
+  if constexpr (requires { settings.effect_angle; }) {
+    return settings.effect_angle != nullptr;
+  } else {
+    return false;
+  }
+}
+
 }  // namespace blmd::internal

@@ -22,9 +22,11 @@
 // crossing inside a step (settings.regula_falsi), and the step applies the exact time
 // average of the leg voltage given that crossing and the blanking; off, the comparator is
 // sampled only at step boundaries. Tpwm/2 must be a multiple of dt, so the carrier is
-// linear within a step (and regula falsi exact). The diode state during blanking follows
-// the sign of i_j at the step start. Phase currents start at zero (experiment.initial.i is
-// not used).
+// linear within a step (and regula falsi exact). While both switches of a leg are off, its
+// diodes are decided at the step's end like every other sub-system: the upper one conducts
+// if i_j ends the step negative, the lower one if positive, and if the current reaches zero
+// the phase is open (both diodes block, the terminal floats, i_j stays 0 until a switch
+// turns on). Phase currents start at zero (experiment.initial.i is not used).
 // Input u = Td (V), read at each step's midpoint; the u column holds the demand applied
 // from each sample on. Outputs: t, u, i (phase-a current feedback, A, + i0), ib, ic (A),
 // w (rad/s), theta (rad); settings.diagnostics adds va, vb, vc (phase voltages, the average
@@ -44,7 +46,13 @@ class BlmdDriveModel final : public Model {
   SimulationSettings default_settings() const override;
   std::string Validate(const ParameterSet& values,
                        const SimulationSettings& settings) const override;
+  // The fast path (src/sim/blmd_drive_fast.cc): the same equations with the carrier's
+  // settled stretches handled in closed form, the electrical angle's sine and cosine
+  // advanced by rotation, and outputs written only at the sample steps.
   SimStatus Simulate(const SimulationRequest& request, Trace* out) const override;
+  // The reference path (src/sim/blmd_drive.cc): the straightforward step loop, kept as the
+  // truth the fast path is tested against (tests/fast_path_test.cc, 1e-9 relative).
+  SimStatus SimulateReference(const SimulationRequest& request, Trace* out) const;
 };
 
 }  // namespace blmd

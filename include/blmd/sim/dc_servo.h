@@ -28,7 +28,12 @@ class DcServoModel final : public Model {
   const std::vector<ParamInfo>& parameters() const override;
   std::vector<std::string> outputs() const override { return {"i", "w", "theta"}; }
   SimulationSettings default_settings() const override;
+  // The fast path (src/sim/dc_servo_fast.cc): the same exact discretisation unrolled into
+  // scalar arithmetic, outputs written only at the sample steps.
   SimStatus Simulate(const SimulationRequest& request, Trace* out) const override;
+  // The reference path (src/sim/dc_servo.cc): the straightforward step loop with Eigen's
+  // matrices, kept as the truth the fast path is tested against (tests/fast_path_test.cc).
+  SimStatus SimulateReference(const SimulationRequest& request, Trace* out) const;
 };
 
 }  // namespace blmd

@@ -1,0 +1,105 @@
+// Private helpers of the blmd model shared by its reference and fast paths
+// (src/sim/blmd_drive.cc, src/sim/blmd_drive_fast.cc; docs/model-blmd.md §2, §5).
+#pragma once
+
+#include <algorithm>
+
+namespace blmd::internal {
+
+// Time within [a, b] during which a switch commanded on since t_edge conducts, given the
+// turn-on delay delta.
+inline double ConductingTime(double a, double b, double t_edge, double delta) {
+  return std::max(0.0, b - std::max(a, t_edge + delta));
+}
+
+// The inverter legs over one step (paper eqs. 12-14) with the diodes decided at the step's
+// end, as backward Euler decides every other sub-system. Leg j's step-average voltage is
+//   v_jg = switched_j + off_j * v_off_j,
+// switched_j = Ud * (upper switch conduction time) / dt, off_j = (both-off time) / dt, and
+// over its both-off time the leg is at v_off_j in [0, Ud]:
+//   v_off_j = 0   (lower diode) if i_j(t_H) > 0,
+//   v_off_j = Ud  (upper diode) if i_j(t_H) < 0,
+//   0 <= v_off_j <= Ud, i_j(t_H) = 0 (open phase: both diodes block, the terminal floats).
+// With backward Euler i_j(t_H) = g dt/Ls (v_jg - v_sg - hold_j), hold_j = e_j - Ls i_j(t_L)/dt,
+// v_sg = (v_1g + v_2g + v_3g)/3: a linear complementarity problem in at most three
+// unknowns, solved exactly by trying the modes (first the one from the sign of i_j(t_L),
+// which is the answer whenever no current reaches zero). Its currents are unique and
+// Lipschitz in the state: no chatter at zero current, no sensitivity beyond the physics'.
+// Writes the leg voltages and which phases end the step open (their current is exactly 0).
+class LegSolver {
+ public:
+  static constexpr int kLower = 0, kUpper = 1, kOpen = 2;
+
+  static void Solve(const double switched[3], const double off[3], const double hold[3],
+                    const double current[3], double Ud, double v[3], bool open[3]) {
+    int mode[3];
+    int free_legs[3], num_free = 0;
+    for (int j = 0; j < 3; ++j) {
+      mode[j] = current[j] > 0.0 ? kLower : (current[j] < 0.0 ? kUpper : kOpen);
+      if (off[j] > 0.0) free_legs[num_free++] = j;
+    }
+    if (Try(mode, switched, off, hold, Ud, v, open)) return;
+    int combos = 1;
+    for (int k = 0; k < num_free; ++k) combos *= 3;
+    for (int code = 0; code < combos; ++code) {
+      int rest = code;
+      for (int k = 0; k < num_free; ++k) {
+        mode[free_legs[k]] = rest % 3;
+        rest /= 3;
+      }
+      if (Try(mode, switched, off, hold, Ud, v, open)) return;
+    }
+    // Not reached for a consistent state (the problem always has a solution); should
+    // rounding defeat every mode, the leg keeps the diode of its current's sign at t_L.
+    for (int j = 0; j < 3; ++j) {
+      v[j] = switched[j] + (off[j] > 0.0 && current[j] < 0.0 ? Ud * off[j] : 0.0);
+      open[j] = false;
+    }
+  }
+
+ private:
+  static bool Try(const int mode[3], const double switched[3], const double off[3],
+                  const double hold[3], double Ud, double v[3], bool open[3]) {
+    const double tolerance = 1e-9 * Ud;  // V
+    double fixed_sum = 0.0, hold_sum = 0.0;
+    int num_open = 0;
+    for (int j = 0; j < 3; ++j) {
+      open[j] = off[j] > 0.0 && mode[j] == kOpen;
+      if (open[j]) {
+        ++num_open;
+        hold_sum += hold[j];
+      } else {
+        v[j] = switched[j] + (off[j] > 0.0 && mode[j] == kUpper ? Ud * off[j] : 0.0);
+        fixed_sum += v[j];
+      }
+    }
+    double neutral = 0.0;
+    if (num_open < 3) {
+      neutral = (fixed_sum + hold_sum) / static_cast<double>(3 - num_open);
+    } else {
+      // Every phase open: all currents stay zero and the neutral floats; take the middle of
+      // the range that keeps every terminal within [0, Ud].
+      double low = -1e300, high = 1e300;
+      for (int j = 0; j < 3; ++j) {
+        low = std::max(low, switched[j] - hold[j]);
+        high = std::min(high, switched[j] + Ud * off[j] - hold[j]);
+      }
+      if (low > high + tolerance) return false;
+      neutral = 0.5 * (low + high);
+    }
+    for (int j = 0; j < 3; ++j) {
+      if (open[j]) {
+        v[j] = hold[j] + neutral;
+        const double v_off = (v[j] - switched[j]) / off[j];
+        if (v_off < -tolerance || v_off > Ud + tolerance) return false;
+      } else if (off[j] > 0.0) {
+        const double drive = v[j] - neutral - hold[j];  // sign of i_j(t_H)
+        if (mode[j] == kLower && drive < -tolerance) return false;
+        if (mode[j] == kUpper && drive > tolerance) return false;
+      }
+    }
+    return true;
+  }
+};
+
+}  // namespace blmd::internal

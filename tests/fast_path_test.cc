@@ -1,0 +1,210 @@
+// The simulators' fast paths against their reference paths (docs/performance.md): every
+// output column of Simulate() within 1e-9 of SimulateReference(), relative to the column's
+// largest magnitude, for both models over several configs, numerics and effects. The
+// measured worst deviation is printed and recorded.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "blmd/io/config.h"
+#include "blmd/run.h"
+#include "blmd/sim/blmd_drive.h"
+#include "blmd/sim/dc_servo.h"
+#include "support/test_support.h"
+
+namespace blmd {
+namespace {
+
+constexpr double kTolerance = 1e-9;
+
+Config Load(const std::string& name) { return LoadConfig(testing::SourcePath("configs/" + name)); }
+
+struct Runs {
+  Trace fast, reference;
+  SimStatus fast_status, reference_status;
+};
+
+template <typename ModelT>
+Runs RunBoth(const Config& config) {
+  const auto& model = dynamic_cast<const ModelT&>(*config.model);
+  const std::vector<double> times = config.experiment.SampleTimes();
+  SimulationRequest request;
+  request.parameters = &config.parameters;
+  request.effects = &config.effects;
+  request.experiment = &config.experiment;
+  request.settings = config.simulation;
+  request.sample_times = &times;
+  Runs runs;
+  runs.fast_status = model.Simulate(request, &runs.fast);
+  runs.reference_status = model.SimulateReference(request, &runs.reference);
+  return runs;
+}
+
+// Worst |fast - reference| / max |reference| over the columns; every column must exist in both.
+double WorstRelativeDeviation(const Trace& fast, const Trace& reference, std::string* where) {
+  EXPECT_EQ(fast.names(), reference.names());
+  EXPECT_EQ(fast.rows(), reference.rows());
+  double worst = 0.0;
+  for (const auto& name : reference.names()) {
+    const auto& r = reference.Column(name);
+    const auto& f = fast.Column(name);
+    double scale = 0.0, deviation = 0.0;
+    for (std::size_t k = 0; k < r.size(); ++k) {
+      scale = std::max(scale, std::abs(r[k]));
+      deviation = std::max(deviation, std::abs(f[k] - r[k]));
+    }
+    const double relative = scale > 0.0 ? deviation / scale : deviation;
+    if (relative >= worst) {
+      worst = relative;
+      *where = name;
+    }
+  }
+  return worst;
+}
+
+double g_worst_overall = 0.0;
+
+template <typename ModelT>
+void ExpectFastMatchesReference(const std::string& label, const Config& config) {
+  const Runs runs = RunBoth<ModelT>(config);
+  ASSERT_TRUE(runs.reference_status.ok()) << runs.reference_status.message;
+  ASSERT_TRUE(runs.fast_status.ok()) << runs.fast_status.message;
+  std::string where;
+  const double worst = WorstRelativeDeviation(runs.fast, runs.reference, &where);
+  g_worst_overall = std::max(g_worst_overall, worst);
+  std::printf("[ measured ] %s: worst relative deviation %.3g (column %s), %zu rows\n",
+              label.c_str(), worst, where.c_str(), runs.reference.rows());
+  ::testing::Test::RecordProperty(label, std::to_string(worst));
+  EXPECT_LT(worst, kTolerance) << label << ", column " << where;
+}
+
+void AddEffect(Config* config, const std::string& name,
+               const std::vector<std::pair<std::string, double>>& parameters) {
+  config->effects.push_back(name);
+  for (const auto& [key, value] : parameters) config->parameters.Set(key, value);
+}
+
+// ---- blmd ----
+
+TEST(FastPath, BlmdBundledStep) {
+  ExpectFastMatchesReference<BlmdDriveModel>("blmd 1 V step", Load("blmd-d31x.json"));
+}
+
+TEST(FastPath, BlmdWithoutRegulaFalsiWithDiagnostics) {
+  Config config = Load("blmd-d31x.json");
+  config.simulation.regula_falsi = false;
+  config.simulation.diagnostics = true;
+  ExpectFastMatchesReference<BlmdDriveModel>("blmd no regula falsi", config);
+}
+
+TEST(FastPath, BlmdWithoutBlanking) {
+  Config config = Load("blmd-d31x.json");
+  config.parameters.Set("delta", 0.0);
+  ExpectFastMatchesReference<BlmdDriveModel>("blmd delta = 0", config);
+}
+
+TEST(FastPath, BlmdSquareDemandWithEveryShaftEffectAndDiagnostics) {
+  Config config = Load("blmd-d31x-square.json");
+  AddEffect(&config, "coulomb_friction", {{"Tc", 0.05}});
+  AddEffect(&config, "stribeck", {{"Ts", 0.03}, {"ws", 2.0}});
+  AddEffect(&config, "load_torque", {{"TL", 0.1}});
+  AddEffect(&config, "quadratic_drag", {{"Cd", 1e-5}});
+  AddEffect(&config, "cogging", {{"Tcog", 0.05}, {"periods", 36.0}, {"phase", 0.4}});
+  AddEffect(&config, "current_offset", {{"i0", 0.02}});
+  config.simulation.diagnostics = true;
+  ExpectFastMatchesReference<BlmdDriveModel>("blmd square + effects", config);
+}
+
+TEST(FastPath, BlmdLeadLagOffGridSamplesSmoothFriction) {
+  Config config = Load("blmd-d31x.json");
+  config.parameters.Set("Tz", 1e-4);
+  config.parameters.Set("Tp", 2e-5);
+  config.parameters.Set("Tpwm", 100e-6);
+  config.parameters.Set("delta", 5e-6);
+  config.experiment.sample_rate = 30000.0;  // 33.3 µs: samples between steps, interpolated
+  config.experiment.duration = 0.08;
+  config.experiment.input.amplitude = 2.5;
+  config.experiment.initial.w = -20.0;
+  AddEffect(&config, "coulomb_friction", {{"Tc", 0.1}});
+  config.simulation.friction_smoothing_w = 0.5;
+  ExpectFastMatchesReference<BlmdDriveModel>("blmd lead-lag, 30 kHz, smooth friction", config);
+}
+
+TEST(FastPath, BlmdStickingAndStopping) {
+  // A small demand against stiction: the shaft sticks, breaks away, and stops again.
+  Config config = Load("blmd-d31x-square.json");
+  AddEffect(&config, "coulomb_friction", {{"Tc", 0.6}});
+  config.experiment.input.amplitude = 1.0;
+  config.simulation.diagnostics = true;
+  ExpectFastMatchesReference<BlmdDriveModel>("blmd stick-slip", config);
+}
+
+// ---- dc_servo ----
+
+TEST(FastPath, DcServoNoLoadStep) {
+  ExpectFastMatchesReference<DcServoModel>("dc_servo no-load step", Load("ganesh-noload.json"));
+}
+
+TEST(FastPath, DcServoCoastDownWithFrictionAndDeadTime) {
+  Config config = Load("ganesh-coastdown.json");
+  AddEffect(&config, "coulomb_friction", {{"Tc", 0.004}});
+  AddEffect(&config, "dead_time", {{"Vdt", 0.6}});
+  AddEffect(&config, "current_offset", {{"i0", 0.04}});
+  ExpectFastMatchesReference<DcServoModel>("dc_servo coast-down + effects", config);
+}
+
+TEST(FastPath, DcServoSquareWithEveryShaftEffect) {
+  Config config = Load("ganesh-square.json");
+  AddEffect(&config, "coulomb_friction", {{"Tc", 0.012}});
+  AddEffect(&config, "stribeck", {{"Ts", 0.02}, {"ws", 50.0}});
+  AddEffect(&config, "load_torque", {{"TL", 0.0015}});
+  AddEffect(&config, "quadratic_drag", {{"Cd", 3e-7}});
+  AddEffect(&config, "cogging", {{"Tcog", 0.025}, {"periods", 6.0}, {"phase", 0.5}});
+  ExpectFastMatchesReference<DcServoModel>("dc_servo square + effects", config);
+}
+
+TEST(FastPath, DcServoClosedLoopPidAndStaircase) {
+  ExpectFastMatchesReference<DcServoModel>("dc_servo PID", Load("ganesh-pid.json"));
+  Config staircase = Load("ganesh-staircase.json");
+  staircase.experiment.sample_rate = 3000.0;  // samples between steps, interpolated
+  ExpectFastMatchesReference<DcServoModel>("dc_servo staircase, 3 kHz", staircase);
+}
+
+TEST(FastPath, DcServoRecordedInputWithOpenColumn) {
+  Config config = Load("ganesh-coastdown.json");
+  Trace recorded;
+  ASSERT_TRUE(RunExperiment(config, &recorded).ok());
+  config.experiment.input.kind = InputSignal::Kind::kRecorded;
+  config.experiment.input.times = recorded.Column("t");
+  config.experiment.input.values = recorded.Column("u");
+  config.experiment.input.open = recorded.Column("open");
+  config.experiment.coast_off_time = -1.0;
+  ExpectFastMatchesReference<DcServoModel>("dc_servo recorded u + open", config);
+}
+
+// The reference itself is not chaotic (docs/model-blmd.md §5): a 1e-12 relative change of J
+// moves the 1 V step's outputs by far less than the tolerance above.
+TEST(FastPath, BlmdReferenceIsLipschitzInTheParameters) {
+  Config config = Load("blmd-d31x.json");
+  Config nudged = config;
+  nudged.parameters.Set("J", config.parameters.Get("J") * (1.0 + 1e-12));
+  const Runs a = RunBoth<BlmdDriveModel>(config), b = RunBoth<BlmdDriveModel>(nudged);
+  std::string where;
+  const double worst = WorstRelativeDeviation(b.reference, a.reference, &where);
+  std::printf("[ measured ] J * (1 + 1e-12): reference outputs move by %.3g (column %s)\n", worst,
+              where.c_str());
+  EXPECT_LT(worst, 1e-9);
+}
+
+TEST(FastPath, WorstOverall) {
+  std::printf("[ measured ] worst relative deviation over the cases run so far: %.3g\n",
+              g_worst_overall);
+}
+
+}  // namespace
+}  // namespace blmd
