@@ -136,7 +136,31 @@ SimStatus FitProblem::Simulate(std::size_t k, const std::vector<double>& values,
   request.experiment = &experiment;
   request.settings = config_.simulation;
   request.sample_times = &fit_trace.trace.Column("t");
+  if (!effect_angles_.empty()) request.settings.effect_angle = &effect_angles_[k];
   return config_.model->Simulate(request, out);
+}
+
+bool FitProblem::ForceEffectAngle() {
+  std::vector<std::vector<double>> angles;
+  for (const FitTrace& trace : traces_) {
+    angles.push_back(MeasuredAngle(trace));
+    if (angles.back().empty()) return false;
+  }
+  effect_angles_ = std::move(angles);
+  return true;
+}
+
+std::vector<double> MeasuredAngle(const FitTrace& fit_trace) {
+  const Trace& trace = fit_trace.trace;
+  if (trace.Has("theta")) return trace.Column("theta");
+  if (!trace.Has("w")) return {};
+  const auto& t = trace.Column("t");
+  const auto& w = trace.Column("w");
+  std::vector<double> theta(w.size(), fit_trace.initial.theta);
+  for (std::size_t r = 1; r < w.size(); ++r) {
+    theta[r] = theta[r - 1] + 0.5 * (w[r] + w[r - 1]) * (t[r] - t[r - 1]);
+  }
+  return theta;
 }
 
 Evaluation FitProblem::Evaluate(const std::vector<double>& values,

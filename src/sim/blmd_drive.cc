@@ -160,6 +160,7 @@ SimStatus BlmdDriveModel::SimulateReference(const SimulationRequest& request, Tr
   constexpr double kHalfSqrt3 = 0.86602540378443864676;  // sin(2 pi/3)
   long index_in_period = 0;  // step start within the carrier period, 0 .. 2N-1
   bool first_step = true;
+  EffectAngle effect_angle(request.sample_times, request.settings.effect_angle);
   for (long step = 0; !sampler.done(); ++step) {
     const double t_low = t_start + static_cast<double>(step) * dt;
     const double t_high = t_start + static_cast<double>(step + 1) * dt;
@@ -249,7 +250,7 @@ SimStatus BlmdDriveModel::SimulateReference(const SimulationRequest& request, Tr
 
     // Shaft (backward Euler) with the shared effects.
     const double w_old = w, theta_old = theta;
-    const double non_friction = shaft.NonFrictionTorque(theta) + shaft.DragTorque(w);
+    const double non_friction = shaft.NonFrictionTorque(effect_angle.At(t_low, theta)) + shaft.DragTorque(w);
     bool stuck = false;
     const double friction = shaft.StepFriction(w, torque - non_friction, &stuck);
     if (!stuck) {

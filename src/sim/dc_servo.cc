@@ -123,6 +123,7 @@ SimStatus DcServoModel::SimulateReference(const SimulationRequest& request, Trac
   sampler.Record(t_start, prev.data(), t_start, prev.data());
   std::array<double, 5> now = prev;
 
+  EffectAngle effect_angle(request.sample_times, request.settings.effect_angle);
   for (long step = 0; !sampler.done(); ++step) {
     // u: the voltage applied over [t, t_next), computed at t.
     const double t = t_start + static_cast<double>(step) * dt;
@@ -131,7 +132,7 @@ SimStatus DcServoModel::SimulateReference(const SimulationRequest& request, Trac
     const bool open =
         (has_coast && t_mid >= experiment.coast_off_time) || input.OpenAt(t_mid);
 
-    const double non_friction = shaft.NonFrictionTorque(theta) + shaft.DragTorque(w);
+    const double non_friction = shaft.NonFrictionTorque(effect_angle.At(t, theta)) + shaft.DragTorque(w);
     const double u_eff = u - drive.Vdt * Sign(i);
     const double w_old = w, theta_old = theta;
     if (open) {

@@ -71,6 +71,7 @@ SimStatus RigidLoadModel::Simulate(const SimulationRequest& request, Trace* out)
   std::array<double, 3> prev = {input.At(t_start + 0.5 * dt), w, theta};
   sampler.Record(t_start, prev.data(), t_start, prev.data());
   std::array<double, 3> now = prev;
+  EffectAngle effect_angle(request.sample_times, request.settings.effect_angle);
   for (long step = 0; !sampler.done(); ++step) {
     const double t = t_start + static_cast<double>(step) * dt;
     const double t_next = t_start + static_cast<double>(step + 1) * dt;
@@ -78,7 +79,7 @@ SimStatus RigidLoadModel::Simulate(const SimulationRequest& request, Trace* out)
     // effect there whatever the rounding of t, as in dc_servo).
     const double u = input.At(t + 0.5 * dt);
     const double drive = Kt * u;
-    const double non_friction = shaft.NonFrictionTorque(theta) + shaft.DragTorque(w);
+    const double non_friction = shaft.NonFrictionTorque(effect_angle.At(t, theta)) + shaft.DragTorque(w);
     bool stuck = false;
     const double friction = shaft.StepFriction(w, drive - non_friction, &stuck);
     const double w_old = w, theta_old = theta;

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "blmd/sim/experiment.h"
 #include "blmd/sim/trace.h"
 
 namespace blmd::internal {
@@ -69,15 +70,10 @@ inline std::string DivergedMessage(double limit) {
 }
 
 // True when the request forces the position-dependent effects onto a given angle
-// (SimulationSettings::effect_angle, where the settings have it): the fast paths leave such
-// runs to their reference paths, which implement it.
-template <typename Settings>
-bool ForcedEffectAngle(const Settings& settings) {
-  if constexpr (requires { settings.effect_angle; }) {
-    return settings.effect_angle != nullptr;
-  } else {
-    return false;
-  }
+// (SimulationSettings::effect_angle): the fast paths leave such runs to their reference
+// paths, which implement it.
+inline bool ForcedEffectAngle(const SimulationSettings& settings) {
+  return settings.effect_angle != nullptr;
 }
 
 }  // namespace blmd::internal

@@ -82,6 +82,12 @@ class FitProblem {
   Evaluation Evaluate(const std::vector<double>& values,
                       std::vector<double>* residuals = nullptr) const;
 
+  // Position-dependent effects (cogging) see each trace's measured angle instead of the
+  // simulated one (SimulationSettings::effect_angle; MeasuredAngle). Returns false, and
+  // changes nothing, when a trace records neither theta nor w.
+  bool ForceEffectAngle();
+  bool effect_angle_forced() const { return !effect_angles_.empty(); }
+
   // Simulates trace k at the given values (outputs at its sample times).
   SimStatus Simulate(std::size_t k, const std::vector<double>& values, Trace* out) const;
 
@@ -97,7 +103,12 @@ class FitProblem {
   std::vector<std::size_t> samples_per_column_;
   std::vector<int> residual_columns_;
   std::size_t num_residuals_ = 0;
+  std::vector<std::vector<double>> effect_angles_;  // per trace, when forced
 };
+
+// The measured shaft angle (rad) at a trace's samples: its theta column, else the
+// trapezoidal integral of its w from the initial angle; empty when it has neither.
+std::vector<double> MeasuredAngle(const FitTrace& trace);
 
 // Builds the free-parameter list from the config (bounds, initial values, log scale).
 // Throws InputError for an unknown parameter or an initial value outside its bounds.

@@ -94,6 +94,30 @@ struct ShaftEffects {
   }
 };
 
+// The angle the position-dependent effects see (SimulationSettings::effect_angle): the
+// simulated one, or a sampled angle interpolated linearly in time (held beyond its ends).
+// Times are visited in increasing order, so the lookup walks a cursor: O(1) per step.
+class EffectAngle {
+ public:
+  EffectAngle(const std::vector<double>* times, const std::vector<double>* angle)
+      : times_(angle ? times : nullptr), angle_(angle) {}
+  double At(double t, double simulated_theta) {
+    if (!angle_) return simulated_theta;
+    const std::vector<double>& ts = *times_;
+    const std::vector<double>& a = *angle_;
+    if (t <= ts.front()) return a.front();
+    if (t >= ts.back()) return a.back();
+    while (cursor_ + 1 < ts.size() && ts[cursor_ + 1] < t) ++cursor_;
+    const double f = (t - ts[cursor_]) / (ts[cursor_ + 1] - ts[cursor_]);
+    return a[cursor_] + f * (a[cursor_ + 1] - a[cursor_]);
+  }
+
+ private:
+  const std::vector<double>* times_;
+  const std::vector<double>* angle_;
+  std::size_t cursor_ = 0;
+};
+
 // Electrical effects, unpacked once per simulation.
 struct DriveEffects {
   double Vdt = 0.0;  // dead-time voltage loss, V (dc_servo): u_eff = u - Vdt sign(i)

@@ -82,6 +82,11 @@ struct SimulationSettings {
   double friction_smoothing_w = 0.0;  // rad/s; > 0 replaces sign(w) by tanh(w/eps)
   bool diagnostics = false;           // add internal columns (phase voltages, torque)
   double divergence_limit = 1e9;      // |state| above this is a divergence
+  // Position-dependent effects (cogging) evaluated at this angle (rad), given at the request's
+  // sample times and interpolated linearly, instead of at the simulated angle: the
+  // "series-parallel" (teacher-forced) model discovery uses to fit cogging against a measured
+  // angle (docs/discovery.md). nullptr: the simulated angle. Borrowed for the call.
+  const std::vector<double>* effect_angle = nullptr;
 };
 
 }  // namespace blmd
