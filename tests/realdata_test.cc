@@ -81,9 +81,10 @@ std::string EmpsCommand(const std::string& discovery) {
          discovery;
 }
 
-// Like Hsm150Report: each command (~20 s and ~8 s on two cores) runs once; its report is kept
-// in the build tree, keyed by the command and newer than the binary.
-nlohmann::json CachedEmpsReport(const std::string& name, const std::string& command) {
+// ctest runs every test case in its own process: each case's command (20-45 s on two cores)
+// runs once and its report is kept in the build tree as realdata-NAME.json (written to a
+// temporary and renamed), keyed by the command and newer than the binary.
+nlohmann::json CachedReport(const std::string& name, const std::string& command) {
   const std::string cache = std::string(BLMD_BIN_DIR) + "/../realdata-" + name + ".json";
   if (FileExists(cache)) {
     const nlohmann::json cached = nlohmann::json::parse(Slurp(cache), nullptr, false);
@@ -105,9 +106,9 @@ class Emps : public ::testing::Test {
   static void SetUpTestSuite() {
     std::string why;
     if (!HaveRealData("emps", &why)) return;
-    open_ = new nlohmann::json(CachedEmpsReport("emps-open", EmpsCommand("")));
+    open_ = new nlohmann::json(CachedReport("emps-open", EmpsCommand("")));
     idm_ = new nlohmann::json(
-        CachedEmpsReport("emps-idm", EmpsCommand(" --candidates coulomb_friction,load_torque")));
+        CachedReport("emps-idm", EmpsCommand(" --candidates coulomb_friction,load_torque")));
   }
   static void TearDownTestSuite() {
     delete open_;
@@ -270,25 +271,7 @@ std::string Hsm150Command() {
          " --candidates coulomb_friction,load_torque,stribeck,quadratic_drag --max-effects 4";
 }
 
-// ctest runs every test case in its own process: the ~45 s command runs once and its report
-// is kept in the build tree (written to a temporary and renamed), keyed by the command.
-nlohmann::json Hsm150Report() {
-  const std::string command = Hsm150Command();
-  const std::string cache = std::string(BLMD_BIN_DIR) + "/../realdata-hsm150.json";
-  if (FileExists(cache)) {
-    const nlohmann::json cached = nlohmann::json::parse(Slurp(cache), nullptr, false);
-    const auto binary_time = std::filesystem::last_write_time(BinPath("blmd-ident"));
-    if (!cached.is_discarded() && cached.value("command", "") == command &&
-        std::filesystem::last_write_time(cache) > binary_time) {
-      return cached["report"];
-    }
-  }
-  const nlohmann::json report = Ident(command);
-  const std::string temporary = cache + ".tmp." + std::to_string(::getpid());
-  std::ofstream(temporary) << nlohmann::json{{"command", command}, {"report", report}}.dump();
-  std::filesystem::rename(temporary, cache);
-  return report;
-}
+nlohmann::json Hsm150Report() { return CachedReport("hsm150", Hsm150Command()); }
 
 class Hsm150 : public ::testing::Test {
  protected:
@@ -521,11 +504,11 @@ class OdriveCogging : public ::testing::Test {
   static void SetUpTestSuite() {
     std::string why;
     if (!HaveRealData("odrive_cogging", &why)) return;
-    nocomp_ = new nlohmann::json(CachedEmpsReport("odrive-nocomp", OdriveCommand("spinup_4_nocomp", "")));
-    comp_ = new nlohmann::json(CachedEmpsReport(
+    nocomp_ = new nlohmann::json(CachedReport("odrive-nocomp", OdriveCommand("spinup_4_nocomp", "")));
+    comp_ = new nlohmann::json(CachedReport(
         "odrive-comp-coulomb-cogging",
         OdriveCommand("spinup_3_comp", " --candidates coulomb_friction,cogging")));
-    comp_cogging_ = new nlohmann::json(CachedEmpsReport(
+    comp_cogging_ = new nlohmann::json(CachedReport(
         "odrive-comp-cogging", OdriveCommand("spinup_3_comp", " --candidates cogging")));
   }
   static void TearDownTestSuite() {
