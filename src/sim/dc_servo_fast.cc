@@ -176,7 +176,7 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
 
     u = control(t_next, &reference);
     const double i_out = i + drive.i0;
-    if (!((std::abs(i_out) <= limit) & (std::abs(w) <= limit) & (std::abs(theta) <= limit))) {
+    if (!(std::abs(i_out) <= limit && std::abs(w) <= limit && std::abs(theta) <= limit)) {
       return {SimStatus::Code::kDiverged, internal::DivergedMessage(limit), t_next};
     }
     if (t_next >= record_at) {
