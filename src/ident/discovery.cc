@@ -68,7 +68,8 @@ bool UsesMeasuredAngle(const Config& config) {
 }
 
 FitProblem MakeProblem(const Config& config, const std::vector<FitTrace>& traces,
-                       const std::vector<std::string>& observe, const std::vector<FreeParameter>& free) {
+                       const std::vector<std::string>& observe,
+                       const std::vector<FreeParameter>& free) {
   FitProblem problem(config, traces, observe, free);
   if (UsesMeasuredAngle(config)) problem.ForceEffectAngle();  // unchanged without theta or w
   return problem;
@@ -675,7 +676,8 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     for (std::size_t k = 0; k < best.free.size(); ++k) config.parameters.Set(best.free[k].name, best.fit.values[k]);
     std::vector<FreeParameter> free = best.free;
     for (std::size_t k = 0; k < free.size(); ++k) free[k].initial = best.fit.values[k];
-    current_problem = std::make_unique<FitProblem>(MakeProblem(config, problem.traces(), problem.observe(), free));
+    current_problem = std::make_unique<FitProblem>(
+        MakeProblem(config, problem.traces(), problem.observe(), free));
     current_fit = best.fit;
     current_bic = best.outcome.bic;
   }

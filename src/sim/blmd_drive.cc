@@ -250,7 +250,8 @@ SimStatus BlmdDriveModel::SimulateReference(const SimulationRequest& request, Tr
 
     // Shaft (backward Euler) with the shared effects.
     const double w_old = w, theta_old = theta;
-    const double non_friction = shaft.NonFrictionTorque(effect_angle.At(t_low, theta)) + shaft.DragTorque(w);
+    const double non_friction =
+        shaft.NonFrictionTorque(effect_angle.At(t_low, theta)) + shaft.DragTorque(w);
     bool stuck = false;
     const double friction = shaft.StepFriction(w, torque - non_friction, &stuck);
     if (!stuck) {

@@ -263,8 +263,8 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
     }
 
     const double ia = current[0] + drive.i0;
-    if (!(std::abs(ia) <= limit && std::abs(current[1]) <= limit &&
-          std::abs(current[2]) <= limit && std::abs(w) <= limit && std::abs(theta) <= limit)) {
+    if (!(std::abs(ia) <= limit && std::abs(current[1]) <= limit && std::abs(current[2]) <= limit &&
+          std::abs(w) <= limit && std::abs(theta) <= limit)) {
       return {SimStatus::Code::kDiverged, internal::DivergedMessage(limit), t_high};
     }
     if (t_high >= record_at) {

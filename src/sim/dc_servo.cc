@@ -132,7 +132,8 @@ SimStatus DcServoModel::SimulateReference(const SimulationRequest& request, Trac
     const bool open =
         (has_coast && t_mid >= experiment.coast_off_time) || input.OpenAt(t_mid);
 
-    const double non_friction = shaft.NonFrictionTorque(effect_angle.At(t, theta)) + shaft.DragTorque(w);
+    const double non_friction =
+        shaft.NonFrictionTorque(effect_angle.At(t, theta)) + shaft.DragTorque(w);
     const double u_eff = u - drive.Vdt * Sign(i);
     const double w_old = w, theta_old = theta;
     if (open) {

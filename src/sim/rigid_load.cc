@@ -79,7 +79,8 @@ SimStatus RigidLoadModel::Simulate(const SimulationRequest& request, Trace* out)
     // effect there whatever the rounding of t, as in dc_servo).
     const double u = input.At(t + 0.5 * dt);
     const double drive = Kt * u;
-    const double non_friction = shaft.NonFrictionTorque(effect_angle.At(t, theta)) + shaft.DragTorque(w);
+    const double non_friction =
+        shaft.NonFrictionTorque(effect_angle.At(t, theta)) + shaft.DragTorque(w);
     bool stuck = false;
     const double friction = shaft.StepFriction(w, drive - non_friction, &stuck);
     const double w_old = w, theta_old = theta;
