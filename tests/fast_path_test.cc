@@ -168,6 +168,17 @@ TEST(FastPath, DcServoSquareWithEveryShaftEffect) {
   ExpectFastMatchesReference<DcServoModel>("dc_servo square + effects", config);
 }
 
+// Linear and open loop: the fast path takes macro steps (powers of the step matrix) between
+// the samples and the square wave's edges (InputCursor::NextChange of a square wave).
+TEST(FastPath, DcServoLinearSquareWaveInMacroSteps) {
+  Config config = Load("ganesh-square.json");
+  config.effects.clear();
+  ExpectFastMatchesReference<DcServoModel>("dc_servo square, linear", config);
+  config.experiment.sample_rate = 1234.5;  // samples off the step grid
+  config.experiment.input.t0 = 0.0123;     // edges off the step grid
+  ExpectFastMatchesReference<DcServoModel>("dc_servo square, linear, off-grid", config);
+}
+
 TEST(FastPath, DcServoClosedLoopPidAndStaircase) {
   ExpectFastMatchesReference<DcServoModel>("dc_servo PID", Load("ganesh-pid.json"));
   Config staircase = Load("ganesh-staircase.json");

@@ -13,16 +13,20 @@ namespace blmd::internal {
 namespace {
 
 // Residuals of the whole problem as one Ceres block. Parameters in search coordinates:
-// log(value) for log-scale parameters, the value itself otherwise. Derivatives are central
+// log(value) for log-scale parameters, the value itself otherwise. Derivatives are finite
 // differences with a step chosen in those coordinates (fd_step: 1e-3 in log, i.e. 0.1 %,
-// or 1e-3 of max(|x|, range/1000) when linear). Ceres' own numeric differentiation steps
-// relative to |x| (1e-6 |log J| ~ 1e-5), too fine for a simulator whose stick-slip and
-// PWM events shift by whole steps: the cost has micro-jumps at that scale, and a Jacobian
-// taken across one is wrong (and so would be the covariance).
+// or 1e-3 of max(|x|, range/1000) when linear): forward differences (p + 1 simulations)
+// while minimising, where the Jacobian only steers the steps, and central differences
+// (2p + 1) for the covariance, whose accuracy the intervals depend on. Ceres' own numeric
+// differentiation steps relative to |x| (1e-6 |log J| ~ 1e-5), too fine for a simulator whose
+// stick-slip and PWM events shift by whole steps: the cost has micro-jumps at that scale, and a
+// Jacobian taken across one is wrong (and so would be the covariance).
 class SimulationCost final : public ceres::CostFunction {
  public:
-  SimulationCost(CountingCost* cost, double fd_step, std::vector<double> scale = {})
-      : cost_(cost), fd_step_(fd_step), scale_(std::move(scale)) {
+  enum class Differences { kForward, kCentral };
+  SimulationCost(CountingCost* cost, double fd_step, Differences differences,
+                 std::vector<double> scale = {})
+      : cost_(cost), fd_step_(fd_step), differences_(differences), scale_(std::move(scale)) {
     const FitProblem& problem = cost_->problem();
     mutable_parameter_block_sizes()->push_back(static_cast<int>(problem.num_free()));
     set_num_residuals(static_cast<int>(problem.num_residuals()));
@@ -45,7 +49,10 @@ class SimulationCost final : public ceres::CostFunction {
       std::vector<double> xp = x, xm = x;
       xp[k] += h;
       xm[k] -= h;
-      const bool ok_plus = Residuals(xp, &plus), ok_minus = Residuals(xm, &minus);
+      const bool ok_plus = Residuals(xp, &plus);
+      // Forward differences take the backward side only when the forward side failed.
+      const bool ok_minus =
+          (differences_ == Differences::kCentral || !ok_plus) && Residuals(xm, &minus);
       for (std::size_t r_index = 0; r_index < n; ++r_index) {
         double derivative = 0.0;
         if (ok_plus && ok_minus) {
@@ -80,6 +87,7 @@ class SimulationCost final : public ceres::CostFunction {
 
   CountingCost* cost_;
   double fd_step_;
+  Differences differences_;
   std::vector<double> scale_;
 };
 
@@ -103,7 +111,7 @@ FitResult CeresOptimizer::Minimize(const FitProblem& problem,
   }
 
   const double fd_step = OptionNumber(options.method_options, "fd_step", 1e-3);
-  auto* cost_function = new SimulationCost(&cost, fd_step);
+  auto* cost_function = new SimulationCost(&cost, fd_step, SimulationCost::Differences::kForward);
 
   ceres::Problem::Options problem_options;
   ceres::Problem ceres_problem(problem_options);
@@ -121,10 +129,10 @@ FitResult CeresOptimizer::Minimize(const FitProblem& problem,
   solver_options.max_num_iterations =
       static_cast<int>(OptionNumber(options.method_options, "max_iterations", 100));
   if (options.max_evaluations > 0) {
-    // Each iteration costs about 2p + 1 evaluations (central differences and the step).
-    solver_options.max_num_iterations = std::max(
-        1, std::min(solver_options.max_num_iterations,
-                    options.max_evaluations / static_cast<int>(2 * p + 1)));
+    // Each iteration costs about p + 2 evaluations (forward differences and the step).
+    solver_options.max_num_iterations =
+        std::max(1, std::min(solver_options.max_num_iterations,
+                             options.max_evaluations / static_cast<int>(p + 2)));
   }
   solver_options.function_tolerance =
       OptionNumber(options.method_options, "function_tolerance", 1e-10);
@@ -132,6 +140,11 @@ FitResult CeresOptimizer::Minimize(const FitProblem& problem,
       OptionNumber(options.method_options, "parameter_tolerance", 1e-10);
   solver_options.gradient_tolerance =
       OptionNumber(options.method_options, "gradient_tolerance", 1e-14);
+  // No projected line search after a successful step: with bounds, Ceres would otherwise
+  // evaluate the Jacobian again along the step (2p + 1 more simulations per iteration, half
+  // of a fit's evaluations) before the next iteration evaluates it anyway; a step that
+  // leaves the box is projected back onto it instead.
+  solver_options.max_num_line_search_step_size_iterations = 0;
   solver_options.logging_type = ceres::SILENT;
   solver_options.minimizer_progress_to_stdout = false;
   solver_options.num_threads = 1;
@@ -148,7 +161,8 @@ FitResult CeresOptimizer::Minimize(const FitProblem& problem,
 
   OptimizerSummary& summary = result.summary;
   summary.method = "ceres";
-  summary.algorithm = "LEVENBERG_MARQUARDT (central differences, DENSE_QR)";
+  summary.algorithm =
+      "LEVENBERG_MARQUARDT (forward differences, central for the covariance; DENSE_QR)";
   summary.raw_code = static_cast<int>(ceres_summary.termination_type);
   summary.converged = ceres_summary.termination_type == ceres::CONVERGENCE &&
                       result.evaluation.ok;
@@ -167,7 +181,8 @@ FitResult CeresOptimizer::Minimize(const FitProblem& problem,
   // ceres::Covariance of that problem is the parameter covariance directly.
   if (result.evaluation.ok && problem.num_residuals() > p) {
     std::vector<double> cov_x = x;
-    auto* noise_cost = new SimulationCost(&cost, fd_step, problem.NoiseNormalisation(result.evaluation));
+    auto* noise_cost = new SimulationCost(&cost, fd_step, SimulationCost::Differences::kCentral,
+                                          problem.NoiseNormalisation(result.evaluation));
     ceres::Problem covariance_problem;
     covariance_problem.AddResidualBlock(noise_cost, nullptr, cov_x.data());
     ceres::Covariance::Options covariance_options;

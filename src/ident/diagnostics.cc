@@ -178,17 +178,27 @@ ResidualAnalysis AnalyseResidual(const FitProblem& problem, const std::vector<do
           ++moving;
         }
       }
-      std::vector<double> amplitude(static_cast<std::size_t>(options.max_order), 0.0);
-      for (int order = min_order; order <= options.max_order; ++order) {
-        double a = 0.0, b = 0.0;
-        for (std::size_t k = 0; k < e.size(); ++k) {
-          if (!use[k]) continue;
-          const double angle = order * theta[k];
-          a += detrended[k] * std::cos(angle);
-          b += detrended[k] * std::sin(angle);
+      // One cosine and sine per sample; the orders' cos(n theta), sin(n theta) by the
+      // rotation recurrence (rounding grows by about one ulp per order, < 1e-13 at order 64).
+      const auto max_order = static_cast<std::size_t>(options.max_order);
+      std::vector<double> a(max_order + 1, 0.0), b(max_order + 1, 0.0);
+      for (std::size_t k = 0; k < e.size(); ++k) {
+        if (!use[k]) continue;
+        const double c1 = std::cos(theta[k]), s1 = std::sin(theta[k]);
+        double c = 1.0, s = 0.0;
+        for (std::size_t order = 1; order <= max_order; ++order) {
+          const double c_next = c * c1 - s * s1;
+          s = s * c1 + c * s1;
+          c = c_next;
+          a[order] += detrended[k] * c;
+          b[order] += detrended[k] * s;
         }
-        const double scale = 2.0 / static_cast<double>(std::max<std::size_t>(moving, 1));
-        amplitude[static_cast<std::size_t>(order - 1)] = scale * std::hypot(a, b);
+      }
+      std::vector<double> amplitude(max_order, 0.0);
+      const double scale = 2.0 / static_cast<double>(std::max<std::size_t>(moving, 1));
+      for (int order = min_order; order <= options.max_order; ++order) {
+        const auto n = static_cast<std::size_t>(order);
+        amplitude[n - 1] = scale * std::hypot(a[n], b[n]);
       }
       std::vector<double> sorted(amplitude.begin() + std::min<long>(min_order - 1, options.max_order - 1), amplitude.end());
       std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());

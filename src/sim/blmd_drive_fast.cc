@@ -16,6 +16,7 @@
 #include "blmd/sim/blmd_drive.h"
 #include "blmd/sim/effects.h"
 #include "sim/blmd_legs.h"
+#include "sim/plain_shaft.h"
 #include "sim/sampler.h"
 
 namespace blmd {
@@ -30,9 +31,9 @@ struct FastLeg {
 };
 
 // A leg's step with an edge or inside its blanking time (the reference's arithmetic).
-[[gnu::noinline]] void EdgeStep(FastLeg* leg, double t_low, double t_high, double dt, double d_low,
-                                double d_high, bool regula_falsi, double delta, double Ud,
-                                double* switched, double* off) {
+[[gnu::noinline]] void EdgeStep(FastLeg* leg, double t_low, double t_high, double dt, double inv_dt,
+                                double d_low, double d_high, bool regula_falsi, double delta,
+                                double Ud, double* switched, double* off) {
   if ((d_low < 0.0) != leg->upper_commanded) {
     leg->upper_commanded = d_low < 0.0;
     leg->t_edge = t_low;
@@ -53,8 +54,8 @@ struct FastLeg {
   } else {
     conduct(t_low, t_high);
   }
-  *switched = Ud * upper_on / dt;
-  *off = off_time / dt;
+  *switched = Ud * upper_on * inv_dt;
+  *off = off_time * inv_dt;
 }
 
 }  // namespace
@@ -89,7 +90,9 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
   const double Tp_dt = Tp / dt, lead_gain = 1.0 + Tz / dt, Tz_dt = Tz / dt;
   const double Ki_dt = Ki * dt;
   const bool lead_lag = Tz != 0.0 || Tp != 0.0;
-  const double dt_Ls = dt / Ls, Ls_dt = Ls / dt, dt_J = dt / J;
+  const double dt_Ls = dt / Ls, Ls_dt = Ls / dt, dt_J = dt / J, inv_dt = 1.0 / dt;
+  // No friction, drag or cogging: the shaft's step is the drive torque less B w and TL.
+  const bool plain_shaft = internal::PlainShaft(shaft);
 
   const long steps_per_half_period = std::lround(0.5 * Tpwm / dt);
   const double carrier_slope = 2.0 * Vtri / static_cast<double>(steps_per_half_period);
@@ -144,9 +147,11 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
   double demand = 0.0, demand_next_change = -1e300;
   long index_in_period = 0;
   bool first_step = true;
+  double t_high = t_start;      // the previous step's end: this step's start, the same double
+  double carrier_high = -Vtri;  // carrier_at(0)
   for (long step = 0; !sampler.done(); ++step) {
-    const double t_low = t_start + static_cast<double>(step) * dt;
-    const double t_high = t_start + static_cast<double>(step + 1) * dt;
+    const double t_low = t_high;
+    t_high = t_start + static_cast<double>(step + 1) * dt;
     const double t_mid = t_low + 0.5 * dt;
     if (t_mid >= demand_next_change) {  // read again only when the signal can change
       demand = input.At(t_mid);
@@ -155,10 +160,10 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
     const double cosine[3] = {cos_a, -0.5 * cos_a + kHalfSqrt3 * sin_a,
                               -0.5 * cos_a - kHalfSqrt3 * sin_a};
 
-    const double carrier_low = carrier_at(index_in_period);
-    const double carrier_high = carrier_at(index_in_period + 1);
+    const double carrier_low = carrier_high;  // carrier_at(index_in_period), last step's end
+    carrier_high = carrier_at(index_in_period + 1);
     if (++index_in_period == 2 * steps_per_half_period) index_in_period = 0;
-    const double full_on = Ud * (t_high - t_low) / dt;  // a switch on for the whole step
+    const double full_on = Ud * (t_high - t_low) * inv_dt;  // a switch on for the whole step
     double switched[3], off[3];
     bool any_off = false;
     const double demand_current = Kc * demand;
@@ -179,7 +184,7 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
       FastLeg& leg = legs[j];
       const double d_low = carrier_low - control;
       const double d_high = carrier_high - control;
-      if (first_step) {
+      if (first_step) [[unlikely]] {
         leg.upper_commanded = d_low < 0.0;
         leg.t_edge = t_low - 2.0 * delta - dt;
         leg.settled_at = leg.t_edge + delta;
@@ -191,8 +196,8 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
         off[j] = 0.0;
         continue;
       }
-      EdgeStep(&leg, t_low, t_high, dt, d_low, d_high, regula_falsi, delta, Ud, &switched[j],
-               &off[j]);
+      EdgeStep(&leg, t_low, t_high, dt, inv_dt, d_low, d_high, regula_falsi, delta, Ud,
+               &switched[j], &off[j]);
       any_off = any_off || off[j] > 0.0;
     }
     first_step = false;
@@ -218,7 +223,7 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
         }
       }
     }
-    neutral_voltage = (leg_voltage[0] + leg_voltage[1] + leg_voltage[2]) / 3.0;
+    neutral_voltage = (leg_voltage[0] + leg_voltage[1] + leg_voltage[2]) * (1.0 / 3.0);
 
     torque = 0.0;
     const double emf_w = Ke * w;
@@ -230,19 +235,24 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
     }
 
     const double w_old = w, theta_old = theta;
-    const double non_friction = shaft.NonFrictionTorque(theta) + shaft.DragTorque(w);
-    bool stuck = false;
-    const double friction = shaft.StepFriction(w, torque - non_friction, &stuck);
     bool resync = --until_resync == 0;
-    if (!stuck) {
-      w = (w + dt_J * (torque - friction - non_friction)) * speed_gain;
-      if (shaft.StopsWithin(w_old, w)) {
-        const double fraction = w_old / (w_old - w);
-        w = 0.0;
-        theta = theta_old + 0.5 * w_old * fraction * dt;
-        resync = true;
-      } else {
-        theta += dt * w;
+    if (plain_shaft) {
+      w = (w + dt_J * (torque - shaft.TL)) * speed_gain;
+      theta += dt * w;
+    } else {
+      const double non_friction = shaft.NonFrictionTorque(theta) + shaft.DragTorque(w);
+      bool stuck = false;
+      const double friction = shaft.StepFriction(w, torque - non_friction, &stuck);
+      if (!stuck) {
+        w = (w + dt_J * (torque - friction - non_friction)) * speed_gain;
+        if (shaft.StopsWithin(w_old, w)) {
+          const double fraction = w_old / (w_old - w);
+          w = 0.0;
+          theta = theta_old + 0.5 * w_old * fraction * dt;
+          resync = true;
+        } else {
+          theta += dt * w;
+        }
       }
     }
     // Electrical angle: rotate by x = p (theta_H - theta_L) (exact difference of the two
@@ -278,9 +288,8 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
   }
   sampler.Finish(out);
   auto& u_column = out->Column("u");
-  for (std::size_t k = 0; k < times.size(); ++k) {
-    u_column[k] = experiment.input.At(times[k] + 0.5 * dt);
-  }
+  InputCursor u_cursor(experiment.input);  // sample times increase: no search per sample
+  for (std::size_t k = 0; k < times.size(); ++k) u_column[k] = u_cursor.At(times[k] + 0.5 * dt);
   return SimStatus::Ok();
 }
 

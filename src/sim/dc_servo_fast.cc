@@ -2,16 +2,84 @@
 // discretisation's matrices unrolled into scalars, the input read again only when it can
 // change (InputCursor::NextChange), and outputs written only at the sample steps
 // (docs/performance.md). No allocation, virtual call or look-up inside the step loop.
+//
+// Macro steps: while the model is linear (no friction, drag, cogging or dead time, open
+// loop, armature closed) and the input holds, n steps of x+ = Ad x + Bd v are one step
+// x+ = Ad^n x + (sum_k<n Ad^k) Bd v, with the matrices composed from powers made once per
+// run by doubling. That is the same discrete model (the reference's steps, not a coarser one):
+// it differs from stepping one at a time only by rounding (tests/fast_path_test.cc).
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
+#include <optional>
 
 #include "blmd/sim/dc_servo.h"
 #include "blmd/sim/effects.h"
 #include "sim/discretise.h"
+#include "sim/plain_shaft.h"
 #include "sim/sampler.h"
 
 namespace blmd {
+namespace {
+
+// x+ = P x + G v for n steps at once: P = Ad^n, G = (sum_k<n Ad^k) Bd (row-major).
+struct MacroStep {
+  std::array<double, 9> P;
+  std::array<double, 6> G;
+};
+
+// The macro steps of one run: Ad^(2^m) and its sums by doubling, and any n composed from
+// them by its binary digits (powers of Ad commute, so the order does not matter). The last
+// few n asked for are kept: the gap between samples repeats, so one composition serves a
+// whole run.
+class MacroSteps {
+ public:
+  MacroSteps(const Eigen::Matrix3d& Ad, const Eigen::Matrix<double, 3, 2>& Bd, long max_steps) {
+    Eigen::Matrix3d P = Ad;
+    Eigen::Matrix<double, 3, 2> G = Bd;
+    for (long span = 1; span <= max_steps; span *= 2) {
+      powers_.push_back({P, G});
+      G = (G + P * G).eval();  // 2 span steps: the first span's input, then the second's
+      P = (P * P).eval();
+    }
+  }
+
+  const MacroStep& For(long n) {
+    for (std::size_t k = 0; k < kCached; ++k) {
+      if (cached_n_[k] == n) return cached_[k];
+    }
+    Eigen::Matrix3d P = Eigen::Matrix3d::Identity();
+    Eigen::Matrix<double, 3, 2> G = Eigen::Matrix<double, 3, 2>::Zero();
+    for (std::size_t m = 0; (n >> m) != 0; ++m) {
+      if (((n >> m) & 1) == 0) continue;
+      G = (powers_[m].P * G + powers_[m].G).eval();
+      P = (powers_[m].P * P).eval();
+    }
+    const std::size_t slot = next_slot_;
+    next_slot_ = (next_slot_ + 1) % kCached;
+    cached_n_[slot] = n;
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) cached_[slot].P[3 * r + c] = P(r, c);
+      for (int c = 0; c < 2; ++c) cached_[slot].G[2 * r + c] = G(r, c);
+    }
+    return cached_[slot];
+  }
+
+ private:
+  struct Power {
+    Eigen::Matrix3d P;
+    Eigen::Matrix<double, 3, 2> G;
+  };
+  static constexpr std::size_t kCached = 4;
+  std::vector<Power> powers_;  // [m]: 2^m steps
+  std::array<long, kCached> cached_n_ = {-1, -1, -1, -1};
+  std::array<MacroStep, kCached> cached_{};
+  std::size_t next_slot_ = 0;
+};
+
+}  // namespace
 
 SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) const {
   if (internal::ForcedEffectAngle(request.settings)) return SimulateReference(request, out);
@@ -57,7 +125,7 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
   const double open_a00 = Ado(0, 0), open_a01 = Ado(0, 1), open_a10 = Ado(1, 0),
                open_a11 = Ado(1, 1), open_b0 = Bdo(0, 0), open_b1 = Bdo(1, 0);
   const bool theta_decoupled = a02 == 0.0 && a12 == 0.0 && a22 == 1.0;
-  const bool plain_shaft = !shaft.has_friction() && shaft.Tcog == 0.0 && shaft.Cd == 0.0;
+  const bool plain_shaft = internal::PlainShaft(shaft);
 
   const bool closed_loop = experiment.closed_loop;
   const PidSettings& pid = experiment.pid;
@@ -108,16 +176,71 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
   auto next_record_time = [&] { return sampler.done() ? 1e300 : sampler.next_time() - 1e-9 * dt; };
   double record_at = next_record_time();
 
-  for (long step = 0; !sampler.done(); ++step) {
+  const bool linear = plain_shaft && drive.Vdt == 0.0 && !closed_loop;
+  const long total_steps = std::lround((times.back() - t_start) / dt) + 1;
+  std::optional<MacroSteps> macro;
+  if (linear) macro.emplace(Ad, Bd, total_steps);
+  // The first step index s whose time t_start + s dt, plus offset, reaches threshold, by the
+  // loop's own arithmetic (so the macro steps stop exactly where single steps would act).
+  const double inv_dt = 1.0 / dt;
+  auto first_step = [&](double threshold, double offset) -> long {
+    if (!(threshold < 1e299)) return std::numeric_limits<long>::max() / 2;
+    auto at = [&](long s) { return t_start + static_cast<double>(s) * dt + offset; };
+    const double estimate = (threshold - offset - t_start) * inv_dt;  // then exact by the loops
+    long s = estimate > 0.0 ? static_cast<long>(estimate) : 0;
+    while (s > 0 && at(s - 1) >= threshold) --s;
+    while (at(s) < threshold) ++s;
+    return s;
+  };
+  // Steps from which on a single step is due: the one that records a sample (its end reaches
+  // record_at), the one that reads a new input (its middle reaches the next change), the
+  // first with the armature open.
+  const long coast_step = has_coast ? first_step(experiment.coast_off_time, 0.5 * dt)
+                                    : std::numeric_limits<long>::max() / 2;
+  double record_step_for = -1.0, change_step_for = -1.0;
+  long record_step = 0, change_step = 0;
+
+  long advance = 1;  // steps taken by this iteration
+  for (long step = 0; !sampler.done(); step += advance) {
     const double t = t_start + static_cast<double>(step) * dt;
-    const double t_next = t_start + static_cast<double>(step + 1) * dt;
     const double t_mid = t + 0.5 * dt;
     // The open flag is read at t_mid; control() already read the input there.
     const bool open = (has_coast && t_mid >= experiment.coast_off_time) || input_open;
+    // Steps step .. step + n - 1 are one macro step while none of them records a sample (the
+    // step before the recording one ends the macro step, and the state there is kept for the
+    // sampler), reads a new input value or opens the armature.
+    const MacroStep* macro_step = nullptr;
+    advance = 1;
+    if (linear && !open) {
+      if (record_at != record_step_for) {
+        record_step = first_step(record_at, 0.0) - 1;  // the recording step's index
+        record_step_for = record_at;
+      }
+      if (input_next_change != change_step_for) {
+        change_step = first_step(input_next_change, 0.5 * dt);
+        change_step_for = input_next_change;
+      }
+      const long n = std::min({record_step, change_step, coast_step}) - step;
+      if (n >= 2) {
+        macro_step = &macro->For(n);
+        advance = n;
+      }
+    }
+    const double t_next = t_start + static_cast<double>(step + advance) * dt;
     const double w_old = w, theta_old = theta;
     const double u_eff =
         drive.Vdt == 0.0 ? u : u - drive.Vdt * (i > 0.0 ? 1.0 : (i < 0.0 ? -1.0 : 0.0));
-    if (plain_shaft && !open) {
+    if (macro_step) {
+      const double* P = macro_step->P.data();
+      const double* G = macro_step->G.data();
+      const double load = shaft.TL;
+      const double i1 = P[0] * i + P[1] * w + P[2] * theta + (G[0] * u_eff + G[1] * load);
+      const double w1 = P[3] * i + P[4] * w + P[5] * theta + (G[2] * u_eff + G[3] * load);
+      const double th1 = P[6] * i + P[7] * w + P[8] * theta + (G[4] * u_eff + G[5] * load);
+      i = i1;
+      w = w1;
+      theta = th1;
+    } else if (plain_shaft && !open) {
       // No friction, drag or cogging: T_effects = TL, one matrix step. The input terms do
       // not depend on the state, so they are off the step-to-step dependency chain; theta
       // does not feed i or w (a02 = a12 = 0, a22 = 1 exactly, checked), so the chain from
@@ -188,7 +311,8 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
       sampler.Record(t, prev, t_next, now);
       record_at = next_record_time();
     }
-    if (t_next + dt >= record_at) {
+    // The state before the step that records (after a macro step always: it may end there).
+    if (advance > 1 || t_next + dt >= record_at) {
       prev[0] = u;
       prev[1] = i_out;
       prev[2] = w;
@@ -199,7 +323,8 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
   sampler.Finish(out);
   if (!closed_loop) {
     auto& u_column = out->Column("u");
-    for (std::size_t k = 0; k < times.size(); ++k) u_column[k] = experiment.input.At(times[k]);
+    InputCursor u_cursor(experiment.input);  // sample times increase: no search per sample
+    for (std::size_t k = 0; k < times.size(); ++k) u_column[k] = u_cursor.At(times[k]);
   }
   return SimStatus::Ok();
 }

@@ -60,8 +60,19 @@ double InputCursor::NextChange(double t) {
   switch (signal_.kind) {
     case InputSignal::Kind::kStep:
       return t < signal_.t0 ? signal_.t0 : kNever;
-    case InputSignal::Kind::kSquare:
-      return t;
+    case InputSignal::Kind::kSquare: {
+      if (signal_.period <= 0.0) return kNever;
+      if (t < signal_.t0) return signal_.t0;
+      // The next half-period edge after t. At() finds the phase with fmod, whose flip may
+      // fall a rounding error before or after this arithmetic's edge, so within 1e-6 of a
+      // half period around an edge the signal is read at every call (t is returned): a read
+      // too early is repeated, a read too late would be wrong.
+      const double half = 0.5 * signal_.period;
+      const double previous_edge = signal_.t0 + std::floor((t - signal_.t0) / half) * half;
+      const double window = 1e-6 * half;
+      if (t - previous_edge < window) return t;
+      return previous_edge + half - window;
+    }
     case InputSignal::Kind::kSteps:
     case InputSignal::Kind::kRecorded: {
       const auto& times = signal_.times;

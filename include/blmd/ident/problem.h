@@ -97,6 +97,7 @@ class FitProblem {
 
   Config config_;
   std::vector<FitTrace> traces_;
+  std::vector<Experiment> experiments_;  // per trace: its input and initial state, open loop
   std::vector<std::string> observe_;
   std::vector<FreeParameter> free_;
   std::vector<double> variance_;
