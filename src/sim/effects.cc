@@ -23,6 +23,13 @@ ParamInfo P(std::string name, std::string unit, std::string meaning, bool positi
 std::vector<EffectInfo> MakeRegistry() {
   const std::vector<std::string> all = {"blmd", "dc_servo", "rigid_load"};
   std::vector<EffectInfo> effects = {
+      // dc_servo is not listed: its fast path (src/sim/dc_servo_fast.cc) skips DragTorque
+      // when the shaft has no friction, drag or cogging, so dB alone would be ignored there.
+      {"asymmetric_viscous",
+       {P("dB", "N·m·s/rad", "direction-dependent viscous damping: B+ = B + dB, B- = B - dB", false,
+          false, -1e5, 1e5)},
+       "T = dB |w| (B+ = B + dB for w > 0, B- = B - dB for w < 0; valid while |dB| < B)",
+       {"blmd", "rigid_load"}},
       {"cogging",
        {P("Tcog", "N·m", "cogging torque amplitude", false, true, 0.0, 10.0),
         P("periods", "1/rev", "cogging periods per shaft revolution", true, false, 1.0, 200.0),
@@ -101,6 +108,7 @@ ShaftEffects ShaftEffects::From(const ParameterSet& values, const std::vector<st
   }
   if (on("load_torque")) shaft.TL = values.Get("TL");
   if (on("quadratic_drag")) shaft.Cd = values.Get("Cd");
+  if (on("asymmetric_viscous")) shaft.dB = values.Get("dB");
   if (on("cogging")) {
     shaft.Tcog = values.Get("Tcog");
     shaft.cog_periods = values.Get("periods");

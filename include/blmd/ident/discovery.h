@@ -3,15 +3,18 @@
 //
 // Each round, every applicable effect of the vocabulary not yet in the model is a
 // candidate. A candidate is screened: a small deterministic scan of its parameters
-// (periods of cogging from the residual's angle spectrum; i0 from the current residual's
-// mean) with the others held, then one damped Gauss-Newton step on all free parameters.
+// (periods of cogging from the torque balance along the measured motion for rigid_load, from
+// the residual's angle spectrum otherwise; i0 from the current residual's mean) with the
+// others held, then one damped Gauss-Newton step on all free parameters (for cogging, when
+// that does not lower BIC on the free-running model, a short free-running search from it).
 // The `refits` best by screening BIC are refit in full (Ceres, all parameters). Each is
 // scored by the
 // Bayesian information criterion with each observed column's own noise level,
 //   BIC = sum_c N_c ln(SSE_c / N_c) + k ln N,
 // and qualifies when it lowers BIC by more than `bic_margin` (10: "very strong" evidence)
-// and its parameters are physically valid (inside their constraints, off their search
-// bounds, and away from zero by more than two standard deviations). The best qualifying
+// and its parameters are physically valid (inside their constraints, e.g. |dB| < B for
+// asymmetric_viscous, off their search bounds, and away from zero by more than two standard
+// deviations). The best qualifying
 // candidate is added; if another qualifying candidate is within `ambiguity_margin` (2) of
 // it, the data cannot tell them apart and the round reports them as ambiguous and adds
 // nothing.

@@ -7,7 +7,13 @@
 //             + Ts exp(-(w/ws)^2) sign(w)                 (stribeck; adds to breakaway)
 //             + TL                                        (load_torque, signed)
 //             + Cd w |w|                                  (quadratic_drag)
+//             + dB |w|                                    (asymmetric_viscous)
 //             + Tcog sin(periods theta + phase)           (cogging)
+//
+// asymmetric_viscous makes the viscous damping depend on the direction: with B w it gives
+// B+ = B + dB turning forwards (w > 0) and B- = B - dB backwards (physically valid while
+// |dB| < B). Like drag it is explicit in the step (both vanish at rest, so sticking and the
+// stop rule are unchanged).
 //
 // Electrical effects: dead_time (dc_servo) u_eff = u - Vdt sign(i);
 // current_offset: measured i = true i + i0 (output only).
@@ -47,6 +53,7 @@ struct ShaftEffects {
   double ws = 1.0;           // Stribeck velocity, rad/s
   double TL = 0.0;           // constant load torque, N·m (opposes positive motion)
   double Cd = 0.0;           // quadratic drag, N·m·s²/rad²
+  double dB = 0.0;           // direction-dependent viscous damping, N·m·s/rad (B± = B ± dB)
   double Tcog = 0.0;         // cogging amplitude, N·m
   double cog_periods = 0.0;  // cogging periods per shaft revolution
   double cog_phase = 0.0;    // cogging phase, rad
@@ -63,7 +70,8 @@ struct ShaftEffects {
     if (Tcog != 0.0) torque += Tcog * std::sin(cog_periods * theta + cog_phase);
     return torque;
   }
-  double DragTorque(double w) const { return Cd * w * std::abs(w); }
+  // Speed-dependent torques besides B w: quadratic drag and the asymmetric viscous part.
+  double DragTorque(double w) const { return (Cd * w + dB) * std::abs(w); }
   // Kinetic friction magnitude at speed w (Coulomb + Stribeck), N·m.
   double FrictionMagnitude(double w) const {
     double magnitude = Tc;
