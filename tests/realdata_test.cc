@@ -1,8 +1,9 @@
 // The real rigs of docs/real-data.md, run as a user runs them: the documented commands on
 // the recordings in ../shared/realdata (or $BLMD_REALDATA), checked against the numbers
 // measured and written there. Absent data is a skip with the reason, never a pass.
-// Each case takes under a minute on two cores (HSM150: ~45 s for 8 x 20 000 samples with
-// discovery; EMPS: ~30 s for its two discovery runs; the coast-downs: a few seconds).
+// Each case takes under a minute on two cores (HSM150: ~40 s for 8 x 20 000 samples with
+// discovery; EMPS: ~35 s for its three discovery runs; ODrive: ~50 s for five; the
+// coast-downs: a few seconds).
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -44,9 +45,9 @@ bool HaveRealData(const std::string& folder, std::string* why) {
   return false;
 }
 
-#define REQUIRE_REAL_DATA(folder)                        \
-  do {                                                   \
-    std::string why;                                     \
+#define REQUIRE_REAL_DATA(folder)                         \
+  do {                                                    \
+    std::string why;                                      \
     if (!HaveRealData(folder, &why)) GTEST_SKIP() << why; \
   } while (0)
 
@@ -55,9 +56,9 @@ bool HaveRealData(const std::string& folder, std::string* why) {
 nlohmann::json Ident(const std::string& arguments) {
   TempDir dir;
   const std::string report = dir.File("report.json");
-  const CommandResult run = blmd::testing::Run("cd " + SourcePath("") + " && " +
-                                               BinPath("blmd-ident") + " " + arguments +
-                                               " --threads 2 --quiet --report " + report);
+  const CommandResult run =
+      blmd::testing::Run("cd " + SourcePath("") + " && " + BinPath("blmd-ident") + " " + arguments +
+                         " --threads 2 --quiet --report " + report);
   EXPECT_EQ(run.exit_code, 0) << run.err;
   if (run.exit_code != 0) return nlohmann::json::object();
   return nlohmann::json::parse(Slurp(report));
@@ -109,35 +110,46 @@ class Emps : public ::testing::Test {
     open_ = new nlohmann::json(CachedReport("emps-open", EmpsCommand("")));
     idm_ = new nlohmann::json(
         CachedReport("emps-idm", EmpsCommand(" --candidates coulomb_friction,load_torque")));
+    asym_ = new nlohmann::json(CachedReport(
+        "emps-asym", EmpsCommand(" --candidates coulomb_friction,load_torque,asymmetric_viscous")));
   }
   static void TearDownTestSuite() {
     delete open_;
     delete idm_;
-    open_ = idm_ = nullptr;
+    delete asym_;
+    open_ = idm_ = asym_ = nullptr;
   }
   void SetUp() override {
     REQUIRE_REAL_DATA("emps");
     ASSERT_NE(open_, nullptr);
     ASSERT_NE(idm_, nullptr);
+    ASSERT_NE(asym_, nullptr);
     ASSERT_TRUE(open_->contains("discovery")) << "the command (all candidates) failed";
     ASSERT_TRUE(idm_->contains("discovery"))
         << "the command (--candidates coulomb_friction,load_torque) failed";
+    ASSERT_TRUE(asym_->contains("discovery"))
+        << "the command (--candidates coulomb_friction,load_torque,asymmetric_viscous) failed";
   }
   static double After(const nlohmann::json& report, const char* name) {
     return Value(report["discovery"]["parameters_after"][name]);
   }
   static nlohmann::json* open_;  // --discover, every candidate
   static nlohmann::json* idm_;   // --discover --candidates coulomb_friction,load_torque
+  static nlohmann::json* asym_;  // ... coulomb_friction,load_torque,asymmetric_viscous
 };
 nlohmann::json* Emps::open_ = nullptr;
 nlohmann::json* Emps::idm_ = nullptr;
+nlohmann::json* Emps::asym_ = nullptr;
 
 // Published IDIM-LS reference (EMPS_Description.pdf §3.4).
 constexpr double kEmpsM = 95.1089, kEmpsFv = 203.5034, kEmpsFc = 20.3935, kEmpsOffset = -3.1648;
+// Its asymmetric model (§4.2): Fv+ = 166.71, Fv- = 240.42, Fc+ = 20.144, Fc- = 20.628 (no
+// separate offset: (Fc+ - Fc-)/2 = -0.242 N plays the load torque's part).
+constexpr double kEmpsFvPlus = 166.71, kEmpsFvMinus = 240.42;
 
 TEST_F(Emps, MassAndViscousFrictionAloneAbsorbTheFriction) {
   // J, B only: the missing Coulomb friction (~20 N) is taken up by a doubled viscous term.
-  for (const nlohmann::json* report : {open_, idm_}) {
+  for (const nlohmann::json* report : {open_, idm_, asym_}) {
     const auto& p = (*report)["parameters"];
     EXPECT_NEAR(Value(p["J"]["value"]), 106.13, 0.1);
     EXPECT_NEAR(Value(p["B"]["value"]), 429.61, 0.5);
@@ -149,10 +161,12 @@ TEST_F(Emps, MassAndViscousFrictionAloneAbsorbTheFriction) {
 }
 
 TEST_F(Emps, MassWithinTwoPercentOfTheReference) {
-  // Measured: 94.042 kg (-1.12 %) with the benchmark's structure, 94.165 kg (-0.99 %) with
-  // what open discovery adds.
-  EXPECT_NEAR(After(*idm_, "J"), 94.042, 0.1);
-  EXPECT_NEAR(After(*open_, "J"), 94.165, 0.1);
+  // Measured: 94.110 kg (-1.05 %) with the benchmark's structure, 93.229 kg (-1.98 %) with
+  // what open discovery adds; with the asymmetric viscous friction 93.084 kg (-2.13 %, see
+  // Emps.OneModelMeetsTheMassAndViscousCriteriaTogether).
+  EXPECT_NEAR(After(*idm_, "J"), 94.110, 0.1);
+  EXPECT_NEAR(After(*open_, "J"), 93.229, 0.1);
+  EXPECT_NEAR(After(*asym_, "J"), 93.084, 0.1);
   for (const nlohmann::json* report : {idm_, open_}) {
     EXPECT_LE(std::abs(After(*report, "J") / kEmpsM - 1.0), 0.02);
     const auto& ci = (*report)["discovery"]["intervals_after"]["J"]["ci95"];
@@ -161,72 +175,98 @@ TEST_F(Emps, MassWithinTwoPercentOfTheReference) {
   }
 }
 
-TEST_F(Emps, ViscousFrictionWithinFivePercentOfTheReference) {
-  const double fv_idm = After(*idm_, "B"), fv_open = After(*open_, "B");
-  EXPECT_NEAR(fv_idm, 192.32, 0.5);
-  EXPECT_NEAR(fv_open, 341.63, 0.5);
-  const double error_idm = fv_idm / kEmpsFv - 1.0, error_open = fv_open / kEmpsFv - 1.0;
-  if (std::abs(error_idm) > 0.05 || std::abs(error_open) > 0.05) {
-    GTEST_SKIP()
-        << "KNOWN FAILURE: Fv = " << fv_idm << " N s/m (" << 100.0 * error_idm
-        << " %) with the benchmark's structure (--candidates coulomb_friction,load_torque) "
-           "and "
-        << fv_open << " N s/m (" << 100.0 * error_open
-        << " %) with open discovery (Stribeck friction instead of Coulomb), against 203.50 "
-           "(target: within 5 %). The rig's viscous friction is asymmetric (Fv+ = 166.7, "
-           "Fv- = 240.4): on synthetic data from that published asymmetric model the same "
-           "output-error fit gives Fv = 199.7 (-1.9 %), and open discovery the same "
-           "Stribeck + 342 N s/m stand-in; the rest of the -5.5 % is most likely the output-"
-           "error vs IDIM-LS estimator on a model that is not exact (configs/real/emps-idm.json on "
-           "the halves of the record: 193.4 and 190.8; on the pulses record: 199.8). "
-           "docs/real-data.md, EMPS.";
+TEST_F(Emps, ViscousFrictionWithinFivePercentOfTheReferenceOnceItsAsymmetryIsModelled) {
+  // With asymmetric_viscous (B+- = B +- dB) next to Coulomb friction and the offset, B is
+  // the mean of the two directions' damping, as the reference's symmetric Fv (203.50) is
+  // the mean of its asymmetric model's Fv+ and Fv- (203.56). Measured: 195.01 (-4.2 %);
+  // without the asymmetry 192.55 (-5.4 %, Emps.OneModelMeetsTheMassAndViscousCriteriaTogether).
+  const double fv = After(*asym_, "B"), dB = After(*asym_, "dB");
+  EXPECT_NEAR(fv, 195.01, 0.5);
+  EXPECT_NEAR(dB, -37.73, 0.3);
+  EXPECT_LE(std::abs(fv / kEmpsFv - 1.0), 0.05);
+  // The direction is the reference's: stiffer backwards (B- = 232.74 vs 240.42, B+ = 157.28
+  // vs 166.71), and physical (|dB| < B).
+  EXPECT_LT(std::abs(dB), fv);
+  EXPECT_NEAR((fv - dB) / kEmpsFvMinus, 1.0, 0.05);
+  EXPECT_NEAR((fv + dB) / kEmpsFvPlus, 1.0, 0.07);
+  for (const char* name : {"B", "dB"}) {
+    const auto& ci = (*asym_)["discovery"]["intervals_after"][name]["ci95"];
+    ASSERT_TRUE(ci.is_array()) << name;
+    EXPECT_LT(Value(ci[0]), After(*asym_, name)) << name;
+    EXPECT_GT(Value(ci[1]), After(*asym_, name)) << name;
   }
-  EXPECT_LE(std::abs(error_idm), 0.05);
-  EXPECT_LE(std::abs(error_open), 0.05);
+}
+
+TEST_F(Emps, OneModelMeetsTheMassAndViscousCriteriaTogether) {
+  // The criterion on one fit: M within 2 % and Fv within 5 %.
+  std::string measured;
+  bool met = false;
+  for (const auto& [report, label] :
+       {std::pair<const nlohmann::json*, const char*>{idm_, "Coulomb + offset"},
+        {asym_, "Coulomb + asymmetric viscous + offset"},
+        {open_, "open discovery (Stribeck + asymmetric viscous)"}}) {
+    const double m = After(*report, "J") / kEmpsM - 1.0, fv = After(*report, "B") / kEmpsFv - 1.0;
+    measured += std::string(label) + ": M " + std::to_string(100.0 * m) + " %, Fv " +
+                std::to_string(100.0 * fv) + " %; ";
+    met = met || (std::abs(m) <= 0.02 && std::abs(fv) <= 0.05);
+  }
+  if (!met) {
+    GTEST_SKIP() << "KNOWN FAILURE: no model meets both (" << measured
+                 << "). The symmetric model charges the asymmetry to Fv (-5.4 %; on synthetic "
+                    "data of the published asymmetric model the same fit gives -1.9 %); with "
+                    "the asymmetry modelled Fv is within 5 % but M moves to -2.1 % (the output-"
+                    "error fit weighs the closed-loop record's errors differently from IDIM-LS's "
+                    "force error; the rig's flexibility is not modelled). docs/real-data.md, EMPS.";
+  }
+  SUCCEED() << measured;
 }
 
 TEST_F(Emps, DiscoveryAddsCoulombFrictionAndTheOffset) {
   // The criterion on discovery over the whole vocabulary.
   const auto& added = (*open_)["discovery"]["added"];
   if (std::find(added.begin(), added.end(), "coulomb_friction") == added.end()) {
+    const double bic_open = Value((*open_)["discovery"]["steps"].back()["bic_after"]);
+    const double bic_asym = Value((*asym_)["discovery"]["steps"].back()["bic_after"]);
     GTEST_SKIP()
         << "KNOWN FAILURE: discovery adds " << added.dump() << ", not coulomb_friction: "
         << "Stribeck friction Ts = " << After(*open_, "Ts") << " N, ws = " << After(*open_, "ws")
-        << " m/s with Fv = " << After(*open_, "B") << " N s/m and TL = " << After(*open_, "TL")
-        << " N (NRMSE " << Value((*open_)["discovery"]["error_after"]["nrmse"])
-        << ", BIC 3033 below Coulomb + offset). Over 0..0.128 m/s that curve is within "
-           "1.3 N of Fc + Fv v; it wins the first round (before the offset is in) and "
-           "discovery never swaps it out. The same happens on noise-free synthetic data "
-           "from the benchmark's own symmetric model (Stribeck, offset, then Tc = 2.47). "
-           "Needs a discovery change (a swap/backward step, or Stribeck only on top of "
-           "Coulomb) and an asymmetric viscous effect. With --candidates "
-           "coulomb_friction,load_torque: Emps.CoulombAndOffsetWithTheBenchmarkCandidates. "
-           "docs/real-data.md, EMPS.";
+        << " m/s with Fv = " << After(*open_, "B") << " N s/m, dB = " << After(*open_, "dB")
+        << " N s/m, TL = " << After(*open_, "TL") << " N (NRMSE "
+        << Value((*open_)["discovery"]["error_after"]["nrmse"]) << ", BIC " << bic_asym - bic_open
+        << " below Coulomb + asymmetric viscous + offset). Over the record's speeds the two "
+           "friction curves agree within about 1 N; the data prefer the one that fades with "
+           "speed, so a better search than discovery's greedy one would not pick Coulomb friction "
+           "alone here either (on noise-free data of the benchmark's symmetric model it would: "
+           "there Stribeck "
+           "wins only because discovery adds greedily). docs/real-data.md, EMPS.";
   }
   EXPECT_NEAR(After(*open_, "Tc"), kEmpsFc, 0.10 * kEmpsFc);
   EXPECT_NEAR(After(*open_, "TL"), kEmpsOffset, 1.0);
 }
 
 TEST_F(Emps, OpenDiscoveryPrefersStribeckFriction) {
-  // What open discovery does add (measured), and that its BIC is below the benchmark
-  // structure's: the data prefer it; the physics does not (docs/real-data.md).
+  // What open discovery does add (measured): Stribeck friction, the asymmetric viscous
+  // friction, a small offset; by BIC the data prefer it to the benchmark's structure, with
+  // or without the asymmetry (docs/real-data.md).
   const auto& d = (*open_)["discovery"];
-  EXPECT_EQ(d["added"], nlohmann::json::array({"stribeck", "load_torque"}));
-  EXPECT_NEAR(After(*open_, "Ts"), 19.754, 0.05);
-  EXPECT_NEAR(After(*open_, "ws"), 0.09211, 0.0005);
-  EXPECT_NEAR(After(*open_, "TL"), -3.3648, 0.01);
-  EXPECT_NEAR(Value(d["error_after"]["nrmse"]), 0.04304, 0.0005);
+  EXPECT_EQ(d["added"], nlohmann::json::array({"stribeck", "asymmetric_viscous", "load_torque"}));
+  EXPECT_NEAR(After(*open_, "Ts"), 18.696, 0.1);
+  EXPECT_NEAR(After(*open_, "ws"), 0.10789, 0.001);
+  EXPECT_NEAR(After(*open_, "dB"), -38.18, 0.3);
+  EXPECT_NEAR(Value(d["error_after"]["nrmse"]), 0.013845, 0.0002);
   const double bic_open = Value(d["steps"].back()["bic_after"]);
   const double bic_idm = Value((*idm_)["discovery"]["steps"].back()["bic_after"]);
-  EXPECT_NEAR(bic_idm - bic_open, 3033.0, 50.0);
+  const double bic_asym = Value((*asym_)["discovery"]["steps"].back()["bic_after"]);
+  EXPECT_NEAR(bic_idm - bic_open, 59380.0, 100.0);
+  EXPECT_NEAR(bic_asym - bic_open, 420.0, 50.0);
 }
 
 TEST_F(Emps, CoulombAndOffsetWithTheBenchmarkCandidates) {
   const auto& d = (*idm_)["discovery"];
   EXPECT_EQ(d["added"], nlohmann::json::array({"coulomb_friction", "load_torque"}));
   const double Tc = After(*idm_, "Tc"), TL = After(*idm_, "TL");
-  EXPECT_NEAR(Tc, 21.664, 0.05);   // measured: +6.2 %
-  EXPECT_NEAR(TL, -3.5371, 0.01);  // measured: 0.37 N below the reference
+  EXPECT_NEAR(Tc, 21.642, 0.05);   // measured: +6.1 %
+  EXPECT_NEAR(TL, -3.5559, 0.01);  // measured: 0.39 N below the reference
   EXPECT_NEAR(Tc, kEmpsFc, 0.10 * kEmpsFc);
   EXPECT_NEAR(TL, kEmpsOffset, 1.0);
   for (const char* name : {"Tc", "TL"}) {
@@ -237,11 +277,30 @@ TEST_F(Emps, CoulombAndOffsetWithTheBenchmarkCandidates) {
   }
 }
 
+TEST_F(Emps, CoulombAsymmetricViscousAndOffset) {
+  // The benchmark's candidates plus asymmetric_viscous: Coulomb friction, then dB (the
+  // largest fall of all, NRMSE 0.144 -> 0.0141), then a small offset. The offset is no
+  // longer the symmetric model's -3.16 N (that stood in for the asymmetric damping: dB |v|
+  // averages about 3 N over the record) but the Coulomb asymmetry's (Fc+ - Fc-)/2 = -0.24 N
+  // of the reference's asymmetric model.
+  const auto& d = (*asym_)["discovery"];
+  EXPECT_EQ(d["added"],
+            nlohmann::json::array({"coulomb_friction", "asymmetric_viscous", "load_torque"}));
+  const double Tc = After(*asym_, "Tc"), TL = After(*asym_, "TL");
+  EXPECT_NEAR(Tc, 21.345, 0.05);  // +4.7 %
+  EXPECT_NEAR(Tc, kEmpsFc, 0.10 * kEmpsFc);
+  EXPECT_NEAR(TL, -0.207, 0.03);
+  EXPECT_NEAR(TL, 0.5 * (20.144 - 20.628), 0.1);
+  EXPECT_NEAR(Value(d["error_after"]["nrmse"]), 0.013966, 0.0002);
+}
+
 TEST_F(Emps, ValidationErrorFallsAfterDiscovery) {
-  // Pulses record: 0.1834 -> 0.0662 (benchmark structure), -> 0.0611 (open discovery).
+  // Pulses record: 0.1834 -> 0.0662 (benchmark structure), -> 0.0494 (with the asymmetric
+  // viscous friction), -> 0.0469 (open discovery).
   for (const auto& [report, after_fit, after_validation] :
-       {std::tuple<const nlohmann::json*, double, double>{idm_, 0.04576, 0.06619},
-        {open_, 0.04304, 0.06105}}) {
+       {std::tuple<const nlohmann::json*, double, double>{idm_, 0.04577, 0.06622},
+        {asym_, 0.013966, 0.04942},
+        {open_, 0.013845, 0.04686}}) {
     const auto& d = (*report)["discovery"];
     EXPECT_NEAR(Value(d["error_before"]["nrmse"]), 0.1809, 0.0005);
     EXPECT_NEAR(Value(d["error_after"]["nrmse"]), after_fit, 0.0005);
@@ -254,21 +313,23 @@ TEST_F(Emps, ValidationErrorFallsAfterDiscovery) {
 
 // ---------------------------------------------------------------------------------------
 // HSM150: all eight estimation runs (repeats 1 and 2 of each setting) in one fit, the four
-// repeats 3 held out; discovery restricted to the friction/load/drag candidates
+// repeats 3 held out; discovery restricted to the friction/load/drag/damping candidates
 // (docs/real-data.md says why cogging is left out).
 
 std::string Hsm150Command() {
   const std::string d = RealData() + "/hsm150/";
   std::string args = "--config configs/real/hsm150.json";
   for (const char* setting : {"neg_0.04", "neg_0.045", "pos_0.06", "pos_0.065"}) {
-    for (const char* repeat : {"1", "2"}) args += " --trace " + d + "idf_" + setting + "_" + repeat + ".csv";
+    for (const char* repeat : {"1", "2"})
+      args += " --trace " + d + "idf_" + setting + "_" + repeat + ".csv";
   }
   for (const char* setting : {"neg_0.04", "neg_0.045", "pos_0.06", "pos_0.065"}) {
     args += " --validate " + d + "idf_" + setting + "_3.csv";
   }
   return args +
          " --column t=t_s --column u=tau_cmd_Nm --column w=w_radps --discover"
-         " --candidates coulomb_friction,load_torque,stribeck,quadratic_drag --max-effects 4";
+         " --candidates coulomb_friction,load_torque,stribeck,quadratic_drag,asymmetric_viscous"
+         " --max-effects 4";
 }
 
 nlohmann::json Hsm150Report() { return CachedReport("hsm150", Hsm150Command()); }
@@ -297,50 +358,63 @@ constexpr double kHsmCatalogJ = 1.2e-4;  // kg m^2, stored in every .mat file
 TEST_F(Hsm150, DiscoveryFindsCoulombFrictionAndADirectionOffset) {
   const auto& d = (*report_)["discovery"];
   // Coulomb friction, and a constant torque that makes it asymmetric: Tc + TL opposes
-  // positive motion, Tc - TL negative motion.
-  EXPECT_EQ(d["added"], nlohmann::json::array({"load_torque", "coulomb_friction"}));
+  // positive motion, Tc - TL negative motion; then the direction-dependent damping.
+  EXPECT_EQ(d["added"],
+            nlohmann::json::array({"load_torque", "coulomb_friction", "asymmetric_viscous"}));
   const double Tc = Value(d["parameters_after"]["Tc"]), TL = Value(d["parameters_after"]["TL"]);
-  EXPECT_NEAR(Tc, 0.02128, 0.00005);
-  EXPECT_NEAR(TL, 0.00914, 0.00005);
-  EXPECT_GT(Tc + TL, 2.0 * (Tc - TL));  // friction 0.0304 forwards vs 0.0121 backwards
+  EXPECT_NEAR(Tc, 0.020735, 0.00005);
+  EXPECT_NEAR(TL, 0.014480, 0.00005);
+  EXPECT_GT(Tc + TL, 2.0 * (Tc - TL));  // friction 0.0352 forwards vs 0.0063 backwards
+  ASSERT_TRUE(d["intervals_after"]["Tc"]["ci95"].is_array());
+}
+
+TEST_F(Hsm150, DampingIsLargerOnTheNegativeRuns) {
+  // asymmetric_viscous: B+ = B + dB = 1.05e-4 forwards, B- = B - dB = 1.66e-4 backwards (the
+  // README's per-run step fits: 0.9-1.4e-4 on the positive runs, 2.1-2.7e-4 on the negative).
+  const auto& after = (*report_)["discovery"]["parameters_after"];
+  const double B = Value(after["B"]), dB = Value(after["dB"]);
+  EXPECT_NEAR(dB, -3.046e-5, 0.01e-5);
+  EXPECT_NEAR(B, 1.3571e-4, 0.003e-4);
+  EXPECT_LT(std::abs(dB), B);           // physical: both directions damped
+  EXPECT_GT((B - dB) / (B + dB), 1.5);  // 1.58
+  const auto& ci = (*report_)["discovery"]["intervals_after"]["dB"]["ci95"];
+  ASSERT_TRUE(ci.is_array());
+  EXPECT_LT(Value(ci[1]), 0.0);  // the interval excludes a symmetric damping
 }
 
 TEST_F(Hsm150, ValidationErrorFallsAfterDiscovery) {
   const auto& v = (*report_)["discovery"]["validation"];
   EXPECT_NEAR(Value(v["before"]["nrmse"]), 0.2151, 0.0005);
-  EXPECT_NEAR(Value(v["after"]["nrmse"]), 0.0900, 0.0005);
+  EXPECT_NEAR(Value(v["after"]["nrmse"]), 0.06252, 0.0005);
   EXPECT_LT(Value(v["after"]["nrmse"]), 0.5 * Value(v["before"]["nrmse"]));
   EXPECT_NEAR(Value((*report_)["discovery"]["error_before"]["nrmse"]), 0.2199, 0.0005);
-  EXPECT_NEAR(Value((*report_)["discovery"]["error_after"]["nrmse"]), 0.0913, 0.0005);
+  EXPECT_NEAR(Value((*report_)["discovery"]["error_after"]["nrmse"]), 0.06824, 0.0005);
 }
 
 TEST_F(Hsm150, InertiaBeforeAndAfterDiscovery) {
-  // Measured: J = 5.09e-4 (+324 %) with J, B alone; 1.519e-4 (+26.6 %) after discovery.
+  // Measured: J = 5.09e-4 (+324 %) with J, B alone; 1.4387e-4 (+19.9 %) after discovery
+  // (1.519e-4, +26.6 %, without asymmetric_viscous among the candidates).
   EXPECT_NEAR(Value((*report_)["parameters"]["J"]["value"]), 5.088e-4, 0.005e-4);
-  EXPECT_NEAR(Value((*report_)["discovery"]["parameters_after"]["J"]), 1.519e-4, 0.002e-4);
+  EXPECT_NEAR(Value((*report_)["discovery"]["parameters_after"]["J"]), 1.4387e-4, 0.002e-4);
 }
 
 TEST_F(Hsm150, InertiaWithinTwentyPercentOfTheCatalog) {
+  // +19.9 %: inside the criterion, only just (the 95 % interval, [1.4326, 1.4449]e-4, spans
+  // +19.4 ... +20.4 %). docs/real-data.md, HSM150.
   const double J = Value((*report_)["discovery"]["parameters_after"]["J"]);
-  const double error = J / kHsmCatalogJ - 1.0;
-  if (std::abs(error) > 0.20) {
-    GTEST_SKIP() << "KNOWN FAILURE: J = " << J << " kg m^2 is " << 100.0 * error
-                 << " % from the catalog 1.2e-4 (target: within 20 %). The rig's damping differs "
-                    "by direction (incremental B about 2x larger on the negative runs), which the "
-                    "symmetric B of rigid_load cannot follow; fitted per direction J = 1.12e-4 "
-                    "(positive runs, -6.7 %) and 2.38e-4 (negative runs). docs/real-data.md, HSM150.";
-  }
-  EXPECT_LE(std::abs(error), 0.20);
+  EXPECT_LE(std::abs(J / kHsmCatalogJ - 1.0), 0.20) << "J = " << J;
 }
 
 // ---------------------------------------------------------------------------------------
 // Flywheel coast-downs: J = 0.8489 kg m^2 fixed; the coast from t = 60 s (after every
 // record's spin-up), no drive torque.
 
-std::string DynoArguments(const std::string& config, const std::string& fit, const std::string& held_out) {
+std::string DynoArguments(const std::string& config, const std::string& fit,
+                          const std::string& held_out) {
   const std::string d = RealData() + "/dev_dyno_spindown/";
   return "--config configs/real/" + config + " --trace " + d + fit + ".csv --validate " + d +
-         held_out + ".csv --column t=t_s --column u=current_A --scale u=0 --column "
+         held_out +
+         ".csv --column t=t_s --column u=current_A --scale u=0 --column "
          "w=w_flywheel_radps --select t=60: --initial-state trace";
 }
 
@@ -376,10 +450,11 @@ double ClassicTau(const std::string& file, double t_start) {
 
 TEST(DynoCoastdown, MotorUnpluggedBAndCoulombWithIntervals) {
   REQUIRE_REAL_DATA("dev_dyno_spindown");
-  const nlohmann::json fit = Ident(DynoArguments("dyno-coastdown-coulomb.json", "motorUnplugged_spindown",
-                                                 "motorUnplugged_spindown_5_28"));
+  const nlohmann::json fit = Ident(DynoArguments(
+      "dyno-coastdown-coulomb.json", "motorUnplugged_spindown", "motorUnplugged_spindown_5_28"));
   ASSERT_TRUE(fit.contains("parameters"));
-  for (const auto& [name, value] : {std::pair<const char*, double>{"B", 2.2548e-3}, {"Tc", 0.070371}}) {
+  for (const auto& [name, value] :
+       {std::pair<const char*, double>{"B", 2.2548e-3}, {"Tc", 0.070371}}) {
     const auto& p = fit["parameters"][name];
     EXPECT_NEAR(Value(p["value"]), value, 1e-3 * value) << name;
     ASSERT_TRUE(p["ci95"].is_array()) << name;  // reported with its interval
@@ -389,8 +464,8 @@ TEST(DynoCoastdown, MotorUnpluggedBAndCoulombWithIntervals) {
   EXPECT_NEAR(Value(fit["fit"]["nrmse"]), 0.01059, 0.0001);
   EXPECT_NEAR(Value(fit["validation"]["nrmse"]), 0.0288, 0.0002);
   // Without Coulomb friction (J, B only): NRMSE 0.1603 on the fit, 0.1485 on validation.
-  const nlohmann::json linear = Ident(DynoArguments("dyno-coastdown.json", "motorUnplugged_spindown",
-                                                    "motorUnplugged_spindown_5_28"));
+  const nlohmann::json linear = Ident(DynoArguments(
+      "dyno-coastdown.json", "motorUnplugged_spindown", "motorUnplugged_spindown_5_28"));
   ASSERT_TRUE(linear.contains("parameters"));
   EXPECT_NEAR(Value(linear["parameters"]["B"]["value"]), 3.5538e-3, 0.001 * 3.5538e-3);
   EXPECT_NEAR(Value(linear["fit"]["nrmse"]), 0.1603, 0.0005);
@@ -410,11 +485,12 @@ TEST(DynoCoastdown, UnloadedBAndCoulombWithIntervals) {
 
 TEST(DynoCoastdown, ClassicJFromBTauIsBiasedLowByCoulombFriction) {
   REQUIRE_REAL_DATA("dev_dyno_spindown");
-  const nlohmann::json fit = Ident(DynoArguments("dyno-coastdown-coulomb.json", "motorUnplugged_spindown",
-                                                 "motorUnplugged_spindown_5_28"));
+  const nlohmann::json fit = Ident(DynoArguments(
+      "dyno-coastdown-coulomb.json", "motorUnplugged_spindown", "motorUnplugged_spindown_5_28"));
   ASSERT_TRUE(fit.contains("parameters"));
   const double B = Value(fit["parameters"]["B"]["value"]);
-  const double tau = ClassicTau(RealData() + "/dev_dyno_spindown/motorUnplugged_spindown.csv", 60.0);
+  const double tau =
+      ClassicTau(RealData() + "/dev_dyno_spindown/motorUnplugged_spindown.csv", 60.0);
   EXPECT_NEAR(tau, 260.73, 0.01);
   // J = B tau with the viscous B of the fit: 0.588 kg m^2, 30.7 % below the known J: the
   // Coulomb torque speeds the coast up, so tau is short. Equivalently, the classical
@@ -427,9 +503,10 @@ TEST(DynoCoastdown, ClassicJFromBTauIsBiasedLowByCoulombFriction) {
 
 TEST(DynoCoastdown, DiscoveryFindsCoulombFrictionOnAPureCoastDown) {
   REQUIRE_REAL_DATA("dev_dyno_spindown");
-  const nlohmann::json report = Ident(DynoArguments("dyno-coastdown.json", "motorUnplugged_spindown",
-                                                    "motorUnplugged_spindown_5_28") +
-                                      " --discover");
+  const nlohmann::json report =
+      Ident(DynoArguments("dyno-coastdown.json", "motorUnplugged_spindown",
+                          "motorUnplugged_spindown_5_28") +
+            " --discover");
   ASSERT_TRUE(report.contains("discovery"));
   if (report["discovery"]["added"].empty()) {
     GTEST_SKIP() << "KNOWN FAILURE: discovery adds nothing on a pure coast-down (every "
@@ -441,7 +518,6 @@ TEST(DynoCoastdown, DiscoveryFindsCoulombFrictionOnAPureCoastDown) {
   EXPECT_EQ(report["discovery"]["added"][0], "coulomb_friction");
 }
 
-
 // ---------------------------------------------------------------------------------------
 // ODrive cogging (docs/real-data.md, ODrive cogging): current-step spin-ups of a 150 KV BLDC
 // motor on an ODrive, without (spinup_4_nocomp) and with (spinup_3_comp) anti-cogging, runs
@@ -452,10 +528,12 @@ TEST(DynoCoastdown, DiscoveryFindsCoulombFrictionOnAPureCoastDown) {
 
 constexpr double kOdriveKt = 8.269933431 / 150.0;  // N m/A (spinup_analysis.m)
 
-std::string OdriveCommand(const std::string& file, const std::string& candidates) {
+std::string OdriveCommand(const std::string& file, const std::string& candidates,
+                          const std::string& input = "iq_A") {
   return "--config configs/real/odrive.json --trace " + RealData() + "/odrive_cogging/" + file +
-         ".csv --split run --select run=12:19 --column t=t_s --column u=iq_A --scale u=0.0551329 "
-         "--column theta=theta_rad --derive w=theta --initial-state trace --discover" +
+         ".csv --split run --select run=12:19 --column t=t_s --column u=" + input +
+         " --scale u=0.0551329 --column theta=theta_rad --derive w=theta --initial-state trace "
+         "--discover" +
          candidates;
 }
 
@@ -482,7 +560,8 @@ std::vector<double> CoggingMapHarmonics(const std::string& column) {
   for (std::size_t k = 1; k < n / 2; ++k) {
     double re = 0, im = 0;
     for (std::size_t m = 0; m < n; ++m) {
-      const double a = 2.0 * 3.14159265358979323846 * static_cast<double>(k * m) / static_cast<double>(n);
+      const double a =
+          2.0 * 3.14159265358979323846 * static_cast<double>(k * m) / static_cast<double>(n);
       re += x[m] * std::cos(a);
       im -= x[m] * std::sin(a);
     }
@@ -504,33 +583,42 @@ class OdriveCogging : public ::testing::Test {
   static void SetUpTestSuite() {
     std::string why;
     if (!HaveRealData("odrive_cogging", &why)) return;
-    nocomp_ = new nlohmann::json(CachedReport("odrive-nocomp", OdriveCommand("spinup_4_nocomp", "")));
-    comp_ = new nlohmann::json(CachedReport(
-        "odrive-comp-coulomb-cogging",
-        OdriveCommand("spinup_3_comp", " --candidates coulomb_friction,cogging")));
-    comp_cogging_ = new nlohmann::json(CachedReport(
-        "odrive-comp-cogging", OdriveCommand("spinup_3_comp", " --candidates cogging")));
+    nocomp_ =
+        new nlohmann::json(CachedReport("odrive-nocomp", OdriveCommand("spinup_4_nocomp", "")));
+    nocomp5_ = new nlohmann::json(
+        CachedReport("odrive-nocomp-spinup5", OdriveCommand("spinup_5_nocomp", "")));
+    nocomp6_ = new nlohmann::json(
+        CachedReport("odrive-nocomp-spinup6", OdriveCommand("spinup_6_nocomp", "")));
+    comp_ = new nlohmann::json(
+        CachedReport("odrive-comp-coulomb-cogging",
+                     OdriveCommand("spinup_3_comp", " --candidates coulomb_friction,cogging")));
+    comp_setpoint_ = new nlohmann::json(
+        CachedReport("odrive-comp-setpoint", OdriveCommand("spinup_3_comp", "", "iq_set_A")));
   }
   static void TearDownTestSuite() {
-    delete nocomp_;
-    delete comp_;
-    delete comp_cogging_;
-    nocomp_ = comp_ = comp_cogging_ = nullptr;
+    for (nlohmann::json** report : {&nocomp_, &nocomp5_, &nocomp6_, &comp_, &comp_setpoint_}) {
+      delete *report;
+      *report = nullptr;
+    }
   }
   void SetUp() override {
     REQUIRE_REAL_DATA("odrive_cogging");
-    for (const nlohmann::json* report : {nocomp_, comp_, comp_cogging_}) {
+    for (const nlohmann::json* report : {nocomp_, nocomp5_, nocomp6_, comp_, comp_setpoint_}) {
       ASSERT_NE(report, nullptr);
       ASSERT_TRUE(report->contains("discovery")) << "a command failed";
     }
   }
-  static nlohmann::json* nocomp_;        // spinup_4_nocomp, --discover (every candidate)
-  static nlohmann::json* comp_;          // spinup_3_comp, --candidates coulomb_friction,cogging
-  static nlohmann::json* comp_cogging_;  // spinup_3_comp, --candidates cogging
+  static nlohmann::json* nocomp_;         // spinup_4_nocomp, --discover (every candidate)
+  static nlohmann::json* nocomp5_;        // spinup_5_nocomp, the same
+  static nlohmann::json* nocomp6_;        // spinup_6_nocomp, the same
+  static nlohmann::json* comp_;           // spinup_3_comp, --candidates coulomb_friction,cogging
+  static nlohmann::json* comp_setpoint_;  // spinup_3_comp, u = iq_set_A, every candidate
 };
 nlohmann::json* OdriveCogging::nocomp_ = nullptr;
+nlohmann::json* OdriveCogging::nocomp5_ = nullptr;
+nlohmann::json* OdriveCogging::nocomp6_ = nullptr;
 nlohmann::json* OdriveCogging::comp_ = nullptr;
-nlohmann::json* OdriveCogging::comp_cogging_ = nullptr;
+nlohmann::json* OdriveCogging::comp_setpoint_ = nullptr;
 
 TEST_F(OdriveCogging, MapDominantOrderAndAmplitude) {
   // Trial a16 (adjacent motor present): 7/rev dominates, 0.869 A = 0.0479 N m; the map
@@ -547,35 +635,57 @@ TEST_F(OdriveCogging, MapDominantOrderAndAmplitude) {
 
 TEST_F(OdriveCogging, DiscoveryFindsCoggingOnUncompensatedRunsAtTheMapsDominantOrder) {
   const auto& d = (*nocomp_)["discovery"];
-  EXPECT_EQ(d["added"], nlohmann::json::array({"coulomb_friction", "cogging"}));
+  EXPECT_EQ(d["added"], nlohmann::json::array({"cogging", "coulomb_friction", "load_torque"}));
   const nlohmann::json step = AddedStep(*nocomp_, "cogging");
   ASSERT_FALSE(step.is_null()) << "no cogging added on the uncompensated runs";
   const std::vector<double> map = CoggingMapHarmonics("iq_hold_A_a16");
   const auto map_order = std::max_element(map.begin(), map.end()) - map.begin();
   EXPECT_EQ(Value(step["parameters"]["periods"]), static_cast<double>(map_order));  // 7
-  // Measured: Tcog = 0.05088 [0.05067, 0.05109] N m, +6 % from the map's 7/rev 0.0479 N m.
+  // Measured: Tcog = 0.04835 [0.04793, 0.04877] N m, +1 % from the map's 7/rev 0.0479 N m.
   const double Tcog = Value(d["parameters_after"]["Tcog"]);
-  EXPECT_NEAR(Tcog, 0.05088, 0.0005);
+  EXPECT_NEAR(Tcog, 0.04835, 0.0005);
   EXPECT_NEAR(Tcog / (map[map_order] * kOdriveKt), 1.0, 0.15);
-  EXPECT_NEAR(Value(d["parameters_after"]["Tc"]), 0.02119, 0.0005);
-  EXPECT_NEAR(Value(d["parameters_after"]["J"]), 2.085e-4, 0.01e-4);
+  EXPECT_NEAR(Value(d["parameters_after"]["Tc"]), 0.02150, 0.0005);
+  EXPECT_NEAR(Value(d["parameters_after"]["J"]), 2.069e-4, 0.01e-4);
   EXPECT_NEAR(Value(d["error_before"]["nrmse"]), 0.9148, 0.002);
-  EXPECT_NEAR(Value(d["error_after"]["nrmse"]), 0.0826, 0.002);
+  EXPECT_NEAR(Value(d["error_after"]["nrmse"]), 0.0793, 0.002);
+}
+
+TEST_F(OdriveCogging, DominantOrderMatchesTheMapOnEveryUncompensatedFile) {
+  // The order comes from the torque balance along the measured motion (docs/effects.md):
+  // 7/rev on spinup_4, 5 and 6 alike (the residual spectrum's top four missed it on 5 and 6).
+  const std::vector<double> map = CoggingMapHarmonics("iq_hold_A_a16");
+  const auto map_order = std::max_element(map.begin(), map.end()) - map.begin();
+  for (const nlohmann::json* report : {nocomp_, nocomp5_, nocomp6_}) {
+    const nlohmann::json step = AddedStep(*report, "cogging");
+    ASSERT_FALSE(step.is_null()) << (*report)["discovery"]["conclusion"];
+    EXPECT_EQ(Value(step["parameters"]["periods"]), static_cast<double>(map_order));
+  }
+  // The amplitude is not robust: on spinup_5 cogging is added first, while J and B are still
+  // degenerate (B at its bound 1e-3, absorbing the held rotor), and no friction follows:
+  // Tcog = 0.0734 (+53 %); on spinup_6, after Coulomb friction and asymmetric_viscous,
+  // 0.0682 (+42 %) with NRMSE 0.405. docs/real-data.md, ODrive.
+  EXPECT_NEAR(Value((*nocomp5_)["discovery"]["parameters_after"]["Tcog"]), 0.0734, 0.001);
+  EXPECT_NEAR(Value((*nocomp6_)["discovery"]["parameters_after"]["Tcog"]), 0.0682, 0.001);
 }
 
 TEST_F(OdriveCogging, CoggingAmplitudeSmallerOnCompensatedRuns) {
   const double nocomp = Value((*nocomp_)["discovery"]["parameters_after"]["Tcog"]);
-  // With Coulomb friction available, discovery adds no cogging on the compensated runs.
-  EXPECT_EQ((*comp_)["discovery"]["added"], nlohmann::json::array({"coulomb_friction"}));
-  EXPECT_TRUE(AddedStep(*comp_, "cogging").is_null());
-  // Cogging as the only candidate: the best position-periodic torque the compensated runs
-  // admit is 0.0239 N m at 2/rev (not the map's 7/rev), 47 % of the uncompensated 0.0509.
-  const nlohmann::json step = AddedStep(*comp_cogging_, "cogging");
-  ASSERT_FALSE(step.is_null());
-  const double comp = Value((*comp_cogging_)["discovery"]["parameters_after"]["Tcog"]);
-  EXPECT_NEAR(comp, 0.02392, 0.0005);
-  EXPECT_NE(Value(step["parameters"]["periods"]), 7.0);
-  EXPECT_LT(comp, 0.6 * nocomp);
+  // Driven by the torque the user asked for (iq_set_A), the compensated runs keep a 7/rev
+  // cogging of 0.0197 N m, 41 % of the uncompensated 0.0484: what the anti-cogging leaves.
+  const nlohmann::json net = AddedStep(*comp_setpoint_, "cogging");
+  ASSERT_FALSE(net.is_null()) << (*comp_setpoint_)["discovery"]["conclusion"];
+  EXPECT_EQ(Value(net["parameters"]["periods"]), 7.0);
+  const double left = Value((*comp_setpoint_)["discovery"]["parameters_after"]["Tcog"]);
+  EXPECT_NEAR(left, 0.01966, 0.0005);
+  EXPECT_LT(left, 0.5 * nocomp);
+  // Driven by the measured current iq_A, which carries the anti-cogging feed-forward, the
+  // motor's own cogging shows again (0.0475 N m at 7/rev): the compensation is in the input.
+  const double with_feed_forward = Value((*comp_)["discovery"]["parameters_after"]["Tcog"]);
+  EXPECT_EQ((*comp_)["discovery"]["added"], nlohmann::json::array({"coulomb_friction", "cogging"}));
+  EXPECT_NEAR(with_feed_forward, 0.04754, 0.0005);
+  EXPECT_LT(left, with_feed_forward);
+  EXPECT_LT(with_feed_forward, nocomp);  // only just: 0.0475 vs 0.0484
 }
 
 }  // namespace
