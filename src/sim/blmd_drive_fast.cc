@@ -167,6 +167,7 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
     double switched[3], off[3];
     bool any_off = false;
     const double demand_current = Kc * demand;
+#pragma GCC unroll 3
     for (int j = 0; j < 3; ++j) {
       const double error = demand_current * cosine[j] - Kf * current[j];
       if (lead_lag) {
@@ -227,6 +228,7 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
 
     torque = 0.0;
     const double emf_w = Ke * w;
+#pragma GCC unroll 3
     for (int j = 0; j < 3; ++j) {
       phase_voltage[j] = leg_voltage[j] - neutral_voltage;
       const double emf = emf_w * cosine[j];
