@@ -163,9 +163,10 @@ TEST(BlmdSimCli, BadInputExitsTwoWithOneLineAndWritesNothing) {
                  "effects, simulation, experiment, identification");
   ExpectBadInput(Sim("--config " + dir.File("missing.json") + " --out " + out), out,
                  "error: " + dir.File("missing.json") + ": cannot read: No such file or directory");
-  ExpectBadInput(Sim("--config " + good + " --out " + out + " --effect friction:Tc=0.01"), out,
-                 "error: unknown effect 'friction' (valid: cogging, coulomb_friction, "
-                 "current_offset, dead_time, load_torque, quadratic_drag, stribeck)");
+  ExpectBadInput(
+      Sim("--config " + good + " --out " + out + " --effect friction:Tc=0.01"), out,
+      "error: unknown effect 'friction' (valid: asymmetric_viscous, cogging, coulomb_friction, "
+      "current_offset, dead_time, load_torque, quadratic_drag, stribeck)");
   ExpectBadInput(Sim("--config " + good + " --out " + out + " --effect coulomb_friction:Tc=abc"),
                  out, "error: --effect coulomb_friction Tc: 'abc' is not a finite number");
   ExpectBadInput(Sim("--config " + good + " --out " + out + " --effect coulomb_friction:tc=0.01"),

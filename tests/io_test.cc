@@ -535,13 +535,14 @@ TEST(ConfigErrors, Effects) {
   auto with_effects = [&](const std::string& effects) {
     return Base(effects_line, "  \"effects\": " + effects + ",\n" + effects_line);
   };
-  EXPECT_EQ(ConfigError(with_effects("{ \"coulomb_fricton\": { \"Tc\": 0.01 } }")),
-            "config.json:11:16: unknown effect 'coulomb_fricton' (valid: cogging, "
-            "coulomb_friction, current_offset, dead_time, load_torque, quadratic_drag, "
-            "stribeck) (did you mean 'coulomb_friction'?)");
+  EXPECT_EQ(
+      ConfigError(with_effects("{ \"coulomb_fricton\": { \"Tc\": 0.01 } }")),
+      "config.json:11:16: unknown effect 'coulomb_fricton' (valid: asymmetric_viscous, cogging, "
+      "coulomb_friction, current_offset, dead_time, load_torque, quadratic_drag, "
+      "stribeck) (did you mean 'coulomb_friction'?)");
   EXPECT_EQ(ConfigError(with_effects("{ \"friction\": { \"Tc\": 0.01 } }")),
-            "config.json:11:16: unknown effect 'friction' (valid: cogging, coulomb_friction, "
-            "current_offset, dead_time, load_torque, quadratic_drag, stribeck)");
+            "config.json:11:16: unknown effect 'friction' (valid: asymmetric_viscous, cogging, "
+            "coulomb_friction, current_offset, dead_time, load_torque, quadratic_drag, stribeck)");
   EXPECT_EQ(ConfigError(with_effects("{ \"coulomb_friction\": { \"tc\": 0.01 } }")),
             "config.json:11:38: unknown key 'tc' in 'effects.coulomb_friction' (did you mean "
             "'Tc'?); valid keys: Tc");
