@@ -74,8 +74,16 @@ void BM_SurfaceBlmd(benchmark::State& state) {
       benchmark::Counter(static_cast<double>(n) * n, benchmark::Counter::kIsIterationInvariantRate);
 }
 BENCHMARK(BM_SurfaceBlmd)->Args({8, 1})->Args({8, 2})->Unit(benchmark::kMillisecond)->UseRealTime();
-// The 31 x 31 grid, once, on 2 threads (not in scripts/bench's default set).
+// The 31 x 31 grid, once, on 2 threads, and the speed issue's 64 x 64 grid over the
+// 160 ms trace (4 096 runs of 160 000 steps) on 1 and 2 threads (not in scripts/bench's
+// default set: --filter 'BM_SurfaceBlmd/64').
 BENCHMARK(BM_SurfaceBlmd)->Args({31, 2})->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+BENCHMARK(BM_SurfaceBlmd)
+    ->Args({64, 1})
+    ->Args({64, 2})
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime();
 
 // blmd-ident end to end (process start, CSV read, fit, report) per method on a bundled
 // trace, wall time; the output goes to /dev/null. Args: the case index below.
