@@ -199,6 +199,10 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
                                     : std::numeric_limits<long>::max() / 2;
   double record_step_for = -1.0, change_step_for = -1.0;
   long record_step = 0, change_step = 0;
+  // Whether the sample falls on the recording step's end (the sampler's alpha = 1, the usual
+  // case of samples on the step grid): then the state before that step is never read and the
+  // macro step may include the recording step.
+  bool sample_on_step_end = false;
 
   long advance = 1;  // steps taken by this iteration
   for (long step = 0; !sampler.done(); step += advance) {
@@ -206,21 +210,27 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
     const double t_mid = t + 0.5 * dt;
     // The open flag is read at t_mid; control() already read the input there.
     const bool open = (has_coast && t_mid >= experiment.coast_off_time) || input_open;
-    // Steps step .. step + n - 1 are one macro step while none of them records a sample (the
-    // step before the recording one ends the macro step, and the state there is kept for the
-    // sampler), reads a new input value or opens the armature.
+    // Steps step .. step + n - 1 are one macro step while none of them reads a new input value
+    // or opens the armature, and it ends at the end of the step that records the next sample
+    // when the sample falls there, else before that step (whose start state the sampler
+    // interpolates from, kept below).
     const MacroStep* macro_step = nullptr;
     advance = 1;
     if (linear && !open) {
       if (record_at != record_step_for) {
         record_step = first_step(record_at, 0.0) - 1;  // the recording step's index
         record_step_for = record_at;
+        const double step_start = t_start + static_cast<double>(record_step) * dt;
+        const double step_end = t_start + static_cast<double>(record_step + 1) * dt;
+        sample_on_step_end =
+            (sampler.next_time() - step_start) / (step_end - step_start) > 1.0 - 1e-9;
       }
       if (input_next_change != change_step_for) {
         change_step = first_step(input_next_change, 0.5 * dt);
         change_step_for = input_next_change;
       }
-      const long n = std::min({record_step, change_step, coast_step}) - step;
+      const long last = sample_on_step_end ? record_step + 1 : record_step;
+      const long n = std::min({last, change_step, coast_step}) - step;
       if (n >= 2) {
         macro_step = &macro->For(n);
         advance = n;
@@ -308,7 +318,9 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
       now[2] = w;
       now[3] = theta;
       now[4] = reference;
-      sampler.Record(t, prev, t_next, now);
+      // The recording step's start (t itself after a single step; after a macro step that
+      // ends on the sample, prev is not read: the sample is at the step's end).
+      sampler.Record(t_start + static_cast<double>(step + advance - 1) * dt, prev, t_next, now);
       record_at = next_record_time();
     }
     // The state before the step that records (after a macro step always: it may end there).
