@@ -37,19 +37,15 @@ struct MacroStep {
 class MacroSteps {
  public:
   MacroSteps(const Eigen::Matrix3d& Ad, const Eigen::Matrix<double, 3, 2>& Bd, long max_steps) {
-    Eigen::Matrix3d P = Ad;
-    Eigen::Matrix<double, 3, 2> G = Bd;
-    for (long span = 1; span <= max_steps; span *= 2) {
-      powers_.push_back({P, G});
-      G = (G + P * G).eval();  // 2 span steps: the first span's input, then the second's
-      P = (P * P).eval();
-    }
+    powers_.push_back({Ad, Bd});
+    while ((max_steps >> powers_.size()) != 0) Double();
   }
 
   const MacroStep& For(long n) {
     for (std::size_t k = 0; k < kCached; ++k) {
       if (cached_n_[k] == n) return cached_[k];
     }
+    while ((n >> powers_.size()) != 0) Double();  // not reached for n within the run
     Eigen::Matrix3d P = Eigen::Matrix3d::Identity();
     Eigen::Matrix<double, 3, 2> G = Eigen::Matrix<double, 3, 2>::Zero();
     for (std::size_t m = 0; (n >> m) != 0; ++m) {
@@ -72,6 +68,11 @@ class MacroSteps {
     Eigen::Matrix3d P;
     Eigen::Matrix<double, 3, 2> G;
   };
+  // Appends 2^(m+1) steps from the last 2^m: the first span's input, then the second's.
+  void Double() {
+    const Power& last = powers_.back();
+    powers_.push_back({(last.P * last.P).eval(), (last.G + last.P * last.G).eval()});
+  }
   static constexpr std::size_t kCached = 4;
   std::vector<Power> powers_;  // [m]: 2^m steps
   std::array<long, kCached> cached_n_ = {-1, -1, -1, -1};
