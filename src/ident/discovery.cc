@@ -153,6 +153,7 @@ struct OrderScreen {
   int order = 0;
   double reduction = 0.0;  // fall of the torque balance's sum of squares, (N·m)^2
   double share = 0.0;      // reduction / the sum of squares left by [a, w, sign w, 1]
+  int lowest = 0, highest = 0;  // the range of orders screened
   double tcog = 0.0, phase = 0.0;
 };
 
@@ -167,6 +168,7 @@ std::vector<OrderScreen> ScreenCoggingOrders(const FitProblem& problem,
   // differences over two samples each side: irregular time stamps are fine).
   struct Sample {
     double theta, w, a, torque;
+    double half_window;  // s, half the acceleration's difference window
   };
   std::vector<Sample> samples;
   double path = 0.0, w_max = 0.0;
@@ -187,7 +189,7 @@ std::vector<OrderScreen> ScreenCoggingOrders(const FitProblem& problem,
     }
     for (std::size_t k = 2 * h; k + 2 * h < n; ++k) {
       const double a = (w[k + h] - w[k - h]) / (t[k + h] - t[k - h]);
-      samples.push_back({theta[k], w[k], a, Kt * u[k]});
+      samples.push_back({theta[k], w[k], a, Kt * u[k], 0.5 * (t[k + h] - t[k - h])});
       w_max = std::max(w_max, std::abs(w[k]));
     }
   }
@@ -199,6 +201,16 @@ std::vector<OrderScreen> ScreenCoggingOrders(const FitProblem& problem,
   }
   const auto n = static_cast<Eigen::Index>(moving.size());
   if (n < 20) return ranked;
+  // Orders the measured acceleration resolves: the central difference over +-T passes a
+  // ripple of angular frequency m |w| with the gain sin(m |w| T) / (m |w| T), so orders with
+  // m |w| T above pi/2 (gain below 0.64, null at pi) at the typical (median) sample are
+  // left out rather than ranked on what the differences make of them.
+  std::vector<double> resolved;
+  for (const Sample* s : moving) resolved.push_back(0.5 * kPi / (std::abs(s->w) * s->half_window));
+  std::nth_element(resolved.begin(), resolved.begin() + static_cast<long>(resolved.size() / 2),
+                   resolved.end());
+  max_order = std::min(max_order, static_cast<int>(resolved[resolved.size() / 2]));
+  if (max_order < min_order) return ranked;
   Eigen::MatrixXd design(n, 6);
   Eigen::VectorXd error(n);
   for (Eigen::Index r = 0; r < n; ++r) {
@@ -227,6 +239,8 @@ std::vector<OrderScreen> ScreenCoggingOrders(const FitProblem& problem,
     screen.order = order;
     screen.reduction = base_sse - (error - design * x).squaredNorm();
     screen.share = base_sse > 0.0 ? screen.reduction / base_sse : 0.0;
+    screen.lowest = min_order;
+    screen.highest = max_order;
     screen.tcog = std::hypot(x(4), x(5));
     screen.phase = std::atan2(x(5), x(4));
     ranked.push_back(screen);
@@ -304,7 +318,9 @@ CandidatePlan Plan(const std::string& effect, const FitProblem& problem,
       orders.push_back(screened.front().order);
       linear_starts.push_back(
           {std::clamp(screened.front().tcog, 1e-6 * T, 0.9 * T), screened.front().phase});
-      plan.evidence = "torque balance along the measured motion: order " +
+      plan.evidence = "torque balance along the measured motion (orders " +
+                      std::to_string(screened.front().lowest) + "-" +
+                      std::to_string(screened.front().highest) + "): order " +
                       std::to_string(screened.front().order) + " explains " +
                       G(100.0 * screened.front().share, 3) + " % of its residual";
       if (screened.size() > 1) {
