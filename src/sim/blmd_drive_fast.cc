@@ -224,7 +224,8 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
         }
       }
     }
-    neutral_voltage = (leg_voltage[0] + leg_voltage[1] + leg_voltage[2]) * (1.0 / 3.0);
+    neutral_voltage =
+        (leg_voltage[0] + leg_voltage[1] + leg_voltage[2]) / 3.0;  // exact for equal legs
 
     torque = 0.0;
     const double emf_w = Ke * w;

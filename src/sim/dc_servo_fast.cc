@@ -177,7 +177,7 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
   auto next_record_time = [&] { return sampler.done() ? 1e300 : sampler.next_time() - 1e-9 * dt; };
   double record_at = next_record_time();
 
-  const bool linear = plain_shaft && drive.Vdt == 0.0 && !closed_loop;
+  bool linear = plain_shaft && drive.Vdt == 0.0 && !closed_loop;  // macro steps allowed
   const long total_steps = std::lround((times.back() - t_start) / dt) + 1;
   std::optional<MacroSteps> macro;
   if (linear) macro.emplace(Ad, Bd, total_steps);
@@ -215,7 +215,8 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
     // or opens the armature, and it ends at the end of the step that records the next sample
     // when the sample falls there, else before that step (whose start state the sampler
     // interpolates from, kept below).
-    const MacroStep* macro_step = nullptr;
+    bool macro_taken = false;
+    double macro_state[3];  // i, w, theta at the macro step's end
     advance = 1;
     if (linear && !open) {
       if (record_at != record_step_for) {
@@ -233,24 +234,32 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
       const long last = sample_on_step_end ? record_step + 1 : record_step;
       const long n = std::min({last, change_step, coast_step}) - step;
       if (n >= 2) {
-        macro_step = &macro->For(n);
-        advance = n;
+        const MacroStep& macro_step = macro->For(n);
+        const double* P = macro_step.P.data();
+        const double* G = macro_step.G.data();
+        const double load = shaft.TL;  // u_eff = u: no dead time on this path
+        macro_state[0] = P[0] * i + P[1] * w + P[2] * theta + (G[0] * u + G[1] * load);
+        macro_state[1] = P[3] * i + P[4] * w + P[5] * theta + (G[2] * u + G[3] * load);
+        macro_state[2] = P[6] * i + P[7] * w + P[8] * theta + (G[4] * u + G[5] * load);
+        if (internal::AllFinite(macro_state, 3, limit) &&
+            std::abs(macro_state[0] + drive.i0) <= limit) {
+          macro_taken = true;
+          advance = n;
+        } else {
+          // Diverging: single steps from here on, so the run ends at the first step past the
+          // limit, as the reference does.
+          linear = false;
+        }
       }
     }
     const double t_next = t_start + static_cast<double>(step + advance) * dt;
     const double w_old = w, theta_old = theta;
     const double u_eff =
         drive.Vdt == 0.0 ? u : u - drive.Vdt * (i > 0.0 ? 1.0 : (i < 0.0 ? -1.0 : 0.0));
-    if (macro_step) {
-      const double* P = macro_step->P.data();
-      const double* G = macro_step->G.data();
-      const double load = shaft.TL;
-      const double i1 = P[0] * i + P[1] * w + P[2] * theta + (G[0] * u_eff + G[1] * load);
-      const double w1 = P[3] * i + P[4] * w + P[5] * theta + (G[2] * u_eff + G[3] * load);
-      const double th1 = P[6] * i + P[7] * w + P[8] * theta + (G[4] * u_eff + G[5] * load);
-      i = i1;
-      w = w1;
-      theta = th1;
+    if (macro_taken) {
+      i = macro_state[0];
+      w = macro_state[1];
+      theta = macro_state[2];
     } else if (plain_shaft && !open) {
       // No friction, drag or cogging: T_effects = TL, one matrix step. The input terms do
       // not depend on the state, so they are off the step-to-step dependency chain; theta
