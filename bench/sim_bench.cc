@@ -94,19 +94,20 @@ BENCHMARK(BM_DcServoNoLoadRunReference)->Unit(benchmark::kMillisecond);
 // The linear run above takes macro steps (docs/performance.md); this one steps one 10 µs step
 // at a time: configs/ganesh-square.json (+-24 V square, 2 s, 200 000 steps, 2 kHz out) with
 // Coulomb friction, whose sign makes every step its own.
-void BM_DcServoSquareCoulombRun(benchmark::State& state) {
+blmd::Config SquareWithCoulombFriction() {
   blmd::Config config = LoadBundled("ganesh-square.json");
   config.effects.push_back("coulomb_friction");
   config.parameters.Set("Tc", 0.012);
-  RunConfig<blmd::DcServoModel>(state, config, Path::kFast);
+  return config;
+}
+
+void BM_DcServoSquareCoulombRun(benchmark::State& state) {
+  RunConfig<blmd::DcServoModel>(state, SquareWithCoulombFriction(), Path::kFast);
 }
 BENCHMARK(BM_DcServoSquareCoulombRun)->Unit(benchmark::kMillisecond);
 
 void BM_DcServoSquareCoulombRunReference(benchmark::State& state) {
-  blmd::Config config = LoadBundled("ganesh-square.json");
-  config.effects.push_back("coulomb_friction");
-  config.parameters.Set("Tc", 0.012);
-  RunConfig<blmd::DcServoModel>(state, config, Path::kReference);
+  RunConfig<blmd::DcServoModel>(state, SquareWithCoulombFriction(), Path::kReference);
 }
 BENCHMARK(BM_DcServoSquareCoulombRunReference)->Unit(benchmark::kMillisecond);
 
