@@ -66,6 +66,7 @@ void BM_SurfaceBlmd(benchmark::State& state) {
   const blmd::FitProblem problem = MakeProblem("blmd-d31x.json", "blmd-d31x-step.csv", {"i"}, free);
   blmd::SurfaceOptions options;
   options.threads = static_cast<int>(state.range(1));
+  options.batch = static_cast<int>(state.range(2));  // 8: SIMD lanes; 1: one point at a time
   for (auto _ : state) {
     const auto points = blmd::ComputeSurface(problem, {j, b}, options);
     benchmark::DoNotOptimize(points.data());
@@ -73,14 +74,20 @@ void BM_SurfaceBlmd(benchmark::State& state) {
   state.counters["points_per_s"] =
       benchmark::Counter(static_cast<double>(n) * n, benchmark::Counter::kIsIterationInvariantRate);
 }
-BENCHMARK(BM_SurfaceBlmd)->Args({8, 1})->Args({8, 2})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_SurfaceBlmd)
+    ->Args({8, 1, 8})
+    ->Args({8, 2, 8})
+    ->Args({8, 1, 1})
+    ->Args({8, 2, 1})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 // The 31 x 31 grid, once, on 2 threads, and the speed issue's 64 x 64 grid over the
 // 160 ms trace (4 096 runs of 160 000 steps) on 1 and 2 threads (not in scripts/bench's
 // default set: --filter 'BM_SurfaceBlmd/64').
-BENCHMARK(BM_SurfaceBlmd)->Args({31, 2})->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+BENCHMARK(BM_SurfaceBlmd)->Args({31, 2, 8})->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
 BENCHMARK(BM_SurfaceBlmd)
-    ->Args({64, 1})
-    ->Args({64, 2})
+    ->Args({64, 1, 8})
+    ->Args({64, 2, 8})
     ->Iterations(1)
     ->Unit(benchmark::kSecond)
     ->UseRealTime();

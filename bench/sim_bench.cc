@@ -15,6 +15,7 @@
 #include "blmd/io/config.h"
 #include "blmd/sim/blmd_drive.h"
 #include "blmd/sim/dc_servo.h"
+#include "sim/blmd_batch.h"
 
 namespace {
 
@@ -79,6 +80,57 @@ void BM_BlmdDefaultRunDiagnostics(benchmark::State& state) {
   RunConfig<blmd::BlmdDriveModel>(state, config, Path::kFast);
 }
 BENCHMARK(BM_BlmdDefaultRunDiagnostics)->Unit(benchmark::kMillisecond);
+
+// The batched path (BlmdDriveModel::SimulateBatch): 8 parameter points of the 160 ms run in
+// SIMD lanes, as a surface chunk has them (J 1.19e-3, B log-spaced over 1e-4 .. 1e-3; a
+// second set with J over +-20 % as well). Arg 0: the instruction set (0 baseline SSE2, 1
+// AVX2, 2 AVX-512; skipped when the CPU lacks it); arg 1: the point set. Counter
+// `ns_per_step_point` = CPU time / (steps x 8).
+void BM_BlmdBatchRun(benchmark::State& state) {
+  const auto isa = static_cast<blmd::internal::BatchIsa>(state.range(0));
+  const blmd::internal::BatchIsa chosen = blmd::internal::ChosenBatchIsa();
+  if (!blmd::internal::ForceBatchIsa(isa)) {
+    state.SkipWithError("this CPU lacks the instruction set");
+    return;
+  }
+  state.SetLabel(blmd::internal::BatchIsaName(isa));
+  const blmd::Config config = LoadBundled("blmd-d31x.json");
+  const auto& model = dynamic_cast<const blmd::BlmdDriveModel&>(*config.model);
+  const std::vector<double> times = config.experiment.SampleTimes();
+  constexpr int kPoints = blmd::internal::kMaxBatchLanes;
+  std::vector<blmd::ParameterSet> points(kPoints, config.parameters);
+  std::vector<blmd::SimulationRequest> requests(kPoints);
+  for (int k = 0; k < kPoints; ++k) {
+    const double f = k / (kPoints - 1.0);
+    points[k].Set("B", 1e-4 * std::pow(10.0, f));
+    if (state.range(1) == 1) points[k].Set("J", 1.19e-3 * (0.8 + 0.4 * f));
+    requests[k].parameters = &points[k];
+    requests[k].effects = &config.effects;
+    requests[k].experiment = &config.experiment;
+    requests[k].settings = config.simulation;
+    requests[k].sample_times = &times;
+  }
+  std::vector<blmd::Trace> outs(kPoints);
+  std::vector<blmd::SimStatus> statuses(kPoints);
+  for (auto _ : state) {
+    model.SimulateBatch(requests.data(), kPoints, outs.data(), statuses.data());
+    if (!statuses[0].ok()) {
+      state.SkipWithError(statuses[0].message.c_str());
+      break;
+    }
+    benchmark::DoNotOptimize(outs[0].Column("i").data());
+    benchmark::ClobberMemory();
+  }
+  blmd::internal::ForceBatchIsa(chosen);
+  const double steps = std::round((times.back() - times.front()) / config.simulation.dt);
+  state.counters["ns_per_step_point"] =
+      benchmark::Counter(steps * kPoints * 1e-9,
+                         benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_BlmdBatchRun)
+    ->ArgsProduct({{0, 1, 2}, {0}})
+    ->Args({2, 1})
+    ->Unit(benchmark::kMillisecond);
 
 // DC servo, configs/ganesh-noload.json: 24 V step, 1 s at dt = 10 µs (100 000 steps).
 void BM_DcServoNoLoadRun(benchmark::State& state) {

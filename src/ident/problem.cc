@@ -167,8 +167,50 @@ std::vector<double> MeasuredAngle(const FitTrace& fit_trace) {
   return theta;
 }
 
-Evaluation FitProblem::Evaluate(const std::vector<double>& values,
-                                std::vector<double>* residuals) const {
+bool FitProblem::Compare(std::size_t k, const Trace& simulated, std::vector<double>* sum_sq,
+                         Evaluation* evaluation, std::vector<double>* residuals) const {
+  const std::size_t columns = observe_.size();
+  const Trace& measured = traces_[k].trace;
+  for (std::size_t c = 0; c < columns; ++c) {
+    const auto& sim = simulated.Column(observe_[c]);
+    const auto& meas = measured.Column(observe_[c]);
+    const double weight =
+        1.0 / std::sqrt(static_cast<double>(columns) *
+                        static_cast<double>(samples_per_column_[c]) * variance_[c]);
+    double trace_sum = 0.0;
+    for (std::size_t r = 0; r < meas.size(); ++r) {
+      const double e = sim[r] - meas[r];
+      trace_sum += e * e;
+      if (residuals) residuals->push_back(e * weight);
+    }
+    if (!std::isfinite(trace_sum)) {
+      evaluation->reason = "non-finite simulated '" + observe_[c] + "'";
+      return false;
+    }
+    (*sum_sq)[c] += trace_sum;
+    evaluation->mse_per_trace[k][c] = trace_sum / static_cast<double>(meas.size());
+  }
+  return true;
+}
+
+void FitProblem::Finish(const std::vector<double>& sum_sq, Evaluation* evaluation) const {
+  const std::size_t columns = observe_.size();
+  evaluation->mse.resize(columns);
+  double cost = 0.0;
+  for (std::size_t c = 0; c < columns; ++c) {
+    evaluation->mse[c] = sum_sq[c] / static_cast<double>(samples_per_column_[c]);
+    cost += evaluation->mse[c] / variance_[c];
+  }
+  evaluation->cost = cost / static_cast<double>(columns);
+  evaluation->ok = true;
+}
+
+namespace {
+
+// An evaluation that has not succeeded yet: infinite cost; "" or the reason of a
+// non-finite parameter value.
+Evaluation Unevaluated(const std::vector<double>& values, std::size_t traces,
+                       std::size_t columns) {
   Evaluation evaluation;
   evaluation.cost = std::numeric_limits<double>::infinity();
   for (double v : values) {
@@ -177,10 +219,18 @@ Evaluation FitProblem::Evaluate(const std::vector<double>& values,
       return evaluation;
     }
   }
+  evaluation.mse_per_trace.assign(traces, std::vector<double>(columns, 0.0));
+  return evaluation;
+}
+
+}  // namespace
+
+Evaluation FitProblem::Evaluate(const std::vector<double>& values,
+                                std::vector<double>* residuals) const {
+  Evaluation evaluation = Unevaluated(values, traces_.size(), observe_.size());
+  if (!evaluation.reason.empty()) return evaluation;
   if (residuals) residuals->clear();
-  const std::size_t columns = observe_.size();
-  std::vector<double> sum_sq(columns, 0.0);
-  evaluation.mse_per_trace.assign(traces_.size(), std::vector<double>(columns, 0.0));
+  std::vector<double> sum_sq(observe_.size(), 0.0);
   Trace simulated;
   for (std::size_t k = 0; k < traces_.size(); ++k) {
     const SimStatus status = Simulate(k, values, &simulated);
@@ -188,36 +238,55 @@ Evaluation FitProblem::Evaluate(const std::vector<double>& values,
       evaluation.reason = status.message;
       return evaluation;
     }
-    const Trace& measured = traces_[k].trace;
-    for (std::size_t c = 0; c < columns; ++c) {
-      const auto& sim = simulated.Column(observe_[c]);
-      const auto& meas = measured.Column(observe_[c]);
-      const double weight =
-          1.0 / std::sqrt(static_cast<double>(columns) *
-                          static_cast<double>(samples_per_column_[c]) * variance_[c]);
-      double trace_sum = 0.0;
-      for (std::size_t r = 0; r < meas.size(); ++r) {
-        const double e = sim[r] - meas[r];
-        trace_sum += e * e;
-        if (residuals) residuals->push_back(e * weight);
-      }
-      if (!std::isfinite(trace_sum)) {
-        evaluation.reason = "non-finite simulated '" + observe_[c] + "'";
-        return evaluation;
-      }
-      sum_sq[c] += trace_sum;
-      evaluation.mse_per_trace[k][c] = trace_sum / static_cast<double>(meas.size());
-    }
+    if (!Compare(k, simulated, &sum_sq, &evaluation, residuals)) return evaluation;
   }
-  evaluation.mse.resize(columns);
-  double cost = 0.0;
-  for (std::size_t c = 0; c < columns; ++c) {
-    evaluation.mse[c] = sum_sq[c] / static_cast<double>(samples_per_column_[c]);
-    cost += evaluation.mse[c] / variance_[c];
-  }
-  evaluation.cost = cost / static_cast<double>(columns);
-  evaluation.ok = true;
+  Finish(sum_sq, &evaluation);
   return evaluation;
+}
+
+std::vector<Evaluation> FitProblem::EvaluateBatch(
+    const std::vector<std::vector<double>>& points) const {
+  const std::size_t n = points.size();
+  std::vector<Evaluation> evaluations;
+  std::vector<std::size_t> pending;  // points still without a reason to stop
+  for (std::size_t m = 0; m < n; ++m) {
+    evaluations.push_back(Unevaluated(points[m], traces_.size(), observe_.size()));
+    if (evaluations.back().reason.empty()) pending.push_back(m);
+  }
+  std::vector<std::vector<double>> sum_sq(n, std::vector<double>(observe_.size(), 0.0));
+  std::vector<ParameterSet> parameters(n);
+  std::vector<SimulationRequest> requests;
+  std::vector<Trace> simulated;
+  std::vector<SimStatus> statuses;
+  for (std::size_t k = 0; k < traces_.size() && !pending.empty(); ++k) {
+    requests.assign(pending.size(), SimulationRequest{});
+    for (std::size_t q = 0; q < pending.size(); ++q) {
+      if (k == 0) parameters[pending[q]] = Parameters(points[pending[q]]);
+      SimulationRequest& request = requests[q];
+      request.parameters = &parameters[pending[q]];
+      request.effects = &config_.effects;
+      request.experiment = &experiments_[k];
+      request.settings = config_.simulation;
+      request.sample_times = &traces_[k].trace.Column("t");
+      if (!effect_angles_.empty()) request.settings.effect_angle = &effect_angles_[k];
+    }
+    simulated.assign(pending.size(), Trace{});
+    statuses.assign(pending.size(), SimStatus{});
+    config_.model->SimulateBatch(requests.data(), requests.size(), simulated.data(),
+                                 statuses.data());
+    std::vector<std::size_t> still;
+    for (std::size_t q = 0; q < pending.size(); ++q) {
+      Evaluation& evaluation = evaluations[pending[q]];
+      if (!statuses[q].ok()) {
+        evaluation.reason = statuses[q].message;
+      } else if (Compare(k, simulated[q], &sum_sq[pending[q]], &evaluation, nullptr)) {
+        still.push_back(pending[q]);
+      }
+    }
+    pending = std::move(still);
+  }
+  for (std::size_t m : pending) Finish(sum_sq[m], &evaluations[m]);
+  return evaluations;
 }
 
 std::vector<FreeParameter> MakeFreeParameters(const Config& config,

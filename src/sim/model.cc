@@ -21,6 +21,11 @@ std::string Model::Validate(const ParameterSet& values, const SimulationSettings
   return {};
 }
 
+void Model::SimulateBatch(const SimulationRequest* requests, std::size_t count, Trace* outs,
+                          SimStatus* statuses) const {
+  for (std::size_t k = 0; k < count; ++k) statuses[k] = Simulate(requests[k], &outs[k]);
+}
+
 const ParamInfo* Model::FindParameter(std::string_view name) const {
   for (const auto& info : parameters()) {
     if (info.name == name) return &info;

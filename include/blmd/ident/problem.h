@@ -81,6 +81,10 @@ class FitProblem {
   // trace, column after column: r = (sim - meas) / sqrt(C N_c Var_c), so sum r^2 = cost.
   Evaluation Evaluate(const std::vector<double>& values,
                       std::vector<double>* residuals = nullptr) const;
+  // Evaluate() at several points at once, each result equal to Evaluate's: every trace is
+  // simulated for all the points together through Model::SimulateBatch (the blmd model
+  // runs 8 points in SIMD lanes). Surfaces and FSD's probes use it.
+  std::vector<Evaluation> EvaluateBatch(const std::vector<std::vector<double>>& points) const;
 
   // Position-dependent effects (cogging) see each trace's measured angle instead of the
   // simulated one (SimulationSettings::effect_angle; MeasuredAngle). Returns false, and
@@ -92,6 +96,13 @@ class FitProblem {
   SimStatus Simulate(std::size_t k, const std::vector<double>& values, Trace* out) const;
 
  private:
+  // Adds trace k's squared errors per observed column to *sum_sq and its per-trace MSEs to
+  // *evaluation (weighted residuals to *residuals if given); false, with the reason in
+  // *evaluation, when a simulated column is not finite.
+  bool Compare(std::size_t k, const Trace& simulated, std::vector<double>* sum_sq,
+               Evaluation* evaluation, std::vector<double>* residuals) const;
+  // The per-column MSEs and the cost from the summed squared errors.
+  void Finish(const std::vector<double>& sum_sq, Evaluation* evaluation) const;
   // "a.csv, b.csv: " naming the traces for an error message ("" when they have no path).
   std::string Where() const;
 

@@ -33,6 +33,9 @@ struct SurfaceOptions {
   int threads = 0;            // 0: all cores
   int shard_index = 1;        // K of K/N, 1-based
   int shard_count = 1;        // N
+  // Points a thread evaluates at once (FitProblem::EvaluateBatch; the blmd model runs 8 in
+  // SIMD lanes); 1: one point at a time. The result does not depend on it.
+  int batch = 8;
   // Called from worker threads with (points done, points total); may be empty.
   std::function<void(std::size_t, std::size_t)> progress;
 };

@@ -50,6 +50,11 @@ class BlmdDriveModel final : public Model {
   // settled stretches handled in closed form, the electrical angle's sine and cosine
   // advanced by rotation, and outputs written only at the sample steps.
   SimStatus Simulate(const SimulationRequest& request, Trace* out) const override;
+  // The batched path (src/sim/blmd_drive_batch.cc): points of one experiment with a plain
+  // shaft (no friction, drag or cogging) and one carrier period run 8 at a time in SIMD
+  // lanes, each lane's outputs bit for bit Simulate()'s; other points run through Simulate().
+  void SimulateBatch(const SimulationRequest* requests, std::size_t count, Trace* outs,
+                     SimStatus* statuses) const override;
   // The reference path (src/sim/blmd_drive.cc): the straightforward step loop, kept as the
   // truth the fast path is tested against (tests/fast_path_test.cc, 1e-9 relative).
   SimStatus SimulateReference(const SimulationRequest& request, Trace* out) const;

@@ -2,6 +2,7 @@
 // values from a ParameterSet and never mutates the model, so one model serves every thread.
 #pragma once
 
+#include <cstddef>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -48,6 +49,12 @@ class Model {
                                const SimulationSettings& settings) const;
   // Fills *out with t, u and outputs() at the request's sample times.
   virtual SimStatus Simulate(const SimulationRequest& request, Trace* out) const = 0;
+  // Simulates `count` parameter points at once: outs[k] and statuses[k] are what
+  // Simulate(requests[k]) gives. The requests should differ only in their parameters; a
+  // model with a batched path (blmd: parameter points in SIMD lanes) runs such points
+  // together. The default simulates them one after the other.
+  virtual void SimulateBatch(const SimulationRequest* requests, std::size_t count, Trace* outs,
+                             SimStatus* statuses) const;
 
   const ParamInfo* FindParameter(std::string_view name) const;
 };

@@ -1,0 +1,283 @@
+// The blmd model's batched path (BlmdDriveModel::SimulateBatch, docs/performance.md §5):
+// up to kBatchLanes parameter points of one experiment simulated together, one point per
+// SIMD lane. The step is the fast path's (blmd_drive_fast.cc) written without branches per
+// lane: every leg's edge and blanking arithmetic is computed in every lane and selected by
+// masks, so the lanes, whose PWM edges fall at different steps, stay in lock-step. What is
+// rare stays scalar, lane by lane: the leg solver when a blanked phase is near zero current,
+// the std::cos/std::sin resynchronisation of the electrical angle, a divergence, and the
+// output samples. Each lane does the fast path's arithmetic, operation for operation and in
+// the same order (no fused multiply-adds: this file is built with -ffp-contract=off), so a
+// lane's outputs equal Simulate()'s bit for bit (tests/batch_test.cc).
+//
+// The lanes are GCC/Clang vector extensions (8 doubles). The kernel is compiled three times
+// through function target attributes, for AVX-512, AVX2 and the x86-64 baseline (SSE2), and
+// the widest the CPU supports runs (src/sim/blmd_batch.h).
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstdlib>
+#include <string_view>
+
+#include "blmd/sim/blmd_drive.h"
+#include "blmd/sim/effects.h"
+#include "sim/blmd_batch.h"
+#include "sim/blmd_legs.h"
+#include "sim/plain_shaft.h"
+#include "sim/sampler.h"
+
+// The lane helpers take and return 64-byte vectors but are always inlined, so GCC's note
+// that their calling convention depends on AVX-512 is moot.
+#pragma GCC diagnostic ignored "-Wpsabi"
+
+namespace blmd {
+namespace {
+
+constexpr int kMaxLanes = internal::kMaxBatchLanes;
+constexpr int kResyncSteps = 256;  // as the fast path
+
+// One batch: what the lanes share, and each lane's constants (computed as the fast path
+// computes them). Lanes past `active` repeat the last active lane's parameters and record
+// nothing.
+struct LaneJob {
+  const Experiment* experiment = nullptr;
+  const std::vector<double>* times = nullptr;
+  double dt = 0.0;                  // s
+  bool regula_falsi = true, diagnostics = false;
+  bool lead_lag = false;            // some lane has Tz or Tp != 0
+  double limit = 1e9;               // divergence limit
+  long steps_per_half_period = 0;   // Tpwm / (2 dt), the same for every lane
+  int active = 0;
+  double Ud[kMaxLanes], Ke[kMaxLanes], p[kMaxLanes], Kc[kMaxLanes], Kf[kMaxLanes],
+      Kp[kMaxLanes], Ki_dt[kMaxLanes], Vtri[kMaxLanes], carrier_slope[kMaxLanes],
+      delta[kMaxLanes], TL[kMaxLanes], i0[kMaxLanes];
+  double current_gain[kMaxLanes], speed_gain[kMaxLanes], lag_norm[kMaxLanes], Tp_dt[kMaxLanes],
+      lead_gain[kMaxLanes], Tz_dt[kMaxLanes], dt_Ls[kMaxLanes], Ls_dt[kMaxLanes],
+      dt_J[kMaxLanes];
+  double lane_lead_lag[kMaxLanes];  // 1.0: this lane's compensator has a lead-lag part
+  internal::OutputSampler* samplers[kMaxLanes] = {};
+  SimStatus* statuses[kMaxLanes] = {};
+};
+
+// The lane that paces the sampling (the lanes record at the same steps): the first one
+// still running, or -1.
+int LeadLane(const bool* alive, int width) {
+  for (int l = 0; l < width; ++l) {
+    if (alive[l]) return l;
+  }
+  return -1;
+}
+
+#if defined(__x86_64__)
+namespace avx512 {
+#define BLMD_BATCH_WIDTH 8
+#define BLMD_BATCH_ATTRIBUTES [[gnu::target("avx512f,avx512dq,avx512vl,avx2,avx")]]
+#include "sim/blmd_batch_kernel.inc"
+#undef BLMD_BATCH_WIDTH
+#undef BLMD_BATCH_ATTRIBUTES
+}  // namespace avx512
+namespace avx2 {
+#define BLMD_BATCH_WIDTH 4
+#define BLMD_BATCH_ATTRIBUTES [[gnu::target("avx2,avx")]]
+#include "sim/blmd_batch_kernel.inc"
+#undef BLMD_BATCH_WIDTH
+#undef BLMD_BATCH_ATTRIBUTES
+}  // namespace avx2
+#endif
+namespace baseline {
+#define BLMD_BATCH_WIDTH 2
+#define BLMD_BATCH_ATTRIBUTES
+#include "sim/blmd_batch_kernel.inc"
+#undef BLMD_BATCH_WIDTH
+#undef BLMD_BATCH_ATTRIBUTES
+}  // namespace baseline
+
+internal::BatchIsa& ForcedIsa() {
+  static internal::BatchIsa isa = [] {
+    const char* name = std::getenv("BLMD_BATCH_ISA");
+    const std::string_view wanted = name ? name : "";
+    for (auto candidate : {internal::BatchIsa::kAvx512, internal::BatchIsa::kAvx2,
+                           internal::BatchIsa::kBaseline}) {
+      if (wanted == internal::BatchIsaName(candidate) && internal::CpuSupports(candidate)) {
+        return candidate;
+      }
+    }
+    for (auto candidate : {internal::BatchIsa::kAvx512, internal::BatchIsa::kAvx2}) {
+      if (internal::CpuSupports(candidate)) return candidate;
+    }
+    return internal::BatchIsa::kBaseline;
+  }();
+  return isa;
+}
+
+void Dispatch(LaneJob& job) {
+  switch (internal::ChosenBatchIsa()) {
+#if defined(__x86_64__)
+    case internal::BatchIsa::kAvx512:
+      return avx512::RunLanes(job);
+    case internal::BatchIsa::kAvx2:
+      return avx2::RunLanes(job);
+#endif
+    default:
+      return baseline::RunLanes(job);
+  }
+}
+
+// Requests the lanes can share: one experiment, sample times, effects and numerics.
+bool SameRun(const SimulationRequest& a, const SimulationRequest& b) {
+  return a.experiment == b.experiment && a.sample_times == b.sample_times && a.effects &&
+         b.effects && *a.effects == *b.effects && a.settings.dt == b.settings.dt &&
+         a.settings.regula_falsi == b.settings.regula_falsi &&
+         a.settings.friction_smoothing_w == b.settings.friction_smoothing_w &&
+         a.settings.diagnostics == b.settings.diagnostics &&
+         a.settings.divergence_limit == b.settings.divergence_limit &&
+         a.settings.effect_angle == nullptr && b.settings.effect_angle == nullptr;
+}
+
+}  // namespace
+
+namespace internal {
+
+int BatchWidth(BatchIsa isa) {
+  switch (isa) {
+    case BatchIsa::kAvx512:
+      return 8;
+    case BatchIsa::kAvx2:
+      return 4;
+    default:
+      return 2;
+  }
+}
+
+const char* BatchIsaName(BatchIsa isa) {
+  switch (isa) {
+    case BatchIsa::kAvx512:
+      return "avx512";
+    case BatchIsa::kAvx2:
+      return "avx2";
+    default:
+      return "baseline";
+  }
+}
+
+bool CpuSupports(BatchIsa isa) {
+#if defined(__x86_64__)
+  switch (isa) {
+    case BatchIsa::kAvx512:
+      return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+             __builtin_cpu_supports("avx512vl");
+    case BatchIsa::kAvx2:
+      return __builtin_cpu_supports("avx2");
+    default:
+      return true;
+  }
+#else
+  return isa == BatchIsa::kBaseline;
+#endif
+}
+
+BatchIsa ChosenBatchIsa() { return ForcedIsa(); }
+
+bool ForceBatchIsa(BatchIsa isa) {
+  if (!CpuSupports(isa)) return false;
+  ForcedIsa() = isa;
+  return true;
+}
+
+}  // namespace internal
+
+void BlmdDriveModel::SimulateBatch(const SimulationRequest* requests, std::size_t count,
+                                   Trace* outs, SimStatus* statuses) const {
+  bool shared = count > 1;
+  for (std::size_t k = 1; shared && k < count; ++k) shared = SameRun(requests[0], requests[k]);
+  if (!shared || requests[0].sample_times->empty()) {
+    Model::SimulateBatch(requests, count, outs, statuses);
+    return;
+  }
+  const SimulationSettings& settings = requests[0].settings;
+  const double dt = settings.dt;
+  // Points that run in lanes: valid, a plain shaft, the carrier period of the first one.
+  std::vector<std::size_t> lanes;
+  long steps_per_half_period = -1;
+  for (std::size_t k = 0; k < count; ++k) {
+    const ParameterSet& values = *requests[k].parameters;
+    const ShaftEffects shaft =
+        ShaftEffects::From(values, *requests[k].effects, settings.friction_smoothing_w);
+    const long half = std::lround(0.5 * values.Get("Tpwm") / dt);
+    if (!Validate(values, settings).empty() || !internal::PlainShaft(shaft) ||
+        (steps_per_half_period >= 0 && half != steps_per_half_period)) {
+      statuses[k] = Simulate(requests[k], &outs[k]);  // its error, or the scalar fast path
+      continue;
+    }
+    steps_per_half_period = half;
+    lanes.push_back(k);
+  }
+  const std::size_t width =
+      static_cast<std::size_t>(internal::BatchWidth(internal::ChosenBatchIsa()));
+  for (std::size_t first = 0; first < lanes.size(); first += width) {
+    LaneJob job;
+    job.experiment = requests[0].experiment;
+    job.times = requests[0].sample_times;
+    job.dt = dt;
+    job.regula_falsi = settings.regula_falsi;
+    job.diagnostics = settings.diagnostics;
+    job.limit = settings.divergence_limit;
+    job.steps_per_half_period = steps_per_half_period;
+    job.active = static_cast<int>(std::min(width, lanes.size() - first));
+    std::vector<std::string> names = {"u", "i", "ib", "ic", "w", "theta"};
+    if (settings.diagnostics) {
+      for (const char* extra : {"va", "vb", "vc", "Te", "vsg"}) names.emplace_back(extra);
+    }
+    std::vector<internal::OutputSampler> samplers;
+    samplers.reserve(width);
+    for (int l = 0; l < kMaxLanes; ++l) {
+      const std::size_t k = lanes[first + static_cast<std::size_t>(std::min(l, job.active - 1))];
+      const ParameterSet& values = *requests[k].parameters;
+      const double Rs = values.Get("Rs"), Ls = values.Get("Ls"), Tz = values.Get("Tz"),
+                   Tp = values.Get("Tp"), J = values.Get("J"), B = values.Get("B"),
+                   Vtri = values.Get("Vtri");
+      job.Ud[l] = values.Get("Ud");
+      job.Ke[l] = values.Get("Ke");
+      job.p[l] = values.Get("p");
+      job.Kc[l] = values.Get("Kc");
+      job.Kf[l] = values.Get("Kf");
+      job.Kp[l] = values.Get("Kp");
+      job.Ki_dt[l] = values.Get("Ki") * dt;
+      job.Vtri[l] = Vtri;
+      job.carrier_slope[l] = 2.0 * Vtri / static_cast<double>(steps_per_half_period);
+      job.delta[l] = values.Get("delta");
+      job.TL[l] = ShaftEffects::From(values, *requests[k].effects, settings.friction_smoothing_w).TL;
+      job.i0[l] = DriveEffects::From(values, *requests[k].effects).i0;
+      job.current_gain[l] = 1.0 / (1.0 + dt * Rs / Ls);
+      job.speed_gain[l] = 1.0 / (1.0 + dt * B / J);
+      job.lag_norm[l] = 1.0 / (1.0 + Tp / dt);
+      job.Tp_dt[l] = Tp / dt;
+      job.lead_gain[l] = 1.0 + Tz / dt;
+      job.Tz_dt[l] = Tz / dt;
+      job.dt_Ls[l] = dt / Ls;
+      job.Ls_dt[l] = Ls / dt;
+      job.dt_J[l] = dt / J;
+      job.lane_lead_lag[l] = (Tz != 0.0 || Tp != 0.0) ? 1.0 : 0.0;
+      job.lead_lag = job.lead_lag || job.lane_lead_lag[l] > 0.0;
+      if (l < job.active) {
+        samplers.emplace_back(*job.times, names);
+        job.samplers[l] = &samplers.back();
+        job.statuses[l] = &statuses[k];
+        statuses[k] = SimStatus::Ok();
+      }
+    }
+    Dispatch(job);
+    std::vector<double> u_column(job.times->size());
+    InputCursor u_cursor(job.experiment->input);
+    for (std::size_t r = 0; r < u_column.size(); ++r) {
+      u_column[r] = u_cursor.At((*job.times)[r] + 0.5 * dt);
+    }
+    for (int l = 0; l < job.active; ++l) {
+      const std::size_t k = lanes[first + static_cast<std::size_t>(l)];
+      if (!statuses[k].ok()) continue;
+      samplers[static_cast<std::size_t>(l)].Finish(&outs[k]);
+      outs[k].Column("u") = u_column;
+    }
+  }
+}
+
+}  // namespace blmd
