@@ -29,6 +29,23 @@ class CountingCost {
   double ScaledCost(const std::vector<double>& scaled) {
     return Evaluate(problem_.FromScaled(scaled)).cost;
   }
+  // Costs at several scaled points, evaluated together (FitProblem::EvaluateBatch: the blmd
+  // model simulates them in SIMD lanes); each equals ScaledCost's.
+  std::vector<double> ScaledCosts(const std::vector<std::vector<double>>& scaled) {
+    std::vector<std::vector<double>> values;
+    for (const auto& x : scaled) values.push_back(problem_.FromScaled(x));
+    std::vector<double> costs;
+    for (const Evaluation& evaluation : problem_.EvaluateBatch(values)) {
+      ++evaluations_;
+      if (!evaluation.ok) {
+        ++failed_;
+        std::lock_guard<std::mutex> lock(mutex_);
+        ++reasons_[evaluation.reason];
+      }
+      costs.push_back(evaluation.cost);
+    }
+    return costs;
+  }
 
   void FillSummary(OptimizerSummary* summary) const {
     summary->evaluations = evaluations_.load();

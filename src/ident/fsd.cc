@@ -17,6 +17,7 @@
 #include <limits>
 #include <thread>
 
+#include "blmd/ident/surface.h"
 #include "blmd/random.h"
 #include "ident/counting_cost.h"
 #include "ident/methods.h"
@@ -74,15 +75,20 @@ class FsdRun {
     return cost_.ScaledCost(x) / scale_;
   }
 
-  // Forward-difference gradient at x (cost at x known), stepping inward at the boundary.
+  // Forward-difference gradient at x (cost at x known), stepping inward at the boundary; the
+  // n displaced points are evaluated together (CountingCost::ScaledCosts).
   std::vector<double> Gradient(const std::vector<double>& x, double ux) {
-    std::vector<double> g(x.size(), 0.0);
+    std::vector<double> g(x.size(), 0.0), h(x.size());
+    std::vector<std::vector<double>> displaced(x.size(), x);
     for (std::size_t k = 0; k < x.size(); ++k) {
-      std::vector<double> y = x;
-      const double h = x[k] + s_.fd_step <= 1.0 ? s_.fd_step : -s_.fd_step;
-      y[k] += h;
-      const double uy = U(y);
-      g[k] = std::isfinite(uy) && std::isfinite(ux) ? (uy - ux) / h : 0.0;
+      h[k] = x[k] + s_.fd_step <= 1.0 ? s_.fd_step : -s_.fd_step;
+      displaced[k][k] += h[k];
+    }
+    walker_evaluations += static_cast<long>(x.size());
+    const std::vector<double> costs = cost_.ScaledCosts(displaced);
+    for (std::size_t k = 0; k < x.size(); ++k) {
+      const double uy = costs[k] / scale_;
+      g[k] = std::isfinite(uy) && std::isfinite(ux) ? (uy - ux) / h[k] : 0.0;
     }
     return g;
   }
@@ -191,10 +197,12 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
     std::vector<std::thread> pool;
     for (int t = 0; t < threads; ++t) {
       pool.emplace_back([&, t] {
-        for (std::size_t k = static_cast<std::size_t>(t); k < probes.size();
-             k += static_cast<std::size_t>(threads)) {
-          probe_cost[k] = cost.ScaledCost(probes[k]);
-        }
+        // This thread's share of the probes, evaluated together (SIMD lanes for blmd).
+        const auto [begin, end] = ShardRange(probes.size(), t + 1, threads);
+        const std::vector<double> costs = cost.ScaledCosts(
+            std::vector<std::vector<double>>(probes.begin() + static_cast<std::ptrdiff_t>(begin),
+                                             probes.begin() + static_cast<std::ptrdiff_t>(end)));
+        std::copy(costs.begin(), costs.end(), probe_cost.begin() + static_cast<std::ptrdiff_t>(begin));
       });
     }
     for (auto& thread : pool) thread.join();

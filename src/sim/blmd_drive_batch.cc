@@ -13,7 +13,6 @@
 // through function target attributes, for AVX-512, AVX2 and the x86-64 baseline (SSE2), and
 // the widest the CPU supports runs (src/sim/blmd_batch.h).
 #include <algorithm>
-#include <bit>
 #include <cmath>
 #include <cstdlib>
 #include <string_view>
@@ -109,8 +108,8 @@ internal::BatchIsa& ForcedIsa() {
   return isa;
 }
 
-void Dispatch(LaneJob& job) {
-  switch (internal::ChosenBatchIsa()) {
+void Dispatch(internal::BatchIsa isa, LaneJob& job) {
+  switch (isa) {
 #if defined(__x86_64__)
     case internal::BatchIsa::kAvx512:
       return avx512::RunLanes(job);
@@ -211,9 +210,19 @@ void BlmdDriveModel::SimulateBatch(const SimulationRequest* requests, std::size_
     steps_per_half_period = half;
     lanes.push_back(k);
   }
-  const std::size_t width =
-      static_cast<std::size_t>(internal::BatchWidth(internal::ChosenBatchIsa()));
-  for (std::size_t first = 0; first < lanes.size(); first += width) {
+  const internal::BatchIsa chosen = internal::ChosenBatchIsa();
+  for (std::size_t first = 0, width = 0; first < lanes.size(); first += width) {
+    // The widest kernel for full chunks; the narrowest that holds a last, partial one (per
+    // point and step, 2 lanes of SSE2 cost about as much as 4 of AVX2 and 8 of AVX-512 less
+    // than either: docs/performance.md §5). Every kernel gives the same bits.
+    internal::BatchIsa isa = chosen;
+    const std::size_t remaining = lanes.size() - first;
+    if (remaining <= 2) {
+      isa = internal::BatchIsa::kBaseline;
+    } else if (remaining <= 4 && chosen == internal::BatchIsa::kAvx512) {
+      isa = internal::BatchIsa::kAvx2;
+    }
+    width = static_cast<std::size_t>(internal::BatchWidth(isa));
     LaneJob job;
     job.experiment = requests[0].experiment;
     job.times = requests[0].sample_times;
@@ -265,7 +274,7 @@ void BlmdDriveModel::SimulateBatch(const SimulationRequest* requests, std::size_
         statuses[k] = SimStatus::Ok();
       }
     }
-    Dispatch(job);
+    Dispatch(isa, job);
     std::vector<double> u_column(job.times->size());
     InputCursor u_cursor(job.experiment->input);
     for (std::size_t r = 0; r < u_column.size(); ++r) {
