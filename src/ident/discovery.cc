@@ -50,13 +50,28 @@ FreeParameter Free(const std::string& name, double lower, double upper, bool log
   return p;
 }
 
-double TorqueScale(const FitProblem& problem, const ResidualAnalysis& analysis) {
-  const ParameterSet& p = problem.config().parameters;
+// The torque scale T that sizes the candidates' search boxes (docs/discovery.md §2): the
+// largest torque the record shows. dc_servo and blmd: the motor torque at the largest
+// simulated current. rigid_load: the drive torque Kt max|u|, or the current model's damping
+// torque B max|w| at its fitted values (w simulated) if that is larger. The second matters
+// when the shaft moves without a drive: on a coast-down (u = 0) it is the torque that
+// decelerates the shaft at its top speed (J |dw/dt| of the J, B model), where Kt max|u| is
+// 0 and every search box would collapse to [0, 1e-12]. The measured acceleration is not
+// used: differentiated twice from a logged speed, its maximum is noise (12 N m against
+// B max|w| = 0.42 N m on the flywheel coast-down of docs/real-data.md). Driven from rest,
+// B |w| of the J, B model stays below Kt max|u| (its steady state is B w = Kt u), so the
+// scale changes only for records that start faster than the drive holds.
+double TorqueScale(const FitProblem& problem, const ResidualAnalysis& analysis,
+                   const std::vector<double>& values) {
   const std::string model(problem.config().model->name());
+  if (model == "rigid_load") {
+    const ParameterSet p = problem.Parameters(values);
+    return std::max({p.Get("Kt") * analysis.u_max, p.Get("B") * analysis.w_max, 1e-12});
+  }
+  const ParameterSet& p = problem.config().parameters;
   double per_amp = 1.0;
   if (model == "dc_servo") per_amp = p.Get("Kt");
   if (model == "blmd") per_amp = 1.5 * p.Get("Ke");
-  if (model == "rigid_load") return std::max(p.Get("Kt") * analysis.u_max, 1e-12);  // u drives
   return std::max(per_amp * analysis.i_max, 1e-12);
 }
 
@@ -255,7 +270,7 @@ CandidatePlan Plan(const std::string& effect, const FitProblem& problem,
                    const ResidualAnalysis& analysis, const std::vector<double>& values) {
   CandidatePlan plan;
   plan.effect = effect;
-  const double T = TorqueScale(problem, analysis);
+  const double T = TorqueScale(problem, analysis, values);
   const double w_max = std::max(analysis.w_max, 1e-9);
   const auto& observe = problem.observe();
   const bool observes_i = std::find(observe.begin(), observe.end(), "i") != observe.end();
