@@ -114,7 +114,7 @@ double WorstRelative(const Trace& fast, const Trace& reference) {
 
 std::vector<BatchIsa> SupportedIsas() {
   std::vector<BatchIsa> isas;
-  for (BatchIsa isa : {BatchIsa::kBaseline, BatchIsa::kAvx2, BatchIsa::kAvx512}) {
+  for (BatchIsa isa : {BatchIsa::kScalar, BatchIsa::kBaseline, BatchIsa::kAvx2, BatchIsa::kAvx512}) {
     if (internal::CpuSupports(isa)) isas.push_back(isa);
   }
   return isas;

@@ -36,31 +36,51 @@ class SimulationCost final : public ceres::CostFunction {
                 double** jacobians) const override {
     const FitProblem& problem = cost_->problem();
     const std::size_t p = problem.num_free(), n = problem.num_residuals();
-    std::vector<double> x(parameters[0], parameters[0] + p);
-    std::vector<double> r;
-    if (!Residuals(x, &r)) return false;
-    std::copy(r.begin(), r.end(), residuals);
-    if (!jacobians || !jacobians[0]) return true;
-    std::vector<double> plus, minus;
-    for (std::size_t k = 0; k < p; ++k) {
+    const std::vector<double> x(parameters[0], parameters[0] + p);
+    const bool jacobian = jacobians && jacobians[0];
+    const bool central = differences_ == Differences::kCentral;
+    // The point and, for a Jacobian, its forward (and, central, backward) neighbours,
+    // simulated together (FitProblem::EvaluateBatch: SIMD lanes for the blmd model).
+    std::vector<std::vector<double>> points = {x};
+    std::vector<double> h(p);
+    for (std::size_t k = 0; jacobian && k < p; ++k) {
       const FreeParameter& fp = problem.free()[k];
-      const double h = fp.log_scale ? fd_step_
-                                    : fd_step_ * std::max(std::abs(x[k]), 1e-3 * (fp.upper - fp.lower));
-      std::vector<double> xp = x, xm = x;
-      xp[k] += h;
-      xm[k] -= h;
-      const bool ok_plus = Residuals(xp, &plus);
+      h[k] = fp.log_scale ? fd_step_
+                          : fd_step_ * std::max(std::abs(x[k]), 1e-3 * (fp.upper - fp.lower));
+      points.push_back(x);
+      points.back()[k] += h[k];
+    }
+    for (std::size_t k = 0; jacobian && central && k < p; ++k) {
+      points.push_back(x);
+      points.back()[k] -= h[k];
+    }
+    std::vector<std::vector<double>> r;
+    const std::vector<bool> ok = Residuals(points, &r);
+    if (!ok[0]) return false;
+    std::copy(r[0].begin(), r[0].end(), residuals);
+    if (!jacobian) return true;
+    for (std::size_t k = 0; k < p; ++k) {
+      const bool ok_plus = ok[1 + k];
+      const std::vector<double>& plus = r[1 + k];
       // Forward differences take the backward side only when the forward side failed.
-      const bool ok_minus =
-          (differences_ == Differences::kCentral || !ok_plus) && Residuals(xm, &minus);
+      std::vector<std::vector<double>> backward;
+      bool ok_minus = false;
+      if (central) {
+        ok_minus = ok[1 + p + k];
+      } else if (!ok_plus) {
+        points = {x};
+        points[0][k] -= h[k];
+        ok_minus = Residuals(points, &backward)[0];
+      }
+      const std::vector<double>& minus = central ? r[1 + p + k] : (ok_minus ? backward[0] : r[0]);
       for (std::size_t r_index = 0; r_index < n; ++r_index) {
         double derivative = 0.0;
         if (ok_plus && ok_minus) {
-          derivative = (plus[r_index] - minus[r_index]) / (2.0 * h);
+          derivative = (plus[r_index] - minus[r_index]) / (2.0 * h[k]);
         } else if (ok_plus) {
-          derivative = (plus[r_index] - r[r_index]) / h;
+          derivative = (plus[r_index] - r[0][r_index]) / h[k];
         } else if (ok_minus) {
-          derivative = (r[r_index] - minus[r_index]) / h;
+          derivative = (r[0][r_index] - minus[r_index]) / h[k];
         } else {
           return false;
         }
@@ -71,18 +91,27 @@ class SimulationCost final : public ceres::CostFunction {
   }
 
  private:
-  bool Residuals(const std::vector<double>& x, std::vector<double>* r) const {
+  // Weighted (and scaled) residuals at points in search coordinates; false where the
+  // evaluation failed (Ceres treats such a step as infeasible).
+  std::vector<bool> Residuals(const std::vector<std::vector<double>>& points,
+                              std::vector<std::vector<double>>* r) const {
     const FitProblem& problem = cost_->problem();
-    std::vector<double> values(x.size());
-    for (std::size_t k = 0; k < x.size(); ++k) {
-      values[k] = problem.free()[k].log_scale ? std::exp(x[k]) : x[k];
+    std::vector<std::vector<double>> values;
+    for (const auto& x : points) {
+      values.emplace_back(x.size());
+      for (std::size_t k = 0; k < x.size(); ++k) {
+        values.back()[k] = problem.free()[k].log_scale ? std::exp(x[k]) : x[k];
+      }
     }
-    const Evaluation evaluation = cost_->Evaluate(values, r);
-    if (!evaluation.ok) return false;  // Ceres treats the step as infeasible
-    if (!scale_.empty()) {
-      for (std::size_t k = 0; k < r->size(); ++k) (*r)[k] *= scale_[k];
+    const std::vector<Evaluation> evaluations = cost_->EvaluateBatch(values, r);
+    std::vector<bool> ok(points.size());
+    for (std::size_t m = 0; m < points.size(); ++m) {
+      ok[m] = evaluations[m].ok;
+      if (ok[m] && !scale_.empty()) {
+        for (std::size_t k = 0; k < (*r)[m].size(); ++k) (*r)[m][k] *= scale_[k];
+      }
     }
-    return true;
+    return ok;
   }
 
   CountingCost* cost_;

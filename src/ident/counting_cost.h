@@ -35,16 +35,22 @@ class CountingCost {
     std::vector<std::vector<double>> values;
     for (const auto& x : scaled) values.push_back(problem_.FromScaled(x));
     std::vector<double> costs;
-    for (const Evaluation& evaluation : problem_.EvaluateBatch(values)) {
+    for (const Evaluation& evaluation : EvaluateBatch(values)) costs.push_back(evaluation.cost);
+    return costs;
+  }
+  // Evaluate() at several points together (FitProblem::EvaluateBatch), each counted.
+  std::vector<Evaluation> EvaluateBatch(const std::vector<std::vector<double>>& values,
+                                        std::vector<std::vector<double>>* residuals = nullptr) {
+    std::vector<Evaluation> evaluations = problem_.EvaluateBatch(values, residuals);
+    for (const Evaluation& evaluation : evaluations) {
       ++evaluations_;
       if (!evaluation.ok) {
         ++failed_;
         std::lock_guard<std::mutex> lock(mutex_);
         ++reasons_[evaluation.reason];
       }
-      costs.push_back(evaluation.cost);
     }
-    return costs;
+    return evaluations;
   }
 
   void FillSummary(OptimizerSummary* summary) const {

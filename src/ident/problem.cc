@@ -245,8 +245,10 @@ Evaluation FitProblem::Evaluate(const std::vector<double>& values,
 }
 
 std::vector<Evaluation> FitProblem::EvaluateBatch(
-    const std::vector<std::vector<double>>& points) const {
+    const std::vector<std::vector<double>>& points,
+    std::vector<std::vector<double>>* residuals) const {
   const std::size_t n = points.size();
+  if (residuals) residuals->assign(n, {});
   std::vector<Evaluation> evaluations;
   std::vector<std::size_t> pending;  // points still without a reason to stop
   for (std::size_t m = 0; m < n; ++m) {
@@ -279,7 +281,8 @@ std::vector<Evaluation> FitProblem::EvaluateBatch(
       Evaluation& evaluation = evaluations[pending[q]];
       if (!statuses[q].ok()) {
         evaluation.reason = statuses[q].message;
-      } else if (Compare(k, simulated[q], &sum_sq[pending[q]], &evaluation, nullptr)) {
+      } else if (Compare(k, simulated[q], &sum_sq[pending[q]], &evaluation,
+                         residuals ? &(*residuals)[pending[q]] : nullptr)) {
         still.push_back(pending[q]);
       }
     }

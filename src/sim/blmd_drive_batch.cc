@@ -95,7 +95,7 @@ internal::BatchIsa& ForcedIsa() {
     const char* name = std::getenv("BLMD_BATCH_ISA");
     const std::string_view wanted = name ? name : "";
     for (auto candidate : {internal::BatchIsa::kAvx512, internal::BatchIsa::kAvx2,
-                           internal::BatchIsa::kBaseline}) {
+                           internal::BatchIsa::kBaseline, internal::BatchIsa::kScalar}) {
       if (wanted == internal::BatchIsaName(candidate) && internal::CpuSupports(candidate)) {
         return candidate;
       }
@@ -142,8 +142,10 @@ int BatchWidth(BatchIsa isa) {
       return 8;
     case BatchIsa::kAvx2:
       return 4;
-    default:
+    case BatchIsa::kBaseline:
       return 2;
+    default:
+      return 1;
   }
 }
 
@@ -153,8 +155,10 @@ const char* BatchIsaName(BatchIsa isa) {
       return "avx512";
     case BatchIsa::kAvx2:
       return "avx2";
-    default:
+    case BatchIsa::kBaseline:
       return "baseline";
+    default:
+      return "scalar";
   }
 }
 
@@ -170,7 +174,7 @@ bool CpuSupports(BatchIsa isa) {
       return true;
   }
 #else
-  return isa == BatchIsa::kBaseline;
+  return isa == BatchIsa::kBaseline || isa == BatchIsa::kScalar;
 #endif
 }
 
@@ -188,7 +192,8 @@ void BlmdDriveModel::SimulateBatch(const SimulationRequest* requests, std::size_
                                    Trace* outs, SimStatus* statuses) const {
   bool shared = count > 1;
   for (std::size_t k = 1; shared && k < count; ++k) shared = SameRun(requests[0], requests[k]);
-  if (!shared || requests[0].sample_times->empty()) {
+  if (!shared || requests[0].sample_times->empty() ||
+      internal::ChosenBatchIsa() == internal::BatchIsa::kScalar) {
     Model::SimulateBatch(requests, count, outs, statuses);
     return;
   }
@@ -212,11 +217,17 @@ void BlmdDriveModel::SimulateBatch(const SimulationRequest* requests, std::size_
   }
   const internal::BatchIsa chosen = internal::ChosenBatchIsa();
   for (std::size_t first = 0, width = 0; first < lanes.size(); first += width) {
-    // The widest kernel for full chunks; the narrowest that holds a last, partial one (per
-    // point and step, 2 lanes of SSE2 cost about as much as 4 of AVX2 and 8 of AVX-512 less
-    // than either: docs/performance.md §5). Every kernel gives the same bits.
+    // The widest kernel for full chunks; for a last, partial one the narrowest that holds it
+    // (a step of all 2 SSE2 lanes costs about as much as one of 4 AVX2 lanes and less than one
+    // of 8 AVX-512 lanes; one point alone runs quickest on the scalar fast path:
+    // docs/performance.md §5). Every kernel gives the same bits.
     internal::BatchIsa isa = chosen;
     const std::size_t remaining = lanes.size() - first;
+    if (remaining == 1) {  // alone, the scalar fast path is the quickest
+      statuses[lanes[first]] = Simulate(requests[lanes[first]], &outs[lanes[first]]);
+      width = 1;
+      continue;
+    }
     if (remaining <= 2) {
       isa = internal::BatchIsa::kBaseline;
     } else if (remaining <= 4 && chosen == internal::BatchIsa::kAvx512) {

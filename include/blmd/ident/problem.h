@@ -81,10 +81,12 @@ class FitProblem {
   // trace, column after column: r = (sim - meas) / sqrt(C N_c Var_c), so sum r^2 = cost.
   Evaluation Evaluate(const std::vector<double>& values,
                       std::vector<double>* residuals = nullptr) const;
-  // Evaluate() at several points at once, each result equal to Evaluate's: every trace is
-  // simulated for all the points together through Model::SimulateBatch (the blmd model
-  // runs 8 points in SIMD lanes). Surfaces and FSD's probes use it.
-  std::vector<Evaluation> EvaluateBatch(const std::vector<std::vector<double>>& points) const;
+  // Evaluate() at several points at once, each result (and, when `residuals` is given, each
+  // point's residual vector) equal to Evaluate's: every trace is simulated for all the points
+  // together through Model::SimulateBatch (the blmd model runs up to 8 points in SIMD lanes).
+  // Surfaces, FSD's probes and gradients and Ceres's finite-difference Jacobians use it.
+  std::vector<Evaluation> EvaluateBatch(const std::vector<std::vector<double>>& points,
+                                        std::vector<std::vector<double>>* residuals = nullptr) const;
 
   // Position-dependent effects (cogging) see each trace's measured angle instead of the
   // simulated one (SimulationSettings::effect_angle; MeasuredAngle). Returns false, and
