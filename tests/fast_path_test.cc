@@ -179,6 +179,25 @@ TEST(FastPath, DcServoLinearSquareWaveInMacroSteps) {
   ExpectFastMatchesReference<DcServoModel>("dc_servo square, linear, off-grid", config);
 }
 
+// Coulomb friction alone: macro steps while the shaft turns one way (w provably keeps its
+// sign), single steps around each reversal, where the shaft stops, sticks and breaks away.
+TEST(FastPath, DcServoCoulombFrictionInMacroSteps) {
+  Config config = Load("ganesh-square.json");
+  config.effects.clear();
+  AddEffect(&config, "coulomb_friction", {{"Tc", 0.012}});
+  AddEffect(&config, "load_torque", {{"TL", 0.002}});
+  AddEffect(&config, "current_offset", {{"i0", 0.03}});
+  ExpectFastMatchesReference<DcServoModel>("dc_servo square, Coulomb + load", config);
+  config.experiment.sample_rate = 1234.5;  // samples off the step grid
+  config.experiment.input.t0 = 0.0123;     // edges off the step grid
+  ExpectFastMatchesReference<DcServoModel>("dc_servo square, Coulomb, off-grid", config);
+  // 16 V: 0.051 N m of stall torque against Tc = 0.045: after each reversal the shaft
+  // stops, sticks while the current builds up (L/R = 22 ms), then breaks away.
+  config.parameters.Set("Tc", 0.045);
+  config.experiment.input.amplitude = 16.0;
+  ExpectFastMatchesReference<DcServoModel>("dc_servo square, Coulomb, sticking", config);
+}
+
 TEST(FastPath, DcServoClosedLoopPidAndStaircase) {
   ExpectFastMatchesReference<DcServoModel>("dc_servo PID", Load("ganesh-pid.json"));
   Config staircase = Load("ganesh-staircase.json");

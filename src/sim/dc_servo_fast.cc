@@ -178,9 +178,23 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
   double record_at = next_record_time();
 
   bool linear = plain_shaft && drive.Vdt == 0.0 && !closed_loop;  // macro steps allowed
+  // Coulomb friction alone (no Stribeck, smoothing, drag or cogging), open loop, no dead time:
+  // while the shaft turns one way the friction is the constant +-Tc, the model linear again,
+  // and macro steps apply over any stretch in which w provably keeps its sign. The proof
+  // needs the (i, w) block's eigenvalues real and positive (an overdamped armature-shaft
+  // pair; Ad = exp(A dt) of real eigenvalues): then w's step-to-step change under a constant
+  // input is c1 l1^k + c2 l2^k, which changes sign at most once, so when the first and last
+  // changes of a stretch agree in sign w is monotone over it, and w at both ends of the
+  // stretch having the start's sign means every step in between has it too.
+  const double block_trace = a00 + a11, block_det = a00 * a11 - a01 * a10;
+  bool coulomb_macro = shaft.Tc > 0.0 && shaft.Ts == 0.0 && shaft.smoothing_w <= 0.0 &&
+                       shaft.Tcog == 0.0 && shaft.Cd == 0.0 && shaft.dB == 0.0 &&
+                       drive.Vdt == 0.0 && !closed_loop && theta_decoupled &&
+                       block_trace > 0.0 && block_det > 0.0 &&
+                       block_trace * block_trace - 4.0 * block_det >= 0.0;
   const long total_steps = std::lround((times.back() - t_start) / dt) + 1;
   std::optional<MacroSteps> macro;
-  if (linear) macro.emplace(Ad, Bd, total_steps);
+  if (linear || coulomb_macro) macro.emplace(Ad, Bd, total_steps);
   // The first step index s whose time t_start + s dt, plus offset, reaches threshold, by the
   // loop's own arithmetic (so the macro steps stop exactly where single steps would act).
   const double inv_dt = 1.0 / dt;
@@ -218,7 +232,7 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
     bool macro_taken = false;
     double macro_state[3];  // i, w, theta at the macro step's end
     advance = 1;
-    if (linear && !open) {
+    if ((linear || (coulomb_macro && w != 0.0)) && !open) {
       if (record_at != record_step_for) {
         record_step = first_step(record_at, 0.0) - 1;  // the recording step's index
         record_step_for = record_at;
@@ -237,18 +251,34 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
         const MacroStep& macro_step = macro->For(n);
         const double* P = macro_step.P.data();
         const double* G = macro_step.G.data();
-        const double load = shaft.TL;  // u_eff = u: no dead time on this path
+        // T_effects as the single steps sum it: the load, plus the friction of w's sign.
+        const double load = linear ? shaft.TL : (w > 0.0 ? shaft.Tc : -shaft.Tc) + shaft.TL;
         macro_state[0] = P[0] * i + P[1] * w + P[2] * theta + (G[0] * u + G[1] * load);
         macro_state[1] = P[3] * i + P[4] * w + P[5] * theta + (G[2] * u + G[3] * load);
         macro_state[2] = P[6] * i + P[7] * w + P[8] * theta + (G[4] * u + G[5] * load);
-        if (internal::AllFinite(macro_state, 3, limit) &&
-            std::abs(macro_state[0] + drive.i0) <= limit) {
+        bool keeps_sign = true;
+        if (!linear) {
+          // w after the first step and before the last (macro_step's data may be reused by
+          // For below: macro_state is already computed).
+          const double w_first = a10 * i + a11 * w + a12 * theta + (b10 * u + b11 * load);
+          const MacroStep& but_one = macro->For(n - 1);
+          const double w_before_last = but_one.P[3] * i + but_one.P[4] * w +
+                                       but_one.P[5] * theta +
+                                       (but_one.G[2] * u + but_one.G[3] * load);
+          const double sign = w > 0.0 ? 1.0 : -1.0, w_last = macro_state[1];
+          keeps_sign = sign * w_first > 0.0 && sign * w_before_last > 0.0 &&
+                       sign * w_last > 0.0 && (w_first - w) * (w_last - w_before_last) >= 0.0;
+        }
+        if (!keeps_sign) {
+          // w may reach zero inside the stretch: single steps, which stop or stick it.
+        } else if (internal::AllFinite(macro_state, 3, limit) &&
+                   std::abs(macro_state[0] + drive.i0) <= limit) {
           macro_taken = true;
           advance = n;
         } else {
           // Diverging: single steps from here on, so the run ends at the first step past the
           // limit, as the reference does.
-          linear = false;
+          linear = coulomb_macro = false;
         }
       }
     }
