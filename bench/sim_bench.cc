@@ -83,9 +83,9 @@ BENCHMARK(BM_BlmdDefaultRunDiagnostics)->Unit(benchmark::kMillisecond);
 
 // The batched path (BlmdDriveModel::SimulateBatch): 8 parameter points of the 160 ms run in
 // SIMD lanes, as a surface chunk has them (J 1.19e-3, B log-spaced over 1e-4 .. 1e-3; a
-// second set with J over +-20 % as well). Arg 0: the instruction set (0 baseline SSE2, 1
-// AVX2, 2 AVX-512; skipped when the CPU lacks it); arg 1: the point set. Counter
-// `ns_per_step_point` = CPU time / (steps x 8).
+// second set with J over +-20 % as well). Arg 0: the instruction set (0 scalar: the points one
+// after the other on the fast path, 1 baseline SSE2, 2 AVX2, 3 AVX-512; skipped when the CPU
+// lacks it); arg 1: the point set. Counter `ns_per_step_point` = CPU time / (steps x 8).
 void BM_BlmdBatchRun(benchmark::State& state) {
   const auto isa = static_cast<blmd::internal::BatchIsa>(state.range(0));
   const blmd::internal::BatchIsa chosen = blmd::internal::ChosenBatchIsa();
@@ -128,8 +128,8 @@ void BM_BlmdBatchRun(benchmark::State& state) {
                          benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_BlmdBatchRun)
-    ->ArgsProduct({{0, 1, 2}, {0}})
-    ->Args({2, 1})
+    ->ArgsProduct({{0, 1, 2, 3}, {0}})
+    ->Args({3, 1})
     ->Unit(benchmark::kMillisecond);
 
 // DC servo, configs/ganesh-noload.json: 24 V step, 1 s at dt = 10 µs (100 000 steps).
