@@ -7,6 +7,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -177,6 +178,38 @@ TEST(TraceCsv, ReadingInPiecesMatchesTheWholeText) {
 
 // ---------------------------------------------------------------------------------------
 // Trace CSV: every class of bad input and its exact message.
+
+// SHA-256: the FIPS 180-2 examples, and the x86 SHA-extension path against the portable
+// rounds on every length 0..300 and a 1 MB text, fed whole and in odd pieces.
+TEST(Sha256, KnownDigestsAndBothPathsAgree) {
+  EXPECT_EQ(Sha256Hex(""), "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
+  EXPECT_EQ(Sha256Hex("abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+  EXPECT_EQ(Sha256Hex("abcdbcdecdefdefgefghfghighijhijkijkljklmklmnlmnomnopnopq"),
+            "248d6a61d20638b8e5c026930c3e6039a33ce45964ff2167f6ecedd419db06c1");
+  Random random(42);
+  std::string text;
+  for (int k = 0; k < (1 << 20); ++k) text += static_cast<char>(random.Uniform() * 256.0);
+  auto digest = [&](std::size_t length, std::size_t piece) {
+    Sha256 sha;
+    for (std::size_t at = 0; at < length; at += piece) {
+      sha.Update(std::string_view(text).substr(at, std::min(piece, length - at)));
+    }
+    return sha.HexDigest();
+  };
+  const bool hardware = Sha256::UseHardware(true);
+  std::printf("[ measured ] SHA-256 with the x86 SHA extensions: %s\n", hardware ? "yes" : "no");
+  std::vector<std::string> fast;
+  for (std::size_t length = 0; length <= 300; ++length) fast.push_back(digest(length, 37));
+  fast.push_back(digest(text.size(), text.size()));
+  fast.push_back(digest(text.size(), 4093));
+  EXPECT_FALSE(Sha256::UseHardware(false));
+  for (std::size_t length = 0; length <= 300; ++length) {
+    EXPECT_EQ(digest(length, 37), fast[length]) << length;
+  }
+  EXPECT_EQ(digest(text.size(), 1000), fast[301]);
+  EXPECT_EQ(fast[301], fast[302]);
+  Sha256::UseHardware(true);
+}
 
 TEST(TraceCsvErrors, EmptyFileAndMissingRows) {
   EXPECT_EQ(CsvError(""), "trace.csv: empty file: expected a header row such as 't,u,i,w'");

@@ -14,6 +14,10 @@
 #include <mutex>
 #include <vector>
 
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
+
 #include "blmd/error.h"
 
 namespace blmd {
@@ -172,7 +176,82 @@ constexpr std::uint32_t kSha256Round[64] = {
     0xa2bfe8a1, 0xa81a664b, 0xc24b8b70, 0xc76c51a3, 0xd192e819, 0xd6990624, 0xf40e3585, 0x106aa070,
     0x19a4c116, 0x1e376c08, 0x2748774c, 0x34b0bcb5, 0x391c0cb3, 0x4ed8aa4a, 0x5b9cca4f, 0x682e6ff3,
     0x748f82ee, 0x78a5636f, 0x84c87814, 0x8cc70208, 0x90befffa, 0xa4506ceb, 0xbef9a3f7, 0xc67178f2};
+
+#if defined(__x86_64__)
+// The same compression with the x86 SHA extensions (Intel SHA-NI, AMD since Zen), for CPUs
+// that have them: about a tenth of the software rounds' instructions. The state is kept as
+// ABEF and CDGH, as SHA256RNDS2 wants it; each group of 4 rounds adds its 4 message words
+// and constants and runs two double rounds; message words 16..63 come from SHA256MSG1/MSG2.
+[[gnu::target("sha,sse4.1,ssse3")]] void Sha256BlocksShaNi(std::uint32_t* state,
+                                                           const unsigned char* data,
+                                                           std::size_t blocks) {
+  const __m128i byte_swap = _mm_set_epi64x(0x0c0d0e0f08090a0bLL, 0x0405060700010203LL);
+  __m128i dcba = _mm_loadu_si128(reinterpret_cast<const __m128i*>(state));
+  __m128i hgfe = _mm_loadu_si128(reinterpret_cast<const __m128i*>(state + 4));
+  const __m128i cdab = _mm_shuffle_epi32(dcba, 0xB1);
+  const __m128i efgh = _mm_shuffle_epi32(hgfe, 0x1B);
+  __m128i abef = _mm_alignr_epi8(cdab, efgh, 8);
+  __m128i cdgh = _mm_blend_epi16(efgh, cdab, 0xF0);
+  for (; blocks > 0; --blocks, data += 64) {
+    const __m128i abef_saved = abef, cdgh_saved = cdgh;
+    __m128i words[4];  // W[4g .. 4g+3] of the last four groups, by g mod 4
+    for (int g = 0; g < 16; ++g) {
+      __m128i& w = words[g % 4];
+      if (g < 4) {
+        w = _mm_shuffle_epi8(_mm_loadu_si128(reinterpret_cast<const __m128i*>(data + 16 * g)),
+                             byte_swap);
+      } else {
+        // W[t..t+3] (t = 4g) from W[t-16..t-13] (w), W[t-12..t-9], W[t-7..t-4], W[t-4..t-1].
+        const __m128i& w12 = words[(g + 1) % 4];
+        const __m128i& w8 = words[(g + 2) % 4];
+        const __m128i& w4 = words[(g + 3) % 4];
+        const __m128i sum = _mm_add_epi32(_mm_sha256msg1_epu32(w, w12), _mm_alignr_epi8(w4, w8, 4));
+        w = _mm_sha256msg2_epu32(sum, w4);
+      }
+      __m128i message =
+          _mm_add_epi32(w, _mm_loadu_si128(reinterpret_cast<const __m128i*>(kSha256Round + 4 * g)));
+      cdgh = _mm_sha256rnds2_epu32(cdgh, abef, message);
+      message = _mm_shuffle_epi32(message, 0x0E);
+      abef = _mm_sha256rnds2_epu32(abef, cdgh, message);
+    }
+    abef = _mm_add_epi32(abef, abef_saved);
+    cdgh = _mm_add_epi32(cdgh, cdgh_saved);
+  }
+  const __m128i feba = _mm_shuffle_epi32(abef, 0x1B);
+  const __m128i dchg = _mm_shuffle_epi32(cdgh, 0xB1);
+  dcba = _mm_blend_epi16(feba, dchg, 0xF0);
+  hgfe = _mm_alignr_epi8(dchg, feba, 8);
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(state), dcba);
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(state + 4), hgfe);
+}
+
+bool CpuHasShaNi() {
+  static const bool has = __builtin_cpu_supports("sha") && __builtin_cpu_supports("sse4.1");
+  return has;
+}
+#endif
+
+std::atomic<bool> g_sha_hardware_allowed{true};
 }  // namespace
+
+bool Sha256::UseHardware(bool allowed) {
+  g_sha_hardware_allowed = allowed;
+#if defined(__x86_64__)
+  return allowed && CpuHasShaNi();
+#else
+  return false;
+#endif
+}
+
+void Sha256::Blocks(const unsigned char* p, std::size_t blocks) {
+#if defined(__x86_64__)
+  if (g_sha_hardware_allowed.load(std::memory_order_relaxed) && CpuHasShaNi()) {
+    Sha256BlocksShaNi(state_.data(), p, blocks);
+    return;
+  }
+#endif
+  for (; blocks > 0; --blocks, p += 64) Block(p);
+}
 
 Sha256::Sha256()
     : state_{0x6a09e667, 0xbb67ae85, 0x3c6ef372, 0xa54ff53a,
@@ -229,10 +308,12 @@ void Sha256::Update(std::string_view bytes) {
     p += take;
     n -= take;
     if (buffered_ < 64) return;
-    Block(buffer_.data());
+    Blocks(buffer_.data(), 1);
     buffered_ = 0;
   }
-  for (; n >= 64; p += 64, n -= 64) Block(p);
+  Blocks(p, n / 64);
+  p += 64 * (n / 64);
+  n %= 64;
   std::memcpy(buffer_.data(), p, n);
   buffered_ = n;
 }

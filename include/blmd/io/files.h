@@ -35,9 +35,13 @@ class Sha256 {
   void Update(std::string_view bytes);
   // Lower-case hex digest of everything fed; the object is spent afterwards.
   std::string HexDigest();
+  // Whether the x86 SHA extensions may be used where the CPU has them (the default: yes;
+  // the digest is the same either way, tests/io_test.cc). Returns whether they are used now.
+  static bool UseHardware(bool allowed);
 
  private:
-  void Block(const unsigned char* block);
+  void Blocks(const unsigned char* blocks, std::size_t count);  // with the SHA extensions if any
+  void Block(const unsigned char* block);                       // portable
   std::array<std::uint32_t, 8> state_;
   std::array<unsigned char, 64> buffer_{};
   std::size_t buffered_ = 0;
