@@ -58,16 +58,32 @@ struct FastLeg {
   *off = off_time * inv_dt;
 }
 
+// The step loop, compiled for AVX2 (three-operand VEX encoding, no fused multiply-adds) and
+// for the x86-64 baseline, the CPU picking the clone at load time.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+[[gnu::target_clones("avx2", "default")]]
+#endif
+SimStatus SimulateFast(const BlmdDriveModel& model, const SimulationRequest& request, Trace* out);
+
 }  // namespace
 
 SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out) const {
   if (internal::ForcedEffectAngle(request.settings)) return SimulateReference(request, out);
+  return SimulateFast(*this, request, out);
+}
+
+namespace {
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+[[gnu::target_clones("avx2", "default")]]
+#endif
+SimStatus SimulateFast(const BlmdDriveModel& model, const SimulationRequest& request, Trace* out) {
   const ParameterSet& values = *request.parameters;
   const Experiment& experiment = *request.experiment;
   const std::vector<double>& times = *request.sample_times;
   const SimulationSettings& settings = request.settings;
   const double dt = settings.dt;
-  if (std::string error = Validate(values, settings); !error.empty()) {
+  if (std::string error = model.Validate(values, settings); !error.empty()) {
     return {SimStatus::Code::kInvalidParameters, error, 0.0};
   }
   if (times.empty()) return {SimStatus::Code::kInvalidParameters, "no sample times", 0.0};
@@ -296,4 +312,5 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
   return SimStatus::Ok();
 }
 
+}  // namespace
 }  // namespace blmd
