@@ -131,12 +131,17 @@ ResidualAnalysis AnalyseResidual(const FitProblem& problem, const std::vector<do
     d.input_ccf_band95 = d.acf_band95;
     if (u_var > 0.0 && e_var > 0.0) {
       const double norm = std::sqrt(u_var * e_var);
+      std::vector<double> e_centred(e.size()), u_centred(e.size());
+      for (std::size_t k = 0; k < e.size(); ++k) {
+        e_centred[k] = e[k] - d.mean;
+        u_centred[k] = u[k] - u_mean;
+      }
+      const long size = static_cast<long>(e.size());
       for (int lag = -lags; lag <= lags; ++lag) {
+        // Sum over the k with 0 <= k - lag < size, in increasing k.
         double s = 0.0;
-        for (std::size_t k = 0; k < e.size(); ++k) {
-          const long j = static_cast<long>(k) - lag;
-          if (j < 0 || j >= static_cast<long>(e.size())) continue;
-          s += (e[k] - d.mean) * (u[static_cast<std::size_t>(j)] - u_mean);
+        for (long k = std::max(0L, static_cast<long>(lag)); k < std::min(size, size + lag); ++k) {
+          s += e_centred[static_cast<std::size_t>(k)] * u_centred[static_cast<std::size_t>(k - lag)];
         }
         const double value = s / norm;
         d.input_ccf.push_back(value);
