@@ -229,7 +229,10 @@ Evaluation FitProblem::Evaluate(const std::vector<double>& values,
                                 std::vector<double>* residuals) const {
   Evaluation evaluation = Unevaluated(values, traces_.size(), observe_.size());
   if (!evaluation.reason.empty()) return evaluation;
-  if (residuals) residuals->clear();
+  if (residuals) {
+    residuals->clear();
+    residuals->reserve(num_residuals_);
+  }
   std::vector<double> sum_sq(observe_.size(), 0.0);
   Trace simulated;
   for (std::size_t k = 0; k < traces_.size(); ++k) {
@@ -248,7 +251,10 @@ std::vector<Evaluation> FitProblem::EvaluateBatch(
     const std::vector<std::vector<double>>& points,
     std::vector<std::vector<double>>* residuals) const {
   const std::size_t n = points.size();
-  if (residuals) residuals->assign(n, {});
+  if (residuals) {
+    residuals->assign(n, {});
+    for (auto& r : *residuals) r.reserve(num_residuals_);
+  }
   std::vector<Evaluation> evaluations;
   std::vector<std::size_t> pending;  // points still without a reason to stop
   for (std::size_t m = 0; m < n; ++m) {

@@ -16,9 +16,11 @@ namespace blmd::internal {
 
 class OutputSampler {
  public:
+  // Each column zero-filled in place (not copied from a zero-filled prototype).
   OutputSampler(const std::vector<double>& times, const std::vector<std::string>& names)
-      : times_(times), columns_(names.size(), std::vector<double>(times.size(), 0.0)),
-        names_(names) {}
+      : times_(times), columns_(names.size()), names_(names) {
+    for (auto& column : columns_) column.resize(times.size());
+  }
 
   bool done() const { return next_ >= times_.size(); }
   std::size_t next() const { return next_; }
