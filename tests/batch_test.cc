@@ -97,21 +97,6 @@ std::size_t Differences(const Trace& batch, const Trace& single) {
   return differences;
 }
 
-double WorstRelative(const Trace& fast, const Trace& reference) {
-  double worst = 0.0;
-  for (const auto& name : reference.names()) {
-    const auto& r = reference.Column(name);
-    const auto& f = fast.Column(name);
-    double scale = 0.0, deviation = 0.0;
-    for (std::size_t k = 0; k < r.size(); ++k) {
-      scale = std::max(scale, std::abs(r[k]));
-      deviation = std::max(deviation, std::abs(f[k] - r[k]));
-    }
-    worst = std::max(worst, scale > 0.0 ? deviation / scale : deviation);
-  }
-  return worst;
-}
-
 std::vector<BatchIsa> SupportedIsas() {
   std::vector<BatchIsa> isas;
   for (BatchIsa isa : {BatchIsa::kScalar, BatchIsa::kBaseline, BatchIsa::kAvx2, BatchIsa::kAvx512}) {
@@ -150,7 +135,8 @@ void ExpectLanesMatch(const std::string& label, const Config& config, int count 
   for (std::size_t k : {std::size_t{0}, points.size() - 1}) {
     Trace reference;
     ASSERT_TRUE(RunOne(config, points[k], times, &reference, true).ok());
-    const double worst = WorstRelative(runs.outs[k], reference);
+    std::string column;
+    const double worst = testing::WorstRelativeDeviation(runs.outs[k], reference, &column);
     std::printf("[ measured ] %s, point %zu: %.3g relative to the reference path\n",
                 label.c_str(), k, worst);
     EXPECT_LT(worst, 1e-9) << label << " point " << k;

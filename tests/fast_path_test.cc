@@ -45,28 +45,6 @@ Runs RunBoth(const Config& config) {
   return runs;
 }
 
-// Worst |fast - reference| / max |reference| over the columns; every column must exist in both.
-double WorstRelativeDeviation(const Trace& fast, const Trace& reference, std::string* where) {
-  EXPECT_EQ(fast.names(), reference.names());
-  EXPECT_EQ(fast.rows(), reference.rows());
-  double worst = 0.0;
-  for (const auto& name : reference.names()) {
-    const auto& r = reference.Column(name);
-    const auto& f = fast.Column(name);
-    double scale = 0.0, deviation = 0.0;
-    for (std::size_t k = 0; k < r.size(); ++k) {
-      scale = std::max(scale, std::abs(r[k]));
-      deviation = std::max(deviation, std::abs(f[k] - r[k]));
-    }
-    const double relative = scale > 0.0 ? deviation / scale : deviation;
-    if (relative >= worst) {
-      worst = relative;
-      *where = name;
-    }
-  }
-  return worst;
-}
-
 double g_worst_overall = 0.0;
 
 template <typename ModelT>
@@ -75,7 +53,7 @@ void ExpectFastMatchesReference(const std::string& label, const Config& config) 
   ASSERT_TRUE(runs.reference_status.ok()) << runs.reference_status.message;
   ASSERT_TRUE(runs.fast_status.ok()) << runs.fast_status.message;
   std::string where;
-  const double worst = WorstRelativeDeviation(runs.fast, runs.reference, &where);
+  const double worst = testing::WorstRelativeDeviation(runs.fast, runs.reference, &where);
   g_worst_overall = std::max(g_worst_overall, worst);
   std::printf("[ measured ] %s: worst relative deviation %.3g (column %s), %zu rows\n",
               label.c_str(), worst, where.c_str(), runs.reference.rows());
@@ -225,7 +203,7 @@ TEST(FastPath, BlmdReferenceIsLipschitzInTheParameters) {
   nudged.parameters.Set("J", config.parameters.Get("J") * (1.0 + 1e-12));
   const Runs a = RunBoth<BlmdDriveModel>(config), b = RunBoth<BlmdDriveModel>(nudged);
   std::string where;
-  const double worst = WorstRelativeDeviation(b.reference, a.reference, &where);
+  const double worst = testing::WorstRelativeDeviation(b.reference, a.reference, &where);
   std::printf("[ measured ] J * (1 + 1e-12): reference outputs move by %.3g (column %s)\n", worst,
               where.c_str());
   EXPECT_LT(worst, 1e-9);

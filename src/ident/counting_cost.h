@@ -17,12 +17,7 @@ class CountingCost {
 
   Evaluation Evaluate(const std::vector<double>& values, std::vector<double>* residuals = nullptr) {
     Evaluation evaluation = problem_.Evaluate(values, residuals);
-    ++evaluations_;
-    if (!evaluation.ok) {
-      ++failed_;
-      std::lock_guard<std::mutex> lock(mutex_);
-      ++reasons_[evaluation.reason];
-    }
+    Count(evaluation);
     return evaluation;
   }
   // Cost at scaled coordinates.
@@ -42,14 +37,7 @@ class CountingCost {
   std::vector<Evaluation> EvaluateBatch(const std::vector<std::vector<double>>& values,
                                         std::vector<std::vector<double>>* residuals = nullptr) {
     std::vector<Evaluation> evaluations = problem_.EvaluateBatch(values, residuals);
-    for (const Evaluation& evaluation : evaluations) {
-      ++evaluations_;
-      if (!evaluation.ok) {
-        ++failed_;
-        std::lock_guard<std::mutex> lock(mutex_);
-        ++reasons_[evaluation.reason];
-      }
-    }
+    for (const Evaluation& evaluation : evaluations) Count(evaluation);
     return evaluations;
   }
 
@@ -63,6 +51,15 @@ class CountingCost {
   long evaluations() const { return evaluations_.load(); }
 
  private:
+  void Count(const Evaluation& evaluation) {
+    ++evaluations_;
+    if (!evaluation.ok) {
+      ++failed_;
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++reasons_[evaluation.reason];
+    }
+  }
+
   const FitProblem& problem_;
   std::atomic<long> evaluations_{0};
   std::atomic<long> failed_{0};

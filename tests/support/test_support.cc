@@ -11,6 +11,11 @@
 #include <sstream>
 #include <stdexcept>
 
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
 namespace blmd::testing {
 
 std::string SourcePath(const std::string& relative) {
@@ -63,6 +68,27 @@ std::string TempDir::Write(const std::string& name, const std::string& content) 
 bool FileExists(const std::string& path) {
   struct stat info {};
   return stat(path.c_str(), &info) == 0;
+}
+
+double WorstRelativeDeviation(const Trace& fast, const Trace& reference, std::string* where) {
+  EXPECT_EQ(fast.names(), reference.names());
+  EXPECT_EQ(fast.rows(), reference.rows());
+  double worst = 0.0;
+  for (const auto& name : reference.names()) {
+    const auto& r = reference.Column(name);
+    const auto& f = fast.Column(name);
+    double scale = 0.0, deviation = 0.0;
+    for (std::size_t k = 0; k < r.size(); ++k) {
+      scale = std::max(scale, std::abs(r[k]));
+      deviation = std::max(deviation, std::abs(f[k] - r[k]));
+    }
+    const double relative = scale > 0.0 ? deviation / scale : deviation;
+    if (relative >= worst) {
+      worst = relative;
+      *where = name;
+    }
+  }
+  return worst;
 }
 
 }  // namespace blmd::testing

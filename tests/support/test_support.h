@@ -3,6 +3,8 @@
 
 #include <string>
 
+#include "blmd/sim/trace.h"
+
 namespace blmd::testing {
 
 std::string SourcePath(const std::string& relative);  // repository root + relative
@@ -33,5 +35,9 @@ class TempDir {
 };
 
 bool FileExists(const std::string& path);
+
+// Worst |fast - reference| / max |reference| over the columns (the column in *where); the two
+// traces must have the same columns and rows (checked with EXPECTs).
+double WorstRelativeDeviation(const Trace& fast, const Trace& reference, std::string* where);
 
 }  // namespace blmd::testing
