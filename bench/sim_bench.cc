@@ -124,8 +124,8 @@ void BM_BlmdBatchRun(benchmark::State& state) {
   blmd::internal::ForceBatchIsa(chosen);
   const double steps = std::round((times.back() - times.front()) / config.simulation.dt);
   state.counters["ns_per_step_point"] =
-      benchmark::Counter(steps * kPoints * 1e-9,
-                         benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+      benchmark::Counter(steps * kPoints * 1e-9, benchmark::Counter::kIsIterationInvariantRate |
+                                                     benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_BlmdBatchRun)
     ->ArgsProduct({{0, 1, 2, 3}, {0}})

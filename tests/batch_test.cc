@@ -14,8 +14,8 @@
 
 #include "blmd/ident/problem.h"
 #include "blmd/ident/surface.h"
-#include "blmd/io/config.h"
 #include "blmd/ident/trace_input.h"
+#include "blmd/io/config.h"
 #include "blmd/sim/blmd_drive.h"
 #include "sim/blmd_batch.h"
 #include "support/test_support.h"
@@ -72,8 +72,8 @@ BatchRuns RunBatch(const Config& config, const std::vector<ParameterSet>& points
   return runs;
 }
 
-SimStatus RunOne(const Config& config, const ParameterSet& values,
-                 const std::vector<double>& times, Trace* out, bool reference = false) {
+SimStatus RunOne(const Config& config, const ParameterSet& values, const std::vector<double>& times,
+                 Trace* out, bool reference = false) {
   SimulationRequest request;
   request.parameters = &values;
   request.effects = &config.effects;
@@ -99,7 +99,8 @@ std::size_t Differences(const Trace& batch, const Trace& single) {
 
 std::vector<BatchIsa> SupportedIsas() {
   std::vector<BatchIsa> isas;
-  for (BatchIsa isa : {BatchIsa::kScalar, BatchIsa::kBaseline, BatchIsa::kAvx2, BatchIsa::kAvx512}) {
+  for (BatchIsa isa :
+       {BatchIsa::kScalar, BatchIsa::kBaseline, BatchIsa::kAvx2, BatchIsa::kAvx512}) {
     if (internal::CpuSupports(isa)) isas.push_back(isa);
   }
   return isas;
@@ -121,8 +122,8 @@ void ExpectLanesMatch(const std::string& label, const Config& config, int count 
     const BatchRuns runs = RunBatch(config, points, times);
     std::size_t differences = 0;
     for (std::size_t k = 0; k < points.size(); ++k) {
-      ASSERT_TRUE(runs.statuses[k].ok()) << label << " point " << k << ": "
-                                         << runs.statuses[k].message;
+      ASSERT_TRUE(runs.statuses[k].ok())
+          << label << " point " << k << ": " << runs.statuses[k].message;
       differences += Differences(runs.outs[k], singles[k]);
     }
     std::printf("[ measured ] %s, %s: %zu of %zu values differ from Simulate()\n", label.c_str(),
@@ -137,15 +138,16 @@ void ExpectLanesMatch(const std::string& label, const Config& config, int count 
     ASSERT_TRUE(RunOne(config, points[k], times, &reference, true).ok());
     std::string column;
     const double worst = testing::WorstRelativeDeviation(runs.outs[k], reference, &column);
-    std::printf("[ measured ] %s, point %zu: %.3g relative to the reference path\n",
-                label.c_str(), k, worst);
+    std::printf("[ measured ] %s, point %zu: %.3g relative to the reference path\n", label.c_str(),
+                k, worst);
     EXPECT_LT(worst, 1e-9) << label << " point " << k;
   }
 }
 
 TEST(BlmdBatch, ChoosesTheWidestInstructionSet) {
   const BatchIsa widest = SupportedIsas().back();
-  std::printf("[ measured ] batched kernel: %s\n", internal::BatchIsaName(internal::ChosenBatchIsa()));
+  std::printf("[ measured ] batched kernel: %s\n",
+              internal::BatchIsaName(internal::ChosenBatchIsa()));
   if (std::getenv("BLMD_BATCH_ISA") == nullptr) {
     EXPECT_EQ(internal::ChosenBatchIsa(), widest);
   }
@@ -238,7 +240,8 @@ TEST(BlmdBatch, EvaluateBatchAndSurfaceEqualOnePointAtATime) {
   ASSERT_EQ(trace.trace.rows(), 2001u);
   const FitProblem problem(config, {trace}, {"i", "w"}, MakeFreeParameters(config, {"J", "B"}));
   std::vector<std::vector<double>> points;
-  for (int k = 0; k < 11; ++k) points.push_back({1.19e-3 * (0.8 + 0.04 * k), 5e-4 * (1.2 - 0.04 * k)});
+  for (int k = 0; k < 11; ++k)
+    points.push_back({1.19e-3 * (0.8 + 0.04 * k), 5e-4 * (1.2 - 0.04 * k)});
   points.push_back({std::nan(""), 5e-4});
   points.push_back({-1.0, 5e-4});
   const std::vector<Evaluation> batch = problem.EvaluateBatch(points);

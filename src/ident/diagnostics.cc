@@ -141,7 +141,8 @@ ResidualAnalysis AnalyseResidual(const FitProblem& problem, const std::vector<do
         // Sum over the k with 0 <= k - lag < size, in increasing k.
         double s = 0.0;
         for (long k = std::max(0L, static_cast<long>(lag)); k < std::min(size, size + lag); ++k) {
-          s += e_centred[static_cast<std::size_t>(k)] * u_centred[static_cast<std::size_t>(k - lag)];
+          s +=
+              e_centred[static_cast<std::size_t>(k)] * u_centred[static_cast<std::size_t>(k - lag)];
         }
         const double value = s / norm;
         d.input_ccf.push_back(value);

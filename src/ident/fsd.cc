@@ -202,7 +202,8 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
         const std::vector<double> costs = cost.ScaledCosts(
             std::vector<std::vector<double>>(probes.begin() + static_cast<std::ptrdiff_t>(begin),
                                              probes.begin() + static_cast<std::ptrdiff_t>(end)));
-        std::copy(costs.begin(), costs.end(), probe_cost.begin() + static_cast<std::ptrdiff_t>(begin));
+        std::copy(costs.begin(), costs.end(),
+                  probe_cost.begin() + static_cast<std::ptrdiff_t>(begin));
       });
     }
     for (auto& thread : pool) thread.join();

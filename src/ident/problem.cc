@@ -175,8 +175,8 @@ bool FitProblem::Compare(std::size_t k, const Trace& simulated, std::vector<doub
     const auto& sim = simulated.Column(observe_[c]);
     const auto& meas = measured.Column(observe_[c]);
     const double weight =
-        1.0 / std::sqrt(static_cast<double>(columns) *
-                        static_cast<double>(samples_per_column_[c]) * variance_[c]);
+        1.0 / std::sqrt(static_cast<double>(columns) * static_cast<double>(samples_per_column_[c]) *
+                        variance_[c]);
     double trace_sum = 0.0;
     for (std::size_t r = 0; r < meas.size(); ++r) {
       const double e = sim[r] - meas[r];
@@ -209,8 +209,7 @@ namespace {
 
 // An evaluation that has not succeeded yet: infinite cost; "" or the reason of a
 // non-finite parameter value.
-Evaluation Unevaluated(const std::vector<double>& values, std::size_t traces,
-                       std::size_t columns) {
+Evaluation Unevaluated(const std::vector<double>& values, std::size_t traces, std::size_t columns) {
   Evaluation evaluation;
   evaluation.cost = std::numeric_limits<double>::infinity();
   for (double v : values) {

@@ -40,18 +40,17 @@ constexpr int kResyncSteps = 256;  // as the fast path
 struct LaneJob {
   const Experiment* experiment = nullptr;
   const std::vector<double>* times = nullptr;
-  double dt = 0.0;                  // s
+  double dt = 0.0;  // s
   bool regula_falsi = true, diagnostics = false;
-  bool lead_lag = false;            // some lane has Tz or Tp != 0
-  double limit = 1e9;               // divergence limit
-  long steps_per_half_period = 0;   // Tpwm / (2 dt), the same for every lane
+  bool lead_lag = false;           // some lane has Tz or Tp != 0
+  double limit = 1e9;              // divergence limit
+  long steps_per_half_period = 0;  // Tpwm / (2 dt), the same for every lane
   int active = 0;
-  double Ud[kMaxLanes], Ke[kMaxLanes], p[kMaxLanes], Kc[kMaxLanes], Kf[kMaxLanes],
-      Kp[kMaxLanes], Ki_dt[kMaxLanes], Vtri[kMaxLanes], carrier_slope[kMaxLanes],
-      delta[kMaxLanes], TL[kMaxLanes], i0[kMaxLanes];
+  double Ud[kMaxLanes], Ke[kMaxLanes], p[kMaxLanes], Kc[kMaxLanes], Kf[kMaxLanes], Kp[kMaxLanes],
+      Ki_dt[kMaxLanes], Vtri[kMaxLanes], carrier_slope[kMaxLanes], delta[kMaxLanes], TL[kMaxLanes],
+      i0[kMaxLanes];
   double current_gain[kMaxLanes], speed_gain[kMaxLanes], lag_norm[kMaxLanes], Tp_dt[kMaxLanes],
-      lead_gain[kMaxLanes], Tz_dt[kMaxLanes], dt_Ls[kMaxLanes], Ls_dt[kMaxLanes],
-      dt_J[kMaxLanes];
+      lead_gain[kMaxLanes], Tz_dt[kMaxLanes], dt_Ls[kMaxLanes], Ls_dt[kMaxLanes], dt_J[kMaxLanes];
   double lane_lead_lag[kMaxLanes];  // 1.0: this lane's compensator has a lead-lag part
   internal::OutputSampler* samplers[kMaxLanes] = {};
   SimStatus* statuses[kMaxLanes] = {};
@@ -265,7 +264,8 @@ void BlmdDriveModel::SimulateBatch(const SimulationRequest* requests, std::size_
       job.Vtri[l] = Vtri;
       job.carrier_slope[l] = 2.0 * Vtri / static_cast<double>(steps_per_half_period);
       job.delta[l] = values.Get("delta");
-      job.TL[l] = ShaftEffects::From(values, *requests[k].effects, settings.friction_smoothing_w).TL;
+      job.TL[l] =
+          ShaftEffects::From(values, *requests[k].effects, settings.friction_smoothing_w).TL;
       job.i0[l] = DriveEffects::From(values, *requests[k].effects).i0;
       job.current_gain[l] = 1.0 / (1.0 + dt * Rs / Ls);
       job.speed_gain[l] = 1.0 / (1.0 + dt * B / J);

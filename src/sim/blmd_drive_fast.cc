@@ -63,7 +63,8 @@ struct FastLeg {
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 [[gnu::target_clones("avx2", "default")]]
 #endif
-SimStatus SimulateFast(const BlmdDriveModel& model, const SimulationRequest& request, Trace* out);
+SimStatus
+SimulateFast(const BlmdDriveModel& model, const SimulationRequest& request, Trace* out);
 
 }  // namespace
 
@@ -77,7 +78,8 @@ namespace {
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 [[gnu::target_clones("avx2", "default")]]
 #endif
-SimStatus SimulateFast(const BlmdDriveModel& model, const SimulationRequest& request, Trace* out) {
+SimStatus
+SimulateFast(const BlmdDriveModel& model, const SimulationRequest& request, Trace* out) {
   const ParameterSet& values = *request.parameters;
   const Experiment& experiment = *request.experiment;
   const std::vector<double>& times = *request.sample_times;

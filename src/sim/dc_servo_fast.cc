@@ -189,9 +189,8 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
   const double block_trace = a00 + a11, block_det = a00 * a11 - a01 * a10;
   bool coulomb_macro = shaft.Tc > 0.0 && shaft.Ts == 0.0 && shaft.smoothing_w <= 0.0 &&
                        shaft.Tcog == 0.0 && shaft.Cd == 0.0 && shaft.dB == 0.0 &&
-                       drive.Vdt == 0.0 && !closed_loop && theta_decoupled &&
-                       block_trace > 0.0 && block_det > 0.0 &&
-                       block_trace * block_trace - 4.0 * block_det >= 0.0;
+                       drive.Vdt == 0.0 && !closed_loop && theta_decoupled && block_trace > 0.0 &&
+                       block_det > 0.0 && block_trace * block_trace - 4.0 * block_det >= 0.0;
   const long total_steps = std::lround((times.back() - t_start) / dt) + 1;
   std::optional<MacroSteps> macro;
   if (linear || coulomb_macro) macro.emplace(Ad, Bd, total_steps);
@@ -262,12 +261,11 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
           // For below: macro_state is already computed).
           const double w_first = a10 * i + a11 * w + a12 * theta + (b10 * u + b11 * load);
           const MacroStep& but_one = macro->For(n - 1);
-          const double w_before_last = but_one.P[3] * i + but_one.P[4] * w +
-                                       but_one.P[5] * theta +
+          const double w_before_last = but_one.P[3] * i + but_one.P[4] * w + but_one.P[5] * theta +
                                        (but_one.G[2] * u + but_one.G[3] * load);
           const double sign = w > 0.0 ? 1.0 : -1.0, w_last = macro_state[1];
-          keeps_sign = sign * w_first > 0.0 && sign * w_before_last > 0.0 &&
-                       sign * w_last > 0.0 && (w_first - w) * (w_last - w_before_last) >= 0.0;
+          keeps_sign = sign * w_first > 0.0 && sign * w_before_last > 0.0 && sign * w_last > 0.0 &&
+                       (w_first - w) * (w_last - w_before_last) >= 0.0;
         }
         if (!keeps_sign) {
           // w may reach zero inside the stretch: single steps, which stop or stick it.

@@ -85,8 +85,9 @@ class FitProblem {
   // point's residual vector) equal to Evaluate's: every trace is simulated for all the points
   // together through Model::SimulateBatch (the blmd model runs up to 8 points in SIMD lanes).
   // Surfaces, FSD's probes and gradients and Ceres's finite-difference Jacobians use it.
-  std::vector<Evaluation> EvaluateBatch(const std::vector<std::vector<double>>& points,
-                                        std::vector<std::vector<double>>* residuals = nullptr) const;
+  std::vector<Evaluation> EvaluateBatch(
+      const std::vector<std::vector<double>>& points,
+      std::vector<std::vector<double>>* residuals = nullptr) const;
 
   // Position-dependent effects (cogging) see each trace's measured angle instead of the
   // simulated one (SimulationSettings::effect_angle; MeasuredAngle). Returns false, and
