@@ -1,5 +1,5 @@
-// The blmd model's batched path (BlmdDriveModel::SimulateBatch, docs/performance.md §5):
-// up to kBatchLanes parameter points of one experiment simulated together, one point per
+// The blmd model's batched path (BlmdDriveModel::SimulateBatch, docs/performance.md §4a):
+// up to kMaxBatchLanes parameter points of one experiment simulated together, one point per
 // SIMD lane. The step is the fast path's (blmd_drive_fast.cc) written without branches per
 // lane: every leg's edge and blanking arithmetic is computed in every lane and selected by
 // masks, so the lanes, whose PWM edges fall at different steps, stay in lock-step. What is
@@ -9,9 +9,9 @@
 // the same order (no fused multiply-adds: this file is built with -ffp-contract=off), so a
 // lane's outputs equal Simulate()'s bit for bit (tests/batch_test.cc).
 //
-// The lanes are GCC/Clang vector extensions (8 doubles). The kernel is compiled three times
-// through function target attributes, for AVX-512, AVX2 and the x86-64 baseline (SSE2), and
-// the widest the CPU supports runs (src/sim/blmd_batch.h).
+// The lanes are GCC/Clang vector extensions. The kernel (blmd_batch_kernel.inc) is compiled
+// three times under function target attributes, for AVX-512 (8 lanes), AVX2 (4) and the
+// x86-64 baseline, SSE2 (2), and the widest the CPU supports runs (src/sim/blmd_batch.h).
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
