@@ -194,6 +194,9 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
   const long total_steps = std::lround((times.back() - t_start) / dt) + 1;
   std::optional<MacroSteps> macro;
   if (linear || coulomb_macro) macro.emplace(Ad, Bd, total_steps);
+  // After a stretch whose sign proof failed, single steps up to its end (one attempt per
+  // stretch: a failed proof costs three small matrix products, not three per step).
+  long single_steps_until = 0;
   // The first step index s whose time t_start + s dt, plus offset, reaches threshold, by the
   // loop's own arithmetic (so the macro steps stop exactly where single steps would act).
   const double inv_dt = 1.0 / dt;
@@ -231,7 +234,7 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
     bool macro_taken = false;
     double macro_state[3];  // i, w, theta at the macro step's end
     advance = 1;
-    if ((linear || (coulomb_macro && w != 0.0)) && !open) {
+    if ((linear || (coulomb_macro && w != 0.0 && step >= single_steps_until)) && !open) {
       if (record_at != record_step_for) {
         record_step = first_step(record_at, 0.0) - 1;  // the recording step's index
         record_step_for = record_at;
@@ -269,6 +272,7 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
         }
         if (!keeps_sign) {
           // w may reach zero inside the stretch: single steps, which stop or stick it.
+          single_steps_until = step + n;
         } else if (internal::AllFinite(macro_state, 3, limit) &&
                    std::abs(macro_state[0] + drive.i0) <= limit) {
           macro_taken = true;
