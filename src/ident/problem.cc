@@ -131,17 +131,20 @@ ParameterSet FitProblem::Parameters(const std::vector<double>& values) const {
   return parameters;
 }
 
-SimStatus FitProblem::Simulate(std::size_t k, const std::vector<double>& values,
-                               Trace* out) const {
-  const ParameterSet parameters = Parameters(values);
+SimulationRequest FitProblem::Request(std::size_t k, const ParameterSet* parameters) const {
   SimulationRequest request;
-  request.parameters = &parameters;
+  request.parameters = parameters;
   request.effects = &config_.effects;
   request.experiment = &experiments_[k];
   request.settings = config_.simulation;
   request.sample_times = &traces_[k].trace.Column("t");
   if (!effect_angles_.empty()) request.settings.effect_angle = &effect_angles_[k];
-  return config_.model->Simulate(request, out);
+  return request;
+}
+
+SimStatus FitProblem::Simulate(std::size_t k, const std::vector<double>& values, Trace* out) const {
+  const ParameterSet parameters = Parameters(values);
+  return config_.model->Simulate(Request(k, &parameters), out);
 }
 
 bool FitProblem::ForceEffectAngle() {
@@ -266,16 +269,10 @@ std::vector<Evaluation> FitProblem::EvaluateBatch(
   std::vector<Trace> simulated;
   std::vector<SimStatus> statuses;
   for (std::size_t k = 0; k < traces_.size() && !pending.empty(); ++k) {
-    requests.assign(pending.size(), SimulationRequest{});
-    for (std::size_t q = 0; q < pending.size(); ++q) {
-      if (k == 0) parameters[pending[q]] = Parameters(points[pending[q]]);
-      SimulationRequest& request = requests[q];
-      request.parameters = &parameters[pending[q]];
-      request.effects = &config_.effects;
-      request.experiment = &experiments_[k];
-      request.settings = config_.simulation;
-      request.sample_times = &traces_[k].trace.Column("t");
-      if (!effect_angles_.empty()) request.settings.effect_angle = &effect_angles_[k];
+    requests.clear();
+    for (std::size_t m : pending) {
+      if (k == 0) parameters[m] = Parameters(points[m]);
+      requests.push_back(Request(k, &parameters[m]));
     }
     simulated.assign(pending.size(), Trace{});
     statuses.assign(pending.size(), SimStatus{});

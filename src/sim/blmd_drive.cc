@@ -121,11 +121,7 @@ SimStatus BlmdDriveModel::SimulateReference(const SimulationRequest& request, Tr
                      carrier_slope * static_cast<double>(index_in_period - steps_per_half_period);
   };
 
-  std::vector<std::string> names = {"u", "i", "ib", "ic", "w", "theta"};
-  if (settings.diagnostics) {
-    for (const char* extra : {"va", "vb", "vc", "Te", "vsg"}) names.emplace_back(extra);
-  }
-  internal::OutputSampler sampler(times, names);
+  internal::OutputSampler sampler(times, internal::BlmdOutputNames(settings.diagnostics));
   InputCursor input(experiment.input);
 
   const double t_start = times.front();

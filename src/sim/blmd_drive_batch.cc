@@ -89,7 +89,9 @@ namespace baseline {
 #undef BLMD_BATCH_ATTRIBUTES
 }  // namespace baseline
 
-internal::BatchIsa& ForcedIsa() {
+// The instruction set in use: BLMD_BATCH_ISA if set and supported, else the widest; tests
+// and benchmarks change it through ForceBatchIsa.
+internal::BatchIsa& IsaInUse() {
   static internal::BatchIsa isa = [] {
     const char* name = std::getenv("BLMD_BATCH_ISA");
     const std::string_view wanted = name ? name : "";
@@ -177,11 +179,11 @@ bool CpuSupports(BatchIsa isa) {
 #endif
 }
 
-BatchIsa ChosenBatchIsa() { return ForcedIsa(); }
+BatchIsa ChosenBatchIsa() { return IsaInUse(); }
 
 bool ForceBatchIsa(BatchIsa isa) {
   if (!CpuSupports(isa)) return false;
-  ForcedIsa() = isa;
+  IsaInUse() = isa;
   return true;
 }
 
@@ -200,33 +202,40 @@ void BlmdDriveModel::SimulateBatch(const SimulationRequest* requests, std::size_
   const double dt = settings.dt;
   // Points that run in lanes: valid, a plain shaft, the carrier period of the first one.
   std::vector<std::size_t> lanes;
-  long steps_per_half_period = -1;
+  std::vector<internal::BlmdStepConstants> constants;
   for (std::size_t k = 0; k < count; ++k) {
     const ParameterSet& values = *requests[k].parameters;
-    const ShaftEffects shaft =
-        ShaftEffects::From(values, *requests[k].effects, settings.friction_smoothing_w);
-    const long half = std::lround(0.5 * values.Get("Tpwm") / dt);
-    if (!Validate(values, settings).empty() || !internal::PlainShaft(shaft) ||
-        (steps_per_half_period >= 0 && half != steps_per_half_period)) {
-      statuses[k] = Simulate(requests[k], &outs[k]);  // its error, or the scalar fast path
-      continue;
+    if (Validate(values, settings).empty()) {
+      const auto point = internal::BlmdStepConstants::From(values, *requests[k].effects, settings);
+      if (internal::PlainShaft(point.shaft) &&
+          (constants.empty() ||
+           point.steps_per_half_period == constants.front().steps_per_half_period)) {
+        lanes.push_back(k);
+        constants.push_back(point);
+        continue;
+      }
     }
-    steps_per_half_period = half;
-    lanes.push_back(k);
+    statuses[k] = Simulate(requests[k], &outs[k]);  // its error, or the scalar fast path
+  }
+  const std::vector<std::string> names = internal::BlmdOutputNames(settings.diagnostics);
+  std::vector<double> u_column(requests[0].sample_times->size());  // the same for every lane
+  InputCursor u_cursor(requests[0].experiment->input);
+  for (std::size_t r = 0; r < u_column.size(); ++r) {
+    u_column[r] = u_cursor.At((*requests[0].sample_times)[r] + 0.5 * dt);
   }
   const internal::BatchIsa chosen = internal::ChosenBatchIsa();
   for (std::size_t first = 0, width = 0; first < lanes.size(); first += width) {
     // The widest kernel for full chunks; for a last, partial one the narrowest that holds it
     // (a step of all 2 SSE2 lanes costs about as much as one of 4 AVX2 lanes and less than one
     // of 8 AVX-512 lanes; one point alone runs quickest on the scalar fast path:
-    // docs/performance.md §5). Every kernel gives the same bits.
-    internal::BatchIsa isa = chosen;
+    // docs/performance.md §4a). Every kernel gives the same bits.
     const std::size_t remaining = lanes.size() - first;
-    if (remaining == 1) {  // alone, the scalar fast path is the quickest
+    if (remaining == 1) {
       statuses[lanes[first]] = Simulate(requests[lanes[first]], &outs[lanes[first]]);
       width = 1;
       continue;
     }
+    internal::BatchIsa isa = chosen;
     if (remaining <= 2) {
       isa = internal::BatchIsa::kBaseline;
     } else if (remaining <= 4 && chosen == internal::BatchIsa::kAvx512) {
@@ -240,57 +249,44 @@ void BlmdDriveModel::SimulateBatch(const SimulationRequest* requests, std::size_
     job.regula_falsi = settings.regula_falsi;
     job.diagnostics = settings.diagnostics;
     job.limit = settings.divergence_limit;
-    job.steps_per_half_period = steps_per_half_period;
-    job.active = static_cast<int>(std::min(width, lanes.size() - first));
-    std::vector<std::string> names = {"u", "i", "ib", "ic", "w", "theta"};
-    if (settings.diagnostics) {
-      for (const char* extra : {"va", "vb", "vc", "Te", "vsg"}) names.emplace_back(extra);
-    }
+    job.steps_per_half_period = constants.front().steps_per_half_period;
+    job.active = static_cast<int>(std::min(width, remaining));
     std::vector<internal::OutputSampler> samplers;
     samplers.reserve(width);
     for (int l = 0; l < kMaxLanes; ++l) {
-      const std::size_t k = lanes[first + static_cast<std::size_t>(std::min(l, job.active - 1))];
-      const ParameterSet& values = *requests[k].parameters;
-      const double Rs = values.Get("Rs"), Ls = values.Get("Ls"), Tz = values.Get("Tz"),
-                   Tp = values.Get("Tp"), J = values.Get("J"), B = values.Get("B"),
-                   Vtri = values.Get("Vtri");
-      job.Ud[l] = values.Get("Ud");
-      job.Ke[l] = values.Get("Ke");
-      job.p[l] = values.Get("p");
-      job.Kc[l] = values.Get("Kc");
-      job.Kf[l] = values.Get("Kf");
-      job.Kp[l] = values.Get("Kp");
-      job.Ki_dt[l] = values.Get("Ki") * dt;
-      job.Vtri[l] = Vtri;
-      job.carrier_slope[l] = 2.0 * Vtri / static_cast<double>(steps_per_half_period);
-      job.delta[l] = values.Get("delta");
-      job.TL[l] =
-          ShaftEffects::From(values, *requests[k].effects, settings.friction_smoothing_w).TL;
-      job.i0[l] = DriveEffects::From(values, *requests[k].effects).i0;
-      job.current_gain[l] = 1.0 / (1.0 + dt * Rs / Ls);
-      job.speed_gain[l] = 1.0 / (1.0 + dt * B / J);
-      job.lag_norm[l] = 1.0 / (1.0 + Tp / dt);
-      job.Tp_dt[l] = Tp / dt;
-      job.lead_gain[l] = 1.0 + Tz / dt;
-      job.Tz_dt[l] = Tz / dt;
-      job.dt_Ls[l] = dt / Ls;
-      job.Ls_dt[l] = Ls / dt;
-      job.dt_J[l] = dt / J;
-      job.lane_lead_lag[l] = (Tz != 0.0 || Tp != 0.0) ? 1.0 : 0.0;
-      job.lead_lag = job.lead_lag || job.lane_lead_lag[l] > 0.0;
+      const std::size_t q = first + static_cast<std::size_t>(std::min(l, job.active - 1));
+      const internal::BlmdStepConstants& c = constants[q];
+      job.Ud[l] = c.Ud;
+      job.Ke[l] = c.Ke;
+      job.p[l] = c.p;
+      job.Kc[l] = c.Kc;
+      job.Kf[l] = c.Kf;
+      job.Kp[l] = c.Kp;
+      job.Ki_dt[l] = c.Ki_dt;
+      job.Vtri[l] = c.Vtri;
+      job.carrier_slope[l] = c.carrier_slope;
+      job.delta[l] = c.delta;
+      job.TL[l] = c.shaft.TL;
+      job.i0[l] = c.drive.i0;
+      job.current_gain[l] = c.current_gain;
+      job.speed_gain[l] = c.speed_gain;
+      job.lag_norm[l] = c.lag_norm;
+      job.Tp_dt[l] = c.Tp_dt;
+      job.lead_gain[l] = c.lead_gain;
+      job.Tz_dt[l] = c.Tz_dt;
+      job.dt_Ls[l] = c.dt_Ls;
+      job.Ls_dt[l] = c.Ls_dt;
+      job.dt_J[l] = c.dt_J;
+      job.lane_lead_lag[l] = c.lead_lag ? 1.0 : 0.0;
+      job.lead_lag = job.lead_lag || c.lead_lag;
       if (l < job.active) {
         samplers.emplace_back(*job.times, names);
         job.samplers[l] = &samplers.back();
-        job.statuses[l] = &statuses[k];
-        statuses[k] = SimStatus::Ok();
+        job.statuses[l] = &statuses[lanes[q]];
+        statuses[lanes[q]] = SimStatus::Ok();
       }
     }
     Dispatch(isa, job);
-    std::vector<double> u_column(job.times->size());
-    InputCursor u_cursor(job.experiment->input);
-    for (std::size_t r = 0; r < u_column.size(); ++r) {
-      u_column[r] = u_cursor.At((*job.times)[r] + 0.5 * dt);
-    }
     for (int l = 0; l < job.active; ++l) {
       const std::size_t k = lanes[first + static_cast<std::size_t>(l)];
       if (!statuses[k].ok()) continue;

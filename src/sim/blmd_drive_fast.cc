@@ -64,21 +64,6 @@ struct FastLeg {
 [[gnu::target_clones("avx2", "default")]]
 #endif
 SimStatus
-SimulateFast(const BlmdDriveModel& model, const SimulationRequest& request, Trace* out);
-
-}  // namespace
-
-SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out) const {
-  if (internal::ForcedEffectAngle(request.settings)) return SimulateReference(request, out);
-  return SimulateFast(*this, request, out);
-}
-
-namespace {
-
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-[[gnu::target_clones("avx2", "default")]]
-#endif
-SimStatus
 SimulateFast(const BlmdDriveModel& model, const SimulationRequest& request, Trace* out) {
   const ParameterSet& values = *request.parameters;
   const Experiment& experiment = *request.experiment;
@@ -90,30 +75,24 @@ SimulateFast(const BlmdDriveModel& model, const SimulationRequest& request, Trac
   }
   if (times.empty()) return {SimStatus::Code::kInvalidParameters, "no sample times", 0.0};
 
-  const double Ud = values.Get("Ud"), Rs = values.Get("Rs"), Ls = values.Get("Ls"),
-               Ke = values.Get("Ke"), p = values.Get("p"), Kc = values.Get("Kc"),
-               Kf = values.Get("Kf"), Kp = values.Get("Kp"), Ki = values.Get("Ki"),
-               Tz = values.Get("Tz"), Tp = values.Get("Tp"), Vtri = values.Get("Vtri"),
-               Tpwm = values.Get("Tpwm"), delta = values.Get("delta"), J = values.Get("J"),
-               B = values.Get("B");
-  const ShaftEffects shaft =
-      ShaftEffects::From(values, *request.effects, settings.friction_smoothing_w);
-  const DriveEffects drive = DriveEffects::From(values, *request.effects);
+  const internal::BlmdStepConstants k =
+      internal::BlmdStepConstants::From(values, *request.effects, settings);
+  const double Ud = k.Ud, Ke = k.Ke, p = k.p, Kc = k.Kc, Kf = k.Kf, Kp = k.Kp, Vtri = k.Vtri,
+               delta = k.delta;
+  const ShaftEffects shaft = k.shaft;
+  const DriveEffects drive = k.drive;
   const bool regula_falsi = settings.regula_falsi, diagnostics = settings.diagnostics;
   const double limit = settings.divergence_limit;
 
-  const double current_gain = 1.0 / (1.0 + dt * Rs / Ls);
-  const double speed_gain = 1.0 / (1.0 + dt * B / J);
-  const double lag_norm = 1.0 / (1.0 + Tp / dt);
-  const double Tp_dt = Tp / dt, lead_gain = 1.0 + Tz / dt, Tz_dt = Tz / dt;
-  const double Ki_dt = Ki * dt;
-  const bool lead_lag = Tz != 0.0 || Tp != 0.0;
-  const double dt_Ls = dt / Ls, Ls_dt = Ls / dt, dt_J = dt / J, inv_dt = 1.0 / dt;
+  const double current_gain = k.current_gain, speed_gain = k.speed_gain, lag_norm = k.lag_norm;
+  const double Tp_dt = k.Tp_dt, lead_gain = k.lead_gain, Tz_dt = k.Tz_dt, Ki_dt = k.Ki_dt;
+  const bool lead_lag = k.lead_lag;
+  const double dt_Ls = k.dt_Ls, Ls_dt = k.Ls_dt, dt_J = k.dt_J, inv_dt = 1.0 / dt;
   // No friction, drag or cogging: the shaft's step is the drive torque less B w and TL.
   const bool plain_shaft = internal::PlainShaft(shaft);
 
-  const long steps_per_half_period = std::lround(0.5 * Tpwm / dt);
-  const double carrier_slope = 2.0 * Vtri / static_cast<double>(steps_per_half_period);
+  const long steps_per_half_period = k.steps_per_half_period;
+  const double carrier_slope = k.carrier_slope;
   auto carrier_at = [&](long index_in_period) {
     return index_in_period <= steps_per_half_period
                ? -Vtri + carrier_slope * static_cast<double>(index_in_period)
@@ -121,11 +100,7 @@ SimulateFast(const BlmdDriveModel& model, const SimulationRequest& request, Trac
                      carrier_slope * static_cast<double>(index_in_period - steps_per_half_period);
   };
 
-  std::vector<std::string> names = {"u", "i", "ib", "ic", "w", "theta"};
-  if (diagnostics) {
-    for (const char* extra : {"va", "vb", "vc", "Te", "vsg"}) names.emplace_back(extra);
-  }
-  internal::OutputSampler sampler(times, names);
+  internal::OutputSampler sampler(times, internal::BlmdOutputNames(diagnostics));
   InputCursor input(experiment.input);
 
   const double t_start = times.front();
@@ -315,4 +290,10 @@ SimulateFast(const BlmdDriveModel& model, const SimulationRequest& request, Trac
 }
 
 }  // namespace
+
+SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out) const {
+  if (internal::ForcedEffectAngle(request.settings)) return SimulateReference(request, out);
+  return SimulateFast(*this, request, out);
+}
+
 }  // namespace blmd

@@ -3,8 +3,75 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "blmd/sim/effects.h"
+#include "blmd/sim/experiment.h"
+#include "blmd/sim/parameters.h"
 
 namespace blmd::internal {
+
+// The output columns of a blmd run (blmd_drive.h): t is added by the sampler.
+inline std::vector<std::string> BlmdOutputNames(bool diagnostics) {
+  std::vector<std::string> names = {"u", "i", "ib", "ic", "w", "theta"};
+  if (diagnostics) {
+    for (const char* extra : {"va", "vb", "vc", "Te", "vsg"}) names.emplace_back(extra);
+  }
+  return names;
+}
+
+// A run's constants of the fast step (backward-Euler gains, carrier), as the scalar fast
+// path (blmd_drive_fast.cc) and the batched kernel (blmd_batch_kernel.inc) both use them:
+// one computation, so the two round alike and the lanes equal Simulate() bit for bit.
+struct BlmdStepConstants {
+  double Ud, Ke, p, Kc, Kf, Kp, Vtri, delta;  // as the parameters (V, V·s/rad, -, ...)
+  double current_gain;             // 1 / (1 + dt Rs/Ls): i+ = (i + dt/Ls (v - e)) * current_gain
+  double speed_gain;               // 1 / (1 + dt B/J)
+  double lag_norm;                 // 1 / (1 + Tp/dt), the lead-lag's
+  double Tp_dt, lead_gain, Tz_dt;  // Tp/dt, 1 + Tz/dt, Tz/dt
+  double Ki_dt;                    // V/V, Ki dt
+  double dt_Ls, Ls_dt, dt_J;
+  bool lead_lag;               // Tz or Tp != 0
+  long steps_per_half_period;  // Tpwm / (2 dt), whole (Validate)
+  double carrier_slope;        // V per step
+  ShaftEffects shaft;
+  DriveEffects drive;
+
+  static BlmdStepConstants From(const ParameterSet& values, const std::vector<std::string>& effects,
+                                const SimulationSettings& settings) {
+    const double dt = settings.dt;
+    const double Rs = values.Get("Rs"), Ls = values.Get("Ls"), Ki = values.Get("Ki"),
+                 Tz = values.Get("Tz"), Tp = values.Get("Tp"), J = values.Get("J"),
+                 B = values.Get("B");
+    BlmdStepConstants k;
+    k.Ud = values.Get("Ud");
+    k.Ke = values.Get("Ke");
+    k.p = values.Get("p");
+    k.Kc = values.Get("Kc");
+    k.Kf = values.Get("Kf");
+    k.Kp = values.Get("Kp");
+    k.Vtri = values.Get("Vtri");
+    k.delta = values.Get("delta");
+    k.current_gain = 1.0 / (1.0 + dt * Rs / Ls);
+    k.speed_gain = 1.0 / (1.0 + dt * B / J);
+    k.lag_norm = 1.0 / (1.0 + Tp / dt);
+    k.Tp_dt = Tp / dt;
+    k.lead_gain = 1.0 + Tz / dt;
+    k.Tz_dt = Tz / dt;
+    k.Ki_dt = Ki * dt;
+    k.dt_Ls = dt / Ls;
+    k.Ls_dt = Ls / dt;
+    k.dt_J = dt / J;
+    k.lead_lag = Tz != 0.0 || Tp != 0.0;
+    k.steps_per_half_period = std::lround(0.5 * values.Get("Tpwm") / dt);
+    k.carrier_slope = 2.0 * k.Vtri / static_cast<double>(k.steps_per_half_period);
+    k.shaft = ShaftEffects::From(values, effects, settings.friction_smoothing_w);
+    k.drive = DriveEffects::From(values, effects);
+    return k;
+  }
+};
 
 // Time within [a, b] during which a switch commanded on since t_edge conducts, given the
 // turn-on delay delta.

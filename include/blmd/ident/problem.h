@@ -99,6 +99,8 @@ class FitProblem {
   SimStatus Simulate(std::size_t k, const std::vector<double>& values, Trace* out) const;
 
  private:
+  // The request that simulates trace k with `parameters` (borrowed).
+  SimulationRequest Request(std::size_t k, const ParameterSet* parameters) const;
   // Adds trace k's squared errors per observed column to *sum_sq and its per-trace MSEs to
   // *evaluation (weighted residuals to *residuals if given); false, with the reason in
   // *evaluation, when a simulated column is not finite.
