@@ -52,7 +52,7 @@ ResidualAnalysis AnalyseResidual(const FitProblem& problem, const std::vector<do
   std::vector<double> rates;                                  // samples per second per trace
   for (std::size_t k = 0; k < problem.traces().size(); ++k) {
     {
-      const auto& time = problem.traces()[k].trace.Column("t");
+      const auto& time = problem.measured(k).Column("t");
       const std::size_t first = w.size();
       segments.emplace_back(first, first + time.size());
       const double span = time.back() - time.front();
@@ -64,7 +64,7 @@ ResidualAnalysis AnalyseResidual(const FitProblem& problem, const std::vector<do
       analysis.reason = status.message;
       return analysis;
     }
-    const Trace& measured = problem.traces()[k].trace;
+    const Trace& measured = problem.measured(k);
     for (std::size_t c = 0; c < columns; ++c) {
       const auto& sim = simulated.Column(observe[c]);
       const auto& meas = measured.Column(observe[c]);

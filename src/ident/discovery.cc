@@ -745,7 +745,7 @@ double Bic(const FitProblem& problem, const Evaluation& evaluation, std::size_t 
   std::size_t total = 0;
   for (std::size_t c = 0; c < problem.observe().size(); ++c) {
     std::size_t n = 0;
-    for (const auto& t : problem.traces()) n += t.trace.rows();
+    for (std::size_t t = 0; t < problem.traces().size(); ++t) n += problem.measured(t).rows();
     total += n;
     bic += static_cast<double>(n) * std::log(std::max(evaluation.mse[c], 1e-300));
   }

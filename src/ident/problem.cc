@@ -24,7 +24,21 @@ FitProblem::FitProblem(Config config, std::vector<FitTrace> traces,
     experiment.coast_off_time = -1.0;
     experiments_.push_back(std::move(experiment));
   }
+  if (config_.identification.error == "equation") {
+    if (config_.model->name() != "rigid_load") {
+      throw InputError("the equation error needs model rigid_load (its input is the drive "
+                       "torque); model " + std::string(config_.model->name()) +
+                       "'s drive torque is a state of the model");
+    }
+    if (observe_ != std::vector<std::string>{"u"}) {
+      throw InputError("the equation error compares the input: observe u (--observe u)");
+    }
+    for (const auto& fit_trace : traces_) {
+      equation_.push_back(PrepareEquationTrace(fit_trace, config_.identification));
+    }
+  }
   for (const auto& fit_trace : traces_) {
+    if (!equation_.empty()) break;  // nothing is simulated
     if (!fit_trace.trace.Has("t") || fit_trace.trace.rows() == 0) continue;
     const auto& t = fit_trace.trace.Column("t");
     if (const std::string error = RunLengthError(t.back() - t.front(), config_.simulation.dt, 0.0);
@@ -37,8 +51,8 @@ FitProblem::FitProblem(Config config, std::vector<FitTrace> traces,
   for (std::size_t c = 0; c < observe_.size(); ++c) {
     double sum = 0.0, sum_sq = 0.0;
     std::size_t n = 0;
-    for (const auto& fit_trace : traces_) {
-      for (double v : fit_trace.trace.Column(observe_[c])) {
+    for (std::size_t k = 0; k < traces_.size(); ++k) {
+      for (double v : measured(k).Column(observe_[c])) {
         sum += v;
         sum_sq += v * v;
         ++n;
@@ -46,8 +60,8 @@ FitProblem::FitProblem(Config config, std::vector<FitTrace> traces,
     }
     const double mean = n ? sum / static_cast<double>(n) : 0.0;
     double variance = 0.0;
-    for (const auto& fit_trace : traces_) {
-      for (double v : fit_trace.trace.Column(observe_[c])) variance += (v - mean) * (v - mean);
+    for (std::size_t k = 0; k < traces_.size(); ++k) {
+      for (double v : measured(k).Column(observe_[c])) variance += (v - mean) * (v - mean);
     }
     variance = n ? variance / static_cast<double>(n) : 0.0;
     if (!(variance > 0.0)) {
@@ -64,9 +78,9 @@ FitProblem::FitProblem(Config config, std::vector<FitTrace> traces,
     samples_per_column_[c] = n;
     num_residuals_ += n;
   }
-  for (const auto& fit_trace : traces_) {
+  for (std::size_t k = 0; k < traces_.size(); ++k) {
     for (std::size_t c = 0; c < observe_.size(); ++c) {
-      residual_columns_.insert(residual_columns_.end(), fit_trace.trace.rows(), static_cast<int>(c));
+      residual_columns_.insert(residual_columns_.end(), measured(k).rows(), static_cast<int>(c));
     }
   }
 }
@@ -144,6 +158,10 @@ SimulationRequest FitProblem::Request(std::size_t k, const ParameterSet* paramet
 
 SimStatus FitProblem::Simulate(std::size_t k, const std::vector<double>& values, Trace* out) const {
   const ParameterSet parameters = Parameters(values);
+  if (!equation_.empty()) {
+    PredictInput(equation_[k], parameters, config_.effects, out);
+    return SimStatus::Ok();
+  }
   return config_.model->Simulate(Request(k, &parameters), out);
 }
 
@@ -173,10 +191,10 @@ std::vector<double> MeasuredAngle(const FitTrace& fit_trace) {
 bool FitProblem::Compare(std::size_t k, const Trace& simulated, std::vector<double>* sum_sq,
                          Evaluation* evaluation, std::vector<double>* residuals) const {
   const std::size_t columns = observe_.size();
-  const Trace& measured = traces_[k].trace;
+  const Trace& reference = measured(k);
   for (std::size_t c = 0; c < columns; ++c) {
     const auto& sim = simulated.Column(observe_[c]);
-    const auto& meas = measured.Column(observe_[c]);
+    const auto& meas = reference.Column(observe_[c]);
     const double weight =
         1.0 / std::sqrt(static_cast<double>(columns) * static_cast<double>(samples_per_column_[c]) *
                         variance_[c]);
@@ -253,6 +271,14 @@ std::vector<Evaluation> FitProblem::EvaluateBatch(
     const std::vector<std::vector<double>>& points,
     std::vector<std::vector<double>>* residuals) const {
   const std::size_t n = points.size();
+  if (!equation_.empty()) {  // no simulation to share: point by point
+    std::vector<Evaluation> evaluations;
+    if (residuals) residuals->assign(n, {});
+    for (std::size_t m = 0; m < n; ++m) {
+      evaluations.push_back(Evaluate(points[m], residuals ? &(*residuals)[m] : nullptr));
+    }
+    return evaluations;
+  }
   if (residuals) {
     residuals->assign(n, {});
     for (auto& r : *residuals) r.reserve(num_residuals_);

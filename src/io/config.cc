@@ -780,7 +780,8 @@ Config ParseConfig(const std::string& text, const std::string& path) {
     const json& id = root["identification"];
     reader.RequireObject(id, "/identification");
     reader.CheckKeys(id, "/identification",
-                     {"free", "initial", "bounds", "observe", "method", "options"});
+                     {"free", "initial", "bounds", "observe", "method", "options", "error",
+                      "filter_hz", "decimate"});
     if (id.contains("free")) ident.free = reader.Strings(id["free"], "/identification/free");
     if (id.contains("observe")) {
       ident.observe = reader.Strings(id["observe"], "/identification/observe");
@@ -789,6 +790,29 @@ Config ParseConfig(const std::string& text, const std::string& path) {
     if (id.contains("options")) {
       reader.RequireObject(id["options"], "/identification/options");
       ident.options = id["options"];
+    }
+    if (id.contains("error")) {
+      ident.error = reader.String(id["error"], "/identification/error");
+      if (ident.error != "output" && ident.error != "equation") {
+        reader.Fail("/identification/error",
+                    "error '" + ident.error + "' is not one of: output, equation");
+      }
+      if (ident.error == "equation" && model_name != "rigid_load") {
+        reader.Fail("/identification/error",
+                    "the equation error needs model rigid_load (its input is the drive torque); "
+                    "model " + model_name + "'s drive torque is a state of the model");
+      }
+      if (ident.error == "equation" && !id.contains("observe")) ident.observe = {"u"};
+    }
+    if (id.contains("filter_hz")) {
+      ident.filter_hz = reader.Positive(id["filter_hz"], "/identification/filter_hz");
+    }
+    if (id.contains("decimate")) {
+      const double decimate = reader.Number(id["decimate"], "/identification/decimate");
+      if (!(decimate >= 1.0 && decimate <= 1000.0 && decimate == std::floor(decimate))) {
+        reader.Fail("/identification/decimate", "decimate must be a whole number from 1 to 1000");
+      }
+      ident.decimate = static_cast<int>(decimate);
     }
     std::vector<std::string> known;
     for (const auto& [name, value] : config.parameters.entries()) known.push_back(name);

@@ -445,11 +445,12 @@ void WriteTraces(Page& page, const json& report, const FitProblem& problem, cons
   if (!fit.ok) h += "<p class=\"note warn\">The fit's simulation failed: " + Escape(fit.reason) + "</p>\n";
   for (std::size_t k = 0; k < traces; ++k) {
     const FitTrace& ft = problem.traces()[k];
-    const std::vector<double>& t = ft.trace.Column("t");
+    const Trace& measured = problem.measured(k);
+    const std::vector<double>& t = measured.Column("t");
     const std::string trace_note = traces > 1 ? " (trace " + std::to_string(k + 1) + ")" : "";
     if (traces > 1) h += "<h3>Trace " + std::to_string(k + 1) + ": <code>" + Escape(ft.path) + "</code></h3>\n";
     const std::pair<double, double> window =
-        FirstTransientWindow(problem, k, fit.ok ? fit.traces[k] : ft.trace);
+        FirstTransientWindow(problem, k, fit.ok ? fit.traces[k] : measured);
     std::size_t begin = 0, end = t.size();
     while (begin < t.size() && t[begin] < window.first) ++begin;
     end = begin;
@@ -460,7 +461,7 @@ void WriteTraces(Page& page, const json& report, const FitProblem& problem, cons
         const ColumnInfo info = DescribeColumn(column, model);
         const std::size_t b = detail ? begin : 0, e = detail ? end : t.size();
         std::vector<Series> series;
-        series.push_back(Line("measured", Slice(t, b, e), Slice(ft.trace.Column(column), b, e),
+        series.push_back(Line("measured", Slice(t, b, e), Slice(measured.Column(column), b, e),
                               kMeasuredColour, "", 1.0));
         if (fit.ok) {
           series.push_back(Line("simulated, fit", Slice(t, b, e),
@@ -536,17 +537,17 @@ void WriteResidual(Page& page, const json& report, const FitProblem& problem, co
   h += "</p>\n";
   if (fit.ok) {
     for (std::size_t k = 0; k < traces; ++k) {
-      const FitTrace& ft = problem.traces()[k];
-      const std::vector<double>& t = ft.trace.Column("t");
+      const Trace& measured = problem.measured(k);
+      const std::vector<double>& t = measured.Column("t");
       const std::string trace_note = traces > 1 ? " (trace " + std::to_string(k + 1) + ")" : "";
       std::vector<std::vector<double>> fit_residual, after_residual;
       std::vector<std::pair<double, double>> ranges;
       for (const auto& column : problem.observe()) {
         double lo = kInf, hi = -kInf;
-        fit_residual.push_back(Difference(ft.trace.Column(column), fit.traces[k].Column(column)));
+        fit_residual.push_back(Difference(measured.Column(column), fit.traces[k].Column(column)));
         Range(fit_residual.back(), &lo, &hi);
         if (show_after) {
-          after_residual.push_back(Difference(ft.trace.Column(column), after->traces[k].Column(column)));
+          after_residual.push_back(Difference(measured.Column(column), after->traces[k].Column(column)));
           Range(after_residual.back(), &lo, &hi);
         }
         const double pad = 0.05 * (hi - lo);
@@ -862,7 +863,7 @@ std::vector<CostSlice> ComputeCostSlices(const FitProblem& problem, const std::v
 
 std::pair<double, double> FirstTransientWindow(const FitProblem& problem, std::size_t k,
                                                const Trace& simulated) {
-  const Trace& measured = problem.traces().at(k).trace;
+  const Trace& measured = problem.measured(k);
   const std::vector<double>& t = measured.Column("t");
   const std::size_t n = t.size();
   if (n == 0) return {0.0, 0.0};

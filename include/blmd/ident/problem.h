@@ -15,11 +15,17 @@
 #include <string>
 #include <vector>
 
+#include "blmd/ident/equation_error.h"
 #include "blmd/io/config.h"
 #include "blmd/sim/model.h"
 #include "blmd/sim/trace.h"
 
 namespace blmd {
+
+// With the config's identification error "equation" (rigid_load), the comparison is the
+// equation error instead (blmd/ident/equation_error.h): the observed column is the input u,
+// "simulating" a trace predicts the input the model needs along the measured motion, and
+// each trace is compared at its filtered, decimated samples (measured(k)), not its rows.
 
 // One measured experiment prepared for fitting.
 struct FitTrace {
@@ -53,6 +59,12 @@ class FitProblem {
 
   const Config& config() const { return config_; }
   const std::vector<FitTrace>& traces() const { return traces_; }
+  // What trace k's simulated columns are compared with: its trace, or with the equation
+  // error its filtered samples (t, u, w, theta at the kept instants).
+  const Trace& measured(std::size_t k) const {
+    return equation_.empty() ? traces_[k].trace : equation_[k].measured;
+  }
+  bool equation_error() const { return !equation_.empty(); }
   const std::vector<std::string>& observe() const { return observe_; }
   const std::vector<FreeParameter>& free() const { return free_; }
   std::size_t num_free() const { return free_.size(); }
@@ -95,7 +107,8 @@ class FitProblem {
   bool ForceEffectAngle();
   bool effect_angle_forced() const { return !effect_angles_.empty(); }
 
-  // Simulates trace k at the given values (outputs at its sample times).
+  // Simulates trace k at the given values (outputs at its sample times; with the equation
+  // error, the input the model needs at measured(k)'s instants).
   SimStatus Simulate(std::size_t k, const std::vector<double>& values, Trace* out) const;
 
  private:
@@ -121,6 +134,7 @@ class FitProblem {
   std::vector<int> residual_columns_;
   std::size_t num_residuals_ = 0;
   std::vector<std::vector<double>> effect_angles_;  // per trace, when forced
+  std::vector<EquationTrace> equation_;             // per trace, with the equation error
 };
 
 // The measured shaft angle (rad) at a trace's samples: its theta column, else the

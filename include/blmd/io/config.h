@@ -24,6 +24,12 @@ struct IdentificationSettings {
   std::vector<std::string> observe;                         // trace columns in the cost
   std::string method;                                       // empty: the tool's default
   nlohmann::json options = nlohmann::json::object();        // per-method options
+  // How the model meets the trace (docs/identification.md §7): "output" simulates the model
+  // from the recorded input and compares the observed columns; "equation" (rigid_load only)
+  // compares the recorded input with the one the model needs along the measured motion.
+  std::string error = "output";
+  double filter_hz = 0.0;  // equation: Butterworth cut-off of the measured motion, Hz; 0: fs/10
+  int decimate = 1;        // equation: keep every N-th sample, after an anti-alias filter
 };
 
 struct Config {
