@@ -200,6 +200,16 @@ int main(int argc, char** argv) {
       }
       report["discovery"] = blmd::DiscoveryJson(problem, result, discovery, validation.get(),
                                                 validation_after.get());
+      if (problem.equation_error()) {
+        const auto& values = discovery.final_fit.values;
+        report["discovery"]["simulated_after"] =
+            blmd::SimulatedErrors(problem, discovery.final_config, discovery.final_free, values);
+        if (validation_after && report["discovery"].contains("validation")) {
+          report["discovery"]["validation"]["simulated_after"] = blmd::SimulatedErrors(
+              *validation_after, discovery.final_config, discovery.final_free, values);
+        }
+        blmd::SanitizeJson(&report["discovery"]);
+      }
     }
     if (!report_path.empty()) blmd::WriteFileAtomically(report_path, report.dump(2) + "\n");
     if (!html_path.empty()) {

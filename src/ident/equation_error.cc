@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <limits>
+#include <cstdio>
 
 #include "blmd/error.h"
 #include "blmd/ident/problem.h"
@@ -14,6 +16,13 @@ namespace blmd {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+
+// A number for a message: six significant digits ("500", "0.0009").
+std::string Short(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.6g", value);
+  return text;
+}
 
 // The section of one analog pole pair (s, conj s) by the bilinear transform at sample_hz,
 // with its two zeros at z = -1 (a low-pass's zeros at infinity) and unit gain at DC.
@@ -38,8 +47,8 @@ double Prewarp(double cutoff_hz, double sample_hz) {
 void CheckDesign(int order, double cutoff_hz, double sample_hz) {
   if (order < 2 || order % 2 != 0 || !(cutoff_hz > 0.0) || !(cutoff_hz < 0.5 * sample_hz)) {
     throw InputError("low-pass filter: need an even order >= 2 and 0 < cut-off " +
-                     FormatNumber(cutoff_hz) + " Hz < half the sampling rate " +
-                     FormatNumber(0.5 * sample_hz) + " Hz");
+                     Short(cutoff_hz) + " Hz < half the sampling rate " +
+                     Short(0.5 * sample_hz) + " Hz");
   }
 }
 
@@ -104,10 +113,25 @@ std::size_t FiltFiltPadding(const std::vector<Biquad>& sections) {
   return 3 * (2 * sections.size() + 1);
 }
 
+std::size_t FiltFiltSettling(const std::vector<Biquad>& sections) {
+  // The slowest pole's radius: |z|^2 = a2 for a complex pair, else the larger real root.
+  double radius = 0.0;
+  for (const Biquad& s : sections) {
+    const double discriminant = s.a1 * s.a1 - 4.0 * s.a2;
+    radius = std::max(radius, discriminant < 0.0
+                                  ? std::sqrt(s.a2)
+                                  : 0.5 * (std::abs(s.a1) + std::sqrt(discriminant)));
+  }
+  if (!(radius > 0.0)) return 0;
+  if (!(radius < 1.0)) return std::numeric_limits<std::size_t>::max();
+  return static_cast<std::size_t>(std::ceil(std::log(1e-12) / std::log(radius)));
+}
+
 std::vector<double> FiltFilt(const std::vector<Biquad>& sections, const std::vector<double>& x) {
-  const std::size_t n = x.size(), pad = FiltFiltPadding(sections);
-  if (n <= pad) throw InputError("zero-phase filter: " + std::to_string(n) +
-                                 " samples, need more than " + std::to_string(pad));
+  const std::size_t n = x.size(), minimum = FiltFiltPadding(sections);
+  if (n <= minimum) throw InputError("zero-phase filter: " + std::to_string(n) +
+                                     " samples, need more than " + std::to_string(minimum));
+  const std::size_t pad = std::min(n - 1, std::max(minimum, FiltFiltSettling(sections)));
   std::vector<double> y;
   y.reserve(n + 2 * pad);
   for (std::size_t k = pad; k >= 1; --k) y.push_back(2.0 * x.front() - x[k]);
@@ -147,19 +171,21 @@ EquationTrace PrepareEquationTrace(const FitTrace& fit_trace,
   const auto [lo, hi] = std::minmax_element(steps.begin(), steps.end());
   if (!(dt > 0.0) || *hi - dt > 0.01 * dt || dt - *lo > 0.01 * dt) {
     throw InputError(where + ": the equation error filters the samples, which must be evenly "
-                             "spaced; the time step varies from " + FormatNumber(*lo) + " to " +
-                     FormatNumber(*hi) + " s");
+                             "spaced; the time step varies from " + Short(*lo) + " to " + Short(*hi) +
+                     " s");
   }
   const double sample_hz = 1.0 / dt;
   const double cutoff_hz = settings.filter_hz > 0.0 ? settings.filter_hz : 0.1 * sample_hz;
   if (!(cutoff_hz < 0.5 * sample_hz)) {
-    throw InputError(where + ": filter_hz " + FormatNumber(cutoff_hz) +
-                     " Hz is not below half the sampling rate (" +
-                     FormatNumber(0.5 * sample_hz) + " Hz)");
+    throw InputError(where + ": filter_hz " + Short(cutoff_hz) +
+                     " Hz is not below half the sampling rate (" + Short(0.5 * sample_hz) +
+                     " Hz)");
   }
   const std::vector<Biquad> motion_filter = ButterworthLowPass(4, cutoff_hz, sample_hz);
   EquationTrace out;
+  out.motion_filter = motion_filter;
   out.decimate = std::max(1, settings.decimate);
+  out.cutoff_hz = cutoff_hz;
   if (out.decimate > 1) {
     out.anti_alias = ChebyshevLowPass(8, 0.05, 0.8 * 0.5 * sample_hz / out.decimate, sample_hz);
   }
@@ -217,14 +243,21 @@ void PredictInput(const EquationTrace& trace, const ParameterSet& parameters,
   const double J = parameters.Get("J"), B = parameters.Get("B"), Kt = parameters.Get("Kt");
   const ShaftEffects shaft = ShaftEffects::From(parameters, effects, 0.0);
   const bool friction = shaft.has_friction();
-  std::vector<double> input(trace.t.size());
-  for (std::size_t j = 0; j < input.size(); ++j) {
-    const double w = trace.w[j];
-    double torque = J * trace.a[j] + B * w + shaft.NonFrictionTorque(trace.theta[j]) +
-                    shaft.DragTorque(w);
-    if (friction && w != 0.0) torque += w > 0.0 ? shaft.FrictionMagnitude(w) : -shaft.FrictionMagnitude(w);
-    input[j] = torque / Kt;
+  const std::size_t n = trace.t.size();
+  std::vector<double> input(n);
+  if (!effects.empty()) {
+    // T_effects at the filtered motion, then through the motion's filter (as u was).
+    std::vector<double> torque(n);
+    for (std::size_t j = 0; j < n; ++j) {
+      const double w = trace.w[j];
+      torque[j] = shaft.NonFrictionTorque(trace.theta[j]) + shaft.DragTorque(w);
+      if (friction && w != 0.0) {
+        torque[j] += w > 0.0 ? shaft.FrictionMagnitude(w) : -shaft.FrictionMagnitude(w);
+      }
+    }
+    input = FiltFilt(trace.motion_filter, torque);
   }
+  for (std::size_t j = 0; j < n; ++j) input[j] = (input[j] + J * trace.a[j] + B * trace.w[j]) / Kt;
   if (!trace.anti_alias.empty()) input = FiltFilt(trace.anti_alias, input);
   std::vector<double> kept;
   kept.reserve(trace.measured.rows());

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <sstream>
 
+#include "blmd/error.h"
 #include "blmd/ident/diagnostics.h"
 #include "blmd/ident/stats.h"
 #include "blmd/version.h"
@@ -60,6 +61,28 @@ nlohmann::json ErrorsJson(const ErrorFigures& errors) {
   for (std::size_t c = 0; c < errors.observe.size(); ++c) rmse[errors.observe[c]] = Number(errors.rmse[c]);
   out["rmse"] = rmse;
   return out;
+}
+
+nlohmann::json SimulatedErrors(const FitProblem& problem, const Config& config,
+                               const std::vector<std::string>& free,
+                               const std::vector<double>& values) {
+  if (!problem.equation_error()) return nullptr;
+  Config output = config;
+  output.identification.error = "output";
+  const std::string column = problem.traces().front().trace.Has("w") ? "w" : "theta";
+  for (const auto& t : problem.traces()) {
+    if (!t.trace.Has(column)) return nullptr;
+  }
+  std::vector<FreeParameter> parameters;
+  for (const auto& name : free) parameters.push_back({name, 0.0, 0.0, false, 0.0});
+  try {
+    const FitProblem simulated(output, problem.traces(), {column}, parameters);
+    nlohmann::json out = ErrorsJson(ComputeErrors(simulated, values));
+    out["observe"] = {column};
+    return out;
+  } catch (const InputError& error) {
+    return {{"nrmse", nullptr}, {"failed", error.what()}};
+  }
 }
 
 nlohmann::json ResidualDiagnostics(const FitProblem& problem, const std::vector<double>& values) {
@@ -139,6 +162,20 @@ nlohmann::json MakeReport(const ReportInputs& inputs) {
   fit["converged"] = s.converged;
   fit["termination"] = s.termination;
   fit["wall_time_s"] = Number(s.wall_time_s);
+  std::vector<std::string> free_names;
+  for (const auto& p : problem.free()) free_names.push_back(p.name);
+  if (problem.equation_error()) {
+    const EquationTrace& first_equation = problem.equation_traces().front();
+    std::size_t samples = 0;
+    for (std::size_t k = 0; k < problem.traces().size(); ++k) samples += problem.measured(k).rows();
+    fit["error"] = {{"type", "equation"},
+                    {"filter_hz", Number(first_equation.cutoff_hz)},
+                    {"decimate", first_equation.decimate},
+                    {"samples", samples}};
+    fit["simulated"] = SimulatedErrors(problem, config, free_names, result.values);
+  } else {
+    fit["error"] = {{"type", "output"}};
+  }
   report["fit"] = fit;
 
   nlohmann::json summary = {{"method", s.method}, {"algorithm", s.algorithm},
@@ -171,6 +208,10 @@ nlohmann::json MakeReport(const ReportInputs& inputs) {
     nlohmann::json paths = nlohmann::json::array();
     for (const auto& t : inputs.validation->traces()) paths.push_back(t.path);
     validation["traces"] = paths;
+    if (inputs.validation->equation_error()) {
+      validation["simulated"] =
+          SimulatedErrors(*inputs.validation, inputs.validation->config(), free_names, result.values);
+    }
     report["validation"] = validation;
   }
   SanitizeJson(&report);
@@ -213,6 +254,16 @@ std::string HumanSummary(const nlohmann::json& report) {
     out << "NRMSE " << G(fit["nrmse"], 4) << " (fit " << G(fit["fit_percent"], 4) << " %), RMSE";
     for (const auto& [column, value] : fit["rmse"].items()) out << " " << column << " " << G(value, 4);
     out << "\n";
+    if (fit.contains("error") && fit["error"]["type"] == "equation") {
+      out << "  equation error (the input the model needs along the measured motion): low-pass "
+          << G(fit["error"]["filter_hz"], 4) << " Hz, decimation " << fit["error"]["decimate"].get<int>()
+          << ", " << fit["error"]["samples"].get<long>() << " samples";
+      if (fit.contains("simulated") && fit["simulated"].is_object() && !fit["simulated"]["nrmse"].is_null()) {
+        out << "; simulated " << fit["simulated"]["observe"][0].get<std::string>() << ": NRMSE "
+            << G(fit["simulated"]["nrmse"], 4);
+      }
+      out << "\n";
+    }
   }
   const auto& s = report["method_summary"];
   out << "method: " << (s["converged"].get<bool>() ? "converged" : "NOT converged") << " ("
@@ -262,6 +313,25 @@ std::string HumanSummary(const nlohmann::json& report) {
     if (d.contains("validation")) {
       out << "  validation NRMSE before -> after: " << G(d["validation"]["before"]["nrmse"], 4) << " -> "
           << G(d["validation"]["after"]["nrmse"], 4) << "\n";
+    }
+    // Equation error: the same models judged as simulations of the motion.
+    const auto simulated_nrmse = [](const nlohmann::json& parent, const char* key) {
+      return parent.is_object() && parent.contains(key) && parent[key].is_object() &&
+                     parent[key].contains("nrmse") && !parent[key]["nrmse"].is_null()
+                 ? G(parent[key]["nrmse"], 4)
+                 : std::string("n/a");
+    };
+    if (d.contains("simulated_after") && fit.contains("simulated")) {
+      out << "  simulated " << (fit["simulated"].is_object() && fit["simulated"].contains("observe")
+                                    ? fit["simulated"]["observe"][0].get<std::string>()
+                                    : std::string("motion"))
+          << " NRMSE before -> after: " << simulated_nrmse(fit, "simulated") << " -> "
+          << simulated_nrmse(d, "simulated_after");
+      if (d.contains("validation") && report.contains("validation")) {
+        out << "; validation " << simulated_nrmse(report["validation"], "simulated") << " -> "
+            << simulated_nrmse(d["validation"], "simulated_after");
+      }
+      out << "\n";
     }
     if (!d["added"].empty()) {
       out << "  parameters after:";

@@ -8,8 +8,11 @@
 //   e(k)       = u_model(k) - u(k)                                       (input units)
 //
 // with w and a the first and second central differences of the measured position after a
-// zero-phase Butterworth low-pass (order 4, applied forwards and backwards), as the EMPS
-// benchmark's IDIM-LS (Janot, Gautier & Brunot 2019, §3; Gautier 1997). With decimation by
+// zero-phase Butterworth low-pass F (order 4, applied forwards and backwards), as the EMPS
+// benchmark's IDIM-LS (Janot, Gautier & Brunot 2019, §3; Gautier 1997). The recorded input
+// and the effects' torque pass F too, so both sides of the equation are filtered alike:
+//   F(u) = J F(a) + B F(w) + F(T_effects)   (F commutes with d/dt, J and B; the effects are
+// evaluated at the filtered motion, then filtered). With decimation by
 // N, the recorded input and the model's input both pass the same zero-phase anti-alias
 // filter (Chebyshev type I, order 8, 0.05 dB ripple, cut-off 0.8 of the new Nyquist rate,
 // as MATLAB's `decimate`) before every N-th sample is kept: "parallel filtering", so the
@@ -45,19 +48,25 @@ std::vector<Biquad> ChebyshevLowPass(int order, double ripple_db, double cutoff_
                                      double sample_hz);
 
 // Zero-phase filtering: the sections forwards, then backwards over the result. Each end is
-// extended by its odd reflection (3 (2 sections + 1) samples, as scipy's sosfiltfilt) and
-// each pass starts from the steady state of its first value, so a constant or a ramp comes
-// out unchanged. `x` must be longer than the extension.
+// extended by its odd reflection and each pass starts from the steady state of its first
+// value (as scipy's sosfiltfilt), the extension long enough for the start's transient to
+// decay by 1e-12 (FiltFiltSettling, at most the signal's length less one): a constant and
+// a ramp come out unchanged, and so does a signal that ends in a straight line (a shaft
+// turning steadily when the record ends). `x` must be longer than FiltFiltPadding.
 std::vector<double> FiltFilt(const std::vector<Biquad>& sections, const std::vector<double>& x);
-// Samples the extension needs (FiltFilt's minimum length is one more).
+// The shortest extension, 3 (2 sections + 1) samples (scipy's default).
 std::size_t FiltFiltPadding(const std::vector<Biquad>& sections);
+// Samples for the slowest pole to decay by 1e-12.
+std::size_t FiltFiltSettling(const std::vector<Biquad>& sections);
 
 // A trace prepared for the equation error: the filtered motion at full rate (every sample
 // but the first and the last, which have no central difference) and what the cost compares.
 struct EquationTrace {
   std::vector<double> t, theta, w, a;  // s, rad (m), rad/s (m/s), rad/s^2 (m/s^2)
+  std::vector<Biquad> motion_filter;   // the Butterworth low-pass of the motion and the input
   std::vector<Biquad> anti_alias;      // empty without decimation
   int decimate = 1;
+  double cutoff_hz = 0.0;              // the motion filter's cut-off in use
   // At the kept samples: t, u (the recorded input, anti-alias filtered), and the filtered
   // w and theta, for reports and plots.
   Trace measured;

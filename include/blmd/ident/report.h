@@ -23,6 +23,14 @@ struct ErrorFigures {
 ErrorFigures ComputeErrors(const FitProblem& problem, const std::vector<double>& values);
 nlohmann::json ErrorsJson(const ErrorFigures& errors);
 
+// With the equation error: the motion simulated from the recorded input with `config` (its
+// error set to "output") at the free parameters `values`, compared on the traces' w (else
+// theta) column: {"observe": [...], "nrmse": x} (or {"nrmse": null, "failed": reason}),
+// so an equation-error fit is also judged as a simulation. Null for the output error.
+nlohmann::json SimulatedErrors(const FitProblem& problem, const Config& config,
+                               const std::vector<std::string>& free,
+                               const std::vector<double>& values);
+
 // Residual diagnostics at `values`: per observed column the autocorrelation (first lags),
 // its 95 % band 1.96/sqrt(n), the Ljung-Box test; overall whiteness_p is the smallest
 // column p-value times the number of columns (Bonferroni), capped at 1.
