@@ -1,4 +1,4 @@
-// The equation error (docs/identification.md §7): the filters against their analytic
+// The equation error (docs/identification.md §8): the filters against their analytic
 // responses, zero-phase filtering, and blmd-ident --error equation on a rigid_load trace
 // that blmd-sim made with known J, B, Coulomb friction and load torque.
 #include <gtest/gtest.h>
@@ -151,7 +151,7 @@ TEST_F(RigidLoadEquationError, RecoversInertiaDampingFrictionAndLoad) {
   // Measured: J +0.19 %, B -0.66 %, Tc +0.93 %, TL +0.003 %. Noise-free, but not exact: the
   // recorded u switches at a sample instant while the central differences there average
   // the acceleration over the samples either side, and Coulomb friction flips between
-  // samples; both misplace a torque step by up to half a sample (docs/identification.md §7).
+  // samples; both misplace a torque step by up to half a sample (docs/identification.md §8).
   const auto& p = report["parameters"];
   EXPECT_NEAR(p["J"]["value"].get<double>(), 0.020038, 0.000002);
   EXPECT_NEAR(p["B"]["value"].get<double>(), 0.049672, 0.000002);
@@ -190,7 +190,7 @@ TEST_F(RigidLoadEquationError, DiscoveryAddsCoulombFrictionAndTheLoad) {
   // one sample of each reversal (ws = 0.033 rad/s, what the shaft's speed changes by in one
   // 1 ms sample there), taking up the half-sample misplacement of the friction's flip. It is
   // the sampling's signature, not the rig's; with noise on theta (0.001 % of its rms) it is
-  // not added (docs/identification.md §7).
+  // not added (docs/identification.md §8).
   ASSERT_EQ(d["added"].size(), 3u);
   EXPECT_EQ(d["added"][2], "stribeck");
   // |a| h at the reversals: (0.5 +- 0.1 +- 0.03) N m / 0.02 kg m^2 x 1 ms = 0.019-0.032 rad/s.

@@ -221,7 +221,7 @@ TEST_F(Emps, ViscousFrictionWithinFivePercentOfTheReferenceOnceItsAsymmetryIsMod
 
 TEST_F(Emps, EquationErrorMeetsTheMassAndViscousCriteria) {
   // The criterion on one fit: M within 2 % and Fv within 5 %, by the benchmark's own
-  // method (IDIM-LS: the force the measured motion needs, docs/identification.md §7).
+  // method (IDIM-LS: the force the measured motion needs, docs/identification.md §8).
   // Measured: M 95.077 kg (-0.03 %), Fv 202.65 N s/m (-0.42 %).
   const double m = After(*idim_, "J"), fv = After(*idim_, "B");
   EXPECT_NEAR(m, 95.077, 0.01);

@@ -1,5 +1,5 @@
 // Equation error: the inverse dynamic identification model (IDIM) of rigid_load
-// (docs/identification.md §7). Instead of simulating the model from the recorded input and
+// (docs/identification.md §8). Instead of simulating the model from the recorded input and
 // comparing its motion with the measured one (output error), the model's equation is
 // evaluated along the measured motion and the input it needs is compared with the recorded
 // input:

@@ -65,6 +65,8 @@ class FitProblem {
     return equation_.empty() ? traces_[k].trace : equation_[k].measured;
   }
   bool equation_error() const { return !equation_.empty(); }
+  // Per trace, with the equation error (empty otherwise).
+  const std::vector<EquationTrace>& equation_traces() const { return equation_; }
   const std::vector<std::string>& observe() const { return observe_; }
   const std::vector<FreeParameter>& free() const { return free_; }
   std::size_t num_free() const { return free_.size(); }

@@ -24,7 +24,7 @@ struct IdentificationSettings {
   std::vector<std::string> observe;                         // trace columns in the cost
   std::string method;                                       // empty: the tool's default
   nlohmann::json options = nlohmann::json::object();        // per-method options
-  // How the model meets the trace (docs/identification.md §7): "output" simulates the model
+  // How the model meets the trace (docs/identification.md §8): "output" simulates the model
   // from the recorded input and compares the observed columns; "equation" (rigid_load only)
   // compares the recorded input with the one the model needs along the measured motion.
   std::string error = "output";
