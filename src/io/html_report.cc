@@ -442,6 +442,11 @@ void WriteTraces(Page& page, const json& report, const FitProblem& problem, cons
   h += ". Each plot draws at most five samples per pixel column (first, last, lowest, highest, first "
        "gap), so spikes stay visible. The second plot of each column is the first transient, "
        "enlarged; any figure can be enlarged to the whole window with its <i>enlarge</i> link.</p>\n";
+  if (problem.equation_error()) {
+    h += "<p class=\"note\">Equation error (docs/identification.md &sect;8): the measured curve is the "
+         "recorded input u after the filters, the model's is the input the model needs along the measured "
+         "motion, at the kept samples; no motion is simulated here.</p>\n";
+  }
   if (!fit.ok) h += "<p class=\"note warn\">The fit's simulation failed: " + Escape(fit.reason) + "</p>\n";
   for (std::size_t k = 0; k < traces; ++k) {
     const FitTrace& ft = problem.traces()[k];
