@@ -504,11 +504,11 @@ TEST(ConfigErrors, UnknownKeysSuggestTheNearest) {
             "L, Kt, Kb, J, B");
   EXPECT_EQ(ConfigError(Base("\"free\"", "\"fre\"")),
             "config.json:12:5: unknown key 'fre' in 'identification' (did you mean 'free'?); "
-            "valid keys: free, initial, bounds, observe, method, options");
+            "valid keys: free, initial, bounds, observe, method, options, error, filter_hz, decimate");
   // Nothing close: no suggestion.
   EXPECT_EQ(ConfigError(Base("\"free\"", "\"zzzzzz\"")),
             "config.json:12:5: unknown key 'zzzzzz' in 'identification'; valid keys: free, "
-            "initial, bounds, observe, method, options");
+            "initial, bounds, observe, method, options, error, filter_hz, decimate");
 }
 
 TEST(ConfigErrors, MissingOrUnknownModel) {

@@ -49,12 +49,11 @@ FitProblem::FitProblem(Config config, std::vector<FitTrace> traces,
   variance_.assign(observe_.size(), 0.0);
   samples_per_column_.assign(observe_.size(), 0);
   for (std::size_t c = 0; c < observe_.size(); ++c) {
-    double sum = 0.0, sum_sq = 0.0;
+    double sum = 0.0;
     std::size_t n = 0;
     for (std::size_t k = 0; k < traces_.size(); ++k) {
       for (double v : measured(k).Column(observe_[c])) {
         sum += v;
-        sum_sq += v * v;
         ++n;
       }
     }
