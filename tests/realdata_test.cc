@@ -2,7 +2,8 @@
 // the recordings in ../shared/realdata (or $BLMD_REALDATA), checked against the numbers
 // measured and written there. Absent data is a skip with the reason, never a pass.
 // Each case takes under a minute on two cores (HSM150: ~40 s for 8 x 20 000 samples with
-// discovery; EMPS: ~35 s for its three discovery runs; ODrive: ~50 s for five; the
+// discovery; EMPS: ~35 s for its three output-error discovery runs, ~3 s for its six
+// equation-error ones; ODrive: ~50 s for five; the
 // coast-downs: ~12 s, most of it discovery on one record).
 #include <gtest/gtest.h>
 #include <unistd.h>
