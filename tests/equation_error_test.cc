@@ -3,6 +3,7 @@
 // that blmd-sim made with known J, B, Coulomb friction and load torque.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <fstream>
@@ -199,6 +200,50 @@ TEST_F(RigidLoadEquationError, DiscoveryAddsCoulombFrictionAndTheLoad) {
   // As simulations, NRMSE on w falls from 0.111 to 0.0064.
   EXPECT_LT(d["simulated_after"]["nrmse"].get<double>(),
             0.1 * report["fit"]["simulated"]["nrmse"].get<double>());
+}
+
+TEST_F(RigidLoadEquationError, SurfaceOverJIsAParabolaWithItsMinimumAtTheTruth) {
+  // blmd-surface with the same cost: J enters the equation error linearly, so the cost over
+  // a J grid is an exact parabola (constant second differences) whose lowest grid point is
+  // the true J (B, Tc, TL held at their true values).
+  const std::string config = dir_.Write(
+      "surface.json",
+      RigidConfig(R"("J": 0.02, "B": 0.05, "Kt": 1.0)",
+                  R"("effects": {"coulomb_friction": {"Tc": 0.1}, "load_torque": {"TL": 0.03}}, )",
+                  R"({"free": ["J", "B"], "error": "equation"})"));
+  const std::string out = dir_.File("surface.csv");
+  const CommandResult run = blmd::testing::Run(BinPath("blmd-surface") + " --config " + config +
+                                               " --trace " + trace_ + " --grid J=0.016:0.024:9 --out " +
+                                               out + " --quiet");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  std::istringstream csv(Slurp(out));
+  std::string line;
+  std::vector<double> J, cost;
+  bool header = false, error_line = false;
+  while (std::getline(csv, line)) {
+    if (line == "# error: equation, filter_hz 100, decimate 1") error_line = true;
+    if (line.empty() || line[0] == '#') continue;
+    if (!header) {
+      EXPECT_EQ(line, "J,mse_u,cost");
+      header = true;
+      continue;
+    }
+    std::istringstream row(line);
+    std::string cell;
+    std::vector<double> cells;
+    while (std::getline(row, cell, ',')) cells.push_back(std::stod(cell));
+    ASSERT_EQ(cells.size(), 3u) << line;
+    J.push_back(cells[0]);
+    cost.push_back(cells[2]);
+  }
+  EXPECT_TRUE(error_line) << "the CSV records the equation error's settings";
+  ASSERT_EQ(J.size(), 9u);
+  EXPECT_EQ(std::min_element(cost.begin(), cost.end()) - cost.begin(), 4);  // J = 0.020
+  const double second = cost[0] - 2.0 * cost[1] + cost[2];
+  EXPECT_GT(second, 0.0);
+  for (std::size_t k = 1; k + 2 < cost.size(); ++k) {
+    EXPECT_NEAR(cost[k] - 2.0 * cost[k + 1] + cost[k + 2], second, 1e-9 * second) << k;
+  }
 }
 
 TEST_F(RigidLoadEquationError, BadSettingsExitTwoNamingTheProblem) {
