@@ -3,6 +3,7 @@
 #include <thread>
 
 #include "../common/app_main.h"
+#include "../common/error_flags.h"
 #include "blmd/ident/discovery.h"
 #include "blmd/ident/optimizer.h"
 #include "blmd/ident/report.h"
@@ -27,9 +28,7 @@ int main(int argc, char** argv) {
   int max_effects = 3;
   std::string candidates_text;
   double fail_above = -1.0;
-  std::string error_kind;
-  double filter_hz = 0.0;
-  int decimate = 0;
+  blmd::app::ErrorFlags error_flags;
   app.add_option("--config", config_path, "model and identification set-up (JSON)")->required();
   app.add_option("--trace", traces, "measured trace CSV (repeatable: one fit over all)")->required();
   app.add_option("--validate", validates, "held-out trace CSV to report the error on (repeatable)");
@@ -60,14 +59,7 @@ int main(int argc, char** argv) {
       ->check(blmd::app::NonNegativeWholeNumber());
   app.add_flag("--quiet", quiet, "print nothing but errors");
   app.add_option("--fail-above-nrmse", fail_above, "exit 3 when the final NRMSE exceeds X");
-  app.add_option("--error", error_kind,
-                 "output|equation: simulate and compare the motion, or compare the input the "
-                 "model needs along the measured motion (rigid_load; default: config, else output)")
-      ->check(CLI::IsMember({"output", "equation"}));
-  app.add_option("--filter-hz", filter_hz, "equation error: low-pass cut-off of the measured motion (default fs/10)")
-      ->check(blmd::app::PositiveNumber());
-  app.add_option("--decimate", decimate, "equation error: keep every N-th sample after an anti-alias filter")
-      ->check(CLI::Range(1, 1000));
+  error_flags.Add(app, "simulate and compare the motion, or compare the input the model needs along the measured motion");
 
   return blmd::app::Main(app, argc, argv, [&]() -> int {
     blmd::Config config = blmd::LoadConfig(config_path);
@@ -75,27 +67,10 @@ int main(int argc, char** argv) {
       const auto [name, value] = blmd::ParseAssignment(text, "--initial");
       config.identification.initial.Set(name, value);
     }
-    if (!error_kind.empty()) config.identification.error = error_kind;
-    if (filter_hz > 0.0) config.identification.filter_hz = filter_hz;
-    if (decimate > 0) config.identification.decimate = decimate;
+    const std::vector<std::string> observe = error_flags.Apply(&config, observe_text);
     const bool equation_error = config.identification.error == "equation";
-    if (!equation_error && (filter_hz > 0.0 || decimate > 0)) {
-      throw blmd::InputError(std::string(filter_hz > 0.0 ? "--filter-hz" : "--decimate") +
-                             " applies to the equation error only (--error equation)");
-    }
-    if (equation_error && config.model->name() != "rigid_load") {
-      throw blmd::InputError("--error equation needs model rigid_load (its input is the drive torque); model " +
-                             std::string(config.model->name()) + "'s drive torque is a state of the model");
-    }
     if (method.empty()) method = config.identification.method.empty() ? "ceres" : config.identification.method;
     const blmd::Optimizer& optimizer = blmd::FindOptimizer(method);
-    std::vector<std::string> observe = observe_text.empty()
-                                           ? config.identification.observe
-                                           : blmd::ParseNameList(observe_text, "--observe");
-    if (equation_error && observe_text.empty()) observe = {"u"};
-    if (equation_error && observe != std::vector<std::string>{"u"}) {
-      throw blmd::InputError("--observe: the equation error compares the input: observe u");
-    }
     const std::vector<std::string> outputs = config.model->outputs();
     for (const auto& name : observe) {
       if (equation_error) break;

@@ -8,6 +8,7 @@
 #include <mutex>
 
 #include "../common/app_main.h"
+#include "../common/error_flags.h"
 #include "blmd/ident/surface.h"
 #include "blmd/ident/trace_input.h"
 #include "blmd/io/config.h"
@@ -123,20 +124,13 @@ int main(int argc, char** argv) {
   std::string split, initial_state = "config";
   int threads = 0;
   bool json = false, quiet = false;
-  std::string error_kind;
-  double filter_hz = 0.0;
-  int decimate = 0;
+  blmd::app::ErrorFlags error_flags;
   app.add_option("--config", config_path, "model (JSON)");
   app.add_option("--trace", trace_path, "measured trace CSV");
   app.add_option("--grid", grids, "axis P=LO:HI:N or P=log:LO:HI:N (one or two)");
   app.add_option("--out", out_path, "surface CSV to write");
   app.add_option("--observe", observe_text, "trace columns in the cost, e.g. i,w");
-  app.add_option("--error", error_kind, "output|equation: the cost of blmd-ident --error (default: config, else output)")
-      ->check(CLI::IsMember({"output", "equation"}));
-  app.add_option("--filter-hz", filter_hz, "equation error: low-pass cut-off of the measured motion (default fs/10)")
-      ->check(blmd::app::PositiveNumber());
-  app.add_option("--decimate", decimate, "equation error: keep every N-th sample after an anti-alias filter")
-      ->check(CLI::Range(1, 1000));
+  error_flags.Add(app, "the cost of blmd-ident --error");
   app.add_option("--column", columns, "map a standard column to a header, NAME=HEADER");
   app.add_option("--scale", scales, "multiply a column, NAME=FACTOR");
   app.add_option("--derive", derives, "derive a velocity from a position, w=theta");
@@ -213,24 +207,8 @@ int main(int argc, char** argv) {
         throw blmd::InputError("--shard '" + shard_text + "': expected K/N with 1 <= K <= N");
       }
     }
-    if (!error_kind.empty()) config.identification.error = error_kind;
-    if (filter_hz > 0.0) config.identification.filter_hz = filter_hz;
-    if (decimate > 0) config.identification.decimate = decimate;
+    const std::vector<std::string> observe = error_flags.Apply(&config, observe_text);
     const bool equation_error = config.identification.error == "equation";
-    if (!equation_error && (filter_hz > 0.0 || decimate > 0)) {
-      throw blmd::InputError(std::string(filter_hz > 0.0 ? "--filter-hz" : "--decimate") +
-                             " applies to the equation error only (--error equation)");
-    }
-    if (equation_error && config.model->name() != "rigid_load") {
-      throw blmd::InputError("--error equation needs model rigid_load (its input is the drive torque); model " +
-                             std::string(config.model->name()) + "'s drive torque is a state of the model");
-    }
-    std::vector<std::string> observe = observe_text.empty() ? config.identification.observe
-                                                            : blmd::ParseNameList(observe_text, "--observe");
-    if (equation_error && observe_text.empty()) observe = {"u"};
-    if (equation_error && observe != std::vector<std::string>{"u"}) {
-      throw blmd::InputError("--observe: the equation error compares the input: observe u");
-    }
     const std::vector<std::string> outputs = config.model->outputs();
     for (const auto& name : observe) {
       if (equation_error) break;
