@@ -7,6 +7,7 @@
 #include <benchmark/benchmark.h>
 #include <sys/wait.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <iterator>
 #include <string>
@@ -55,6 +56,37 @@ void BM_CostBlmd(benchmark::State& state) {
   RunCost(state, MakeProblem("blmd-d31x.json", "blmd-d31x-step.csv", {"i"}));
 }
 BENCHMARK(BM_CostBlmd)->Unit(benchmark::kMillisecond);
+
+// rigid_load by the equation error (docs/identification.md §8): 25 000 samples at 1 kHz (the
+// EMPS record's size) of a shaft swinging through several reversals; one evaluation filters
+// the effects' torque (Coulomb friction, load) and, with state.range(0) > 1, decimates
+// behind the anti-alias filter. No simulation: this is the cost of the filters.
+void BM_CostEquationError(benchmark::State& state) {
+  const int decimate = static_cast<int>(state.range(0));
+  const blmd::Config config = blmd::ParseConfig(
+      R"({"name": "bench-eq", "model": "rigid_load", "parameters": {"J": 95, "B": 200, "Kt": 1},
+          "effects": {"coulomb_friction": {"Tc": 20}, "load_torque": {"TL": -3}},
+          "simulation": {"dt": 1e-4},
+          "identification": {"free": ["J", "B", "Tc", "TL"], "bounds": {"TL": [-10, 10], "Tc": [0, 100]},
+                             "error": "equation", "filter_hz": 100, "decimate": )" +
+          std::to_string(decimate) + "}}",
+      "");
+  blmd::FitTrace fit;
+  std::vector<double> t(25000), u(25000), theta(25000);
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    t[k] = 1e-3 * static_cast<double>(k);
+    theta[k] = 0.1 * std::sin(0.5 * t[k]) + 0.02 * std::sin(3.1 * t[k]);
+    u[k] = 50.0 * std::sin(0.5 * t[k] + 0.3);
+  }
+  fit.path = "synthetic";
+  fit.trace.Set("t", t);
+  fit.trace.Set("u", u);
+  fit.trace.Set("theta", theta);
+  const blmd::FitProblem problem(config, {fit}, {"u"},
+                                 blmd::MakeFreeParameters(config, {"J", "B", "Tc", "TL"}));
+  RunCost(state, problem);
+}
+BENCHMARK(BM_CostEquationError)->Arg(1)->Arg(10)->Unit(benchmark::kMillisecond);
 
 // A 2-D BLMD surface over J and B (the paper's Fig. 8 set-up) at 1 and 2 threads;
 // state.range(0) = points per axis, state.range(1) = threads.
