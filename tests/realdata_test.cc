@@ -151,6 +151,13 @@ class Emps : public ::testing::Test {
   static double After(const nlohmann::json& report, const char* name) {
     return Value(report["discovery"]["parameters_after"][name]);
   }
+  // The parameter's 95 % interval after discovery exists and contains its value.
+  static void ExpectIntervalAround(const nlohmann::json& report, const char* name) {
+    const auto& ci = report["discovery"]["intervals_after"][name]["ci95"];
+    ASSERT_TRUE(ci.is_array()) << name;
+    EXPECT_LT(Value(ci[0]), After(report, name)) << name;
+    EXPECT_GT(Value(ci[1]), After(report, name)) << name;
+  }
   static nlohmann::json* open_;  // --discover, every candidate
   static nlohmann::json* idm_;   // --discover --candidates coulomb_friction,load_torque
   static nlohmann::json* asym_;  // ... coulomb_friction,load_torque,asymmetric_viscous
@@ -192,9 +199,7 @@ TEST_F(Emps, MassWithinTwoPercentOfTheReference) {
   EXPECT_NEAR(After(*asym_, "J"), 93.084, 0.1);
   for (const nlohmann::json* report : {idm_, open_}) {
     EXPECT_LE(std::abs(After(*report, "J") / kEmpsM - 1.0), 0.02);
-    const auto& ci = (*report)["discovery"]["intervals_after"]["J"]["ci95"];
-    EXPECT_LT(Value(ci[0]), After(*report, "J"));
-    EXPECT_GT(Value(ci[1]), After(*report, "J"));
+    ExpectIntervalAround(*report, "J");
   }
 }
 
@@ -213,10 +218,7 @@ TEST_F(Emps, ViscousFrictionWithinFivePercentOfTheReferenceOnceItsAsymmetryIsMod
   EXPECT_NEAR((fv - dB) / kEmpsFvMinus, 1.0, 0.05);
   EXPECT_NEAR((fv + dB) / kEmpsFvPlus, 1.0, 0.07);
   for (const char* name : {"B", "dB"}) {
-    const auto& ci = (*asym_)["discovery"]["intervals_after"][name]["ci95"];
-    ASSERT_TRUE(ci.is_array()) << name;
-    EXPECT_LT(Value(ci[0]), After(*asym_, name)) << name;
-    EXPECT_GT(Value(ci[1]), After(*asym_, name)) << name;
+    ExpectIntervalAround(*asym_, name);
   }
 }
 
@@ -230,10 +232,7 @@ TEST_F(Emps, EquationErrorMeetsTheMassAndViscousCriteria) {
   EXPECT_LE(std::abs(m / kEmpsM - 1.0), 0.02);
   EXPECT_LE(std::abs(fv / kEmpsFv - 1.0), 0.05);
   for (const char* name : {"J", "B"}) {
-    const auto& ci = (*idim_)["discovery"]["intervals_after"][name]["ci95"];
-    ASSERT_TRUE(ci.is_array()) << name;
-    EXPECT_LT(Value(ci[0]), After(*idim_, name)) << name;
-    EXPECT_GT(Value(ci[1]), After(*idim_, name)) << name;
+    ExpectIntervalAround(*idim_, name);
   }
   EXPECT_EQ((*idim_)["fit"]["error"]["type"], "equation");
   EXPECT_EQ(Value((*idim_)["fit"]["error"]["samples"]), 2484.0);  // 24 839 / 10
@@ -296,10 +295,7 @@ TEST_F(Emps, DiscoveryAddsCoulombFrictionAndTheOffset) {
   EXPECT_NEAR(Tc, kEmpsFc, 0.10 * kEmpsFc);
   EXPECT_NEAR(TL, kEmpsOffset, 1.0);
   for (const char* name : {"Tc", "TL"}) {
-    const auto& ci = d["intervals_after"][name]["ci95"];
-    ASSERT_TRUE(ci.is_array()) << name;
-    EXPECT_LT(Value(ci[0]), After(*idim_, name)) << name;
-    EXPECT_GT(Value(ci[1]), After(*idim_, name)) << name;
+    ExpectIntervalAround(*idim_, name);
   }
 }
 
@@ -360,10 +356,7 @@ TEST_F(Emps, CoulombAndOffsetWithTheBenchmarkCandidates) {
   EXPECT_NEAR(Tc, kEmpsFc, 0.10 * kEmpsFc);
   EXPECT_NEAR(TL, kEmpsOffset, 1.0);
   for (const char* name : {"Tc", "TL"}) {
-    const auto& ci = d["intervals_after"][name]["ci95"];
-    ASSERT_TRUE(ci.is_array()) << name;
-    EXPECT_LT(Value(ci[0]), After(*idm_, name)) << name;
-    EXPECT_GT(Value(ci[1]), After(*idm_, name)) << name;
+    ExpectIntervalAround(*idm_, name);
   }
 }
 

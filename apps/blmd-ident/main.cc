@@ -167,11 +167,7 @@ int main(int argc, char** argv) {
       if (validation) {
         validation_after = std::make_unique<blmd::FitProblem>(
             discovery.final_config, validation->traces(), observe,
-            [&] {
-              std::vector<blmd::FreeParameter> names;
-              for (const auto& name : discovery.final_free) names.push_back({name, 0.0, 0.0, false, 0.0});
-              return names;
-            }());
+            blmd::NamedFreeParameters(discovery.final_free));
       }
       report["discovery"] = blmd::DiscoveryJson(problem, result, discovery, validation.get(),
                                                 validation_after.get());

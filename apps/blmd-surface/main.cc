@@ -300,10 +300,8 @@ int main(int argc, char** argv) {
     metadata.lines.push_back(observe_line);
     if (problem.equation_error()) {
       const blmd::EquationTrace& first = problem.equation_traces().front();
-      char cutoff[32];
-      std::snprintf(cutoff, sizeof cutoff, "%.6g", first.cutoff_hz);
-      metadata.lines.push_back("error: equation, filter_hz " + std::string(cutoff) + ", decimate " +
-                               std::to_string(first.decimate));
+      metadata.lines.push_back("error: equation, filter_hz " + G(first.cutoff_hz, 6) +
+                               ", decimate " + std::to_string(first.decimate));
     }
     if (!rows_line.empty()) {
       metadata.lines.push_back("rows:" + rows_line + " (" + std::to_string(experiments) + " experiment" +

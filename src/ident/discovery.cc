@@ -5,10 +5,10 @@
 #include <functional>
 #include <limits>
 #include <cmath>
-#include <cstdio>
 #include <thread>
 
 #include "blmd/ident/report.h"
+#include "blmd/io/csv.h"
 #include "blmd/sim/effects.h"
 #include "ident/counting_cost.h"
 
@@ -17,11 +17,7 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-std::string G(double v, int digits = 4) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%.*g", digits, v);
-  return buffer;
-}
+std::string G(double v, int digits = 4) { return FormatSignificant(v, digits); }
 
 // A candidate's search set-up: free effect parameters with bounds, fixed ones, start points.
 struct CandidatePlan {

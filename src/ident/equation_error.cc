@@ -4,7 +4,6 @@
 #include <cmath>
 #include <complex>
 #include <limits>
-#include <cstdio>
 
 #include "blmd/error.h"
 #include "blmd/ident/problem.h"
@@ -16,13 +15,6 @@ namespace blmd {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-// A number for a message: six significant digits ("500", "0.0009").
-std::string Short(double value) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.6g", value);
-  return text;
-}
 
 // The section of one analog pole pair (s, conj s) by the bilinear transform at sample_hz,
 // with its two zeros at z = -1 (a low-pass's zeros at infinity) and unit gain at DC.
@@ -47,8 +39,8 @@ double Prewarp(double cutoff_hz, double sample_hz) {
 void CheckDesign(int order, double cutoff_hz, double sample_hz) {
   if (order < 2 || order % 2 != 0 || !(cutoff_hz > 0.0) || !(cutoff_hz < 0.5 * sample_hz)) {
     throw InputError("low-pass filter: need an even order >= 2 and 0 < cut-off " +
-                     Short(cutoff_hz) + " Hz < half the sampling rate " +
-                     Short(0.5 * sample_hz) + " Hz");
+                     FormatSignificant(cutoff_hz, 6) + " Hz < half the sampling rate " +
+                     FormatSignificant(0.5 * sample_hz, 6) + " Hz");
   }
 }
 
@@ -171,15 +163,15 @@ EquationTrace PrepareEquationTrace(const FitTrace& fit_trace,
   const auto [lo, hi] = std::minmax_element(steps.begin(), steps.end());
   if (!(dt > 0.0) || *hi - dt > 0.01 * dt || dt - *lo > 0.01 * dt) {
     throw InputError(where + ": the equation error filters the samples, which must be evenly "
-                             "spaced; the time step varies from " + Short(*lo) + " to " + Short(*hi) +
-                     " s");
+                             "spaced; the time step varies from " +
+                     FormatSignificant(*lo, 6) + " to " + FormatSignificant(*hi, 6) + " s");
   }
   const double sample_hz = 1.0 / dt;
   const double cutoff_hz = settings.filter_hz > 0.0 ? settings.filter_hz : 0.1 * sample_hz;
   if (!(cutoff_hz < 0.5 * sample_hz)) {
-    throw InputError(where + ": filter_hz " + Short(cutoff_hz) +
-                     " Hz is not below half the sampling rate (" + Short(0.5 * sample_hz) +
-                     " Hz)");
+    throw InputError(where + ": filter_hz " + FormatSignificant(cutoff_hz, 6) +
+                     " Hz is not below half the sampling rate (" +
+                     FormatSignificant(0.5 * sample_hz, 6) + " Hz)");
   }
   const std::vector<Biquad> motion_filter = ButterworthLowPass(4, cutoff_hz, sample_hz);
   EquationTrace out;

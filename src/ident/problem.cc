@@ -36,14 +36,14 @@ FitProblem::FitProblem(Config config, std::vector<FitTrace> traces,
     for (const auto& fit_trace : traces_) {
       equation_.push_back(PrepareEquationTrace(fit_trace, config_.identification));
     }
-  }
-  for (const auto& fit_trace : traces_) {
-    if (!equation_.empty()) break;  // nothing is simulated
-    if (!fit_trace.trace.Has("t") || fit_trace.trace.rows() == 0) continue;
-    const auto& t = fit_trace.trace.Column("t");
-    if (const std::string error = RunLengthError(t.back() - t.front(), config_.simulation.dt, 0.0);
-        !error.empty()) {
-      throw InputError(fit_trace.path + ": " + error);
+  } else {
+    for (const auto& fit_trace : traces_) {  // the runs to simulate must be feasible
+      if (!fit_trace.trace.Has("t") || fit_trace.trace.rows() == 0) continue;
+      const auto& t = fit_trace.trace.Column("t");
+      if (const std::string error = RunLengthError(t.back() - t.front(), config_.simulation.dt, 0.0);
+          !error.empty()) {
+        throw InputError(fit_trace.path + ": " + error);
+      }
     }
   }
   variance_.assign(observe_.size(), 0.0);
@@ -317,6 +317,12 @@ std::vector<Evaluation> FitProblem::EvaluateBatch(
   }
   for (std::size_t m : pending) Finish(sum_sq[m], &evaluations[m]);
   return evaluations;
+}
+
+std::vector<FreeParameter> NamedFreeParameters(const std::vector<std::string>& names) {
+  std::vector<FreeParameter> free;
+  for (const auto& name : names) free.push_back({name, 0.0, 0.0, false, 0.0});
+  return free;
 }
 
 std::vector<FreeParameter> MakeFreeParameters(const Config& config,

@@ -73,10 +73,8 @@ nlohmann::json SimulatedErrors(const FitProblem& problem, const Config& config,
   for (const auto& t : problem.traces()) {
     if (!t.trace.Has(column)) return nullptr;
   }
-  std::vector<FreeParameter> parameters;
-  for (const auto& name : free) parameters.push_back({name, 0.0, 0.0, false, 0.0});
   try {
-    const FitProblem simulated(output, problem.traces(), {column}, parameters);
+    const FitProblem simulated(output, problem.traces(), {column}, NamedFreeParameters(free));
     nlohmann::json out = ErrorsJson(ComputeErrors(simulated, values));
     out["observe"] = {column};
     return out;

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <string_view>
 #include <unordered_set>
@@ -439,6 +440,12 @@ std::string HeaderSummary(const std::vector<std::string>& names) {
     out += (k ? "," : "") + std::string(name);
   }
   return out;
+}
+
+std::string FormatSignificant(double value, int digits) {
+  char text[64];
+  std::snprintf(text, sizeof text, "%.*g", digits, value);
+  return text;
 }
 
 std::string FormatNumber(double value) {

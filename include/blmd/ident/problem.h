@@ -145,6 +145,10 @@ std::vector<double> MeasuredAngle(const FitTrace& trace);
 
 // Builds the free-parameter list from the config (bounds, initial values, log scale).
 // Throws InputError for an unknown parameter or an initial value outside its bounds.
+// Free parameters by name only (no bounds, no start), for a problem that is evaluated at
+// given values and never searched (validation after discovery, the simulated check).
+std::vector<FreeParameter> NamedFreeParameters(const std::vector<std::string>& names);
+
 std::vector<FreeParameter> MakeFreeParameters(const Config& config,
                                               const std::vector<std::string>& names);
 
