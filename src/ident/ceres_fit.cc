@@ -1,9 +1,12 @@
 #include <ceres/ceres.h>
 #include <ceres/covariance.h>
+#include <glog/logging.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <memory>
+#include <mutex>
 
 #include "blmd/error.h"
 #include "ident/counting_cost.h"
@@ -32,12 +35,28 @@ class SimulationCost final : public ceres::CostFunction {
     set_num_residuals(static_cast<int>(problem.num_residuals()));
   }
 
+  // Evaluates the residuals and the Jacobian at x and keeps them for the next Evaluate at
+  // the same x; false when that fails (the residuals or a derivative are not finite).
+  bool CheckJacobian(const std::vector<double>& x) {
+    remember_ = true;
+    std::vector<double> residuals(cost_->problem().num_residuals());
+    std::vector<double> jacobian(residuals.size() * x.size());
+    double* jacobians[] = {jacobian.data()};
+    const double* parameters[] = {x.data()};
+    return Evaluate(parameters, residuals.data(), jacobians);
+  }
+
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override {
     const FitProblem& problem = cost_->problem();
     const std::size_t p = problem.num_free(), n = problem.num_residuals();
     const std::vector<double> x(parameters[0], parameters[0] + p);
     const bool jacobian = jacobians && jacobians[0];
+    if (jacobian && !remembered_x_.empty() && x == remembered_x_) {
+      std::copy(remembered_residuals_.begin(), remembered_residuals_.end(), residuals);
+      std::copy(remembered_jacobian_.begin(), remembered_jacobian_.end(), jacobians[0]);
+      return true;
+    }
     const bool central = differences_ == Differences::kCentral;
     // The point and, for a Jacobian, its forward (and, central, backward) neighbours,
     // simulated together (FitProblem::EvaluateBatch: SIMD lanes for the blmd model).
@@ -84,8 +103,17 @@ class SimulationCost final : public ceres::CostFunction {
         } else {
           return false;
         }
+        // A non-finite derivative (a step so large that the parameter overflows, a
+        // simulation that returned inf) is an evaluation failure: Ceres must never see it,
+        // least of all its covariance, whose SVD of a NaN matrix crashes.
+        if (!std::isfinite(derivative)) return false;
         jacobians[0][r_index * p + k] = derivative;
       }
+    }
+    if (remember_) {
+      remembered_x_ = x;
+      remembered_residuals_.assign(residuals, residuals + n);
+      remembered_jacobian_.assign(jacobians[0], jacobians[0] + n * p);
     }
     return true;
   }
@@ -118,7 +146,70 @@ class SimulationCost final : public ceres::CostFunction {
   double fd_step_;
   Differences differences_;
   std::vector<double> scale_;
+  // CheckJacobian's point and results, reused by the next Evaluate there (ceres::Covariance).
+  bool remember_ = false;
+  mutable std::vector<double> remembered_x_, remembered_residuals_, remembered_jacobian_;
 };
+
+// Covariance of the search coordinates, scaled by the residual variance: the residuals
+// are re-weighted by each column's estimated noise level (e/s_c), so that columns with
+// different noise (current in A, speed in rad/s) each count with their own variance, and
+// ceres::Covariance of that problem is the parameter covariance directly. Sets the
+// estimates' intervals, or says in summary.details.covariance why there are none.
+void SetCovarianceIntervals(const FitProblem& problem, CountingCost* cost, double fd_step,
+                            const std::vector<double>& x, FitResult* result) {
+  const std::size_t p = problem.num_free();
+  OptimizerSummary& summary = result->summary;
+  std::vector<double> cov_x = x;
+  auto noise_cost = std::make_unique<SimulationCost>(
+      cost, fd_step, SimulationCost::Differences::kCentral,
+      problem.NoiseNormalisation(result->evaluation));
+  // The Jacobian is evaluated (and checked finite) here first; ceres::Covariance then reuses
+  // it (SimulationCost remembers its last Jacobian) instead of simulating again.
+  if (!noise_cost->CheckJacobian(cov_x)) {
+    summary.details["covariance"] =
+        "interval unavailable: the Jacobian at the optimum could not be evaluated (a "
+        "simulation failed or a derivative is not finite)";
+    return;
+  }
+  ceres::Problem covariance_problem;
+  covariance_problem.AddResidualBlock(noise_cost.release(), nullptr, cov_x.data());
+  ceres::Covariance::Options covariance_options;
+  covariance_options.algorithm_type = ceres::DENSE_SVD;
+  covariance_options.null_space_rank = -1;
+  covariance_options.min_reciprocal_condition_number = 1e-14;
+  ceres::Covariance covariance(covariance_options);
+  std::vector<std::pair<const double*, const double*>> blocks = {{cov_x.data(), cov_x.data()}};
+  if (!covariance.Compute(blocks, &covariance_problem)) {
+    summary.details["covariance"] = "rank deficient: parameters not separately identifiable";
+    return;
+  }
+  std::vector<double> matrix(p * p);
+  covariance.GetCovarianceBlock(cov_x.data(), cov_x.data(), matrix.data());
+  for (std::size_t k = 0; k < p; ++k) {
+    const double variance = matrix[k * p + k];
+    if (variance > 0.0 && std::isfinite(variance)) {  // 0: a direction with no information
+      SetInterval(problem.free()[k], std::sqrt(variance), "ceres_covariance",
+                  &result->estimates[k]);
+    }
+  }
+  nlohmann::json noise = nlohmann::json::object();
+  for (std::size_t c = 0; c < problem.observe().size(); ++c) {
+    noise[problem.observe()[c]] = std::sqrt(result->evaluation.mse[c]);
+  }
+  summary.details["residual_rms"] = noise;
+}
+
+// Ceres logs through glog, whose default writes WARNING and above to stderr (with a "Logging
+// before InitGoogleLogging()" line first). Not verbose: nothing below FATAL is logged at all,
+// so Ceres's lines never precede a command's own one-line error. The flag is process-wide, as
+// glog's is; it is set on every call, so the last call's choice holds.
+void SetCeresLogging(bool verbose) {
+  static std::mutex mutex;  // discovery runs Ceres fits on several threads
+  const std::lock_guard<std::mutex> lock(mutex);
+  const int level = verbose ? google::GLOG_INFO : google::GLOG_FATAL;
+  if (FLAGS_minloglevel != level) FLAGS_minloglevel = level;
+}
 
 }  // namespace
 
@@ -130,6 +221,7 @@ std::vector<std::string> CeresOptimizer::option_names() const {
 FitResult CeresOptimizer::Minimize(const FitProblem& problem,
                                    const OptimizerOptions& options) const {
   CheckMethodOptions("ceres", options.method_options, option_names());
+  SetCeresLogging(options.verbose);
   const auto started = std::chrono::steady_clock::now();
   CountingCost cost(problem);
   const std::size_t p = problem.num_free();
@@ -139,7 +231,8 @@ FitResult CeresOptimizer::Minimize(const FitProblem& problem,
     x[k] = problem.free()[k].log_scale ? std::log(initial[k]) : initial[k];
   }
 
-  const double fd_step = OptionNumber(options.method_options, "fd_step", 1e-3);
+  const nlohmann::json& o = options.method_options;
+  const double fd_step = OptionNumber("ceres", o, "fd_step", 1e-3, {0.0, 0.5, true});
   auto* cost_function = new SimulationCost(&cost, fd_step, SimulationCost::Differences::kForward);
 
   ceres::Problem::Options problem_options;
@@ -156,7 +249,7 @@ FitResult CeresOptimizer::Minimize(const FitProblem& problem,
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = ceres::DENSE_QR;
   solver_options.max_num_iterations =
-      static_cast<int>(OptionNumber(options.method_options, "max_iterations", 100));
+      OptionWholeNumber("ceres", o, "max_iterations", 100, 1, 1000000);
   if (options.max_evaluations > 0) {
     // Each iteration costs about p + 2 evaluations (forward differences and the step).
     solver_options.max_num_iterations =
@@ -164,11 +257,11 @@ FitResult CeresOptimizer::Minimize(const FitProblem& problem,
                              options.max_evaluations / static_cast<int>(p + 2)));
   }
   solver_options.function_tolerance =
-      OptionNumber(options.method_options, "function_tolerance", 1e-10);
+      OptionNumber("ceres", o, "function_tolerance", 1e-10, {0.0, 1.0, true});
   solver_options.parameter_tolerance =
-      OptionNumber(options.method_options, "parameter_tolerance", 1e-10);
+      OptionNumber("ceres", o, "parameter_tolerance", 1e-10, {0.0, 1.0, true});
   solver_options.gradient_tolerance =
-      OptionNumber(options.method_options, "gradient_tolerance", 1e-14);
+      OptionNumber("ceres", o, "gradient_tolerance", 1e-14, {0.0, 1.0, true});
   // No projected line search after a successful step: with bounds, Ceres would otherwise
   // evaluate the Jacobian again along the step (2p + 1 more simulations per iteration, half
   // of a fit's evaluations) before the next iteration evaluates it anyway; a step that
@@ -204,40 +297,9 @@ FitResult CeresOptimizer::Minimize(const FitProblem& problem,
                      {"successful_steps", ceres_summary.num_successful_steps},
                      {"unsuccessful_steps", ceres_summary.num_unsuccessful_steps}};
 
-  // Covariance of the search coordinates, scaled by the residual variance: the residuals
-  // are re-weighted by each column's estimated noise level (e/s_c), so that columns with
-  // different noise (current in A, speed in rad/s) each count with their own variance, and
-  // ceres::Covariance of that problem is the parameter covariance directly.
+  CheckProgress(problem, &result);
   if (result.evaluation.ok && problem.num_residuals() > p) {
-    std::vector<double> cov_x = x;
-    auto* noise_cost = new SimulationCost(&cost, fd_step, SimulationCost::Differences::kCentral,
-                                          problem.NoiseNormalisation(result.evaluation));
-    ceres::Problem covariance_problem;
-    covariance_problem.AddResidualBlock(noise_cost, nullptr, cov_x.data());
-    ceres::Covariance::Options covariance_options;
-    covariance_options.algorithm_type = ceres::DENSE_SVD;
-    covariance_options.null_space_rank = -1;
-    covariance_options.min_reciprocal_condition_number = 1e-14;
-    ceres::Covariance covariance(covariance_options);
-    std::vector<std::pair<const double*, const double*>> blocks = {{cov_x.data(), cov_x.data()}};
-    if (covariance.Compute(blocks, &covariance_problem)) {
-      std::vector<double> matrix(p * p);
-      covariance.GetCovarianceBlock(cov_x.data(), cov_x.data(), matrix.data());
-      for (std::size_t k = 0; k < p; ++k) {
-        const double variance = matrix[k * p + k];
-        if (variance >= 0.0 && std::isfinite(variance)) {
-          SetInterval(problem.free()[k], std::sqrt(variance), "ceres_covariance",
-                      &result.estimates[k]);
-        }
-      }
-      nlohmann::json noise = nlohmann::json::object();
-      for (std::size_t c = 0; c < problem.observe().size(); ++c) {
-        noise[problem.observe()[c]] = std::sqrt(result.evaluation.mse[c]);
-      }
-      summary.details["residual_rms"] = noise;
-    } else {
-      summary.details["covariance"] = "rank deficient: parameters not separately identifiable";
-    }
+    SetCovarianceIntervals(problem, &cost, fd_step, x, &result);
   }
   cost.FillSummary(&summary);
   summary.wall_time_s =

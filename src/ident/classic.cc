@@ -61,7 +61,7 @@ std::vector<std::string> ClassicOptimizer::option_names() const { return {"tail"
 FitResult ClassicOptimizer::Minimize(const FitProblem& problem,
                                      const OptimizerOptions& options) const {
   CheckMethodOptions("classic", options.method_options, option_names());
-  const double tail = OptionNumber(options.method_options, "tail", 0.1);
+  const double tail = OptionNumber("classic", options.method_options, "tail", 0.1, {0.0, 1.0, true});
   const auto started = std::chrono::steady_clock::now();
   const Config& config = problem.config();
   if (config.model->name() != "dc_servo") {

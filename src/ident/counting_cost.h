@@ -67,12 +67,36 @@ class CountingCost {
   std::map<std::string, long> reasons_;
 };
 
+// After a local method (ceres, powell) claims convergence: when the fit ended where the cost
+// is no lower than at the start values AND the cost does not change when any free parameter
+// moves 5 % (in its search coordinate) around the result, the method stopped on a plateau
+// (absurd start values: a J so large that the shaft never moves), not at a minimum. Then
+// the result is marked not converged, termination "flat cost", with a message naming the
+// fix; likewise when the cost is not finite at the start. Costs one evaluation, plus 2p
+// only when the fit made no progress.
+void CheckProgress(const FitProblem& problem, FitResult* result);
+
 // Rejects method options that the method does not know (InputError listing valid ones).
 void CheckMethodOptions(const std::string& method, const nlohmann::json& options,
                         const std::vector<std::string>& valid);
-double OptionNumber(const nlohmann::json& options, const char* key, double fallback);
-std::string OptionString(const nlohmann::json& options, const char* key,
-                         const std::string& fallback);
+// The valid values of a numeric method option: [low, high], or (low, high] when low_open.
+struct OptionRange {
+  double low;
+  double high;
+  bool low_open = false;
+};
+// A method option's value (a JSON number, or text that is a whole decimal number), checked
+// against its range: otherwise InputError "method ceres: option fd_step=0 must be > 0 and
+// <= 0.5" (docs/identification.md lists every option's range). `fallback` when absent.
+double OptionNumber(const std::string& method, const nlohmann::json& options, const char* key,
+                    double fallback, OptionRange range);
+// A whole-number option in [low, high] (no fraction, no overflow).
+int OptionWholeNumber(const std::string& method, const nlohmann::json& options, const char* key,
+                      int fallback, int low, int high);
+// A text option that must be one of `choices` (the message lists them).
+std::string OptionChoice(const std::string& method, const nlohmann::json& options,
+                         const char* key, const std::string& fallback,
+                         const std::vector<std::string>& choices);
 
 // BOBYQA/PRAXIS in scaled coordinates from `start`; shared by powell and the FSD polish.
 struct LocalResult {
@@ -87,6 +111,5 @@ LocalResult NloptLocal(CountingCost& cost, const std::string& algorithm,
                        const std::vector<double>& start, double initial_step, int max_evaluations,
                        double xtol_abs, double ftol_rel);
 
-int ThreadCount(int requested);
 
 }  // namespace blmd::internal

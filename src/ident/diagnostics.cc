@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "saturating_cast.h"
 #include "blmd/ident/stats.h"
 
 namespace blmd {
@@ -164,7 +165,9 @@ ResidualAnalysis AnalyseResidual(const FitProblem& problem, const std::vector<do
     // Orders that complete fewer than three periods over the whole rotation are not
     // resolved; the spectrum needs at least half a revolution.
     d.shaft_turned = theta_span > M_PI;
-    const int min_order = std::max(1, static_cast<int>(std::ceil(3.0 * 2.0 * M_PI / std::max(theta_span, 1e-9))));
+    // A shaft that barely turned (a locked rotor: theta_span ~ 0) gives a huge ratio.
+    const int min_order = std::max(
+        1, internal::SaturatingCast<int>(std::ceil(3.0 * 2.0 * M_PI / std::max(theta_span, 1e-9))));
     if (d.shaft_turned) {
       std::vector<double> detrended(e.size(), 0.0);
       std::vector<char> use(e.size(), 0);
@@ -176,7 +179,8 @@ ResidualAnalysis AnalyseResidual(const FitProblem& problem, const std::vector<do
         const std::size_t cap = std::max<std::size_t>(1, (last - first) / 4);
         for (std::size_t k = first; k < last; ++k) {
           if (std::abs(w[k]) <= 0.25 * analysis.w_max) continue;
-          const std::size_t h = std::min(cap, static_cast<std::size_t>(M_PI / std::abs(w[k]) * rates[s_index]));
+          const std::size_t h =
+              std::min(cap, internal::SaturatingCast<std::size_t>(M_PI / std::abs(w[k]) * rates[s_index]));
           const std::size_t lo = k - first >= h ? k - first - h : 0;
           const std::size_t hi = std::min(last - first, k - first + h + 1);
           detrended[k] = e[k] - (prefix[hi] - prefix[lo]) / static_cast<double>(hi - lo);

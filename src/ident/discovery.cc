@@ -5,12 +5,12 @@
 #include <functional>
 #include <limits>
 #include <cmath>
-#include <thread>
 
 #include "blmd/ident/report.h"
 #include "blmd/io/csv.h"
 #include "blmd/sim/effects.h"
 #include "ident/counting_cost.h"
+#include "parallel.h"
 
 namespace blmd {
 namespace {
@@ -782,17 +782,10 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     }
     if (plans.empty()) break;
     std::vector<CandidateRun> runs(plans.size());
-    const int threads = std::max(1, internal::ThreadCount(options.refit.threads));
-    auto parallel = [&](const std::vector<std::size_t>& items, const std::function<void(std::size_t)>& work) {
-      std::vector<std::thread> pool;
-      for (int t = 0; t < threads; ++t) {
-        pool.emplace_back([&, t] {
-          for (std::size_t k = static_cast<std::size_t>(t); k < items.size(); k += static_cast<std::size_t>(threads)) {
-            work(items[k]);
-          }
-        });
-      }
-      for (auto& thread : pool) thread.join();
+    const int threads = internal::ThreadCount(options.refit.threads);
+    auto parallel = [&](const std::vector<std::size_t>& items,
+                        const std::function<void(std::size_t)>& work) {
+      internal::ParallelFor(items.size(), threads, [&](std::size_t k) { work(items[k]); });
     };
     std::vector<std::size_t> all(plans.size());
     for (std::size_t k = 0; k < all.size(); ++k) all[k] = k;

@@ -15,12 +15,12 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <thread>
 
 #include "blmd/ident/surface.h"
 #include "blmd/random.h"
 #include "ident/counting_cost.h"
 #include "ident/methods.h"
+#include "parallel.h"
 
 namespace blmd::internal {
 namespace {
@@ -166,20 +166,21 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
   CheckMethodOptions("fsd", o, option_names());
   FsdSettings s;
   const std::size_t n = problem.num_free();
-  s.walkers = static_cast<int>(OptionNumber(o, "walkers", s.walkers));
-  s.bursts = static_cast<int>(OptionNumber(o, "bursts", s.bursts));
-  s.burst_steps = static_cast<int>(OptionNumber(o, "burst_steps", s.burst_steps));
-  s.quench_evaluations = static_cast<int>(OptionNumber(o, "quench_evaluations", s.quench_evaluations));
-  s.quench_step = OptionNumber(o, "quench_step", s.quench_step);
-  s.probes = static_cast<int>(OptionNumber(o, "probes", 8.0 * static_cast<double>(n)));
-  s.initial_spread = OptionNumber(o, "initial_spread", s.initial_spread);
-  s.t0 = OptionNumber(o, "t0", s.t0);
-  s.fd_step = OptionNumber(o, "fd_step", s.fd_step);
-  s.max_step = OptionNumber(o, "max_step", s.max_step);
-  s.polish = OptionNumber(o, "polish", 1.0) != 0.0;
-  s.polish_evaluations = static_cast<int>(OptionNumber(o, "polish_evaluations", s.polish_evaluations));
-  s.polish_step = OptionNumber(o, "polish_step", s.polish_step);
-  s.walkers = std::max(1, s.walkers);
+  // Ranges: docs/identification.md (fsd options); scaled units are fractions of the box.
+  const std::string m = "fsd";
+  s.walkers = OptionWholeNumber(m, o, "walkers", s.walkers, 1, 1024);
+  s.bursts = OptionWholeNumber(m, o, "bursts", s.bursts, 1, 100000);
+  s.burst_steps = OptionWholeNumber(m, o, "burst_steps", s.burst_steps, 1, 100000);
+  s.quench_evaluations = OptionWholeNumber(m, o, "quench_evaluations", s.quench_evaluations, 0, 1000000);
+  s.quench_step = OptionNumber(m, o, "quench_step", s.quench_step, {0.0, 1.0, true});
+  s.probes = OptionWholeNumber(m, o, "probes", static_cast<int>(std::min<std::size_t>(8 * n, 100000)), 2, 100000);
+  s.initial_spread = OptionNumber(m, o, "initial_spread", s.initial_spread, {0.0, 1.0, true});
+  s.t0 = OptionNumber(m, o, "t0", s.t0, {0.0, 1e6, true});
+  s.fd_step = OptionNumber(m, o, "fd_step", s.fd_step, {0.0, 0.5, true});
+  s.max_step = OptionNumber(m, o, "max_step", s.max_step, {0.0, 1.0, true});
+  s.polish = OptionWholeNumber(m, o, "polish", 1, 0, 1) != 0;
+  s.polish_evaluations = OptionWholeNumber(m, o, "polish_evaluations", s.polish_evaluations, 1, 1000000);
+  s.polish_step = OptionNumber(m, o, "polish_step", s.polish_step, {0.0, 1.0, true});
   s.probes = std::max(2, s.probes);
 
   const auto started = std::chrono::steady_clock::now();
@@ -193,21 +194,15 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
     for (double& v : p) v = master.Uniform();
   }
   std::vector<double> probe_cost(probes.size());
-  {
-    std::vector<std::thread> pool;
-    for (int t = 0; t < threads; ++t) {
-      pool.emplace_back([&, t] {
-        // This thread's share of the probes, evaluated together (SIMD lanes for blmd).
-        const auto [begin, end] = ShardRange(probes.size(), t + 1, threads);
-        const std::vector<double> costs = cost.ScaledCosts(
-            std::vector<std::vector<double>>(probes.begin() + static_cast<std::ptrdiff_t>(begin),
-                                             probes.begin() + static_cast<std::ptrdiff_t>(end)));
-        std::copy(costs.begin(), costs.end(),
-                  probe_cost.begin() + static_cast<std::ptrdiff_t>(begin));
-      });
-    }
-    for (auto& thread : pool) thread.join();
-  }
+  // Shards of probes, each evaluated together (SIMD lanes for blmd); every probe's cost
+  // lands in its own slot, so the result does not depend on the thread count.
+  ParallelFor(static_cast<std::size_t>(threads), threads, [&](std::size_t shard) {
+    const auto [begin, end] = ShardRange(probes.size(), static_cast<int>(shard) + 1, threads);
+    const std::vector<double> costs = cost.ScaledCosts(
+        std::vector<std::vector<double>>(probes.begin() + static_cast<std::ptrdiff_t>(begin),
+                                         probes.begin() + static_cast<std::ptrdiff_t>(end)));
+    std::copy(costs.begin(), costs.end(), probe_cost.begin() + static_cast<std::ptrdiff_t>(begin));
+  });
   std::vector<double> finite;
   for (double c : probe_cost) {
     if (std::isfinite(c)) finite.push_back(c);
@@ -240,19 +235,11 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
     // the polish gets its own budget (polish_evaluations per point) on top.
     run.budget = std::max<long>(1, (options.max_evaluations - s.probes) / s.walkers);
   }
-  {
-    std::vector<std::thread> pool;
-    for (int t = 0; t < threads; ++t) {
-      pool.emplace_back([&, t] {
-        for (std::size_t w = static_cast<std::size_t>(t); w < walkers.size();
-             w += static_cast<std::size_t>(threads)) {
-          Random random(options.seed * 0x9e3779b97f4a7c15ULL + 7919ULL * (w + 1));
-          run.RunWalker(walkers[w], random, a);
-        }
-      });
-    }
-    for (auto& thread : pool) thread.join();
-  }
+  // Each walker has its own generator, seeded by its index: thread-count independent.
+  ParallelFor(walkers.size(), threads, [&](std::size_t w) {
+    Random random(options.seed * 0x9e3779b97f4a7c15ULL + 7919ULL * (w + 1));
+    run.RunWalker(walkers[w], random, a);
+  });
   // Polish: every walker's best point and the best probe, each by BOBYQA (in parallel);
   // the lowest wins, ties to the earlier candidate, so the outcome is thread-independent.
   // Polishing several basins rather than only the best-so-far matters on rugged costs (the
@@ -293,15 +280,10 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
   }
   candidates = unique;
   if (s.polish) {
-    std::vector<std::thread> pool;
-    for (int t = 0; t < threads; ++t) {
-      pool.emplace_back([&, t] {
-        for (std::size_t k = static_cast<std::size_t>(t); k < candidates.size(); k += static_cast<std::size_t>(threads)) {
-          candidates[k].local = NloptLocal(cost, "bobyqa", candidates[k].start, s.polish_step, s.polish_evaluations, 1e-9, 1e-12);
-        }
-      });
-    }
-    for (auto& thread : pool) thread.join();
+    ParallelFor(candidates.size(), threads, [&](std::size_t k) {
+      candidates[k].local = NloptLocal(cost, "bobyqa", candidates[k].start, s.polish_step,
+                                       s.polish_evaluations, 1e-9, 1e-12);
+    });
   }
   std::vector<double> x;
   double best_cost = std::numeric_limits<double>::infinity();

@@ -1,10 +1,13 @@
 #include "blmd/ident/optimizer.h"
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
-#include <thread>
+#include <limits>
+#include <optional>
 
 #include "blmd/error.h"
+#include "blmd/io/csv.h"
 #include "ident/counting_cost.h"
 #include "ident/methods.h"
 
@@ -71,7 +74,7 @@ void EstimateUncertainty(const FitProblem& problem, const std::vector<double>& v
   const Eigen::MatrixXd covariance = s2 * information.inverse();
   for (std::size_t k = 0; k < p; ++k) {
     const double variance = covariance(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(k));
-    if (!(variance >= 0.0) || !std::isfinite(variance)) continue;
+    if (!(variance > 0.0) || !std::isfinite(variance)) continue;  // 0: no information
     const double sd = std::sqrt(variance);
     ParameterEstimate& e = (*estimates)[k];
     internal::SetInterval(problem.free()[k], sd, "gauss_newton", &e);
@@ -109,6 +112,44 @@ std::vector<ParameterEstimate> MakeEstimates(const FitProblem& problem,
   return estimates;
 }
 
+void CheckProgress(const FitProblem& problem, FitResult* result) {
+  OptimizerSummary& summary = result->summary;
+  if (!summary.converged) return;
+  const std::vector<double> start = problem.InitialValues();
+  const Evaluation at_start = problem.Evaluate(start);
+  if (!at_start.ok) {
+    summary.converged = false;
+    summary.termination = "cost not finite at the start values";
+    summary.message = "the start values give no finite cost (" + at_start.reason +
+                      "); start from values of the right magnitude (--initial, or the "
+                      "config's identification.initial)";
+    return;
+  }
+  const double final_cost = result->evaluation.cost;
+  if (final_cost < at_start.cost * (1.0 - 1e-9)) return;  // the fit made progress
+  const double tolerance = 1e-9 * std::max(final_cost, std::numeric_limits<double>::min());
+  for (std::size_t k = 0; k < problem.num_free(); ++k) {
+    const FreeParameter& fp = problem.free()[k];
+    for (const double direction : {-1.0, 1.0}) {
+      std::vector<double> probe = result->values;
+      const double x = probe[k];
+      probe[k] = fp.log_scale ? x * std::exp(0.05 * direction)
+                              : x + 0.05 * direction * std::max(std::abs(x), 1e-3 * (fp.upper - fp.lower));
+      probe[k] = std::clamp(probe[k], fp.lower, fp.upper);
+      if (probe[k] == x) continue;
+      const Evaluation moved = problem.Evaluate(probe);
+      if (!moved.ok || std::abs(moved.cost - final_cost) > tolerance) return;  // not flat
+    }
+  }
+  summary.converged = false;
+  summary.termination = "flat cost";
+  summary.message =
+      "no progress from the start values and the cost does not change when any free parameter "
+      "moves 5 % around them: the parameters are not determined there (start values far from "
+      "the data's, e.g. a J so large that the shaft does not move); start from values of the "
+      "right magnitude (--initial, or the config's identification.initial)";
+}
+
 void CheckMethodOptions(const std::string& method, const nlohmann::json& options,
                         const std::vector<std::string>& valid) {
   for (const auto& [key, value] : options.items()) {
@@ -123,33 +164,74 @@ void CheckMethodOptions(const std::string& method, const nlohmann::json& options
   }
 }
 
-double OptionNumber(const nlohmann::json& options, const char* key, double fallback) {
-  if (!options.contains(key)) return fallback;
-  const auto& value = options[key];
+namespace {
+
+std::string OptionText(const nlohmann::json& value) {
+  std::string text = value.is_string() ? value.get<std::string>() : value.dump();
+  if (text.size() > 40) text = text.substr(0, 40) + "...";
+  return text;
+}
+
+// The option's value as a finite number, or nullopt when it is not one.
+std::optional<double> OptionAsNumber(const nlohmann::json& value) {
   if (value.is_number()) return value.get<double>();
-  if (value.is_string()) {
-    try {
-      std::size_t used = 0;
-      const std::string text = value.get<std::string>();
-      const double v = std::stod(text, &used);
-      if (used == text.size() && std::isfinite(v)) return v;
-    } catch (const std::exception&) {
-    }
+  if (!value.is_string()) return std::nullopt;
+  const std::string text = value.get<std::string>();
+  try {
+    std::size_t used = 0;
+    const double v = std::stod(text, &used);
+    if (used == text.size() && !text.empty()) return v;
+  } catch (const std::exception&) {
   }
-  throw InputError(std::string("option '") + key + "' must be a number");
+  return std::nullopt;
 }
 
-std::string OptionString(const nlohmann::json& options, const char* key,
-                         const std::string& fallback) {
+std::string RangeText(OptionRange range) {
+  return std::string(range.low_open ? "> " : ">= ") + FormatSignificant(range.low, 6) +
+         " and <= " + FormatSignificant(range.high, 6);
+}
+
+}  // namespace
+
+double OptionNumber(const std::string& method, const nlohmann::json& options, const char* key,
+                    double fallback, OptionRange range) {
   if (!options.contains(key)) return fallback;
-  if (!options[key].is_string()) throw InputError(std::string("option '") + key + "' must be text");
-  return options[key].get<std::string>();
+  const std::optional<double> value = OptionAsNumber(options[key]);
+  const bool in_range = value && std::isfinite(*value) &&
+                        (range.low_open ? *value > range.low : *value >= range.low) &&
+                        *value <= range.high;
+  if (!in_range) {
+    throw InputError("method " + method + ": option " + key + "=" + OptionText(options[key]) +
+                     " must be a number " + RangeText(range));
+  }
+  return *value;
 }
 
-int ThreadCount(int requested) {
-  if (requested > 0) return requested;
-  const unsigned hardware = std::thread::hardware_concurrency();
-  return hardware ? static_cast<int>(hardware) : 1;
+int OptionWholeNumber(const std::string& method, const nlohmann::json& options, const char* key,
+                      int fallback, int low, int high) {
+  if (!options.contains(key)) return fallback;
+  const std::optional<double> value = OptionAsNumber(options[key]);
+  if (!value || !(*value >= low && *value <= high) || std::floor(*value) != *value) {
+    throw InputError("method " + method + ": option " + key + "=" + OptionText(options[key]) +
+                     " must be a whole number from " + std::to_string(low) + " to " +
+                     std::to_string(high));
+  }
+  return static_cast<int>(*value);
+}
+
+std::string OptionChoice(const std::string& method, const nlohmann::json& options,
+                         const char* key, const std::string& fallback,
+                         const std::vector<std::string>& choices) {
+  if (!options.contains(key)) return fallback;
+  const nlohmann::json& value = options[key];
+  if (value.is_string() &&
+      std::find(choices.begin(), choices.end(), value.get<std::string>()) != choices.end()) {
+    return value.get<std::string>();
+  }
+  std::string list;
+  for (const auto& choice : choices) list += (list.empty() ? "" : ", ") + choice;
+  throw InputError(method + " option " + key + "='" + OptionText(value) + "' (valid: " + list +
+                   ")");
 }
 
 }  // namespace internal

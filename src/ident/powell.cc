@@ -107,13 +107,11 @@ std::vector<std::string> PowellOptimizer::option_names() const {
 FitResult PowellOptimizer::Minimize(const FitProblem& problem,
                                     const OptimizerOptions& options) const {
   CheckMethodOptions("powell", options.method_options, option_names());
-  const std::string algorithm = OptionString(options.method_options, "algorithm", "bobyqa");
-  if (algorithm != "bobyqa" && algorithm != "praxis") {
-    throw InputError("powell option algorithm='" + algorithm + "' (valid: bobyqa, praxis)");
-  }
-  const double initial_step = OptionNumber(options.method_options, "initial_step", 0.1);
-  const double xtol = OptionNumber(options.method_options, "xtol", 1e-8);
-  const double ftol = OptionNumber(options.method_options, "ftol", 1e-12);
+  const nlohmann::json& o = options.method_options;
+  const std::string algorithm = OptionChoice("powell", o, "algorithm", "bobyqa", {"bobyqa", "praxis"});
+  const double initial_step = OptionNumber("powell", o, "initial_step", 0.1, {0.0, 1.0, true});
+  const double xtol = OptionNumber("powell", o, "xtol", 1e-8, {0.0, 1.0, true});
+  const double ftol = OptionNumber("powell", o, "ftol", 1e-12, {0.0, 1.0, true});
   const int budget = options.max_evaluations > 0 ? options.max_evaluations : 2000;
 
   const auto started = std::chrono::steady_clock::now();
@@ -138,6 +136,7 @@ FitResult PowellOptimizer::Minimize(const FitProblem& problem,
                      {"xtol_abs_scaled", xtol},
                      {"ftol_rel", ftol},
                      {"max_evaluations", budget}};
+  CheckProgress(problem, &result);
   cost.FillSummary(&summary);
   summary.wall_time_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();

@@ -4,11 +4,11 @@
 #include <atomic>
 #include <charconv>
 #include <cmath>
-#include <thread>
 
 #include "blmd/error.h"
 #include "blmd/io/csv.h"
 #include "ident/counting_cost.h"
+#include "parallel.h"
 
 namespace blmd {
 namespace {
@@ -87,44 +87,39 @@ std::vector<SurfacePoint> ComputeSurface(const FitProblem& problem, const std::v
                                          const SurfaceOptions& options) {
   std::size_t total = 1;
   for (const auto& axis : axes) total *= static_cast<std::size_t>(axis.count);
-  const auto [first, last] = ShardRange(total, options.shard_index, options.shard_count);
-  std::vector<SurfacePoint> points(last - first);
-  const int threads = std::max(1, internal::ThreadCount(options.threads));
-  // Threads take chunks of options.batch consecutive points (one atomic counter, nothing
-  // else shared: each point's result goes to its own slot) and evaluate each chunk at once
+  const std::pair<std::size_t, std::size_t> shard =
+      ShardRange(total, options.shard_index, options.shard_count);
+  const std::size_t first = shard.first;  // a plain variable: the lambda below captures it
+  std::vector<SurfacePoint> points(shard.second - first);
+  const int threads = internal::ThreadCount(options.threads);
+  // Threads take chunks of options.batch consecutive points (ParallelFor: nothing else
+  // shared, each point's result goes to its own slot) and evaluate each chunk at once
   // (FitProblem::EvaluateBatch: the blmd model simulates 8 points in SIMD lanes).
   const std::size_t batch = static_cast<std::size_t>(std::max(1, options.batch));
-  std::atomic<std::size_t> next{0}, done{0};
-  auto worker = [&] {
+  std::atomic<std::size_t> done{0};
+  const std::size_t chunks = (points.size() + batch - 1) / batch;
+  internal::ParallelFor(chunks, threads, [&](std::size_t chunk_index) {
+    const std::size_t begin = chunk_index * batch;
+    const std::size_t end = std::min(points.size(), begin + batch);
     std::vector<std::vector<double>> chunk;
-    while (true) {
-      const std::size_t begin = next.fetch_add(batch);
-      if (begin >= points.size()) break;
-      const std::size_t end = std::min(points.size(), begin + batch);
-      chunk.clear();
-      for (std::size_t k = begin; k < end; ++k) {
-        std::size_t index = first + k;
-        std::vector<double> coordinates(axes.size());
-        for (std::size_t a = axes.size(); a-- > 0;) {
-          const std::size_t n = static_cast<std::size_t>(axes[a].count);
-          coordinates[a] = axes[a].Value(static_cast<int>(index % n));
-          index /= n;
-        }
-        points[k].coordinates = coordinates;
-        chunk.push_back(std::move(coordinates));
+    for (std::size_t k = begin; k < end; ++k) {
+      std::size_t index = first + k;
+      std::vector<double> coordinates(axes.size());
+      for (std::size_t a = axes.size(); a-- > 0;) {
+        const std::size_t n = static_cast<std::size_t>(axes[a].count);
+        coordinates[a] = axes[a].Value(static_cast<int>(index % n));
+        index /= n;
       }
-      std::vector<Evaluation> evaluations = problem.EvaluateBatch(chunk);
-      for (std::size_t k = begin; k < end; ++k) {
-        points[k].evaluation = std::move(evaluations[k - begin]);
-        const std::size_t finished = done.fetch_add(1) + 1;
-        if (options.progress) options.progress(finished, points.size());
-      }
+      points[k].coordinates = coordinates;
+      chunk.push_back(std::move(coordinates));
     }
-  };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
-  worker();
-  for (auto& thread : pool) thread.join();
+    std::vector<Evaluation> evaluations = problem.EvaluateBatch(chunk);
+    for (std::size_t k = begin; k < end; ++k) {
+      points[k].evaluation = std::move(evaluations[k - begin]);
+      const std::size_t finished = done.fetch_add(1) + 1;
+      if (options.progress) options.progress(finished, points.size());
+    }
+  });
   return points;
 }
 

@@ -3,18 +3,17 @@
 #include "blmd/io/html_report.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
 #include <limits>
 #include <memory>
 #include <stdexcept>
-#include <thread>
 
 #include "blmd/io/files.h"
 #include "blmd/io/plot.h"
 #include "blmd/version.h"
+#include "parallel.h"
 
 namespace blmd {
 namespace {
@@ -837,23 +836,13 @@ std::vector<CostSlice> ComputeCostSlices(const FitProblem& problem, const std::v
   for (std::size_t s = 0; s < slices.size(); ++s) {
     for (std::size_t m = 0; m < slices[s].x.size(); ++m) tasks.emplace_back(s, m);
   }
-  std::atomic<std::size_t> next{0};
-  auto work = [&] {
-    for (std::size_t t = next++; t < tasks.size(); t = next++) {
-      const auto [s, m] = tasks[t];
-      std::vector<double> point = values;
-      point[slices[s].index] = slices[s].x[m];
-      const Evaluation evaluation = problem.Evaluate(point);
-      slices[s].cost[m] = evaluation.ok ? evaluation.cost : kInf;
-    }
-  };
-  const unsigned hardware = std::max(1u, std::thread::hardware_concurrency());
-  const std::size_t workers =
-      std::min<std::size_t>(tasks.size(), threads > 0 ? static_cast<std::size_t>(threads) : hardware);
-  std::vector<std::thread> pool;
-  for (std::size_t w = 1; w < workers; ++w) pool.emplace_back(work);
-  work();
-  for (auto& thread : pool) thread.join();
+  internal::ParallelFor(tasks.size(), threads, [&](std::size_t t) {
+    const auto [s, m] = tasks[t];
+    std::vector<double> point = values;
+    point[slices[s].index] = slices[s].x[m];
+    const Evaluation evaluation = problem.Evaluate(point);
+    slices[s].cost[m] = evaluation.ok ? evaluation.cost : kInf;
+  });
   for (auto& slice : slices) {
     double best = kInf;
     for (std::size_t m = 0; m < slice.cost.size(); ++m) {

@@ -24,6 +24,9 @@ struct OptimizerOptions {
   std::uint64_t seed = 1;     // random seed (fsd)
   int threads = 0;            // worker threads; 0 = all cores
   int max_evaluations = 0;    // cost evaluations; 0 = the method's default
+  // The back-end's own log on stderr (Ceres's glog lines). Off: a command's only stderr line
+  // on a failure is its own one-line error (docs/errors.md).
+  bool verbose = false;
   // Method-specific options by name, e.g. {"algorithm": "praxis"} for powell; unknown names
   // are an InputError listing the valid ones.
   nlohmann::json method_options = nlohmann::json::object();
