@@ -96,7 +96,7 @@ TEST(Identification, CeresIntervalsCoverTheTruthInAtLeast90PercentOfSeeds) {
     const FitProblem problem = MakeProblem(config, trace, {"i", "w"}, {"J", "B"}, {J * 2.0, B * 0.5});
     const FitResult result = FindOptimizer("ceres").Minimize(problem, OptimizerOptions{});
     ASSERT_TRUE(result.estimates[0].has_interval && result.estimates[1].has_interval);
-    EXPECT_EQ(result.estimates[0].interval_method, "ceres_covariance");
+    EXPECT_EQ(result.estimates[0].interval_method, "hac_prewhitened");
     covered_J += result.estimates[0].ci95_low <= J && J <= result.estimates[0].ci95_high;
     covered_B += result.estimates[1].ci95_low <= B && B <= result.estimates[1].ci95_high;
   }

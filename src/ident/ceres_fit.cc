@@ -1,5 +1,4 @@
 #include <ceres/ceres.h>
-#include <ceres/covariance.h>
 #include <glog/logging.h>
 
 #include <algorithm>
@@ -20,30 +19,40 @@ namespace {
 // differences with a step chosen in those coordinates (fd_step: 1e-3 in log, i.e. 0.1 %,
 // or 1e-3 of max(|x|, range/1000) when linear): forward differences (p + 1 simulations)
 // while minimising, where the Jacobian only steers the steps, and central differences
-// (2p + 1) for the covariance, whose accuracy the intervals depend on. Ceres' own numeric
+// (2p + 1) for the intervals, whose accuracy depends on them. Ceres' own numeric
 // differentiation steps relative to |x| (1e-6 |log J| ~ 1e-5), too fine for a simulator whose
 // stick-slip and PWM events shift by whole steps: the cost has micro-jumps at that scale, and a
 // Jacobian taken across one is wrong (and so would be the covariance).
 class SimulationCost final : public ceres::CostFunction {
  public:
   enum class Differences { kForward, kCentral };
-  SimulationCost(CountingCost* cost, double fd_step, Differences differences,
-                 std::vector<double> scale = {})
-      : cost_(cost), fd_step_(fd_step), differences_(differences), scale_(std::move(scale)) {
+  SimulationCost(CountingCost* cost, double fd_step, Differences differences)
+      : cost_(cost), fd_step_(fd_step), differences_(differences) {
     const FitProblem& problem = cost_->problem();
     mutable_parameter_block_sizes()->push_back(static_cast<int>(problem.num_free()));
     set_num_residuals(static_cast<int>(problem.num_residuals()));
   }
 
-  // Evaluates the residuals and the Jacobian at x and keeps them for the next Evaluate at
-  // the same x; false when that fails (the residuals or a derivative are not finite).
+  // Evaluates the residuals and the Jacobian at x and keeps them (RememberedResiduals,
+  // RememberedJacobian); false when that fails (a simulation failed or a derivative is not
+  // finite).
   bool CheckJacobian(const std::vector<double>& x) {
-    remember_ = true;
-    std::vector<double> residuals(cost_->problem().num_residuals());
-    std::vector<double> jacobian(residuals.size() * x.size());
-    double* jacobians[] = {jacobian.data()};
+    remembered_residuals_.assign(cost_->problem().num_residuals(), 0.0);
+    remembered_jacobian_.assign(remembered_residuals_.size() * x.size(), 0.0);
+    double* jacobians[] = {remembered_jacobian_.data()};
     const double* parameters[] = {x.data()};
-    return Evaluate(parameters, residuals.data(), jacobians);
+    return Evaluate(parameters, remembered_residuals_.data(), jacobians);
+  }
+  // The residuals and Jacobian CheckJacobian evaluated.
+  Eigen::VectorXd RememberedResiduals() const {
+    return Eigen::Map<const Eigen::VectorXd>(remembered_residuals_.data(),
+                                             static_cast<Eigen::Index>(remembered_residuals_.size()));
+  }
+  Eigen::MatrixXd RememberedJacobian() const {  // Ceres's layout: row-major n x p
+    const auto p = static_cast<Eigen::Index>(cost_->problem().num_free());
+    const auto n = static_cast<Eigen::Index>(remembered_residuals_.size());
+    return Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+        remembered_jacobian_.data(), n, p);
   }
 
   bool Evaluate(double const* const* parameters, double* residuals,
@@ -52,11 +61,6 @@ class SimulationCost final : public ceres::CostFunction {
     const std::size_t p = problem.num_free(), n = problem.num_residuals();
     const std::vector<double> x(parameters[0], parameters[0] + p);
     const bool jacobian = jacobians && jacobians[0];
-    if (jacobian && !remembered_x_.empty() && x == remembered_x_) {
-      std::copy(remembered_residuals_.begin(), remembered_residuals_.end(), residuals);
-      std::copy(remembered_jacobian_.begin(), remembered_jacobian_.end(), jacobians[0]);
-      return true;
-    }
     const bool central = differences_ == Differences::kCentral;
     // The point and, for a Jacobian, its forward (and, central, backward) neighbours,
     // simulated together (FitProblem::EvaluateBatch: SIMD lanes for the blmd model).
@@ -104,16 +108,11 @@ class SimulationCost final : public ceres::CostFunction {
           return false;
         }
         // A non-finite derivative (a step so large that the parameter overflows, a
-        // simulation that returned inf) is an evaluation failure: Ceres must never see it,
-        // least of all its covariance, whose SVD of a NaN matrix crashes.
+        // simulation that returned inf) is an evaluation failure: Ceres must never see it
+        // (its solver, or an SVD of a NaN matrix, may crash on one).
         if (!std::isfinite(derivative)) return false;
         jacobians[0][r_index * p + k] = derivative;
       }
-    }
-    if (remember_) {
-      remembered_x_ = x;
-      remembered_residuals_.assign(residuals, residuals + n);
-      remembered_jacobian_.assign(jacobians[0], jacobians[0] + n * p);
     }
     return true;
   }
@@ -135,9 +134,6 @@ class SimulationCost final : public ceres::CostFunction {
     std::vector<bool> ok(points.size());
     for (std::size_t m = 0; m < points.size(); ++m) {
       ok[m] = evaluations[m].ok;
-      if (ok[m] && !scale_.empty()) {
-        for (std::size_t k = 0; k < (*r)[m].size(); ++k) (*r)[m][k] *= scale_[k];
-      }
     }
     return ok;
   }
@@ -145,54 +141,31 @@ class SimulationCost final : public ceres::CostFunction {
   CountingCost* cost_;
   double fd_step_;
   Differences differences_;
-  std::vector<double> scale_;
-  // CheckJacobian's point and results, reused by the next Evaluate there (ceres::Covariance).
-  bool remember_ = false;
-  mutable std::vector<double> remembered_x_, remembered_residuals_, remembered_jacobian_;
+  std::vector<double> remembered_residuals_, remembered_jacobian_;  // CheckJacobian's
 };
 
-// Covariance of the search coordinates, scaled by the residual variance: the residuals
-// are re-weighted by each column's estimated noise level (e/s_c), so that columns with
-// different noise (current in A, speed in rad/s) each count with their own variance, and
-// ceres::Covariance of that problem is the parameter covariance directly. Sets the
-// estimates' intervals, or says in summary.details.covariance why there are none.
-void SetCovarianceIntervals(const FitProblem& problem, CountingCost* cost, double fd_step,
-                            const std::vector<double>& x, FitResult* result) {
-  const std::size_t p = problem.num_free();
+// The intervals (uncertainty.h): the Jacobian of the cost's weighted residuals by central
+// differences at the solution (checked finite; a failure is said in details.interval) and
+// the prewhitened HAC sandwich of those. Ceres's own
+// ceres::Covariance is not used: it is (J^T J)^-1 of the problem it is given, which describes
+// this fit only if each column were weighted by its inverse noise variance; the cost weights
+// by the column's variance (docs/uncertainty.md).
+void SetIntervals(const FitProblem& problem, CountingCost* cost, double fd_step,
+                  const std::vector<double>& x, FitResult* result) {
   OptimizerSummary& summary = result->summary;
-  std::vector<double> cov_x = x;
-  auto noise_cost = std::make_unique<SimulationCost>(
-      cost, fd_step, SimulationCost::Differences::kCentral,
-      problem.NoiseNormalisation(result->evaluation));
-  // The Jacobian is evaluated (and checked finite) here first; ceres::Covariance then reuses
-  // it (SimulationCost remembers its last Jacobian) instead of simulating again.
-  if (!noise_cost->CheckJacobian(cov_x)) {
-    summary.details["covariance"] =
-        "interval unavailable: the Jacobian at the optimum could not be evaluated (a "
-        "simulation failed or a derivative is not finite)";
+  SimulationCost central(cost, fd_step, SimulationCost::Differences::kCentral);
+  if (!central.CheckJacobian(x)) {
+    summary.details["interval"] = {
+        {"method", "hac_prewhitened"},
+        {"unavailable",
+         "the Jacobian at the optimum could not be evaluated (a simulation failed or a "
+         "derivative is not finite)"}};
+    for (ParameterEstimate& e : result->estimates) e.has_interval = e.has_white_interval = false;
     return;
   }
-  ceres::Problem covariance_problem;
-  covariance_problem.AddResidualBlock(noise_cost.release(), nullptr, cov_x.data());
-  ceres::Covariance::Options covariance_options;
-  covariance_options.algorithm_type = ceres::DENSE_SVD;
-  covariance_options.null_space_rank = -1;
-  covariance_options.min_reciprocal_condition_number = 1e-14;
-  ceres::Covariance covariance(covariance_options);
-  std::vector<std::pair<const double*, const double*>> blocks = {{cov_x.data(), cov_x.data()}};
-  if (!covariance.Compute(blocks, &covariance_problem)) {
-    summary.details["covariance"] = "rank deficient: parameters not separately identifiable";
-    return;
-  }
-  std::vector<double> matrix(p * p);
-  covariance.GetCovarianceBlock(cov_x.data(), cov_x.data(), matrix.data());
-  for (std::size_t k = 0; k < p; ++k) {
-    const double variance = matrix[k * p + k];
-    if (variance > 0.0 && std::isfinite(variance)) {  // 0: a direction with no information
-      SetInterval(problem.free()[k], std::sqrt(variance), "ceres_covariance",
-                  &result->estimates[k]);
-    }
-  }
+  const Eigen::MatrixXd jacobian = central.RememberedJacobian();
+  const Eigen::VectorXd residuals = central.RememberedResiduals();
+  SetSandwichIntervals(problem, jacobian, residuals, result);
   nlohmann::json noise = nlohmann::json::object();
   for (std::size_t c = 0; c < problem.observe().size(); ++c) {
     noise[problem.observe()[c]] = std::sqrt(result->evaluation.mse[c]);
@@ -299,7 +272,7 @@ FitResult CeresOptimizer::Minimize(const FitProblem& problem,
 
   CheckProgress(problem, &result);
   if (result.evaluation.ok && problem.num_residuals() > p) {
-    SetCovarianceIntervals(problem, &cost, fd_step, x, &result);
+    SetIntervals(problem, &cost, fd_step, x, &result);
   }
   cost.FillSummary(&summary);
   summary.wall_time_s =

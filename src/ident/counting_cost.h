@@ -1,6 +1,8 @@
 // Private: a thread-safe wrapper that counts cost evaluations and their failure reasons.
 #pragma once
 
+#include <Eigen/Dense>
+
 #include <atomic>
 #include <map>
 #include <mutex>
@@ -75,6 +77,20 @@ class CountingCost {
 // fix; likewise when the cost is not finite at the start. Costs one evaluation, plus 2p
 // only when the fit made no progress.
 void CheckProgress(const FitProblem& problem, FitResult* result);
+
+// The cost's weighted residuals (FitProblem::Evaluate) at `values` and their central-
+// difference Jacobian in the search coordinates (the step of docs/identification.md §4);
+// false when a point fails.
+bool NormalisedResidualJacobian(const FitProblem& problem, const std::vector<double>& values,
+                                Eigen::MatrixXd* jacobian, Eigen::VectorXd* residuals);
+
+// Moves each estimate's interval (the white one a method computed, if any) to its white
+// fields and sets the headline interval from the prewhitened HAC sandwich of the cost's
+// weighted residuals r and their Jacobian J
+// (interval_method "hac_prewhitened"); records the sandwich's bandwidth, prewhitening gain
+// and variance ratios in summary.details.interval, or why it is unavailable.
+void SetSandwichIntervals(const FitProblem& problem, const Eigen::MatrixXd& jacobian,
+                          const Eigen::VectorXd& residuals, FitResult* result);
 
 // Rejects method options that the method does not know (InputError listing valid ones).
 void CheckMethodOptions(const std::string& method, const nlohmann::json& options,

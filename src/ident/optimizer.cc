@@ -1,5 +1,7 @@
 #include "blmd/ident/optimizer.h"
 
+#include "blmd/ident/uncertainty.h"
+
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
@@ -35,16 +37,31 @@ const Optimizer& FindOptimizer(std::string_view name) {
 
 void EstimateUncertainty(const FitProblem& problem, const std::vector<double>& values,
                          std::vector<ParameterEstimate>* estimates) {
+  Eigen::MatrixXd jacobian;
+  Eigen::VectorXd residuals;
+  if (problem.num_residuals() <= problem.num_free()) return;
+  if (!internal::NormalisedResidualJacobian(problem, values, &jacobian, &residuals)) return;
+  FitResult scratch;
+  scratch.estimates = *estimates;
+  internal::SetSandwichIntervals(problem, jacobian, residuals, &scratch);
+  *estimates = scratch.estimates;
+}
+
+namespace internal {
+
+bool NormalisedResidualJacobian(const FitProblem& problem, const std::vector<double>& values,
+                                Eigen::MatrixXd* jacobian, Eigen::VectorXd* residuals) {
   const std::size_t p = problem.num_free();
   std::vector<double> r0;
   const Evaluation base = problem.Evaluate(values, &r0);
-  if (!base.ok) return;
+  if (!base.ok) return false;
   const std::size_t n = r0.size();
-  if (n <= p) return;
-  // Noise-normalised residuals e/s_c: unit variance in every column, so cov = (J^T J)^-1.
-  const std::vector<double> normalise = problem.NoiseNormalisation(base);
-  // Search coordinates: log(value) for log-scale parameters, value otherwise.
-  Eigen::MatrixXd jacobian(n, p);
+  // The cost's own weighted residuals (FitProblem::Evaluate): the sandwich must describe the
+  // estimator the fit computes, which weights each column by 1/its variance, not by 1/its
+  // noise level (uncertainty.h).
+  residuals->resize(static_cast<Eigen::Index>(n));
+  for (std::size_t r = 0; r < n; ++r) (*residuals)(static_cast<Eigen::Index>(r)) = r0[r];
+  jacobian->resize(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(p));
   for (std::size_t k = 0; k < p; ++k) {
     const FreeParameter& fp = problem.free()[k];
     // The same step as the ceres method (see ceres_fit.cc): coarse enough to step over the
@@ -60,28 +77,58 @@ void EstimateUncertainty(const FitProblem& problem, const std::vector<double>& v
       minus[k] = values[k] - h;
     }
     std::vector<double> rp, rm;
-    if (!problem.Evaluate(plus, &rp).ok || !problem.Evaluate(minus, &rm).ok) return;
+    if (!problem.Evaluate(plus, &rp).ok || !problem.Evaluate(minus, &rm).ok) return false;
     for (std::size_t r = 0; r < n; ++r) {
-      jacobian(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(k)) =
-          normalise[r] * (rp[r] - rm[r]) / (2.0 * h);
+      (*jacobian)(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(k)) =
+          (rp[r] - rm[r]) / (2.0 * h);
     }
   }
-  const double s2 = 1.0;  // already in units of each column's residual noise
-  const Eigen::MatrixXd information = jacobian.transpose() * jacobian;
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(information, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const auto& singular = svd.singularValues();
-  if (singular(0) <= 0.0 || singular(static_cast<Eigen::Index>(p) - 1) < 1e-12 * singular(0)) return;
-  const Eigen::MatrixXd covariance = s2 * information.inverse();
-  for (std::size_t k = 0; k < p; ++k) {
-    const double variance = covariance(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(k));
-    if (!(variance > 0.0) || !std::isfinite(variance)) continue;  // 0: no information
-    const double sd = std::sqrt(variance);
-    ParameterEstimate& e = (*estimates)[k];
-    internal::SetInterval(problem.free()[k], sd, "gauss_newton", &e);
-  }
+  return jacobian->allFinite() && residuals->allFinite();
 }
 
-namespace internal {
+void SetSandwichIntervals(const FitProblem& problem, const Eigen::MatrixXd& jacobian,
+                          const Eigen::VectorXd& residuals, FitResult* result) {
+  ResidualLayout layout;
+  layout.columns = problem.observe().size();
+  for (std::size_t k = 0; k < problem.traces().size(); ++k) {
+    layout.rows.push_back(problem.measured(k).rows());
+  }
+  const SandwichCovariance sandwich = HacSandwichCovariance(jacobian, residuals, layout);
+  nlohmann::json details = {{"method", "hac_prewhitened"}};
+  for (std::size_t k = 0; k < result->estimates.size(); ++k) {
+    ParameterEstimate& e = result->estimates[k];
+    const auto index = static_cast<Eigen::Index>(k);
+    e.has_interval = e.has_white_interval = false;
+    e.std = e.ci95_low = e.ci95_high = 0.0;
+    e.std_white = e.ci95_white_low = e.ci95_white_high = 0.0;
+    e.interval_method.clear();
+    e.white_method.clear();
+    if (!sandwich.ok) continue;
+    // A variance of exactly 0 (the cost does not depend on the parameter) is no interval.
+    if (sandwich.white(index, index) > 0.0) {
+      ParameterEstimate white = e;
+      SetInterval(problem.free()[k], std::sqrt(sandwich.white(index, index)), "white_sandwich",
+                  &white);
+      e.has_white_interval = white.has_interval;
+      e.std_white = white.std;
+      e.ci95_white_low = white.ci95_low;
+      e.ci95_white_high = white.ci95_high;
+      e.white_method = white.interval_method;
+    }
+    if (sandwich.covariance(index, index) > 0.0) {
+      SetInterval(problem.free()[k], std::sqrt(sandwich.covariance(index, index)),
+                  "hac_prewhitened", &e);
+      details["variance_ratio"][e.name] = sandwich.variance_ratio[k];
+    }
+  }
+  if (sandwich.ok) {
+    details["bandwidth"] = sandwich.bandwidth;
+    details["prewhitening_gain"] = sandwich.max_var_eigenvalue;
+  } else {
+    details["unavailable"] = sandwich.reason;
+  }
+  result->summary.details["interval"] = details;
+}
 
 void SetInterval(const FreeParameter& parameter, double std_search, const std::string& method,
                  ParameterEstimate* estimate) {

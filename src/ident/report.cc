@@ -127,6 +127,12 @@ nlohmann::json MakeReport(const ReportInputs& inputs) {
     p["ci95"] = e.has_interval ? nlohmann::json::array({Number(e.ci95_low), Number(e.ci95_high)})
                                : nlohmann::json(nullptr);
     if (e.has_interval) p["interval_method"] = e.interval_method;
+    // The white-noise interval for comparison (docs/uncertainty.md).
+    if (e.has_white_interval) {
+      p["std_white"] = Number(e.std_white);
+      p["ci95_white"] = nlohmann::json::array({Number(e.ci95_white_low), Number(e.ci95_white_high)});
+      p["white_interval_method"] = e.white_method;
+    }
     if (const ParamInfo* info = config.FindParameterInfo(e.name)) p["unit"] = info->unit;
     p["free"] = true;
     for (const auto& fp : problem.free()) {
@@ -190,7 +196,11 @@ nlohmann::json MakeReport(const ReportInputs& inputs) {
   nlohmann::json residual = errors.ok ? ResidualDiagnostics(problem, result.values)
                                       : nlohmann::json{{"whiteness_p", nullptr}};
   bool any_interval = false;
-  for (const auto& e : result.estimates) any_interval = any_interval || e.has_interval;
+  // Intervals that take the residuals as white are optimistic when they are not; the HAC
+  // sandwich's account for the correlation (docs/uncertainty.md).
+  for (const auto& e : result.estimates) {
+    any_interval = any_interval || (e.has_interval && e.interval_method != "hac_prewhitened");
+  }
   if (any_interval && residual.contains("white") && !residual["white"].get<bool>()) {
     residual["note"] =
         "the residual is not white: the intervals assume white noise and are optimistic";

@@ -54,7 +54,13 @@ struct ParameterEstimate {
   bool has_interval = false;   // std and ci95 valid
   double std = 0.0;            // standard deviation, physical units
   double ci95_low = 0.0, ci95_high = 0.0;
-  std::string interval_method;  // "ceres_covariance", "gauss_newton", ...
+  std::string interval_method;  // "hac_prewhitened" (docs/uncertainty.md), or the white one's
+  // The interval with the residuals taken as white noise (every sample independent): the
+  // classic (J^T J)^-1, too narrow when the residuals are correlated; kept for comparison.
+  bool has_white_interval = false;
+  double std_white = 0.0;
+  double ci95_white_low = 0.0, ci95_white_high = 0.0;
+  std::string white_method;  // "ceres_covariance" or "gauss_newton"
 };
 
 struct FitResult {
@@ -77,10 +83,11 @@ class Optimizer {
 const std::vector<const Optimizer*>& OptimizerRegistry();
 const Optimizer& FindOptimizer(std::string_view name);
 
-// Standard deviations and 95 % intervals by Gauss-Newton at `values`: finite-difference
-// Jacobian J of the noise-normalised residuals e/s_c (s_c^2 = SSE_c/(N_c - p/C), each
-// observed column its own noise level) in the search coordinates (log for log-scale
-// parameters), covariance (J^T J)^-1.
+// Standard deviations and 95 % intervals at `values`: central-difference Jacobian J of the
+// noise-normalised residuals e/s_c (s_c^2 = SSE_c/(N_c - p/C), each observed column its own
+// noise level) in the search coordinates (log for log-scale parameters); the headline
+// interval from the prewhitened HAC sandwich (uncertainty.h), the white one from
+// (J^T J)^-1 ("gauss_newton").
 void EstimateUncertainty(const FitProblem& problem, const std::vector<double>& values,
                          std::vector<ParameterEstimate>* estimates);
 
