@@ -743,7 +743,11 @@ double Bic(const FitProblem& problem, const Evaluation& evaluation, std::size_t 
     std::size_t n = 0;
     for (std::size_t t = 0; t < problem.traces().size(); ++t) n += problem.measured(t).rows();
     total += n;
-    bic += static_cast<double>(n) * std::log(std::max(evaluation.mse[c], 1e-300));
+    // An MSE below 1e-12 of the column's variance (NRMSE 1e-6) is the simulator's numerical
+    // precision, not a better fit: without this floor a noise-free trace's residual of
+    // rounding errors let any effect "explain" part of it (a current offset of 1e-12 A).
+    const double floor = std::max(1e-12 * problem.variance()[c], 1e-300);
+    bic += static_cast<double>(n) * std::log(std::max(evaluation.mse[c], floor));
   }
   return bic + static_cast<double>(k) * std::log(static_cast<double>(total));
 }

@@ -5,6 +5,22 @@
 #include <limits>
 
 namespace blmd {
+namespace {
+
+// The number of whole half periods of a square wave elapsed at t (t >= t0, half > 0): the
+// floor of q = (t - t0)/half, except that a q within 1e-9 (relative) of a whole number counts
+// as that number. Sample k of a trace at rate fs sits at t = k/fs, and when a half period is a
+// whole number m of samples, q = k/m lands a few rounding errors off every edge: plain
+// floor (or fmod) put some edges one sample late (issue 18). Samples between edges are at
+// least 1/m away from a whole q, so the tolerance never moves them while m < 1e8.
+double HalfPeriodIndex(double t, double t0, double half) {
+  const double q = (t - t0) / half;
+  const double nearest = std::round(q);
+  if (std::abs(q - nearest) <= 1e-9 * std::max(1.0, std::abs(q))) return nearest;
+  return std::floor(q);
+}
+
+}  // namespace
 
 double InputSignal::At(double t) const {
   switch (kind) {
@@ -12,8 +28,9 @@ double InputSignal::At(double t) const {
       return t >= t0 ? offset + amplitude : offset;
     case Kind::kSquare: {
       if (t < t0 || period <= 0.0) return offset;
-      const double phase = std::fmod(t - t0, period);
-      return phase < 0.5 * period ? offset + amplitude : offset - amplitude;
+      // +A in even half periods: sample k is +A exactly when floor(k / (fs·P/2)) is even.
+      const double index = HalfPeriodIndex(t, t0, 0.5 * period);
+      return std::fmod(index, 2.0) == 0.0 ? offset + amplitude : offset - amplitude;
     }
     case Kind::kSteps:
     case Kind::kRecorded: {
@@ -63,15 +80,16 @@ double InputCursor::NextChange(double t) {
     case InputSignal::Kind::kSquare: {
       if (signal_.period <= 0.0) return kNever;
       if (t < signal_.t0) return signal_.t0;
-      // The next half-period edge after t. At() finds the phase with fmod, whose flip may
-      // fall a rounding error before or after this arithmetic's edge, so within 1e-6 of a
-      // half period around an edge the signal is read at every call (t is returned): a read
-      // too early is repeated, a read too late would be wrong.
+      // The next half-period edge after t. At() counts a time within its snapping tolerance
+      // (1e-9 of the half-period count) before an edge as the edge, so the signal is read
+      // again from a window wider than that before the edge, and at every call within it
+      // (t is returned): a read too early is repeated, a read too late would be wrong.
       const double half = 0.5 * signal_.period;
-      const double previous_edge = signal_.t0 + std::floor((t - signal_.t0) / half) * half;
-      const double window = 1e-6 * half;
-      if (t - previous_edge < window) return t;
-      return previous_edge + half - window;
+      const double index = HalfPeriodIndex(t, signal_.t0, half);
+      const double next_edge = signal_.t0 + (index + 1.0) * half;
+      const double window = 1e-6 * half * std::max(1.0, index + 1.0);
+      if (next_edge - t <= window) return t;
+      return next_edge - window;
     }
     case InputSignal::Kind::kSteps:
     case InputSignal::Kind::kRecorded: {
