@@ -6,6 +6,7 @@
 namespace blmd {
 
 SimStatus RunExperiment(const Config& config, Trace* out, const InputSignal* input) {
+  config.experiment.CheckRunnable();  // InputError when the config's run cannot be made
   Experiment experiment = config.experiment;
   if (input) experiment.input = *input;
   const std::vector<double> times = experiment.SampleTimes();

@@ -66,13 +66,26 @@ std::vector<std::string> Commands(Kind kind) {
 // Runs `input` through every command of its kind and checks the contract. `expected` is
 // the exact stderr with the input's path as {FILE} and its folder as {DIR}; "" means the
 // input is valid.
-void CheckInput(Kind kind, const std::string& input, const std::string& expected_template) {
+// An .expected file may start with a line "# only: NAME[ NAME...]" naming the commands that
+// refuse the input; the others must accept it as valid (e.g. an experiment that cannot be
+// run is an error for blmd-sim, which runs it, not for blmd-ident, which fits a trace).
+void CheckInput(Kind kind, const std::string& input, std::string expected_template) {
+  std::vector<std::string> only;
+  if (expected_template.rfind("# only:", 0) == 0) {
+    const std::size_t end = expected_template.find('\n');
+    std::istringstream names(expected_template.substr(7, end - 7));
+    for (std::string name; names >> name;) only.push_back(name);
+    expected_template = end == std::string::npos ? "" : expected_template.substr(end + 1);
+  }
   const std::string folder = std::filesystem::path(input).parent_path().string();
-  const std::string expected =
+  const std::string refused =
       ReplaceAll(ReplaceAll(expected_template, "{FILE}", input), "{DIR}", folder);
   for (const std::string& command_template : Commands(kind)) {
     const std::string command = ReplaceAll(command_template, "{IN}", input);
     SCOPED_TRACE(command);
+    bool refuses = only.empty();
+    for (const auto& name : only) refuses = refuses || command.find("/" + name + " ") != std::string::npos;
+    const std::string expected = refuses ? refused : "";
     if (expected.empty()) {  // valid input: the command succeeds and writes its output
       TempDir dir;
       const std::string out = dir.File("out");

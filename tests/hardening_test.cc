@@ -234,3 +234,48 @@ TEST(SaturatingCast, ClampsOutOfRangeAndNaN) {
 
 }  // namespace
 }  // namespace blmd::testing
+
+namespace blmd::testing {
+namespace {
+
+// Issue 18 item 2: a config without an experiment section and dt = 5e-4 s, with a trace
+// sampled at 10 kHz. Before the fix: exit 2, "sample_rate 10000 Hz is faster than the
+// simulation step allows" (the default experiment's rate, which an identification never
+// runs). Now the trace's own time base is used (samples between steps interpolated, the
+// input's changes stepped to), and the fit matches the one at a fine step.
+TEST(TraceTimeBase, ATraceFasterThanTheStepIsFittedNotRefused) {
+  TempDir dir;
+  nlohmann::json truth = nlohmann::json::parse(Slurp(SourcePath("configs/ganesh-square.json")));
+  truth["experiment"] = {{"input", {{"type", "square"}, {"amplitude", 12.0}, {"period", 0.2}}},
+                         {"duration", 0.4},
+                         {"sample_rate", 10000}};
+  const std::string truth_path = dir.Write("truth.json", truth.dump(2));
+  const std::string trace = dir.File("trace.csv");
+  CommandResult result = blmd::testing::Run(BinPath("blmd-sim") + " --config " + truth_path +
+                                            " --out " + trace + " --noise i=1% --noise w=1% --quiet");
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+
+  nlohmann::json coarse = nlohmann::json::parse(Slurp(SourcePath("configs/ganesh-square.json")));
+  coarse.erase("experiment");
+  coarse["simulation"] = {{"dt", 5e-4}};
+  const std::string coarse_path = dir.Write("coarse.json", coarse.dump(2));
+  const std::string report = dir.File("report.json");
+  result = blmd::testing::Run(BinPath("blmd-ident") + " --config " + coarse_path + " --trace " +
+                              trace + " --quiet --report " + report);
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const nlohmann::json json = nlohmann::json::parse(Slurp(report));
+  EXPECT_NEAR(json["parameters"]["J"]["value"].get<double>() / 2.26e-5, 1.0, 0.005);
+  EXPECT_NEAR(json["parameters"]["B"]["value"].get<double>() / 2.261e-5, 1.0, 0.01);
+
+  // blmd-sim runs that config's (default) experiment: there the check still applies.
+  result = blmd::testing::Run(BinPath("blmd-sim") + " --config " + coarse_path + " --out " +
+                              dir.File("never.csv"));
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_EQ(result.err, "error: " + coarse_path +
+                            ": sample_rate 10000 Hz is faster than the simulation step allows "
+                            "(1/dt = 2000 Hz); lower it or reduce dt\n");
+  EXPECT_FALSE(FileExists(dir.File("never.csv")));
+}
+
+}  // namespace
+}  // namespace blmd::testing

@@ -82,6 +82,7 @@ int main(int argc, char** argv) {
         throw blmd::InputError(input_path + ": " + error);
       }
     }
+    if (input_path.empty()) config.experiment.CheckRunnable();  // the config's own time base
     blmd::CheckWritable(out_path);  // before the run, not after it
     blmd::Trace trace;
     blmd::SimStatus status;

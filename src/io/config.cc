@@ -302,8 +302,11 @@ class Reader {
   Reader(const std::string& path, const PositionIndex& index) : path_(path), index_(index) {}
 
   [[noreturn]] void Fail(const std::string& pointer, const std::string& message) const {
+    throw Error(pointer, message);
+  }
+  InputError Error(const std::string& pointer, const std::string& message) const {
     const Position p = index_.Find(pointer);
-    throw InputError(path_, p.line, p.column, message);
+    return InputError(path_, p.line, p.column, message);
   }
 
   static std::string Label(const std::string& pointer) {
@@ -756,18 +759,27 @@ Config ParseConfig(const std::string& text, const std::string& path) {
       }
     }
   }
+  // The experiment's run against the step: checked only where the experiment is run
+  // (blmd-sim without --input: Experiment::CheckRunnable). A trace brings its own time base,
+  // and an identification never runs the config's experiment (issue 18: a config without
+  // an experiment section, dt = 5e-4, was refused for a 10 kHz trace because of the default
+  // experiment's 10 kHz sample_rate).
   if (experiment.sample_rate * config.simulation.dt > 1.0 + 1e-9) {
-    reader.Fail("/experiment/sample_rate",
-                "sample_rate " + DisplayNumber(experiment.sample_rate) +
-                    " Hz is faster than the simulation step allows (1/dt = " +
-                    Short(1.0 / config.simulation.dt) + " Hz); lower it or reduce dt");
-  }
-  if (const std::string error = RunLengthError(experiment.duration, config.simulation.dt,
-                                               experiment.duration * experiment.sample_rate + 1.0);
-      !error.empty()) {
+    experiment.invalid =
+        reader.Error("/experiment/sample_rate",
+                     "sample_rate " + DisplayNumber(experiment.sample_rate) +
+                         " Hz is faster than the simulation step allows (1/dt = " +
+                         Short(1.0 / config.simulation.dt) + " Hz); lower it or reduce dt")
+            .what();
+  } else if (const std::string error =
+                 RunLengthError(experiment.duration, config.simulation.dt,
+                                experiment.duration * experiment.sample_rate + 1.0);
+             !error.empty()) {
     const bool has_duration = root.contains("experiment") && root["experiment"].is_object() &&
                               root["experiment"].contains("duration");
-    reader.Fail(has_duration ? "/experiment/duration" : "/simulation/dt", "experiment: " + error);
+    experiment.invalid =
+        reader.Error(has_duration ? "/experiment/duration" : "/simulation/dt", "experiment: " + error)
+            .what();
   }
 
   // Identification.

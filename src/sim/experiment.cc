@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "blmd/error.h"
+
 namespace blmd {
 namespace {
 
@@ -101,6 +103,10 @@ double InputCursor::NextChange(double t) {
     }
   }
   return t;
+}
+
+void Experiment::CheckRunnable() const {
+  if (!invalid.empty()) throw InputError(invalid);
 }
 
 std::vector<double> Experiment::SampleTimes() const {

@@ -67,6 +67,12 @@ struct Experiment {
   InputSignal input;
   double duration = 1.0;         // s
   double sample_rate = 10000.0;  // Hz, output rate
+  // Why this experiment cannot be run as configured (its sample rate beyond 1/dt, a run too
+  // long), as the one-line error naming the config's line and column; empty when it can.
+  // Set at load, thrown only by those that run it (CheckRunnable): a trace brings its own
+  // time base.
+  std::string invalid;
+  void CheckRunnable() const;
   double coast_off_time = -1.0;  // s; >= 0: dc_servo armature opened at this instant
   bool closed_loop = false;
   PidSettings pid;
