@@ -797,6 +797,13 @@ Config ParseConfig(const std::string& text, const std::string& path) {
     if (id.contains("free")) ident.free = reader.Strings(id["free"], "/identification/free");
     if (id.contains("observe")) {
       ident.observe = reader.Strings(id["observe"], "/identification/observe");
+      if (ident.observe.empty()) {  // would run a fit of nothing and call it converged
+        std::string valid;
+        for (const auto& name : config.model->outputs()) valid += (valid.empty() ? "" : ", ") + name;
+        reader.Fail("/identification/observe",
+                    "'identification.observe' is empty: name the columns the fit compares (valid: " +
+                        valid + ")");
+      }
     }
     if (id.contains("method")) ident.method = reader.String(id["method"], "/identification/method");
     if (id.contains("options")) {
