@@ -4,6 +4,7 @@
 
 #include "../common/app_main.h"
 #include "../common/error_flags.h"
+#include "../common/trace_flags.h"
 #include "blmd/ident/discovery.h"
 #include "blmd/ident/optimizer.h"
 #include "blmd/ident/report.h"
@@ -29,6 +30,7 @@ int main(int argc, char** argv) {
   std::string candidates_text;
   double fail_above = -1.0;
   blmd::app::ErrorFlags error_flags;
+  blmd::app::TraceFlags trace_flags;
   app.add_option("--config", config_path, "model and identification set-up (JSON)")->required();
   app.add_option("--trace", traces, "measured trace CSV (repeatable: one fit over all)")->required();
   app.add_option("--validate", validates, "held-out trace CSV to report the error on (repeatable)");
@@ -60,6 +62,7 @@ int main(int argc, char** argv) {
   app.add_flag("--quiet", quiet, "print nothing but errors");
   app.add_option("--fail-above-nrmse", fail_above, "exit 3 when the final NRMSE exceeds X");
   error_flags.Add(app, "simulate and compare the motion, or compare the input the model needs along the measured motion");
+  trace_flags.Add(app);
 
   return blmd::app::Main(app, argc, argv, [&]() -> int {
     blmd::Config config = blmd::LoadConfig(config_path);
@@ -86,6 +89,8 @@ int main(int argc, char** argv) {
     const auto free = blmd::MakeFreeParameters(config, free_names);
 
     blmd::TraceInputOptions input_options;
+    input_options.delimiter = trace_flags.Delimiter();
+    input_options.duplicate_time = trace_flags.Duplicates();
     for (const auto& text : columns) {
       const auto [name, header] = blmd::ParseTextAssignment(text, "--column");
       input_options.columns[name] = header;

@@ -4,6 +4,7 @@
 #include <iostream>
 
 #include "../common/app_main.h"
+#include "../common/trace_flags.h"
 #include "blmd/io/config.h"
 #include "blmd/io/csv.h"
 #include "blmd/io/files.h"
@@ -34,6 +35,8 @@ int main(int argc, char** argv) {
                  "add an undeclared effect, NAME:KEY=VALUE[,KEY=VALUE...] (repeatable)");
   app.add_option("--noise", noises, "white Gaussian noise on a column, NAME=SIGMA or NAME=P% of its peak (repeatable)");
   app.add_option("--seed", seed, "noise seed (default 1)");
+  blmd::app::TraceFlags trace_flags;  // for --input
+  trace_flags.Add(app);
   app.add_option("--input", input_path, "drive the model with the u column of this trace");
   app.add_flag("--quiet", quiet, "print nothing on success");
 
@@ -69,6 +72,9 @@ int main(int argc, char** argv) {
     if (!input_path.empty()) {
       blmd::CsvReadOptions options;
       options.required = {"t", "u"};
+      options.strict_columns = {"t", "u", "open"};  // other columns may hold text
+      options.delimiter = trace_flags.Delimiter();
+      options.duplicate_time = trace_flags.Duplicates();
       const blmd::Trace input = blmd::ReadTraceCsv(input_path, options);
       recorded.kind = blmd::InputSignal::Kind::kRecorded;
       recorded.times = input.Column("t");

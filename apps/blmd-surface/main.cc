@@ -9,6 +9,7 @@
 
 #include "../common/app_main.h"
 #include "../common/error_flags.h"
+#include "../common/trace_flags.h"
 #include "blmd/ident/surface.h"
 #include "blmd/ident/trace_input.h"
 #include "blmd/io/config.h"
@@ -125,12 +126,14 @@ int main(int argc, char** argv) {
   int threads = 0;
   bool json = false, quiet = false;
   blmd::app::ErrorFlags error_flags;
+  blmd::app::TraceFlags trace_flags;
   app.add_option("--config", config_path, "model (JSON)");
   app.add_option("--trace", trace_path, "measured trace CSV");
   app.add_option("--grid", grids, "axis P=LO:HI:N or P=log:LO:HI:N (one or two)");
   app.add_option("--out", out_path, "surface CSV to write");
   app.add_option("--observe", observe_text, "trace columns in the cost, e.g. i,w");
   error_flags.Add(app, "the cost of blmd-ident --error");
+  trace_flags.Add(app);
   app.add_option("--column", columns, "map a standard column to a header, NAME=HEADER");
   app.add_option("--scale", scales, "multiply a column, NAME=FACTOR");
   app.add_option("--derive", derives, "derive a velocity from a position, w=theta");
@@ -218,6 +221,8 @@ int main(int argc, char** argv) {
       }
     }
     blmd::TraceInputOptions input_options;
+    input_options.delimiter = trace_flags.Delimiter();
+    input_options.duplicate_time = trace_flags.Duplicates();
     for (const auto& text : columns) {
       const auto [name, header] = blmd::ParseTextAssignment(text, "--column");
       input_options.columns[name] = header;

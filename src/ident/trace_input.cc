@@ -105,6 +105,22 @@ std::vector<FitTrace> LoadFitTraces(const std::string& path, const TraceInputOpt
   const auto t_header = options.columns.find("t");
   const std::string time_header = t_header == options.columns.end() ? "t" : t_header->second;
   csv.time_column = by_rows ? "" : time_header;
+  csv.delimiter = options.delimiter;
+  csv.duplicate_time = options.duplicate_time;
+  // The columns this fit reads are read strictly; any other may hold text (a timestamp, a
+  // state name) or empty cells, and is then left out (docs/trace-format.md).
+  auto header_of = [&](const std::string& name) {
+    const auto mapped = options.columns.find(name);
+    return mapped == options.columns.end() ? name : mapped->second;
+  };
+  std::vector<std::string> used = {"t", "u", "open"};
+  used.insert(used.end(), options.required.begin(), options.required.end());
+  for (const auto& [target, source] : options.derive) used.push_back(source);
+  for (const auto& selection : options.select) used.push_back(selection.column);
+  if (!options.split.empty()) used.push_back(options.split);
+  for (const auto& [name, factor] : options.scales) used.push_back(name);
+  if (options.initial_from_trace) used.insert(used.end(), {"i", "w", "theta"});
+  for (const auto& name : used) csv.strict_columns.push_back(header_of(name));
   std::string sha256;
   Trace trace = ReadTraceCsv(path, csv, &sha256);
   // The file's field (1-based) holding a column, before mapping added columns at the end.

@@ -128,7 +128,19 @@ class TraceParser {
     if (bytes_seen_ == 0) Fail(0, 0, "empty file: expected a header row such as 't,u,i,w'");
     if (!have_header_) Fail(line_number_, 0, "no header row: expected a row such as 't,u,i,w'");
     if (rows_ == 0) Fail(line_number_, 0, "no data rows after the header");
-    for (std::size_t c = 0; c < names_.size(); ++c) trace_.Set(names_[c], std::move(columns_[c]));
+    // Linear in the number of columns: names are unique (checked in the header).
+    for (std::size_t c = 0; c < names_.size(); ++c) {
+      if (!text_[c]) trace_.Append(names_[c], std::move(columns_[c]));
+    }
+    if (trace_.num_columns() == 0) {
+      Fail(0, 0, "no column holds a number in every row (columns with text or empty cells are "
+                 "left out when not used)");
+    }
+    if (merged_rows_ > 0) {
+      trace_.comments.push_back("read with --duplicate-time " +
+                                std::string(options_.duplicate_time == DuplicateTime::kMean ? "mean" : "first") +
+                                ": " + std::to_string(merged_rows_) + " repeated-time rows merged");
+    }
     return std::move(trace_);
   }
 
@@ -142,14 +154,12 @@ class TraceParser {
     if (std::memchr(line.data(), '\0', line.size())) {
       Fail(line_number_, 0, "binary data (NUL byte): not a CSV text file");
     }
-    if (!line.empty() && line.back() == '\r') {
-      const std::size_t first_cr = line.find('\r');
-      if (first_cr + 1 < line.size()) {  // CRs inside too: CR alone ends the lines
-        Fail(line_number_, static_cast<long>(first_cr + 1),
-             "lines end with CR alone (old Mac line endings); convert the file with mac2unix");
-      }
-      Fail(line_number_, static_cast<long>(line.size()),
-           "line ends with CR (Windows line endings); convert the file with dos2unix");
+    // CRLF (Windows) line ends: the CR is part of the line end. A CR anywhere else means CR
+    // alone ends the lines (old Mac), which is not read.
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    if (const std::size_t cr = line.find('\r'); cr != std::string_view::npos) {
+      Fail(line_number_, static_cast<long>(cr + 1),
+           "lines end with CR alone (old Mac line endings); convert the file with mac2unix");
     }
     // A comment starts with '#', after optional spaces or tabs (so no column name does).
     const std::string_view content = Trim(line);
@@ -188,6 +198,80 @@ class TraceParser {
     }
   }
 
+  // The separator of a header line: options_.delimiter, else ',' when the line has one
+  // outside double quotes, else ';', else tab, else ','.
+  char DetectDelimiter(std::string_view line) const {
+    if (options_.delimiter != 0) return options_.delimiter;
+    bool quoted = false, semicolon = false, tab = false;
+    for (const char c : line) {
+      if (c == '"') quoted = !quoted;
+      if (quoted) continue;
+      if (c == ',') return ',';
+      semicolon = semicolon || c == ';';
+      tab = tab || c == '\t';
+    }
+    return semicolon ? ';' : tab ? '\t' : ',';
+  }
+
+  // Splits a line at the separator outside double quotes into fields_, each trimmed and
+  // unquoted ("" inside quotes is one "); returns the 1-based field of an unclosed quote,
+  // or 0. Lines without a quote (the usual case) are cut without copying.
+  long Split(std::string_view line) {
+    fields_.clear();
+    if (line.find('"') == std::string_view::npos) {
+      std::size_t start = 0;
+      while (true) {
+        const void* found = std::memchr(line.data() + start, delimiter_, line.size() - start);
+        const std::size_t end =
+            found ? static_cast<std::size_t>(static_cast<const char*>(found) - line.data())
+                  : line.size();
+        fields_.push_back(Trim(line.substr(start, end - start)));
+        if (!found) return 0;
+        start = end + 1;
+      }
+    }
+    unquoted_.clear();
+    std::vector<std::pair<std::size_t, std::size_t>> spans;  // into unquoted_
+    std::string field;
+    bool quoted = false, was_quoted = false;
+    long index = 1;
+    auto finish = [&] {
+      std::string_view view = field;
+      if (!was_quoted) view = Trim(view);
+      spans.emplace_back(unquoted_.size(), view.size());
+      unquoted_ += view;
+      field.clear();
+      was_quoted = false;
+      ++index;
+    };
+    for (std::size_t k = 0; k < line.size(); ++k) {
+      const char c = line[k];
+      if (quoted) {
+        if (c == '"' && k + 1 < line.size() && line[k + 1] == '"') {
+          field += '"';
+          ++k;
+        } else if (c == '"') {
+          quoted = false;
+        } else {
+          field += c;
+        }
+      } else if (c == '"' && Trim(field).empty()) {
+        quoted = was_quoted = true;
+        field.clear();
+      } else if (c == delimiter_) {
+        finish();
+      } else if (!(was_quoted && (c == ' ' || c == '\t'))) {
+        field += c;
+      }
+    }
+    if (quoted) return index;
+    finish();
+    for (const auto& [offset, size] : spans) {
+      fields_.push_back(std::string_view(unquoted_).substr(offset, size));
+    }
+    return 0;
+  }
+
   void Header(std::string_view line) {
     CheckText(line);
     if (const std::size_t bad = InvalidUtf8(line); bad != std::string_view::npos) {
@@ -195,23 +279,27 @@ class TraceParser {
            "header is not UTF-8 text (byte " + Hex(static_cast<unsigned char>(line[bad])) +
                "): a binary file, or a legacy encoding; save it as UTF-8/ASCII");
     }
-    std::size_t start = 0;
-    long column_index = 0;
+    delimiter_ = DetectDelimiter(line);
+    const bool any_quote = line.find('"') != std::string_view::npos;
+    if (const long open = Split(line)) {
+      Fail(line_number_, open, "unclosed quote in the header (a '\"' without its closing '\"')");
+    }
     std::unordered_set<std::string> seen;
-    const bool single = line.find(',') == std::string_view::npos;
-    while (true) {
+    const bool single = fields_.size() == 1;
+    long column_index = 0;
+    for (const std::string_view field : fields_) {
       ++column_index;
-      const std::size_t comma = line.find(',', start);
-      std::string_view field =
-          Trim(line.substr(start, comma == std::string_view::npos ? line.npos : comma - start));
       if (field.empty()) Fail(line_number_, column_index, "empty column name in the header");
-      if (field.front() == '"' || field.front() == '\'') {
+      if (field.front() == '\'') {
         Fail(line_number_, column_index,
-             "quoted column name " + Quote(field) + ": write plain names such as t,u,w");
+             "quoted column name " + Quote(field) + ": write plain names such as t,u,w, or "
+             "double quotes");
       }
-      for (char c : field) {
-        // A single name with a space inside ("t u i w") is a space-separated header.
-        if (c == ';' || c == '\t' || c == '|' || (single && c == ' ')) {
+      for (char c : any_quote ? std::string_view() : field) {
+        // Another separator inside a name: the file uses one we do not read ('|', or
+        // spaces: a single name with a space inside, "t u i w").
+        if (c == '|' || (c == ';' && delimiter_ != ';') || (c == '\t' && delimiter_ != '\t') ||
+            (single && c == ' ')) {
           const std::string shown = c == '\t' ? "\\t" : std::string(1, c);
           Fail(line_number_, column_index,
                "header " + Quote(line) + " is not comma separated (found '" + shown +
@@ -230,12 +318,10 @@ class TraceParser {
         Fail(line_number_, column_index, "duplicate column name " + QuoteName(name));
       }
       names_.push_back(std::move(name));
-      if (comma == std::string_view::npos) break;
-      start = comma + 1;
     }
     have_header_ = true;
     for (const auto& required : options_.required) {
-      if (std::find(names_.begin(), names_.end(), required) == names_.end()) {
+      if (seen.find(required) == seen.end()) {
         Fail(0, 0,
              "missing required column '" + required + "' (header has: " + HeaderSummary(names_) +
                  ")");
@@ -245,54 +331,100 @@ class TraceParser {
       const auto it = std::find(names_.begin(), names_.end(), options_.time_column);
       if (it != names_.end()) time_index_ = static_cast<std::size_t>(it - names_.begin());
     }
+    const std::unordered_set<std::string> strict(options_.strict_columns.begin(),
+                                                 options_.strict_columns.end());
+    strict_.assign(names_.size(), 1);
+    if (!strict.empty()) {
+      for (std::size_t c = 0; c < names_.size(); ++c) {
+        strict_[c] = c == time_index_ || strict.count(names_[c]) ? 1 : 0;
+      }
+    }
+    text_.assign(names_.size(), 0);
     columns_.assign(names_.size(), {});
   }
 
   static std::string QuoteName(const std::string& name) { return "'" + name + "'"; }
 
   void Row(std::string_view line, bool unterminated) {
-    const char* const end = line.data() + line.size();
-    const char* cursor = line.data();
-    std::size_t column_index = 0;
     const std::size_t width = names_.size();
-    while (true) {
-      const char* comma = static_cast<const char*>(
-          std::memchr(cursor, ',', static_cast<std::size_t>(end - cursor)));
-      const char* field_end = comma ? comma : end;
-      if (column_index >= width) {
-        Fail(line_number_, static_cast<long>(column_index + 1),
-             "too many fields: the header has " + std::to_string(width) + " columns");
+    if (const long open = Split(line)) {
+      Fail(line_number_, open, "unclosed quote (a '\"' without its closing '\"')");
+    }
+    if (fields_.size() > width) {
+      Fail(line_number_, static_cast<long>(width + 1),
+           "too many fields: the header has " + std::to_string(width) + " columns" +
+               (delimiter_ == ',' ? "" : std::string(" (separator '") + delimiter_ + "')"));
+    }
+    for (std::size_t c = 0; c < fields_.size(); ++c) {
+      double value;
+      if (strict_[c]) {
+        value = Number(fields_[c], c, unterminated);
+      } else if (!Parse(fields_[c], &value)) {  // text or empty in a column not used: dropped
+        text_[c] = 1;
+        value = 0.0;
       }
-      const double value =
-          Number(Trim(std::string_view(cursor, static_cast<std::size_t>(field_end - cursor))),
-                 column_index, unterminated);
-      std::vector<double>& column = columns_[column_index];
+      std::vector<double>& column = columns_[c];
       if (column.size() == column.capacity() && column.size() >= 4096) {
         column.reserve(column.size() + column.size() / 4);  // grow by 25 %, not 100 %
       }
       column.push_back(value);
-      ++column_index;
-      if (!comma) break;
-      cursor = comma + 1;
     }
-    if (column_index < width) {
-      Fail(line_number_, static_cast<long>(column_index + 1),
+    if (fields_.size() < width) {
+      for (std::size_t c = 0; c < fields_.size(); ++c) columns_[c].pop_back();
+      Fail(line_number_, static_cast<long>(fields_.size() + 1),
            "too few fields: expected " + std::to_string(width) + ", found " +
-               std::to_string(column_index) + (unterminated ? " (truncated last line?)" : ""));
+               std::to_string(fields_.size()) + (unterminated ? " (truncated last line?)" : ""));
     }
     if (time_index_ != kNone) {
       const double t = columns_[time_index_].back();
+      if (rows_ > 0 && t == previous_time_ && options_.duplicate_time != DuplicateTime::kError) {
+        MergeDuplicate();
+        return;
+      }
       if (rows_ > 0 && !(t > previous_time_)) {
+        const bool repeat = t == previous_time_;
         Fail(line_number_, static_cast<long>(time_index_ + 1),
              "time '" + options_.time_column + "' must strictly increase (" + DisplayNumber(t) +
-                 (t == previous_time_ ? " repeats " : " follows ") + DisplayNumber(previous_time_) +
-                 ")");
+                 (repeat ? " repeats " : " follows ") + DisplayNumber(previous_time_) +
+                 (repeat ? " of line " + std::to_string(group_line_) +
+                               "); for several rows logged at one instant use "
+                               "--duplicate-time first|mean"
+                         : ")"));
       }
       previous_time_ = t;
+      group_line_ = line_number_;
+      group_rows_ = 1;
     }
     ++rows_;
     row_bytes_ += line.size() + 1;
     if (rows_ == kEstimateAfterRows) ReserveEstimate();
+  }
+
+  // The row just read repeats the previous row's time: keep the first row of the instant
+  // (kFirst), or fold the new row into the running mean of the instant's rows (kMean).
+  void MergeDuplicate() {
+    ++group_rows_;
+    const double n = static_cast<double>(group_rows_);
+    for (auto& column : columns_) {
+      const double value = column.back();
+      column.pop_back();
+      if (options_.duplicate_time == DuplicateTime::kMean) {
+        column.back() += (value - column.back()) / n;
+        if (column.back() == 0.0) column.back() = 0.0;  // never -0
+      }
+    }
+    ++merged_rows_;
+  }
+
+  // A lenient number (a column not used): true and the value when the field is one.
+  static bool Parse(std::string_view field, double* value) {
+    if (field.empty()) return false;
+    const char* first = field.data();
+    if (*first == '+' && field.size() > 1 && field[1] != '-') ++first;
+    const auto result = std::from_chars(first, field.data() + field.size(), *value);
+    if (*value == 0.0) *value = 0.0;  // -0 reads as 0
+    return result.ec == std::errc() && result.ptr == field.data() + field.size() &&
+           std::isfinite(*value);
   }
 
   double Number(std::string_view field, std::size_t column_index, bool unterminated) const {
@@ -303,6 +435,15 @@ class TraceParser {
            "column '" + name + "' is empty" + (unterminated ? " (truncated last line?)" : ""));
     }
     double value = 0.0;
+    // A decimal comma ("0,5") in a ';'-separated file, as European spreadsheets write it.
+    char decimal[64];
+    if (delimiter_ == ';' && field.size() < sizeof decimal &&
+        std::count(field.begin(), field.end(), ',') == 1 &&
+        field.find('.') == std::string_view::npos) {
+      std::memcpy(decimal, field.data(), field.size());
+      *std::find(decimal, decimal + field.size(), ',') = '.';
+      field = std::string_view(decimal, field.size());
+    }
     const char* first = field.data();
     if (*first == '+' && field.size() > 1 && field[1] != '-') ++first;  // "+1", not "+-1"
     const auto result = std::from_chars(first, field.data() + field.size(), value);
@@ -311,9 +452,7 @@ class TraceParser {
            "column '" + name + "' value " + Quote(field) + " is out of the double range");
     }
     if (result.ec != std::errc() || result.ptr != field.data() + field.size()) {
-      Fail(line_number_, column,
-           "column '" + name + "' is not a number (" + Quote(field) + ")" +
-               (field.front() == '"' ? "; quoted fields are not supported" : ""));
+      Fail(line_number_, column, "column '" + name + "' is not a number (" + Quote(field) + ")");
     }
     if (!std::isfinite(value)) {
       Fail(line_number_, column, "column '" + name + "' is not finite (" + Quote(field) + ")");
@@ -345,6 +484,14 @@ class TraceParser {
   std::vector<std::vector<double>> columns_;
   std::size_t time_index_ = kNone;
   double previous_time_ = 0.0;
+  char delimiter_ = ',';
+  std::vector<std::string_view> fields_;  // the current line's fields (Split)
+  std::string unquoted_;                  // their text when a line had quotes
+  std::vector<char> strict_;              // per column: read strictly
+  std::vector<char> text_;                // per column (not strict): held text or an empty cell
+  long group_line_ = 0;                   // line of the first row of the current time
+  std::size_t group_rows_ = 0;            // rows of the current time so far
+  std::size_t merged_rows_ = 0;           // rows folded into an earlier one (duplicate_time)
   std::size_t rows_ = 0;
   std::size_t row_bytes_ = 0;
   Trace trace_;
@@ -464,11 +611,27 @@ std::string DisplayNumber(double value) {
   return fixed.size() <= shortest.size() + 2 ? fixed : shortest;
 }
 
+namespace {
+
+// A column name as a header field: double-quoted (RFC 4180, "" for ") when it would not read
+// back as itself plainly: a separator or quote inside, spaces at an end, a leading '#'.
+std::string HeaderField(const std::string& name) {
+  const bool plain =
+      name.find_first_of(",;\t\"") == std::string::npos && !name.empty() && name.front() != '#' &&
+      name.front() != ' ' && name.back() != ' ';
+  if (plain) return name;
+  std::string out = "\"";
+  for (const char c : name) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
+}
+
+}  // namespace
+
 std::string FormatTraceCsv(const Trace& trace) {
   std::string out;
   for (const auto& comment : trace.comments) out += "# " + comment + "\n";
   for (std::size_t c = 0; c < trace.num_columns(); ++c) {
-    out += (c ? "," : "") + trace.names()[c];
+    out += (c ? "," : "") + HeaderField(trace.names()[c]);
   }
   out += "\n";
   char buffer[64];

@@ -23,6 +23,16 @@ std::vector<double>& Trace::Column(std::string_view name) {
   return columns_[static_cast<std::size_t>(k)];
 }
 
+void Trace::Append(std::string name, std::vector<double> values) {
+  if (!columns_.empty() && values.size() != rows()) {
+    throw std::logic_error("Trace::Append: column '" + name + "' has " +
+                           std::to_string(values.size()) + " rows, trace has " +
+                           std::to_string(rows()));
+  }
+  names_.push_back(std::move(name));
+  columns_.push_back(std::move(values));
+}
+
 std::vector<double>& Trace::Set(const std::string& name, std::vector<double> values) {
   if (!columns_.empty() && values.size() != rows()) {
     throw std::logic_error("Trace::Set: column '" + name + "' has " +

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "blmd/ident/problem.h"
+#include "blmd/io/csv.h"
 
 namespace blmd {
 
@@ -39,6 +40,10 @@ struct TraceInputOptions {
   // When not empty: the file is cut into experiments wherever this column's value changes
   // (after selection); each value must occupy one unbroken block of rows.
   std::string split;
+  // The file's dialect (docs/trace-format.md): field separator (0: detected from the
+  // header) and what to do with rows that repeat a time stamp (--duplicate-time).
+  char delimiter = 0;
+  DuplicateTime duplicate_time = DuplicateTime::kError;
 };
 
 // Reads, maps, scales, selects, splits and derives; throws InputError naming the file

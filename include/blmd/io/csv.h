@@ -1,6 +1,9 @@
 // Trace CSV (interface.md, docs/trace-format.md): optional '#' comment lines, one header
-// row, comma-separated plain decimal numbers, LF line ends. Reading is strict: every
-// problem is an InputError naming file:line:column, the column and what was expected.
+// row, plain decimal numbers. What real loggers write is accepted: LF or CRLF line ends,
+// ',' or ';' (or tab) between fields (detected from the header, or given), double-quoted
+// names and fields (RFC 4180), a decimal comma in ';'-separated files, and text or empty
+// cells in the columns a command does not use. The columns it uses are read strictly:
+// every problem is an InputError naming file:line:column, the column and what was expected.
 #pragma once
 
 #include <string>
@@ -10,6 +13,10 @@
 
 namespace blmd {
 
+// Rows that share one time stamp (loggers write several per tick): an error naming the flag
+// (the default), the first row of each instant kept, or every column averaged over them.
+enum class DuplicateTime { kError, kFirst, kMean };
+
 struct CsvReadOptions {
   // Columns that must be present (the error names the first missing one).
   std::vector<std::string> required;
@@ -18,6 +25,14 @@ struct CsvReadOptions {
   // ReadTraceCsv reads the file this many bytes at a time (tests use tiny pieces to check
   // that lines cut between reads are read the same).
   std::size_t read_chunk_bytes = std::size_t{4} << 20;
+  // The columns (header names) read strictly: every cell a finite number. A column not
+  // listed that holds text or an empty cell anywhere is left out of the trace (one whose
+  // every cell is a number is kept). Empty: every column is read strictly.
+  std::vector<std::string> strict_columns;
+  // Field separator: ',', ';' or '\t'; 0 detects it from the header (',' when the header
+  // has one outside quotes, else ';', else tab, else ',').
+  char delimiter = 0;
+  DuplicateTime duplicate_time = DuplicateTime::kError;
 };
 
 // Reads the file in chunks (the text is never held whole: memory is about the numbers'

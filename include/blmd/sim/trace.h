@@ -29,6 +29,9 @@ class Trace {
 
   // Adds (or replaces) a column; its length must equal rows() unless the trace is empty.
   std::vector<double>& Set(const std::string& name, std::vector<double> values);
+  // Adds a column the caller knows is not there yet (no search: a reader adding 200 000
+  // columns stays linear); same length rule as Set.
+  void Append(std::string name, std::vector<double> values);
   void Rename(std::string_view from, const std::string& to);
 
   // Free text lines written as "# ..." before the header.
