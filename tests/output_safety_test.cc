@@ -103,6 +103,8 @@ void InterruptSweep(int signal_number) {
 
 TEST(OutputSafety, SigintDuringASweepKeepsTheOldOutput) { InterruptSweep(SIGINT); }
 TEST(OutputSafety, SigtermDuringASweepKeepsTheOldOutput) { InterruptSweep(SIGTERM); }
+TEST(OutputSafety, SighupDuringASweepKeepsTheOldOutput) { InterruptSweep(SIGHUP); }
+TEST(OutputSafety, SigquitDuringASweepKeepsTheOldOutput) { InterruptSweep(SIGQUIT); }
 
 // An output that cannot be written is found before the work, not after it: a sweep of
 // 800 BLMD points (about 12 s) with a missing output folder fails at once.
@@ -156,7 +158,10 @@ TEST(OutputSafety, SignalDuringTheWriteLeavesOldOrCompleteNewAndNoTemporary) {
     while (!temporary_seen && std::chrono::steady_clock::now() < deadline) {
       temporary_seen = !Temporaries(dir.path()).empty();
     }
-    const int signal_number = round % 2 ? SIGTERM : SIGINT;
+    // SIGHUP (a closed terminal) and SIGQUIT (Ctrl-\\) too: before issue 18 they left the
+    // temporary behind (their default actions end the process without the handler).
+    const int signals[] = {SIGINT, SIGTERM, SIGHUP, SIGQUIT};
+    const int signal_number = signals[round % 4];
     kill(child, signal_number);
     const int status = WaitFor(child, 20.0);
     ASSERT_NE(status, -1);

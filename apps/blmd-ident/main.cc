@@ -24,7 +24,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> traces, validates, columns, scales, derives, method_options, initials;
   std::uint64_t seed = 1;
   int threads = 0, max_evaluations = 0;
-  bool json = false, quiet = false, discover = false;
+  bool json = false, quiet = false, discover = false, verbose = false;
   double bic_margin = 10.0;
   int max_effects = 3;
   std::string candidates_text;
@@ -56,16 +56,43 @@ int main(int argc, char** argv) {
   app.add_option("--derive", derives, "derive a velocity from a position, e.g. w=theta");
   app.add_option("--select", selects, "keep the rows with NAME in VALUE[,VALUE...] or LO:HI (repeatable)");
   app.add_option("--split", split, "cut each trace into one experiment per block of equal COLUMN values");
-  app.add_option("--seed", seed, "random seed (fsd)");
+  app.add_option("--seed", seed, "random seed (fsd)")->check(blmd::app::NonNegativeWholeNumber());
   app.add_option("--threads", threads, "worker threads (0: all cores)")
       ->check(blmd::app::NonNegativeWholeNumber());
   app.add_flag("--quiet", quiet, "print nothing but errors");
-  app.add_option("--fail-above-nrmse", fail_above, "exit 3 when the final NRMSE exceeds X");
+  app.add_option("--fail-above-nrmse", fail_above, "exit 3 when the final NRMSE exceeds X")
+      ->check(blmd::app::NonNegativeNumber());
+  app.add_flag("--verbose", verbose, "also print the solvers' own log (Ceres) on stderr");
   error_flags.Add(app, "simulate and compare the motion, or compare the input the model needs along the measured motion");
   trace_flags.Add(app);
 
   return blmd::app::Main(app, argc, argv, [&]() -> int {
+    threads = blmd::app::CapThreads(threads);
+    // Every output checked before any work: writable, not an input, not another output.
+    std::vector<blmd::NamedPath> input_files = {{"--config", config_path}};
+    for (const auto& path : traces) input_files.push_back({"--trace", path});
+    for (const auto& path : validates) input_files.push_back({"--validate", path});
+    blmd::CheckOutputs({{"--report", report_path}, {"--html", html_path}}, input_files);
     blmd::Config config = blmd::LoadConfig(config_path);
+    // A selecting flag given empty selects nothing: exit 2 with the valid choices.
+    auto join = [](const std::vector<std::string>& names) {
+      std::string out;
+      for (const auto& n : names) out += (out.empty() ? "" : ", ") + n;
+      return out;
+    };
+    if (app.count("--observe") > 0 && observe_text.empty()) {
+      throw blmd::InputError("--observe: empty (valid: " + join(config.model->outputs()) + ")");
+    }
+    if (app.count("--free") > 0 && free_text.empty()) {
+      std::vector<std::string> names;
+      for (const auto& [name, value] : config.parameters.entries()) names.push_back(name);
+      throw blmd::InputError("--free: empty (valid: " + join(names) + ")");
+    }
+    if (app.count("--candidates") > 0 && candidates_text.empty()) {
+      std::vector<std::string> effects;
+      for (const auto& effect : blmd::EffectRegistry()) effects.push_back(effect.name);
+      throw blmd::InputError("--candidates: empty (valid: " + join(effects) + ")");
+    }
     for (const auto& text : initials) {
       const auto [name, value] = blmd::ParseAssignment(text, "--initial");
       config.identification.initial.Set(name, value);
@@ -86,6 +113,16 @@ int main(int argc, char** argv) {
     }
     const std::vector<std::string> free_names =
         free_text.empty() ? config.identification.free : blmd::ParseNameList(free_text, "--free");
+    for (const auto& text : initials) {
+      const std::string name = blmd::ParseAssignment(text, "--initial").first;
+      if (std::find(free_names.begin(), free_names.end(), name) == free_names.end()) {
+        std::string valid;
+        for (const auto& f : free_names) valid += (valid.empty() ? "" : ", ") + f;
+        throw blmd::InputError("--initial " + name + ": '" + name +
+                               "' is not a free parameter, so it has no start value (free: " +
+                               valid + "; free it with --free)");
+      }
+    }
     const auto free = blmd::MakeFreeParameters(config, free_names);
 
     blmd::TraceInputOptions input_options;
@@ -135,7 +172,6 @@ int main(int argc, char** argv) {
         validation_traces.push_back(std::move(part));
       }
     }
-    if (!report_path.empty()) blmd::CheckWritable(report_path);  // before the fit, not after
     if (!report_path.empty() || !html_path.empty()) blmd::InstallCleanupOnSignal();
 
     const blmd::FitProblem problem(config, std::move(fit_traces), observe, free);
@@ -148,6 +184,7 @@ int main(int argc, char** argv) {
     options.threads = threads;
     options.max_evaluations = max_evaluations;
     options.method_options = options_json;
+    options.verbose = verbose;
     const blmd::FitResult result = optimizer.Minimize(problem, options);
 
     blmd::ReportInputs inputs;
@@ -165,6 +202,7 @@ int main(int argc, char** argv) {
       discovery_options.max_effects = max_effects;
       discovery_options.refit.threads = threads;
       discovery_options.refit.seed = seed;
+      discovery_options.refit.verbose = verbose;
       if (!candidates_text.empty()) discovery_options.candidates = candidate_names;
       const blmd::DiscoveryResult discovery = blmd::Discover(problem, result, discovery_options);
       if (!html_path.empty()) discovery_for_html = std::make_unique<blmd::DiscoveryResult>(discovery);

@@ -34,13 +34,14 @@ int main(int argc, char** argv) {
   app.add_option("--effect", effects,
                  "add an undeclared effect, NAME:KEY=VALUE[,KEY=VALUE...] (repeatable)");
   app.add_option("--noise", noises, "white Gaussian noise on a column, NAME=SIGMA or NAME=P% of its peak (repeatable)");
-  app.add_option("--seed", seed, "noise seed (default 1)");
+  app.add_option("--seed", seed, "noise seed (default 1)")->check(blmd::app::NonNegativeWholeNumber());
   blmd::app::TraceFlags trace_flags;  // for --input
   trace_flags.Add(app);
   app.add_option("--input", input_path, "drive the model with the u column of this trace");
   app.add_flag("--quiet", quiet, "print nothing on success");
 
   return blmd::app::Main(app, argc, argv, [&]() -> int {
+    blmd::CheckOutputs({{"--out", out_path}}, {{"--config", config_path}, {"--input", input_path}});
     blmd::Config config = blmd::LoadConfig(config_path);
     for (const auto& spec : effects) {
       const auto [name, values] = blmd::ParseEffectSpec(spec);
@@ -63,6 +64,11 @@ int main(int argc, char** argv) {
       const auto assignment = blmd::ParseAssignment(text, "--noise");
       if (assignment.second < 0.0) {
         throw blmd::InputError("--noise " + assignment.first + ": sigma must be >= 0");
+      }
+      if (assignment.first == "t" || assignment.first == "open") {
+        // Noise on the time would make it go backwards; "open" is a switch, not a signal.
+        throw blmd::InputError("--noise " + assignment.first + ": '" + assignment.first +
+                               "' takes no noise (time must increase); noise an output column");
       }
       n.column = assignment.first;
       n.sigma = n.relative ? assignment.second / 100.0 : assignment.second;
@@ -131,7 +137,14 @@ int main(int argc, char** argv) {
     }
     blmd::Random random(seed);
     for (const auto& [column, sigma, relative] : noise) {
-      for (double& value : trace.Column(column)) value += sigma * random.Normal();
+      for (double& value : trace.Column(column)) {
+        value += sigma * random.Normal();
+        if (!std::isfinite(value)) {  // sigma near the double range: never write inf
+          throw blmd::InputError("--noise " + column + "=" + blmd::FormatNumber(sigma) +
+                                 ": the noisy '" + column +
+                                 "' is not finite (sigma too large for a double)");
+        }
+      }
     }
     trace.comments.push_back("blmd-sim " + std::string(blmd::kVersion) + " model=" +
                              std::string(config.model->name()) + " config=" + config_path);

@@ -21,6 +21,10 @@
 #include "blmd/sim/effects.h"
 #include "blmd/sim/model.h"
 
+// The largest sweep blmd-surface runs without --force (docs/cli.md §3).
+constexpr std::size_t kMaxSurfacePoints = 1000000;
+constexpr double kMaxSurfaceBytes = 1e9;
+
 namespace {
 
 std::string G(double v, int digits = 5) {
@@ -124,6 +128,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> grids, columns, scales, derives, selects;
   std::string split, initial_state = "config";
   int threads = 0;
+  bool force = false;
   bool json = false, quiet = false;
   blmd::app::ErrorFlags error_flags;
   blmd::app::TraceFlags trace_flags;
@@ -147,6 +152,7 @@ int main(int argc, char** argv) {
   app.add_option("--svg", svg_path, "write a heat map (2-D) or curve (1-D) SVG");
   app.add_flag("--json", json, "print the surface as JSON on stdout instead of the summary");
   app.add_flag("--quiet", quiet, "no progress bar, no summary");
+  app.add_flag("--force", force, "sweep a grid beyond the size cap (1e6 points or 1 GB)");
   CLI::App* merge = app.add_subcommand("merge", "join shard files into the unsharded surface CSV");
   std::vector<std::string> parts;
   std::string merge_out;
@@ -161,8 +167,14 @@ int main(int argc, char** argv) {
   plot->add_flag("--quiet", quiet, "no summary");
 
   return blmd::app::Main(app, argc, argv, [&]() -> int {
-    if (plot->parsed()) return PlotSurfaceFile(plot_csv, plot_svg, plot_title, quiet);
+    if (plot->parsed()) {
+      blmd::CheckOutputs({{"--svg", plot_svg}}, {{"surface", plot_csv}});
+      return PlotSurfaceFile(plot_csv, plot_svg, plot_title, quiet);
+    }
     if (merge->parsed()) {
+      std::vector<blmd::NamedPath> part_files;
+      for (const auto& part : parts) part_files.push_back({"part", part});
+      blmd::CheckOutputs({{"--out", merge_out}}, part_files);
       const std::string merged = blmd::MergeSurfaceParts(parts);
       blmd::WriteFileAtomically(merge_out, merged);
       if (!quiet) std::cout << "blmd-surface: merged " << parts.size() << " shards -> " << merge_out << "\n";
@@ -172,6 +184,10 @@ int main(int argc, char** argv) {
                                       {"--trace", &trace_path}, {"--out", &out_path}}) {
       if (value->empty()) throw blmd::InputError(std::string(flag) + " is required (see blmd-surface --help)");
     }
+    threads = blmd::app::CapThreads(threads);
+    // Every output checked before any work: writable, not an input, not the other output.
+    blmd::CheckOutputs({{"--out", out_path}, {"--svg", svg_path}},
+                       {{"--config", config_path}, {"--trace", trace_path}});
     if (grids.empty() || grids.size() > 2) {
       throw blmd::InputError("--grid: give one or two axes, P=LO:HI:N (got " + std::to_string(grids.size()) + ")");
     }
@@ -202,7 +218,10 @@ int main(int argc, char** argv) {
       try {
         std::size_t used = 0;
         shard_index = std::stoi(shard_text.substr(0, slash), &used);
-        shard_count = std::stoi(shard_text.substr(slash + 1));
+        if (used != slash) throw std::invalid_argument("K");
+        const std::string count = shard_text.substr(slash + 1);
+        shard_count = std::stoi(count, &used);
+        if (used != count.size()) throw std::invalid_argument("N");  // "1/3abc"
       } catch (const std::exception&) {
         throw blmd::InputError("--shard '" + shard_text + "': expected K/N, e.g. 3/8");
       }
@@ -262,8 +281,25 @@ int main(int argc, char** argv) {
       p.initial = config.parameters.Get(axis.name);
       free.push_back(p);
     }
-    blmd::CheckWritable(out_path);  // before the sweep, not after it
-    if (!svg_path.empty()) blmd::CheckWritable(svg_path);
+    {
+      // The sweep's size before it starts: a typo in N must not ask for gigabytes.
+      std::size_t points = 1;
+      for (const auto& axis : axes) points *= static_cast<std::size_t>(axis.count);
+      points = (points + static_cast<std::size_t>(shard_count) - 1) / static_cast<std::size_t>(shard_count);
+      const std::size_t columns = observe.size(), trace_count = traces.size();
+      // Per point: the result (coordinates, cost, MSE per column and per trace) and its CSV row.
+      const double bytes = static_cast<double>(points) *
+                           (160.0 + 8.0 * static_cast<double>(axes.size()) + 16.0 * static_cast<double>(columns) +
+                            static_cast<double>(trace_count) * (24.0 + 8.0 * static_cast<double>(columns)) +
+                            24.0 * static_cast<double>(axes.size() + columns + 1));
+      if (!force && (points > kMaxSurfacePoints || bytes > kMaxSurfaceBytes)) {
+        throw blmd::InputError("--grid: " + std::to_string(points) + " points" +
+                               (shard_count > 1 ? " in this shard" : "") + " (about " +
+                               blmd::FormatSignificant(bytes / 1e9, 3) +
+                               " GB) is more than the cap of 1000000 points or 1 GB; narrow the "
+                               "grid, shard it (--shard K/N), or add --force");
+      }
+    }
     blmd::InstallCleanupOnSignal();
     const std::string config_sha = blmd::Sha256Hex(blmd::ReadFileText(config_path));
     const blmd::FitProblem problem(config, std::move(traces), observe, free);

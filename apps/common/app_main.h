@@ -3,7 +3,10 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <cerrno>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <exception>
 #include <functional>
 #include <iostream>
@@ -33,6 +36,32 @@ inline CLI::Validator NonNegativeWholeNumber() {
         return {};
       },
       "N>=0");
+}
+inline CLI::Validator NonNegativeNumber() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        std::size_t used = 0;
+        double value = -1.0;
+        try {
+          value = std::stod(text, &used);
+        } catch (const std::exception&) {
+        }
+        if (used != text.size() || !(value >= 0.0) || !std::isfinite(value)) {
+          return "must be a finite number >= 0, not " + text;
+        }
+        return {};
+      },
+      "X>=0");
+}
+// --threads N: more than the library's cap (src/parallel.h, 256) is capped with a note.
+inline int CapThreads(int requested) {
+  constexpr int kMax = 256;
+  if (requested > kMax) {
+    std::cerr << "note: --threads " << requested << " is more than " << kMax << ": using " << kMax
+              << "\n";
+    return kMax;
+  }
+  return requested;
 }
 inline CLI::Validator PositiveNumber() {
   return CLI::Validator(
@@ -70,10 +99,23 @@ inline int Main(CLI::App& app, int argc, char** argv, const std::function<int()>
     return kExitBadInput;
   }
   try {
-    return body();
+    const int code = body();
+    // What went to standard output (the summary, --json) must have arrived: a full disk or
+    // a closed pipe is a failure, not a success (issue 18).
+    errno = 0;
+    std::cout.flush();
+    if (!std::cout || std::fflush(stdout) != 0) {
+      std::cerr << "error: cannot write to standard output: "
+                << (errno ? std::strerror(errno) : "write failed") << "\n";
+      return kExitFailed;
+    }
+    return code;
   } catch (const InputError& error) {
     std::cerr << "error: " << error.what() << "\n";
     return kExitBadInput;
+  } catch (const OutputError& error) {
+    std::cerr << "error: " << error.what() << "\n";
+    return kExitFailed;
   } catch (const std::bad_alloc&) {
     std::cerr << "error: out of memory\n";
     return kExitFailed;

@@ -5,6 +5,7 @@
 //  - How a simulation or an optimiser ended is a status value, never an exception.
 #pragma once
 
+#include <cstddef>
 #include <stdexcept>
 #include <string>
 
@@ -23,6 +24,19 @@ class InputError : public std::runtime_error {
                             const std::string& message);
   // `text` with its control characters (bytes below 0x20, and 0x7f) written as \xNN.
   static std::string OneLine(const std::string& text);
+  // At most `max` bytes of a name or value from the input, then "..." (a misspelt key a
+  // megabyte long must not become a megabyte-long message).
+  static std::string Excerpt(const std::string& text, std::size_t max = 80) {
+    return text.size() <= max ? text : text.substr(0, max) + "...";
+  }
+};
+
+// An output the work produced could not be written (a full disk, a device that refuses the
+// bytes, standard output closed): the work was done, its result is lost. Exit code 1.
+class OutputError : public std::runtime_error {
+ public:
+  explicit OutputError(const std::string& message)
+      : std::runtime_error(InputError::OneLine(message)) {}
 };
 
 // Exit codes of every command (interface.md).

@@ -32,7 +32,7 @@ const Optimizer& FindOptimizer(std::string_view name) {
   for (const Optimizer* optimizer : OptimizerRegistry()) {
     valid += (valid.empty() ? "" : ", ") + std::string(optimizer->name());
   }
-  throw InputError("unknown method '" + std::string(name) + "' (valid: " + valid + ")");
+  throw InputError("unknown method '" + InputError::Excerpt(std::string(name)) + "' (valid: " + valid + ")");
 }
 
 void EstimateUncertainty(const FitProblem& problem, const std::vector<double>& values,
@@ -205,7 +205,7 @@ void CheckMethodOptions(const std::string& method, const nlohmann::json& options
     if (!known) {
       std::string list;
       for (const auto& name : valid) list += (list.empty() ? "" : ", ") + name;
-      throw InputError("unknown option '" + key + "' for method " + method + " (valid: " + list +
+      throw InputError("unknown option '" + InputError::Excerpt(key) + "' for method " + method + " (valid: " + list +
                        ")");
     }
   }

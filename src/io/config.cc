@@ -327,7 +327,7 @@ class Reader {
       if (std::find(allowed.begin(), allowed.end(), key) != allowed.end()) continue;
       const std::string near = NearestName(key, allowed);
       Fail(pointer + "/" + key,
-           "unknown key '" + key + "' in '" + Label(pointer) + "'" +
+           "unknown key '" + InputError::Excerpt(key) + "' in '" + Label(pointer) + "'" +
                (near.empty() ? "" : " (did you mean '" + near + "'?)") + "; valid keys: " +
                Join(allowed));
     }
@@ -485,7 +485,7 @@ InputSignal ReadInput(const Reader& reader, const json& input, const std::string
     signal.values = trace.Column(column);
     if (trace.Has("open")) signal.open = trace.Column("open");
   } else {
-    reader.Fail(pointer + "/type", "unknown input type '" + type +
+    reader.Fail(pointer + "/type", "unknown input type '" + InputError::Excerpt(type) +
                                        "' (valid: recorded, square, step, steps, sweep)");
   }
   return signal;
@@ -539,7 +539,9 @@ std::string NearestName(const std::string& word, const std::vector<std::string>&
   return best_distance <= limit ? best : std::string();
 }
 
-Config LoadConfig(const std::string& path) { return ParseConfig(ReadFileText(path), path); }
+Config LoadConfig(const std::string& path) {
+  return ParseConfig(ReadFileText(path, kMaxConfigBytes, "config (a JSON file of a few KiB)"), path);
+}
 
 Config ParseConfig(const std::string& text, const std::string& path) {
   if (const std::size_t at = TooDeep(text); at != std::string::npos) {

@@ -27,6 +27,9 @@ namespace {
 // Pending temporary files, removed by the signal handler. Fixed-size and lock-free so the
 // handler only calls async-signal-safe functions (unlink, _exit).
 constexpr int kMaxPending = 64;
+// The signals that end a run and remove its temporaries (a closed terminal sends SIGHUP,
+// Ctrl-\ SIGQUIT).
+constexpr int kCleanupSignals[] = {SIGINT, SIGTERM, SIGHUP, SIGQUIT};
 std::array<std::atomic<const char*>, kMaxPending> g_pending{};
 
 void OnSignal(int signal_number) {
@@ -56,7 +59,7 @@ std::string Folder(const std::string& path) {
 
 }  // namespace
 
-std::string ReadFileText(const std::string& path) {
+std::string ReadFileText(const std::string& path, std::size_t max_bytes, const std::string& what) {
   const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) throw InputError(path + ": cannot read: " + std::strerror(errno));
   struct stat info {};
@@ -66,6 +69,11 @@ std::string ReadFileText(const std::string& path) {
     throw InputError(path + ": cannot read: " + std::strerror(saved));
   }
   std::string text;
+  if (S_ISREG(info.st_mode) && static_cast<std::size_t>(info.st_size) > max_bytes) {
+    close(fd);
+    throw InputError(path + ": larger than " + std::to_string(max_bytes >> 20) + " MiB: not a " +
+                     what);
+  }
   if (S_ISREG(info.st_mode) && info.st_size > 0)
     text.reserve(static_cast<std::size_t>(info.st_size));
   char chunk[1 << 16];
@@ -79,6 +87,11 @@ std::string ReadFileText(const std::string& path) {
       throw InputError(path + ": cannot read: " + std::strerror(saved));
     }
     text.append(chunk, static_cast<std::size_t>(n));
+    if (text.size() > max_bytes) {
+      close(fd);
+      throw InputError(path + ": larger than " + std::to_string(max_bytes >> 20) +
+                       " MiB: not a " + what);
+    }
   }
   close(fd);
   return text;
@@ -90,8 +103,7 @@ void InstallCleanupOnSignal() {
     struct sigaction action {};
     action.sa_handler = OnSignal;
     sigemptyset(&action.sa_mask);
-    sigaction(SIGINT, &action, nullptr);
-    sigaction(SIGTERM, &action, nullptr);
+    for (const int signal_number : kCleanupSignals) sigaction(signal_number, &action, nullptr);
   });
 }
 
@@ -114,7 +126,62 @@ void CheckWritable(const std::string& path) {
   }
 }
 
+namespace {
+
+// Writes `content` to an existing file that is not a regular one (a FIFO, a terminal, a
+// character device) in place, checking every write and the close.
+void WriteInPlace(const std::string& path, const std::string& content) {
+  const int fd = open(path.c_str(), O_WRONLY | O_CLOEXEC);
+  if (fd < 0) throw OutputError(path + ": cannot write: open: " + std::strerror(errno));
+  std::size_t written = 0;
+  while (written < content.size()) {
+    const ssize_t n = write(fd, content.data() + written, content.size() - written);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      const int saved = errno;
+      close(fd);
+      throw OutputError(path + ": cannot write: write: " + std::strerror(saved));
+    }
+    written += static_cast<std::size_t>(n);
+  }
+  if (close(fd) != 0) throw OutputError(path + ": cannot write: close: " + std::strerror(errno));
+}
+
+}  // namespace
+
+void CheckOutputs(const std::vector<NamedPath>& outputs, const std::vector<NamedPath>& inputs) {
+  auto same = [](const std::string& a, const std::string& b) {
+    struct stat sa {}, sb {};
+    return stat(a.c_str(), &sa) == 0 && stat(b.c_str(), &sb) == 0 && S_ISREG(sa.st_mode) &&
+           sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+  };
+  for (std::size_t k = 0; k < outputs.size(); ++k) {
+    const NamedPath& out = outputs[k];
+    if (out.path.empty()) continue;
+    CheckWritable(out.path);
+    for (const NamedPath& in : inputs) {
+      if (!in.path.empty() && same(out.path, in.path)) {
+        throw InputError(out.flag + " " + out.path + " is the " + in.flag +
+                         " input: writing it would destroy the input; choose another output file");
+      }
+    }
+    for (std::size_t m = 0; m < k; ++m) {
+      if (!outputs[m].path.empty() &&
+          (outputs[m].path == out.path || same(outputs[m].path, out.path))) {
+        throw InputError(out.flag + " " + out.path + " is also " + outputs[m].flag +
+                         ": give each output its own file");
+      }
+    }
+  }
+}
+
 void WriteFileAtomically(const std::string& path, const std::string& content) {
+  struct stat existing {};
+  if (stat(path.c_str(), &existing) == 0 && !S_ISREG(existing.st_mode) &&
+      !S_ISDIR(existing.st_mode)) {
+    WriteInPlace(path, content);  // never replace a device node or a FIFO with a file
+    return;
+  }
   InstallCleanupOnSignal();
   std::string temp = path + ".tmp.XXXXXX";
   std::vector<char> name(temp.begin(), temp.end());
@@ -123,8 +190,7 @@ void WriteFileAtomically(const std::string& path, const std::string& content) {
   // handler never misses one (it would be left behind).
   sigset_t held, previous;
   sigemptyset(&held);
-  sigaddset(&held, SIGINT);
-  sigaddset(&held, SIGTERM);
+  for (const int signal_number : kCleanupSignals) sigaddset(&held, signal_number);
   pthread_sigmask(SIG_BLOCK, &held, &previous);
   const int fd = mkstemp(name.data());
   const int saved_errno = errno;
@@ -139,7 +205,7 @@ void WriteFileAtomically(const std::string& path, const std::string& content) {
     close(fd);
     unlink(name.data());
     Unregister(slot);
-    throw InputError(path + ": cannot write: " + what + ": " + std::strerror(saved));
+    throw OutputError(path + ": cannot write: " + what + ": " + std::strerror(saved));
   };
   std::size_t written = 0;
   while (written < content.size()) {
@@ -155,13 +221,13 @@ void WriteFileAtomically(const std::string& path, const std::string& content) {
   if (close(fd) != 0) {
     unlink(name.data());
     Unregister(slot);
-    throw InputError(path + ": cannot write: close: " + std::strerror(errno));
+    throw OutputError(path + ": cannot write: close: " + std::strerror(errno));
   }
   if (rename(name.data(), path.c_str()) != 0) {
     const int saved = errno;
     unlink(name.data());
     Unregister(slot);
-    throw InputError(path + ": cannot write: rename: " + std::strerror(saved));
+    throw OutputError(path + ": cannot write: rename: " + std::strerror(saved));
   }
   Unregister(slot);
 }

@@ -79,7 +79,7 @@ const EffectInfo& FindEffect(const std::string& name) {
   }
   std::string valid;
   for (const auto& effect : EffectRegistry()) valid += (valid.empty() ? "" : ", ") + effect.name;
-  throw InputError("unknown effect '" + name + "' (valid: " + valid + ")");
+  throw InputError("unknown effect '" + InputError::Excerpt(name) + "' (valid: " + valid + ")");
 }
 
 bool IsEffectParameter(const std::string& parameter, std::string* effect_name) {
