@@ -85,6 +85,12 @@ TEST(CsvDialects, QuotesFollowRfc4180) {
   const Trace back = ParseTraceCsv(FormatTraceCsv(trace), "back.csv", {});
   EXPECT_EQ(back.names(), trace.names());
   EXPECT_EQ(ErrorOf("t,u\n0,\"1\n", CsvReadOptions{}), "log.csv:2:2: unclosed quote (a '\"' without its closing '\"')");
+  // Found by the hour-long fuzz campaigns: a lone quoted name with a space inside was written
+  // back plainly and then read as a space-separated header. Names with spaces are quoted.
+  for (const std::string text : {"\"t(n .00\"\n0\n", "h\"$  i\"\n 0\n"}) {
+    const Trace lone = ParseTraceCsv(text, "log.csv", CsvReadOptions{});
+    EXPECT_EQ(ParseTraceCsv(FormatTraceCsv(lone), "back.csv", CsvReadOptions{}).names(), lone.names());
+  }
 }
 
 TEST(CsvDialects, DelimiterCanBeForced) {

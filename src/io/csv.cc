@@ -614,11 +614,11 @@ std::string DisplayNumber(double value) {
 namespace {
 
 // A column name as a header field: double-quoted (RFC 4180, "" for ") when it would not read
-// back as itself plainly: a separator or quote inside, spaces at an end, a leading '#'.
+// back as itself plainly: a separator, quote, '|' or space inside (a lone name with a space
+// reads as a space-separated header), a leading '#' or single quote.
 std::string HeaderField(const std::string& name) {
-  const bool plain =
-      name.find_first_of(",;\t\"") == std::string::npos && !name.empty() && name.front() != '#' &&
-      name.front() != ' ' && name.back() != ' ';
+  const bool plain = name.find_first_of(",;\t\"| ") == std::string::npos && !name.empty() &&
+                     name.front() != '#' && name.front() != '\'';
   if (plain) return name;
   std::string out = "\"";
   for (const char c : name) out += c == '"' ? std::string("\"\"") : std::string(1, c);
