@@ -279,3 +279,38 @@ TEST(TraceTimeBase, ATraceFasterThanTheStepIsFittedNotRefused) {
 
 }  // namespace
 }  // namespace blmd::testing
+
+#include <glog/logging.h>
+
+#include "blmd/ident/optimizer.h"
+#include "blmd/ident/trace_input.h"
+#include "blmd/io/config.h"
+
+namespace blmd::testing {
+namespace {
+
+// Issue 18 item 18: Ceres's glog lines must not precede a command's one-line error. After a
+// ceres fit that is not verbose, nothing below FATAL reaches stderr; with --verbose it does.
+// (Before the fix glog's default printed WARNING and above, with a "Logging before
+// InitGoogleLogging()" line first.)
+TEST(CeresLog, SilentUnlessVerbose) {
+  const Config config = LoadConfig(SourcePath("configs/ganesh-square.json"));
+  TraceInputOptions input;
+  input.required = {"i", "w"};
+  std::vector<FitTrace> traces;
+  traces.push_back(LoadFitTrace(SourcePath("testdata/dc-hidden-coulomb.csv"), input, config.experiment.initial));
+  const FitProblem problem(config, std::move(traces), {"i", "w"}, MakeFreeParameters(config, {"J", "B"}));
+  OptimizerOptions options;
+  for (const bool verbose : {false, true}) {
+    SCOPED_TRACE(verbose);
+    options.verbose = verbose;
+    EXPECT_TRUE(FindOptimizer("ceres").Minimize(problem, options).summary.converged);
+    ::testing::internal::CaptureStderr();
+    LOG(WARNING) << "a Ceres-style warning";
+    const std::string err = ::testing::internal::GetCapturedStderr();
+    EXPECT_EQ(err.find("a Ceres-style warning") != std::string::npos, verbose) << err;
+  }
+}
+
+}  // namespace
+}  // namespace blmd::testing
