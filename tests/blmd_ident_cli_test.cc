@@ -10,13 +10,6 @@
 namespace blmd::testing {
 namespace {
 
-std::string Slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
-
 std::string Ident(const std::string& arguments) {
   return BinPath("blmd-ident") + " --config " + SourcePath("configs/ganesh-noload.json") +
          " --trace " + SourcePath("testdata/ganesh-noload-step.csv") + " " + arguments;

@@ -21,15 +21,9 @@ using testing::BinPath;
 using testing::CommandResult;
 using testing::FileExists;
 using testing::Run;
+using testing::Slurp;
 using testing::SourcePath;
 using testing::TempDir;
-
-std::string Slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
 
 std::size_t FilesIn(const std::string& folder) {
   return static_cast<std::size_t>(std::distance(std::filesystem::directory_iterator(folder),

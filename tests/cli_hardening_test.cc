@@ -17,13 +17,6 @@
 namespace blmd::testing {
 namespace {
 
-std::string Slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
-
 std::string Config() { return SourcePath("configs/ganesh-square.json"); }
 
 // A copy of a bundled trace: a test that went wrong must not destroy testdata/.

@@ -19,13 +19,6 @@
 namespace blmd::testing {
 namespace {
 
-std::string Slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
-
 std::string ErrorOf(const std::string& text, const CsvReadOptions& options) {
   try {
     ParseTraceCsv(text, "log.csv", options);

@@ -26,13 +26,6 @@
 namespace blmd::testing {
 namespace {
 
-std::string Slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
-
 std::string Ident(const std::string& arguments) {
   return BinPath("blmd-ident") + " --config " + SourcePath("configs/ganesh-square.json") +
          " --trace " + SourcePath("testdata/dc-hidden-coulomb.csv") + " " + arguments;

@@ -33,13 +33,6 @@ std::size_t Count(const std::string& text, const std::string& what) {
 
 double kNaNForTests() { return std::numeric_limits<double>::quiet_NaN(); }
 
-std::string Slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
-
 // The text of each <figure class="plot" ...>...</figure>.
 std::vector<std::string> Figures(const std::string& html) {
   std::vector<std::string> figures;

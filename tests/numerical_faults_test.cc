@@ -21,13 +21,6 @@
 namespace blmd::testing {
 namespace {
 
-std::string Slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
-
 // A dc_servo (Ganesh's motor) with quadratic drag, simulated at a coarse 1 ms step.
 std::string DragConfig(double Cd, double J, double dt = 1e-3) {
   char text[1024];

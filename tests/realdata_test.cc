@@ -25,13 +25,6 @@
 namespace blmd::testing {
 namespace {
 
-std::string Slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
-
 // $BLMD_REALDATA, else <repo>/../shared/realdata.
 std::string RealData() {
   const char* env = std::getenv("BLMD_REALDATA");

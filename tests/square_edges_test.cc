@@ -19,13 +19,6 @@
 namespace blmd::testing {
 namespace {
 
-std::string Slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
-
 struct Case {
   double period;       // s
   double sample_rate;  // Hz

@@ -12,13 +12,6 @@
 namespace blmd::testing {
 namespace {
 
-std::string Slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
-
 std::string Surface(const std::string& config, const std::string& trace, const std::string& rest) {
   return BinPath("blmd-surface") + " --config " + config + " --trace " + trace + " " + rest;
 }

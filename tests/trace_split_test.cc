@@ -18,13 +18,6 @@
 namespace blmd::testing {
 namespace {
 
-std::string Slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
-
 // The data rows of a trace CSV (the lines after its header), each prefixed "RUN,".
 std::string RowsWithRun(const std::string& path, int run) {
   std::istringstream in(Slurp(path));

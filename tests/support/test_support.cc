@@ -24,14 +24,12 @@ std::string BinPath(const std::string& command) {
   return std::string(BLMD_BIN_DIR) + "/" + command;
 }
 
-namespace {
 std::string Slurp(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::ostringstream buffer;
   buffer << in.rdbuf();
   return buffer.str();
 }
-}  // namespace
 
 CommandResult Run(const std::string& command_line) {
   TempDir capture;

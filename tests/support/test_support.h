@@ -35,6 +35,8 @@ class TempDir {
 };
 
 bool FileExists(const std::string& path);
+// The file's bytes ("" when it cannot be read).
+std::string Slurp(const std::string& path);
 
 // Worst |fast - reference| / max |reference| over the columns (the column in *where); the two
 // traces must have the same columns and rows (checked with EXPECTs).
