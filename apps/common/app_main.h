@@ -26,13 +26,15 @@ inline void AddVersionFlag(CLI::App& app, const std::string& tool) {
 inline CLI::Validator NonNegativeWholeNumber() {
   return CLI::Validator(
       [](std::string& text) -> std::string {
+        // Up to 2^64 - 1 (a seed); no sign, no spaces.
         std::size_t used = 0;
-        long value = -1;
+        bool ok = !text.empty() && text.find_first_not_of("0123456789") == std::string::npos;
         try {
-          value = std::stol(text, &used);
+          if (ok) std::stoull(text, &used);
         } catch (const std::exception&) {
+          ok = false;
         }
-        if (used != text.size() || value < 0) return "must be a whole number >= 0, not " + text;
+        if (!ok || used != text.size()) return "must be a whole number >= 0, not " + text;
         return {};
       },
       "N>=0");

@@ -149,6 +149,10 @@ class PositionIndex {
           value_started(here_line, here_column);
         }
       } else if (c == '{' || c == '[') {
+        // Positions are for error messages; a config is a few levels deep. Past 64 levels
+        // (garbage, or an attack: every pointer would copy the whole path, quadratic in the
+        // depth) nothing more is indexed, and the parser reports the problem.
+        if (stack.size() >= 64) return;
         std::string pointer = value_started(here_line, here_column);
         stack.push_back({c == '{', pointer, "", 0, true});
       } else if (c == '}' || c == ']') {
@@ -581,8 +585,9 @@ Config ParseConfig(const std::string& text, const std::string& path) {
     const auto slash = pointer.rfind('/');
     const Position first = index.Find(pointer);
     throw InputError(path, index.duplicate_at().line, index.duplicate_at().column,
-                     "duplicate key '" + Printable(pointer.substr(slash + 1)) + "' in '" +
-                         Reader::Label(pointer.substr(0, slash)) + "' (first at line " +
+                     "duplicate key '" + InputError::Excerpt(Printable(pointer.substr(slash + 1))) +
+                         "' in '" + InputError::Excerpt(Reader::Label(pointer.substr(0, slash))) +
+                         "' (first at line " +
                          std::to_string(first.line) +
                          "): JSON keeps only one of them; remove the other");
   }

@@ -166,7 +166,9 @@ void CheckOutputs(const std::vector<NamedPath>& outputs, const std::vector<Named
       }
     }
     for (std::size_t m = 0; m < k; ++m) {
-      if (!outputs[m].path.empty() &&
+      struct stat info {};
+      const bool device = stat(out.path.c_str(), &info) == 0 && !S_ISREG(info.st_mode);
+      if (!outputs[m].path.empty() && !device &&
           (outputs[m].path == out.path || same(outputs[m].path, out.path))) {
         throw InputError(out.flag + " " + out.path + " is also " + outputs[m].flag +
                          ": give each output its own file");
