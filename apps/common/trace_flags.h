@@ -23,7 +23,9 @@ struct TraceFlags {
         ->check(CLI::IsMember({"error", "first", "mean"}));
   }
 
-  char Delimiter() const { return delimiter == "tab" ? '\t' : delimiter.empty() ? 0 : delimiter[0]; }
+  char Delimiter() const {
+    return delimiter == "tab" ? '\t' : delimiter.empty() ? 0 : delimiter[0];
+  }
   DuplicateTime Duplicates() const {
     return duplicate_time == "first"  ? DuplicateTime::kFirst
            : duplicate_time == "mean" ? DuplicateTime::kMean

@@ -214,9 +214,7 @@ void CheckMethodOptions(const std::string& method, const nlohmann::json& options
 namespace {
 
 std::string OptionText(const nlohmann::json& value) {
-  std::string text = value.is_string() ? value.get<std::string>() : value.dump();
-  if (text.size() > 40) text = text.substr(0, 40) + "...";
-  return text;
+  return InputError::Excerpt(value.is_string() ? value.get<std::string>() : value.dump(), 40);
 }
 
 // The option's value as a finite number, or nullopt when it is not one.

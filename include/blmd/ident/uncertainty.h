@@ -25,11 +25,10 @@
 // crosses from one trace into the next.
 #pragma once
 
+#include <Eigen/Dense>
 #include <cstddef>
 #include <string>
 #include <vector>
-
-#include <Eigen/Dense>
 
 namespace blmd {
 
@@ -42,11 +41,11 @@ struct ResidualLayout {
 
 struct SandwichCovariance {
   bool ok = false;
-  std::string reason;              // why not ok
-  Eigen::MatrixXd covariance;      // p x p, search coordinates
-  Eigen::MatrixXd white;           // the sandwich with independent samples, for comparison
-  double bandwidth = 0.0;          // Bartlett lag window L (whitened scores)
-  double max_var_eigenvalue = 0.0; // largest |eigenvalue| of the prewhitening A (after the cap)
+  std::string reason;               // why not ok
+  Eigen::MatrixXd covariance;       // p x p, search coordinates
+  Eigen::MatrixXd white;            // the sandwich with independent samples, for comparison
+  double bandwidth = 0.0;           // Bartlett lag window L (whitened scores)
+  double max_var_eigenvalue = 0.0;  // largest |eigenvalue| of the prewhitening A (after the cap)
   // Per parameter: the HAC variance over the white-noise variance (>= 1 when the residuals
   // are positively correlated); the factor by which the classic interval was too narrow is
   // its square root.
