@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <sys/sysmacros.h>
+#include <unistd.h>
 
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -71,7 +72,13 @@ TEST(CliHardening, DeviceOutputsAreWrittenInPlaceAndAFullDiskIsAFailure) {
   EXPECT_EQ(run.exit_code, 1);
   run = blmd::testing::Run(BinPath("blmd-ident") + " --config " + Config() + " --trace " + trace + " --json > " + full);
   EXPECT_EQ(run.exit_code, 1);
-  EXPECT_EQ(run.err.rfind("error: cannot write to standard output: ", 0), 0u) << run.err;
+  EXPECT_EQ(run.err.rfind("error: cannot write to standard output", 0), 0u) << run.err;
+  // --help and --version write to standard output too (they exited 0 on a full disk).
+  run = blmd::testing::Run(BinPath("blmd-ident") + " --help > " + full);
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_EQ(run.err, "error: cannot write to standard output: No space left on device\n");
+  run = blmd::testing::Run(BinPath("blmd-surface") + " --version > " + full);
+  EXPECT_EQ(run.exit_code, 1);
 }
 
 // A FIFO as the report: its reader gets the whole report, and it stays a FIFO.
@@ -166,6 +173,62 @@ TEST(CliHardening, BadFlagValuesAreExitTwo) {
             std::string::npos)
       << run.err;
   EXPECT_LT(run.err.size(), 400u);
+}
+
+// Item 19 (found by review): an empty value is refused, whatever the flag: "--method ''"
+// once fell back to the config's method, "--report= --quiet" wrote the report to a file
+// named "--quiet" (CLI11 reads "--report=" as "--report" taking the next argument). Unknown
+// names list the valid ones.
+TEST(CliHardening, EmptyValuesAreRefusedAndUnknownNamesListTheChoices) {
+  TempDir dir;
+  const std::string trace = TraceCopy(dir);
+  const std::string help = " (see " + BinPath("blmd-ident") + " --help)\n";
+  const std::string ident = "--config " + Config() + " --trace " + trace + " --quiet ";
+  ExpectCases("blmd-ident",
+              {{ident + "--method ''", 2,
+                "error: --method: empty value (expected ceres|powell|fsd|classic (default: "
+                "config, else ceres))" + help},
+               {ident + "--split ''", 2,
+                "error: --split: empty value (expected cut each trace into one experiment per "
+                "block of equal COLUMN values)" + help},
+               {ident + "--report= --html " + dir.File("r.html"), 2,
+                "error: --report: empty value (expected write the JSON report here)" + help},
+               {ident + "--free Jq,B", 2,
+                "error: free parameter 'Jq' is not a parameter of " + Config() +
+                    " (did you mean 'J'?); valid: R, L, Kt, Kb, J, B\n"}});
+  EXPECT_FALSE(FileExists(dir.File("r.html")));
+  const std::string surface =
+      "--config " + Config() + " --trace " + trace + " --quiet --out " + dir.File("s.csv");
+  ExpectCases("blmd-surface",
+              {{surface + " --grid J=1e-5:3e-5:2 --observe ''", 2,
+                "error: --observe: empty (valid: i, w, theta)\n"},
+               {surface + " --grid J=1e-5:3e-5:2 --observe q", 2,
+                "error: --observe: 'q' is not an output of model dc_servo (valid: i, w, theta)\n"},
+               {surface + " --grid J=1e-5:3e-5:2 --shard ' 1/3'", 2,
+                "error: --shard ' 1/3': expected K/N, e.g. 3/8\n"},
+               {surface + " --grid J=1e-5:3e-5:2 --shard +1/3", 2,
+                "error: --shard '+1/3': expected K/N, e.g. 3/8\n"},
+               {surface + " --grid Jx=1e-5:3e-5:2", 2,
+                "error: --grid: unknown parameter 'Jx' (did you mean 'J'?); valid: R, L, Kt, Kb, J, "
+                "B\n"}});
+  EXPECT_FALSE(FileExists(dir.File("s.csv")));
+}
+
+// A symbolic link as the output is followed, as the shell's '>' does: the link stays, the
+// file it names gets the content (it was replaced by a plain file).
+TEST(CliHardening, SymbolicLinkOutputIsFollowed) {
+  TempDir dir;
+  const std::string trace = TraceCopy(dir);
+  ASSERT_EQ(mkdir(dir.File("reports").c_str(), 0755), 0);
+  ASSERT_EQ(symlink("reports/real.json", dir.File("link.json").c_str()), 0);
+  const CommandResult run = blmd::testing::Run(BinPath("blmd-ident") + " --config " + Config() +
+                                               " --trace " + trace + " --quiet --report " +
+                                               dir.File("link.json"));
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  struct stat info {};
+  ASSERT_EQ(lstat(dir.File("link.json").c_str(), &info), 0);
+  EXPECT_TRUE(S_ISLNK(info.st_mode));
+  EXPECT_EQ(nlohmann::json::parse(Slurp(dir.File("reports/real.json")))["tool"], "blmd-ident");
 }
 
 // Item 4: a thread count beyond the cap runs with the cap and says so.

@@ -200,7 +200,8 @@ int main(int argc, char** argv) {
         for (const auto& [name, value] : config.parameters.entries()) known.push_back(name);
         const std::string near = blmd::NearestName(axis.name, known);
         throw blmd::InputError("--grid: unknown parameter '" + axis.name + "'" +
-                               (near.empty() ? "" : " (did you mean '" + near + "'?)"));
+                               (near.empty() ? "" : " (did you mean '" + near + "'?)") +
+                               "; valid: " + blmd::Join(known));
       }
       const blmd::ParamInfo* info = config.FindParameterInfo(axis.name);
       if (info && info->positive && !(axis.low > 0.0)) {
@@ -215,6 +216,10 @@ int main(int argc, char** argv) {
     int shard_index = 1, shard_count = 1;
     if (!shard_text.empty()) {
       const auto slash = shard_text.find('/');
+      // Digits, '/', digits: std::stoi alone would take " 1" and "+1".
+      if (shard_text.find_first_not_of("0123456789/") != std::string::npos) {
+        throw blmd::InputError("--shard '" + shard_text + "': expected K/N, e.g. 3/8");
+      }
       try {
         std::size_t used = 0;
         shard_index = std::stoi(shard_text.substr(0, slash), &used);
@@ -229,14 +234,20 @@ int main(int argc, char** argv) {
         throw blmd::InputError("--shard '" + shard_text + "': expected K/N with 1 <= K <= N");
       }
     }
+    const std::vector<std::string> outputs = config.model->outputs();
+    std::string valid_outputs;
+    for (const auto& name : outputs) valid_outputs += (valid_outputs.empty() ? "" : ", ") + name;
+    if (app.count("--observe") > 0 && observe_text.empty()) {
+      throw blmd::InputError("--observe: empty (valid: " + valid_outputs + ")");
+    }
     const std::vector<std::string> observe = error_flags.Apply(&config, observe_text);
     const bool equation_error = config.identification.error == "equation";
-    const std::vector<std::string> outputs = config.model->outputs();
     for (const auto& name : observe) {
       if (equation_error) break;
       if (std::find(outputs.begin(), outputs.end(), name) == outputs.end()) {
         throw blmd::InputError("--observe: '" + name + "' is not an output of model " +
-                               std::string(config.model->name()));
+                               std::string(config.model->name()) + " (valid: " + valid_outputs +
+                               ")");
       }
     }
     blmd::TraceInputOptions input_options;
@@ -443,5 +454,5 @@ int main(int argc, char** argv) {
       if (!svg_path.empty()) std::cout << "  svg: " << svg_path << "\n";
     }
     return blmd::kExitOk;
-  });
+  }, {"--observe"});
 }

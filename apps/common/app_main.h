@@ -3,6 +3,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -11,6 +12,7 @@
 #include <functional>
 #include <iostream>
 #include <string>
+#include <vector>
 
 #include "blmd/error.h"
 #include "blmd/version.h"
@@ -82,36 +84,77 @@ inline CLI::Validator PositiveNumber() {
       "X>0");
 }
 
+// What went to standard output (the summary, --json, --help) must have arrived: a full disk
+// or a closed pipe is a failure, not a success (issue 18). Returns `code`, or kExitFailed
+// with one line on stderr.
+inline int FinishStandardOutput(int code) {
+  errno = 0;
+  std::cout.flush();
+  if (std::cout && std::fflush(stdout) == 0 && !std::ferror(stdout)) return code;
+  // errno names the cause when this flush failed; a write that failed earlier (a full
+  // buffer) may have left it 0.
+  std::cerr << "error: cannot write to standard output"
+            << (errno ? std::string(": ") + std::strerror(errno) : std::string()) << "\n";
+  return kExitFailed;
+}
+
+// A flag given an empty value ("--method ''", or "--report=" which CLI11 would read as
+// "--report" taking the next argument as its value) is refused, with what the flag expects.
+// Flags listed in `checked_in_body` give their own message for '' (it needs the config: the
+// valid choices). Throws CLI::ValidationError.
+inline std::string EmptyValueMessage(const CLI::App& app, const std::string& flag) {
+  const CLI::Option* option = app.get_option_no_throw(flag);
+  const std::string what = option ? option->get_description() : std::string();
+  return flag + ": empty value" + (what.empty() ? "" : " (expected " + what + ")");
+}
+inline void RefuseEmptyEquals(const CLI::App& app, int argc, char** argv) {
+  for (int k = 1; k < argc; ++k) {
+    const std::string arg = argv[k];
+    if (arg == "--") break;
+    if (arg.size() > 3 && arg.compare(0, 2, "--") == 0 && arg.back() == '=' &&
+        arg.find('=') == arg.size() - 1) {
+      throw CLI::ValidationError(EmptyValueMessage(app, arg.substr(0, arg.size() - 1)));
+    }
+  }
+}
+inline void RefuseEmptyValues(const CLI::App& app,
+                              const std::vector<std::string>& checked_in_body) {
+  for (const CLI::Option* option : app.get_options()) {
+    if (option->count() == 0 || option->get_name().empty()) continue;
+    const std::string flag = option->get_name();
+    if (std::find(checked_in_body.begin(), checked_in_body.end(), flag) != checked_in_body.end())
+      continue;
+    for (const std::string& value : option->results()) {
+      if (value.empty()) throw CLI::ValidationError(EmptyValueMessage(app, flag));
+    }
+  }
+}
+
 // Parses, then runs `body`. InputError and bad flags -> one line on stderr, exit 2.
-inline int Main(CLI::App& app, int argc, char** argv, const std::function<int()>& body) {
+inline int Main(CLI::App& app, int argc, char** argv, const std::function<int()>& body,
+                const std::vector<std::string>& checked_in_body = {}) {
   try {
+    if (app.get_name().empty() && argc > 0) app.name(argv[0]);  // as parse() would
+    RefuseEmptyEquals(app, argc, argv);
     app.parse(argc, argv);
+    RefuseEmptyValues(app, checked_in_body);
+    for (const CLI::App* sub : app.get_subcommands()) RefuseEmptyValues(*sub, checked_in_body);
   } catch (const CLI::CallForHelp&) {
     std::cout << app.help();
-    return kExitOk;
+    return FinishStandardOutput(kExitOk);
   } catch (const CLI::CallForAllHelp&) {
     std::cout << app.help("", CLI::AppFormatMode::All);
-    return kExitOk;
+    return FinishStandardOutput(kExitOk);
   } catch (const CLI::CallForVersion&) {
     std::cout << app.version() << "\n";
-    return kExitOk;
+    return FinishStandardOutput(kExitOk);
   } catch (const CLI::ParseError& error) {
     std::cerr << "error: " << InputError::OneLine(error.what()) << " (see " << app.get_name()
               << " --help)\n";
     return kExitBadInput;
   }
   try {
-    const int code = body();
-    // What went to standard output (the summary, --json) must have arrived: a full disk or
-    // a closed pipe is a failure, not a success (issue 18).
-    errno = 0;
-    std::cout.flush();
-    if (!std::cout || std::fflush(stdout) != 0) {
-      std::cerr << "error: cannot write to standard output: "
-                << (errno ? std::strerror(errno) : "write failed") << "\n";
-      return kExitFailed;
-    }
-    return code;
+    return FinishStandardOutput(body());
   } catch (const InputError& error) {
     std::cerr << "error: " << error.what() << "\n";
     return kExitBadInput;

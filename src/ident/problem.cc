@@ -335,7 +335,8 @@ std::vector<FreeParameter> MakeFreeParameters(const Config& config,
       const std::string near = NearestName(name, known);
       throw InputError("free parameter '" + name + "' is not a parameter of " +
                        (config.path.empty() ? "the config" : config.path) +
-                       (near.empty() ? "" : " (did you mean '" + near + "'?)"));
+                       (near.empty() ? "" : " (did you mean '" + near + "'?)") +
+                       "; valid: " + Join(known));
     }
     for (const auto& existing : free) {
       if (existing.name == name) throw InputError("free parameter '" + name + "' listed twice");

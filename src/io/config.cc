@@ -295,12 +295,6 @@ std::string TypeName(const json& value) {
   return "null";
 }
 
-std::string Join(const std::vector<std::string>& names) {
-  std::string out;
-  for (const auto& name : names) out += (out.empty() ? "" : ", ") + name;
-  return out;
-}
-
 class Reader {
  public:
   Reader(const std::string& path, const PositionIndex& index) : path_(path), index_(index) {}
@@ -511,6 +505,12 @@ std::string RunLengthError(double span, double dt, double samples) {
            "shorten the run";
   }
   return {};
+}
+
+std::string Join(const std::vector<std::string>& names) {
+  std::string out;
+  for (const auto& name : names) out += (out.empty() ? "" : ", ") + name;
+  return out;
 }
 
 std::string NearestName(const std::string& word, const std::vector<std::string>& candidates) {

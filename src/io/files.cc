@@ -177,7 +177,34 @@ void CheckOutputs(const std::vector<NamedPath>& outputs, const std::vector<Named
   }
 }
 
-void WriteFileAtomically(const std::string& path, const std::string& content) {
+namespace {
+
+// Where a write to `path` lands: `path` itself, or, when it is a symbolic link, the file the
+// link names (followed like the shell's `>` does: the link is kept, its target replaced),
+// even when that file does not exist yet.
+std::string LinkTarget(const std::string& path) {
+  std::string current = path;
+  for (int hop = 0; hop < 40; ++hop) {  // Linux's own limit (MAXSYMLINKS)
+    struct stat link {};
+    if (lstat(current.c_str(), &link) != 0 || !S_ISLNK(link.st_mode)) return current;
+    std::vector<char> target(static_cast<std::size_t>(link.st_size > 0 ? link.st_size : 255) + 1);
+    const ssize_t n = readlink(current.c_str(), target.data(), target.size());
+    if (n < 0 || static_cast<std::size_t>(n) >= target.size()) {
+      throw OutputError(path + ": cannot write: cannot read the symbolic link '" + current + "'");
+    }
+    const std::string next(target.data(), static_cast<std::size_t>(n));
+    const auto slash = current.rfind('/');
+    current = next.front() == '/' || slash == std::string::npos
+                  ? next
+                  : current.substr(0, slash + 1) + next;
+  }
+  throw OutputError(path + ": cannot write: " + std::strerror(ELOOP));
+}
+
+}  // namespace
+
+void WriteFileAtomically(const std::string& link_or_path, const std::string& content) {
+  const std::string path = LinkTarget(link_or_path);
   struct stat existing {};
   if (stat(path.c_str(), &existing) == 0 && !S_ISREG(existing.st_mode) &&
       !S_ISDIR(existing.st_mode)) {

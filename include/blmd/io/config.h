@@ -58,6 +58,9 @@ Config ParseConfig(const std::string& text, const std::string& path);
 // than 1e10 steps or 1e8 samples: hours of computing or gigabytes), "" when it is fine.
 std::string RunLengthError(double span, double dt, double samples);
 
+// The names separated by ", " (for "valid: ..." in messages).
+std::string Join(const std::vector<std::string>& names);
+
 // Closest of `candidates` to `word` by edit distance, "" when none is close.
 std::string NearestName(const std::string& word, const std::vector<std::string>& candidates);
 
