@@ -51,10 +51,14 @@ TEST_P(HiddenEffect, IsFoundFittedAndExplainsTheResidual) {
   const double after = d["error_after"]["nrmse"].get<double>();
   std::cout << c.name << ": NRMSE " << before << " -> " << after << "\n";
   EXPECT_LE(after, 0.5 * before);
-  const double J_before = report["parameters"]["J"]["value"].get<double>();
-  const double B_before = report["parameters"]["B"]["value"].get<double>();
+  // The headline is the final model (schema 2); the first fit is under discovery.before.
+  const double J_before = d["before"]["parameters"]["J"]["value"].get<double>();
+  const double B_before = d["before"]["parameters"]["B"]["value"].get<double>();
   const double J_after = d["parameters_after"]["J"].get<double>();
   const double B_after = d["parameters_after"]["B"].get<double>();
+  EXPECT_EQ(report["parameters"]["J"]["value"].get<double>(), J_after);
+  EXPECT_EQ(report["parameters"]["B"]["value"].get<double>(), B_after);
+  EXPECT_EQ(report["fit"]["nrmse"], d["error_after"]["nrmse"]);
   std::cout << c.name << ": J " << 100 * (J_before / c.J - 1) << " % -> " << 100 * (J_after / c.J - 1)
             << " %, B " << 100 * (B_before / c.B - 1) << " % -> " << 100 * (B_after / c.B - 1) << " %\n";
   EXPECT_NEAR(J_after, c.J, 0.02 * c.J);

@@ -185,21 +185,20 @@ TEST_F(RigidLoadEquationError, DiscoveryAddsCoulombFrictionAndTheLoad) {
   const auto& after = d["parameters_after"];
   EXPECT_NEAR(after["J"].get<double>(), 0.02, 0.005 * 0.02);   // +0.19 %
   EXPECT_NEAR(after["B"].get<double>(), 0.05, 0.01 * 0.05);    // -0.11 %
-  EXPECT_NEAR(after["Tc"].get<double>(), 0.1, 0.01 * 0.1);     // -0.36 %
+  // Tc +1.3 %: the half-sample misplacement of the friction's flip at each reversal (1 ms
+  // samples). Before issue 19 a third effect took it up on this noise-free trace: a
+  // Stribeck friction acting only within one sample of each reversal (ws = 0.033 rad/s),
+  // the sampling's signature, not the rig's (Tc was then -0.36 %). The evidence on whitened
+  // residuals (docs/discovery.md) no longer counts it: only the two effects are added.
+  EXPECT_NEAR(after["Tc"].get<double>(), 0.1, 0.015 * 0.1);
   EXPECT_NEAR(after["TL"].get<double>(), 0.03, 0.01 * 0.03);   // -0.21 %
-  // On noise-free data a third effect follows: a Stribeck friction that acts only within
-  // one sample of each reversal (ws = 0.033 rad/s, what the shaft's speed changes by in one
-  // 1 ms sample there), taking up the half-sample misplacement of the friction's flip. It is
-  // the sampling's signature, not the rig's; with noise on theta (0.001 % of its rms) it is
-  // not added (docs/identification.md §8).
-  ASSERT_EQ(d["added"].size(), 3u);
-  EXPECT_EQ(d["added"][2], "stribeck");
-  // |a| h at the reversals: (0.5 +- 0.1 +- 0.03) N m / 0.02 kg m^2 x 1 ms = 0.019-0.032 rad/s.
-  EXPECT_NEAR(after["ws"].get<double>(), 0.0328, 0.001);
+  EXPECT_EQ(d["added"].size(), 2u) << d["conclusion"];
   EXPECT_EQ(report["fit"]["error"]["samples"].get<int>(), 1200);  // every 5th of 5999
-  // As simulations, NRMSE on w falls from 0.111 to 0.0064.
+  // As simulations, NRMSE on w falls from 0.111 to 0.0064 (the headline is the final
+  // model: its simulated error is the discovery's).
   EXPECT_LT(d["simulated_after"]["nrmse"].get<double>(),
-            0.1 * report["fit"]["simulated"]["nrmse"].get<double>());
+            0.1 * d["before"]["fit"]["simulated"]["nrmse"].get<double>());
+  EXPECT_EQ(report["fit"]["simulated"]["nrmse"], d["simulated_after"]["nrmse"]);
 }
 
 TEST_F(RigidLoadEquationError, SurfaceOverJIsAParabolaWithItsMinimumAtTheTruth) {

@@ -282,16 +282,27 @@ TEST(HtmlReport, ShowsTheModelBeforeAndAfterDiscovery) {
   options.refit.threads = 2;
   const DiscoveryResult discovery = Discover(*f.problem, f.result, options);
   ASSERT_EQ(discovery.added, std::vector<std::string>{"coulomb_friction"});
-  nlohmann::json report = f.report;
-  report["discovery"] = DiscoveryJson(*f.problem, f.result, discovery, nullptr, nullptr);
+  // The report as blmd-ident writes it: the final model as the headline (schema 2).
+  const std::unique_ptr<FitProblem> final_problem = FinalProblem(*f.problem, discovery);
+  ASSERT_TRUE(final_problem);
+  ReportInputs final_inputs;
+  final_inputs.config_path = "configs/ganesh-square.json";
+  final_inputs.problem = final_problem.get();
+  final_inputs.result = &discovery.final_fit;
+  nlohmann::json report = FinalModelReport(
+      MakeReport(final_inputs), f.report,
+      DiscoveryJson(*f.problem, f.result, discovery, nullptr, nullptr));
+  AddWarnings(&report);
   HtmlReportOptions html_options;
   html_options.threads = 2;
   const std::string html = MakeHtmlReport({&report, f.problem.get(), &f.result, &discovery}, html_options);
   ExpectSelfContained(html);
-  // Parameters: J, B and the added Tc, with the values after discovery.
+  // Parameters: J, B and the added Tc of the final model, the first fit's beside them.
   EXPECT_EQ(Count(html, "<tr class=\"parameter\""), 3u);
   EXPECT_EQ(Count(html, "data-name=\"Tc\""), 1u);
-  EXPECT_EQ(Count(html, "<th>after discovery</th>"), 1u);
+  EXPECT_EQ(Count(html, "<th>before discovery</th>"), 1u);
+  EXPECT_EQ(Count(html, "— (added by discovery)"), 1u);  // Tc had no value before
+  EXPECT_EQ(Count(html, "NRMSE of the final model"), 1u);
   // The discovery section: one step, the error before -> after.
   EXPECT_EQ(Count(html, "id=\"discovery\""), 1u);
   EXPECT_EQ(Count(html, "<tr class=\"discovery-step\""), 1u);

@@ -59,6 +59,11 @@ nlohmann::json Ident(const std::string& arguments) {
 }
 
 double Value(const nlohmann::json& j) { return j.get<double>(); }
+// The first fit of a report: under discovery.before when discovery ran (the headline is the
+// final model, schema 2), else the report itself.
+const nlohmann::json& FirstFit(const nlohmann::json& report) {
+  return report.contains("discovery") ? report["discovery"]["before"] : report;
+}
 
 // ---------------------------------------------------------------------------------------
 // EMPS (Janot, Gautier & Brunot 2019): the axis on the load side in linear units (J = the
@@ -173,13 +178,13 @@ constexpr double kEmpsFvPlus = 166.71, kEmpsFvMinus = 240.42;
 TEST_F(Emps, MassAndViscousFrictionAloneAbsorbTheFriction) {
   // J, B only: the missing Coulomb friction (~20 N) is taken up by a doubled viscous term.
   for (const nlohmann::json* report : {open_, idm_, asym_}) {
-    const auto& p = (*report)["parameters"];
+    const auto& p = FirstFit(*report)["parameters"];
     EXPECT_NEAR(Value(p["J"]["value"]), 106.13, 0.1);
     EXPECT_NEAR(Value(p["B"]["value"]), 429.61, 0.5);
     EXPECT_LT(Value(p["B"]["ci95"][0]), Value(p["B"]["value"]));
     EXPECT_GT(Value(p["B"]["ci95"][1]), Value(p["B"]["value"]));
-    EXPECT_NEAR(Value((*report)["fit"]["nrmse"]), 0.1809, 0.0005);
-    EXPECT_NEAR(Value((*report)["validation"]["nrmse"]), 0.1834, 0.0005);
+    EXPECT_NEAR(Value(FirstFit(*report)["fit"]["nrmse"]), 0.1809, 0.0005);
+    EXPECT_NEAR(Value(FirstFit(*report)["validation"]["nrmse"]), 0.1834, 0.0005);
   }
 }
 
@@ -197,13 +202,15 @@ TEST_F(Emps, MassWithinTwoPercentOfTheReference) {
 }
 
 TEST_F(Emps, ViscousFrictionWithinFivePercentOfTheReferenceOnceItsAsymmetryIsModelled) {
-  // With asymmetric_viscous (B+- = B +- dB) next to Coulomb friction and the offset, B is
-  // the mean of the two directions' damping, as the reference's symmetric Fv (203.50) is
-  // the mean of its asymmetric model's Fv+ and Fv- (203.56). Measured: 195.01 (-4.2 %);
-  // without the asymmetry 192.55 (-5.4 %, Emps.OneModelMeetsTheMassAndViscousCriteriaTogether).
+  // With asymmetric_viscous (B+- = B +- dB) next to Coulomb friction, B is the mean of the
+  // two directions' damping, as the reference's symmetric Fv (203.50) is the mean of its
+  // asymmetric model's Fv+ and Fv- (203.56). Measured: 195.35 (-4.0 %); without the
+  // asymmetry 192.55 (-5.4 %, Emps.OneModelMeetsTheMassAndViscousCriteriaTogether). (Before
+  // the held-out evidence of issue 19 an offset of -0.21 N was added too: B 195.01, dB
+  // -37.73.)
   const double fv = After(*asym_, "B"), dB = After(*asym_, "dB");
-  EXPECT_NEAR(fv, 195.01, 0.5);
-  EXPECT_NEAR(dB, -37.73, 0.3);
+  EXPECT_NEAR(fv, 195.35, 0.5);
+  EXPECT_NEAR(dB, -39.59, 0.3);
   EXPECT_LE(std::abs(fv / kEmpsFv - 1.0), 0.05);
   // The direction is the reference's: stiffer backwards (B- = 232.74 vs 240.42, B+ = 157.28
   // vs 166.71), and physical (|dB| < B).
@@ -317,9 +324,11 @@ TEST_F(Emps, EquationErrorValidationErrorFallsAfterDiscovery) {
   EXPECT_NEAR(Value(d["validation"]["after"]["nrmse"]), 0.06133, 0.0005);
   EXPECT_LT(Value(d["validation"]["after"]["nrmse"]),
             0.5 * Value(d["validation"]["before"]["nrmse"]));
-  EXPECT_NEAR(Value((*idim_)["validation"]["simulated"]["nrmse"]), 0.1973, 0.0005);
+  EXPECT_NEAR(Value(FirstFit(*idim_)["validation"]["simulated"]["nrmse"]), 0.1973, 0.0005);
   EXPECT_NEAR(Value(d["validation"]["simulated_after"]["nrmse"]), 0.0733, 0.0005);
-  EXPECT_NEAR(Value((*idim_)["fit"]["simulated"]["nrmse"]), 0.189, 0.0005);
+  EXPECT_NEAR(Value(FirstFit(*idim_)["fit"]["simulated"]["nrmse"]), 0.189, 0.0005);
+  // The headline is the model after discovery.
+  EXPECT_EQ((*idim_)["validation"]["simulated"]["nrmse"], d["validation"]["simulated_after"]["nrmse"]);
   EXPECT_NEAR(Value(d["simulated_after"]["nrmse"]), 0.04958, 0.0005);
 }
 
@@ -337,7 +346,7 @@ TEST_F(Emps, OpenDiscoveryPrefersStribeckFriction) {
   const double bic_idm = Value((*idm_)["discovery"]["steps"].back()["bic_after"]);
   const double bic_asym = Value((*asym_)["discovery"]["steps"].back()["bic_after"]);
   EXPECT_NEAR(bic_idm - bic_open, 59380.0, 100.0);
-  EXPECT_NEAR(bic_asym - bic_open, 420.0, 50.0);
+  EXPECT_NEAR(bic_asym - bic_open, 916.0, 50.0);  // 420 when asym_ also had the offset
 }
 
 TEST_F(Emps, CoulombAndOffsetWithTheBenchmarkCandidates) {
@@ -353,29 +362,31 @@ TEST_F(Emps, CoulombAndOffsetWithTheBenchmarkCandidates) {
   }
 }
 
-TEST_F(Emps, CoulombAsymmetricViscousAndOffset) {
+TEST_F(Emps, CoulombAndAsymmetricViscousButNoOffset) {
   // The benchmark's candidates plus asymmetric_viscous: Coulomb friction, then dB (the
-  // largest fall of all, NRMSE 0.144 -> 0.0141), then a small offset. The offset is no
-  // longer the symmetric model's -3.16 N (that stood in for the asymmetric damping: dB |v|
-  // averages about 3 N over the record) but the Coulomb asymmetry's (Fc+ - Fc-)/2 = -0.24 N
-  // of the reference's asymmetric model.
+  // largest fall of all, NRMSE 0.144 -> 0.0141). An offset would come next by the fit
+  // record's BIC, but on the held-out pulses record it makes the error worse (0.04881 ->
+  // 0.0492), so it is not added (docs/discovery.md §3, issue 19): the symmetric model's
+  // -3.16 N offset stood in for the asymmetric damping, and what is left, the reference
+  // asymmetric model's (Fc+ - Fc-)/2 = -0.24 N, is below what the data can confirm.
   const auto& d = (*asym_)["discovery"];
-  EXPECT_EQ(d["added"],
-            nlohmann::json::array({"coulomb_friction", "asymmetric_viscous", "load_torque"}));
-  const double Tc = After(*asym_, "Tc"), TL = After(*asym_, "TL");
-  EXPECT_NEAR(Tc, 21.345, 0.05);  // +4.7 %
+  EXPECT_EQ(d["added"], nlohmann::json::array({"coulomb_friction", "asymmetric_viscous"}));
+  const double Tc = After(*asym_, "Tc");
+  EXPECT_NEAR(Tc, 21.316, 0.05);  // +4.5 %
   EXPECT_NEAR(Tc, kEmpsFc, 0.10 * kEmpsFc);
-  EXPECT_NEAR(TL, -0.207, 0.03);
-  EXPECT_NEAR(TL, 0.5 * (20.144 - 20.628), 0.1);
-  EXPECT_NEAR(Value(d["error_after"]["nrmse"]), 0.013966, 0.0002);
+  EXPECT_NEAR(Value(d["error_after"]["nrmse"]), 0.014108, 0.0002);
+  const auto& offset = d["last_round"][0];
+  EXPECT_EQ(offset["effect"], "load_torque");
+  EXPECT_EQ(offset["evidence_rule"], "held_out");
+  EXPECT_GT(Value(offset["held_out_nrmse"]["after"]), Value(offset["held_out_nrmse"]["before"]));
 }
 
 TEST_F(Emps, ValidationErrorFallsAfterDiscovery) {
-  // Pulses record: 0.1834 -> 0.0662 (benchmark structure), -> 0.0494 (with the asymmetric
+  // Pulses record: 0.1834 -> 0.0662 (benchmark structure), -> 0.0488 (with the asymmetric
   // viscous friction), -> 0.0469 (open discovery).
   for (const auto& [report, after_fit, after_validation] :
        {std::tuple<const nlohmann::json*, double, double>{idm_, 0.04577, 0.06622},
-        {asym_, 0.013966, 0.04942},
+        {asym_, 0.014108, 0.04881},
         {open_, 0.013845, 0.04686}}) {
     const auto& d = (*report)["discovery"];
     EXPECT_NEAR(Value(d["error_before"]["nrmse"]), 0.1809, 0.0005);
@@ -470,7 +481,8 @@ TEST_F(Hsm150, ValidationErrorFallsAfterDiscovery) {
 TEST_F(Hsm150, InertiaBeforeAndAfterDiscovery) {
   // Measured: J = 5.09e-4 (+324 %) with J, B alone; 1.4387e-4 (+19.9 %) after discovery
   // (1.519e-4, +26.6 %, without asymmetric_viscous among the candidates).
-  EXPECT_NEAR(Value((*report_)["parameters"]["J"]["value"]), 5.088e-4, 0.005e-4);
+  EXPECT_NEAR(Value(FirstFit(*report_)["parameters"]["J"]["value"]), 5.088e-4, 0.005e-4);
+  EXPECT_EQ((*report_)["parameters"]["J"]["value"], (*report_)["discovery"]["parameters_after"]["J"]);
   EXPECT_NEAR(Value((*report_)["discovery"]["parameters_after"]["J"]), 1.4387e-4, 0.002e-4);
 }
 
@@ -590,31 +602,36 @@ TEST(DynoCoastdown, DiscoverySearchesTheLossesOnAPureCoastDown) {
   // (3.554e-3 x 118 rad/s = 0.42 N m), not Kt max|u| = 0 (which made every box [0, 1e-12]
   // and discovery add nothing). Measured: round 1 refits Coulomb friction to Tc = 0.070382,
   // the declared fit's value (dyno-coastdown-coulomb.json, 0.070371), but a Stribeck friction
-  // fading over the whole speed range (ws = 101 rad/s of 118) lowers BIC more, and a
-  // negative constant torque follows. docs/real-data.md, flywheel coast-downs.
+  // fading over the whole speed range (ws = 101 rad/s of 118) lowers BIC more, and lowers
+  // the held-out coast's NRMSE more (0.1485 -> 0.02785, Coulomb: 0.02880). A negative
+  // constant torque followed before the held-out evidence of issue 19; it raises the
+  // held-out NRMSE (0.02785 -> 0.0297) and is no longer added. docs/real-data.md.
   REQUIRE_REAL_DATA("dev_dyno_spindown");
   const nlohmann::json report = DynoDiscoverReport();
   ASSERT_TRUE(report.contains("discovery"));
   const auto& d = report["discovery"];
-  EXPECT_EQ(d["added"], nlohmann::json::array({"stribeck", "load_torque"}));
+  EXPECT_EQ(d["added"], nlohmann::json::array({"stribeck"}));
   const auto& round1 = d["steps"][0]["candidates"];
   ASSERT_GE(round1.size(), 2u);
   EXPECT_EQ(round1[0]["effect"], "stribeck");
   EXPECT_NEAR(Value(round1[0]["delta_bic"]), -218628.5, 5.0);
+  EXPECT_EQ(round1[0]["evidence_rule"], "held_out");
   EXPECT_EQ(round1[1]["effect"], "coulomb_friction");
   EXPECT_NEAR(Value(round1[1]["delta_bic"]), -186152.8, 5.0);
   EXPECT_NEAR(Value(round1[1]["parameters"]["Tc"]), 0.070371, 1e-3 * 0.070371);
   EXPECT_NEAR(Value(round1[1]["nrmse"]), 0.01059, 0.0001);
+  EXPECT_NEAR(Value(round1[1]["held_out_nrmse"]["after"]), 0.02880, 0.0002);
   const auto& after = d["parameters_after"];
-  EXPECT_NEAR(Value(after["Ts"]), 0.16583, 0.0005);
-  EXPECT_NEAR(Value(after["ws"]), 89.40, 0.1);
-  EXPECT_NEAR(Value(after["TL"]), -0.11294, 0.0005);
-  EXPECT_NEAR(Value(after["B"]), 3.575e-3, 0.002e-3);
+  EXPECT_NEAR(Value(after["Ts"]), 0.06391, 0.0005);
+  EXPECT_NEAR(Value(after["ws"]), 101.16, 0.1);
+  EXPECT_NEAR(Value(after["B"]), 2.698e-3, 0.002e-3);
   EXPECT_NEAR(Value(d["error_before"]["nrmse"]), 0.1603, 0.0005);
-  EXPECT_NEAR(Value(d["error_after"]["nrmse"]), 0.001494, 0.00005);
-  // The held-out coast: 0.1485 -> 0.0297, no better than the declared Coulomb model's 0.0288.
+  EXPECT_NEAR(Value(d["error_after"]["nrmse"]), 0.006594, 0.00005);
   EXPECT_NEAR(Value(d["validation"]["before"]["nrmse"]), 0.1485, 0.0005);
-  EXPECT_NEAR(Value(d["validation"]["after"]["nrmse"]), 0.0297, 0.0002);
+  EXPECT_NEAR(Value(d["validation"]["after"]["nrmse"]), 0.02785, 0.0002);
+  const auto& refused = d["last_round"][0];
+  EXPECT_EQ(refused["effect"], "load_torque");
+  EXPECT_GT(Value(refused["held_out_nrmse"]["after"]), Value(refused["held_out_nrmse"]["before"]));
 }
 
 TEST(DynoCoastdown, DiscoveryFindsCoulombFrictionOnAPureCoastDown) {
@@ -755,39 +772,44 @@ TEST_F(OdriveCogging, MapDominantOrderAndAmplitude) {
 }
 
 TEST_F(OdriveCogging, DiscoveryFindsCoggingOnUncompensatedRunsAtTheMapsDominantOrder) {
+  // With the evidence on prewhitened residuals (issue 19, docs/discovery.md §3a): cogging
+  // first (dBIC -433 whitened, -4335 counting every sample), then a Stribeck friction; the
+  // Coulomb friction and load that followed with the plain BIC (NRMSE 0.0793) are no longer
+  // supported once the residual's correlation is counted.
   const auto& d = (*nocomp_)["discovery"];
-  EXPECT_EQ(d["added"], nlohmann::json::array({"cogging", "coulomb_friction", "load_torque"}));
+  EXPECT_EQ(d["added"], nlohmann::json::array({"cogging", "stribeck"}));
   const nlohmann::json step = AddedStep(*nocomp_, "cogging");
   ASSERT_FALSE(step.is_null()) << "no cogging added on the uncompensated runs";
   const std::vector<double> map = CoggingMapHarmonics("iq_hold_A_a16");
   const auto map_order = std::max_element(map.begin(), map.end()) - map.begin();
   EXPECT_EQ(Value(step["parameters"]["periods"]), static_cast<double>(map_order));  // 7
-  // Measured: Tcog = 0.04835 [0.04793, 0.04877] N m, +1 % from the map's 7/rev 0.0479 N m.
+  // Measured: Tcog = 0.04777 N m, -0.3 % from the map's 7/rev 0.0479 N m.
   const double Tcog = Value(d["parameters_after"]["Tcog"]);
-  EXPECT_NEAR(Tcog, 0.04835, 0.0005);
+  EXPECT_NEAR(Tcog, 0.04777, 0.0005);
   EXPECT_NEAR(Tcog / (map[map_order] * kOdriveKt), 1.0, 0.15);
-  EXPECT_NEAR(Value(d["parameters_after"]["Tc"]), 0.02150, 0.0005);
-  EXPECT_NEAR(Value(d["parameters_after"]["J"]), 2.069e-4, 0.01e-4);
+  EXPECT_EQ(step["candidates"][0]["evidence_rule"], "prewhitened_bic");
   EXPECT_NEAR(Value(d["error_before"]["nrmse"]), 0.9148, 0.002);
-  EXPECT_NEAR(Value(d["error_after"]["nrmse"]), 0.0793, 0.002);
+  EXPECT_NEAR(Value(d["error_after"]["nrmse"]), 0.3916, 0.002);
 }
 
-TEST_F(OdriveCogging, DominantOrderMatchesTheMapOnEveryUncompensatedFile) {
+TEST_F(OdriveCogging, DominantOrderMatchesTheMapOnTheUncompensatedFilesWhereItIsFound) {
   // The order comes from the torque balance along the measured motion (docs/effects.md):
-  // 7/rev on spinup_4, 5 and 6 alike (the residual spectrum's top four missed it on 5 and 6).
+  // 7/rev on spinup_4 and 5. On spinup_6 nothing is added: its J, B fit is degenerate (B at
+  // its bound 1e-3, NRMSE 0.89) and no candidate's whitened evidence is negative (Coulomb
+  // friction +22 whitened, -3122 counting every sample): the report's warnings say so
+  // (residual_not_white, parameter_at_bound). docs/real-data.md, ODrive.
   const std::vector<double> map = CoggingMapHarmonics("iq_hold_A_a16");
   const auto map_order = std::max_element(map.begin(), map.end()) - map.begin();
-  for (const nlohmann::json* report : {nocomp_, nocomp5_, nocomp6_}) {
+  for (const nlohmann::json* report : {nocomp_, nocomp5_}) {
     const nlohmann::json step = AddedStep(*report, "cogging");
     ASSERT_FALSE(step.is_null()) << (*report)["discovery"]["conclusion"];
     EXPECT_EQ(Value(step["parameters"]["periods"]), static_cast<double>(map_order));
   }
-  // The amplitude is not robust: on spinup_5 cogging is added first, while J and B are still
-  // degenerate (B at its bound 1e-3, absorbing the held rotor), and no friction follows:
-  // Tcog = 0.0734 (+53 %); on spinup_6, after Coulomb friction and asymmetric_viscous,
-  // 0.0682 (+42 %) with NRMSE 0.405. docs/real-data.md, ODrive.
-  EXPECT_NEAR(Value((*nocomp5_)["discovery"]["parameters_after"]["Tcog"]), 0.0734, 0.001);
-  EXPECT_NEAR(Value((*nocomp6_)["discovery"]["parameters_after"]["Tcog"]), 0.0682, 0.001);
+  EXPECT_TRUE((*nocomp6_)["discovery"]["added"].empty());
+  EXPECT_TRUE((*nocomp6_)["discovery"]["before"]["parameters"]["B"]["at_bound"].get<bool>());
+  // The amplitude is not robust: on spinup_5 cogging is added while J and B are still
+  // degenerate (B near its bound): Tcog = 0.0720 (+50 %).
+  EXPECT_NEAR(Value((*nocomp5_)["discovery"]["parameters_after"]["Tcog"]), 0.0720, 0.001);
 }
 
 TEST_F(OdriveCogging, CoggingAmplitudeSmallerOnCompensatedRuns) {
@@ -801,12 +823,12 @@ TEST_F(OdriveCogging, CoggingAmplitudeSmallerOnCompensatedRuns) {
   EXPECT_NEAR(left, 0.02000, 0.0005);
   EXPECT_LT(left, 0.5 * nocomp);
   // Driven by the measured current iq_A, which carries the anti-cogging feed-forward, the
-  // motor's own cogging shows again (0.0475 N m at 7/rev): the compensation is in the input.
+  // motor's own cogging shows again (0.0451 N m at 7/rev): the compensation is in the input.
   const double with_feed_forward = Value((*comp_)["discovery"]["parameters_after"]["Tcog"]);
   EXPECT_EQ((*comp_)["discovery"]["added"], nlohmann::json::array({"coulomb_friction", "cogging"}));
-  EXPECT_NEAR(with_feed_forward, 0.04754, 0.0005);
+  EXPECT_NEAR(with_feed_forward, 0.04505, 0.0005);
   EXPECT_LT(left, with_feed_forward);
-  EXPECT_LT(with_feed_forward, nocomp);  // only just: 0.0475 vs 0.0484
+  EXPECT_LT(with_feed_forward, nocomp);  // 0.0451 vs 0.0478
 }
 
 }  // namespace

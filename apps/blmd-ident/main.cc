@@ -62,6 +62,9 @@ int main(int argc, char** argv) {
   app.add_flag("--quiet", quiet, "print nothing but errors");
   app.add_option("--fail-above-nrmse", fail_above, "exit 3 when the final NRMSE exceeds X")
       ->check(blmd::app::NonNegativeNumber());
+  bool fail_on_warning = false;
+  app.add_flag("--fail-on-warning", fail_on_warning,
+               "exit 3 when the report has a warning about the final model (docs/report.md)");
   app.add_flag("--verbose", verbose, "also print the solvers' own log (Ceres) on stderr");
   error_flags.Add(app, "simulate and compare the motion, or compare the input the model needs along the measured motion");
   trace_flags.Add(app);
@@ -204,6 +207,7 @@ int main(int argc, char** argv) {
       discovery_options.refit.seed = seed;
       discovery_options.refit.verbose = verbose;
       if (!candidates_text.empty()) discovery_options.candidates = candidate_names;
+      if (validation) discovery_options.held_out = &validation->traces();
       const blmd::DiscoveryResult discovery = blmd::Discover(problem, result, discovery_options);
       if (!html_path.empty()) discovery_for_html = std::make_unique<blmd::DiscoveryResult>(discovery);
       std::unique_ptr<blmd::FitProblem> validation_after;
@@ -212,19 +216,32 @@ int main(int argc, char** argv) {
             discovery.final_config, validation->traces(), observe,
             blmd::NamedFreeParameters(discovery.final_free));
       }
-      report["discovery"] = blmd::DiscoveryJson(problem, result, discovery, validation.get(),
-                                                validation_after.get());
+      nlohmann::json discovery_json = blmd::DiscoveryJson(problem, result, discovery,
+                                                          validation.get(), validation_after.get());
       if (problem.equation_error()) {
         const auto& values = discovery.final_fit.values;
-        report["discovery"]["simulated_after"] =
+        discovery_json["simulated_after"] =
             blmd::SimulatedErrors(problem, discovery.final_config, discovery.final_free, values);
-        if (validation_after && report["discovery"].contains("validation")) {
-          report["discovery"]["validation"]["simulated_after"] = blmd::SimulatedErrors(
+        if (validation_after && discovery_json.contains("validation")) {
+          discovery_json["validation"]["simulated_after"] = blmd::SimulatedErrors(
               *validation_after, discovery.final_config, discovery.final_free, values);
         }
-        blmd::SanitizeJson(&report["discovery"]);
+        blmd::SanitizeJson(&discovery_json);
       }
+      // The final model is the answer (issue 19): its parameters, fit, residual and
+      // validation head the report; the first fit moves to discovery.before.
+      const std::unique_ptr<blmd::FitProblem> final_problem = blmd::FinalProblem(problem, discovery);
+      nlohmann::json headline = report;
+      if (final_problem) {
+        blmd::ReportInputs final_inputs = inputs;
+        final_inputs.problem = final_problem.get();
+        final_inputs.result = &discovery.final_fit;
+        final_inputs.validation = validation_after.get();
+        headline = blmd::MakeReport(final_inputs);
+      }
+      report = blmd::FinalModelReport(std::move(headline), report, std::move(discovery_json));
     }
+    blmd::AddWarnings(&report);
     if (!report_path.empty()) blmd::WriteFileAtomically(report_path, report.dump(2) + "\n");
     if (!html_path.empty()) {
       blmd::HtmlReportOptions html_options;
@@ -243,15 +260,22 @@ int main(int argc, char** argv) {
       return blmd::kExitFailed;
     }
     if (fail_above >= 0.0) {
-      // The final NRMSE: after discovery when it ran (its model is the answer), else the fit's.
-      const auto& nrmse = report.contains("discovery") ? report["discovery"]["error_after"]["nrmse"]
-                                                       : report["fit"]["nrmse"];
+      // The final model's NRMSE (after discovery when it ran: its model is the answer).
+      const auto& nrmse = report["fit"]["nrmse"];
       if (nrmse.is_null() || nrmse.get<double>() > fail_above) {
         std::cerr << "error: final NRMSE " << (nrmse.is_null() ? std::string("n/a") : nrmse.dump())
                   << " is above --fail-above-nrmse " << fail_above << "\n";
         return blmd::kExitGate;
       }
     }
+    if (fail_on_warning && !report["warnings"].empty()) {
+      std::string codes;
+      for (const auto& w : report["warnings"]) codes += (codes.empty() ? "" : ", ") + w["code"].get<std::string>();
+      std::cerr << "error: " << report["warnings"].size() << " warning"
+                << (report["warnings"].size() > 1 ? "s" : "") << " (" << codes
+                << ") and --fail-on-warning\n";
+      return blmd::kExitGate;
+    }
     return blmd::kExitOk;
-  }, {"--observe", "--free"});
+  }, {"--observe", "--free", "--candidates"});
 }

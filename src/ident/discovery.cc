@@ -1,4 +1,5 @@
 #include "blmd/ident/discovery.h"
+#include "blmd/ident/evidence.h"
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -619,8 +620,9 @@ CandidateRun ScreenCandidate(const FitProblem& base, const std::vector<double>& 
 }
 
 // Full refit (Ceres, all free parameters) from the screening point, and the verdict.
-void RefitCandidate(const FitProblem& base, const CandidatePlan& plan, double bic_before,
-                    const DiscoveryOptions& options, CandidateRun* run) {
+void RefitCandidate(const FitProblem& base, const std::vector<double>& base_values,
+                    const CandidatePlan& plan, double bic_before, const DiscoveryOptions& options,
+                    CandidateRun* run) {
   for (std::size_t k = 0; k < run->free.size(); ++k) run->free[k].initial = run->screen_values[k];
   const FitProblem problem = MakeProblem(run->config, base.traces(), base.observe(), run->free);
   OptimizerOptions refit = options.refit;
@@ -659,6 +661,45 @@ void RefitCandidate(const FitProblem& base, const CandidatePlan& plan, double bi
   }
   run->outcome.bic = Bic(problem, run->fit.evaluation, problem.num_free());
   run->outcome.delta_bic = run->outcome.bic - bic_before;
+  run->outcome.delta_bic_white = run->outcome.delta_bic;
+  // The evidence counts what correlated samples are worth (evidence.h): the same change in
+  // BIC on residuals whitened by the candidate model's AR noise model.
+  // With held-out traces the evidence is theirs instead: the plain BIC on the fit traces,
+  // and a lower error on traces the effect was not fitted to.
+  run->outcome.evidence_rule = "plain_bic";
+  if (options.held_out && !options.held_out->empty()) {
+    std::vector<FreeParameter> names;
+    for (const auto& f : base.free()) names.push_back({f.name, 0.0, 0.0, false, 0.0});
+    const FitProblem held_base(base.config(), *options.held_out, base.observe(), names);
+    for (std::size_t k = base.free().size(); k < run->free.size(); ++k)
+      names.push_back({run->free[k].name, 0.0, 0.0, false, 0.0});
+    const FitProblem held_candidate(run->config, *options.held_out, base.observe(), names);
+    const Evaluation before = held_base.Evaluate(base_values);
+    const Evaluation after = held_candidate.Evaluate(run->fit.values);
+    run->outcome.evidence_rule = "held_out";
+    run->outcome.has_held_out = before.ok && after.ok;
+    if (run->outcome.has_held_out) {
+      run->outcome.held_out_before = std::sqrt(before.cost);
+      run->outcome.held_out_after = std::sqrt(after.cost);
+      run->outcome.held_out_better = run->outcome.held_out_after <
+                                     (1.0 - options.held_out_margin) * run->outcome.held_out_before;
+    } else {
+      run->outcome.held_out_better = false;
+    }
+  } else if (options.prewhiten) {
+    const FitProblem model(run->config, base.traces(), base.observe(), run->free);
+    const WhitenedEvidence evidence =
+        PrewhitenedEvidence(base, base_values, model, run->fit.values);
+    if (evidence.ok) {
+      run->outcome.evidence_rule = "prewhitened_bic";
+      run->outcome.delta_bic = evidence.delta_bic;
+      run->outcome.bic = bic_before + evidence.delta_bic;
+      for (std::size_t c = 0; c < base.observe().size(); ++c) {
+        run->outcome.noise_model[base.observe()[c]] = {evidence.order[c],
+                                                       evidence.innovation_ratio[c]};
+      }
+    }
+  }
   run->outcome.nrmse = std::sqrt(run->fit.evaluation.cost);
   const std::size_t offset = base.num_free();
   for (std::size_t k = 0; k < plan.free.size(); ++k) {
@@ -701,13 +742,28 @@ void RefitCandidate(const FitProblem& base, const CandidatePlan& plan, double bi
   }
   if (run->outcome.valid && !(run->outcome.delta_bic < -options.bic_margin)) {
     run->outcome.reason = "BIC does not fall by more than " + G(options.bic_margin);
+  } else if (run->outcome.valid && !run->outcome.held_out_better) {
+    run->outcome.reason =
+        run->outcome.has_held_out
+            ? "the held-out NRMSE does not fall by more than " +
+                  G(100.0 * options.held_out_margin) + " % (" + G(run->outcome.held_out_before) +
+                  " -> " + G(run->outcome.held_out_after) + ")"
+            : "the held-out traces could not be simulated with the effect";
   }
 }
 
 std::string Evidence(const std::string& effect, const ResidualAnalysis& analysis,
                      const CandidateOutcome& outcome, double nrmse_before) {
-  std::string text = "BIC " + G(outcome.delta_bic, 5) + ", NRMSE " + G(nrmse_before) + " -> " +
-                     G(outcome.nrmse);
+  std::string text = "BIC " + G(outcome.delta_bic, 5) +
+                     (outcome.evidence_rule == "prewhitened_bic" &&
+                              G(outcome.delta_bic_white, 5) != G(outcome.delta_bic, 5)
+                          ? " on whitened residuals (" + G(outcome.delta_bic_white, 5) +
+                                " counting every sample)"
+                          : std::string()) +
+                     ", NRMSE " + G(nrmse_before) + " -> " + G(outcome.nrmse) +
+                     (outcome.has_held_out ? ", held-out NRMSE " + G(outcome.held_out_before) +
+                                                 " -> " + G(outcome.held_out_after)
+                                           : std::string());
   // The diagnostic that points at this effect, from the column where it is strongest.
   const ColumnDiagnostics* strongest = nullptr;
   auto pick = [&](auto score) {
@@ -807,7 +863,8 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     });
     if (screened.size() > static_cast<std::size_t>(options.refits)) screened.resize(static_cast<std::size_t>(options.refits));
     parallel(screened, [&](std::size_t k) {
-      RefitCandidate(*current_problem, plans[k], current_bic, options, &runs[k]);
+      RefitCandidate(*current_problem, current_fit.values, plans[k], current_bic, options,
+                     &runs[k]);
       runs[k].refitted = true;
     });
     for (auto& run : runs) {
@@ -834,7 +891,8 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     std::vector<std::size_t> qualifying;
     for (std::size_t k : order) {
       const auto& o = runs[k].outcome;
-      if (o.fitted && o.valid && o.delta_bic < -options.bic_margin) qualifying.push_back(k);
+      if (o.fitted && o.valid && o.held_out_better && o.delta_bic < -options.bic_margin)
+        qualifying.push_back(k);
     }
     if (qualifying.empty()) {
       result.last_round = outcomes;
@@ -910,6 +968,23 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
   return result;
 }
 
+std::unique_ptr<FitProblem> FinalProblem(const FitProblem& problem, const DiscoveryResult& result) {
+  if (result.added.empty()) return nullptr;
+  if (result.final_fit.values.size() != result.final_free.size()) return nullptr;
+  std::vector<FreeParameter> free;
+  try {
+    free = MakeFreeParameters(result.final_config, result.final_free);
+  } catch (const std::exception&) {  // a start value outside its bounds: only the bounds matter here
+    free.clear();
+    for (const auto& name : result.final_free) {
+      const auto [lower, upper] = result.final_config.Bounds(name);
+      free.push_back({name, lower, upper, false, 0.0});
+    }
+  }
+  return std::make_unique<FitProblem>(result.final_config, problem.traces(), problem.observe(),
+                                      std::move(free));
+}
+
 nlohmann::json DiscoveryJson(const FitProblem& problem, const FitResult& initial,
                              const DiscoveryResult& result, const FitProblem* validation_before,
                              const FitProblem* validation_after) {
@@ -920,6 +995,19 @@ nlohmann::json DiscoveryJson(const FitProblem& problem, const FitResult& initial
       nlohmann::json c = {{"effect", o.effect}, {"fitted", o.fitted}, {"valid", o.valid}};
       if (o.fitted) {
         c["delta_bic"] = number(o.delta_bic);
+        c["delta_bic_white"] = number(o.delta_bic_white);
+        c["evidence_rule"] = o.evidence_rule;
+        if (o.has_held_out) {
+          c["held_out_nrmse"] = {{"before", number(o.held_out_before)},
+                                 {"after", number(o.held_out_after)}};
+        }
+        if (!o.noise_model.empty()) {
+          nlohmann::json noise = nlohmann::json::object();
+          for (const auto& [column, model] : o.noise_model) {
+            noise[column] = {{"ar_order", model.first}, {"innovation_ratio", number(model.second)}};
+          }
+          c["noise_model"] = noise;
+        }
         c["nrmse"] = number(o.nrmse);
         c["parameters"] = o.parameters;
       }

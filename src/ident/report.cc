@@ -94,9 +94,11 @@ nlohmann::json MakeReport(const ReportInputs& inputs) {
   nlohmann::json report;
   report["tool"] = "blmd-ident";
   report["version"] = kVersion;
+  report["schema_version"] = kReportSchemaVersion;
   report["model"] = std::string(config.model->name());
   report["method"] = result.summary.method;
   report["config"] = {{"path", inputs.config_path}, {"name", config.name}, {"effects", config.effects}};
+  report["effects"] = config.effects;  // the model's (after discovery: with the added ones)
   const FitTrace& first = problem.traces().front();
   report["trace"] = {{"path", first.path}, {"samples", first.trace.rows()}, {"sha256", first.sha256}};
   nlohmann::json traces = nlohmann::json::array();
@@ -143,7 +145,14 @@ nlohmann::json MakeReport(const ReportInputs& inputs) {
       const double span = fp.log_scale ? std::log(fp.upper / fp.lower) : fp.upper - fp.lower;
       const double below = fp.log_scale ? std::log(e.value / fp.lower) : e.value - fp.lower;
       const double above = fp.log_scale ? std::log(fp.upper / e.value) : fp.upper - e.value;
-      p["at_bound"] = below <= 1e-6 * span || above <= 1e-6 * span;
+      // Within 1e-6 of the range, and (linear scale) closer to the bound than a hundredth of
+      // its standard deviation: Cd = 4.3e-7 +- 2.8e-8 on [0, 1] is within 1e-6 of the range
+      // but forty deviations from 0, a value the data set, not the bound.
+      const double std_search = e.has_interval && !fp.log_scale ? e.std : 0.0;
+      auto near = [&](double distance) {
+        return distance <= 1e-6 * span && (std_search <= 0.0 || distance <= 0.01 * std_search);
+      };
+      p["at_bound"] = near(below) || near(above);
     }
     parameters[e.name] = p;
   }
@@ -226,6 +235,115 @@ nlohmann::json MakeReport(const ReportInputs& inputs) {
   return report;
 }
 
+nlohmann::json FinalModelReport(nlohmann::json final_report, const nlohmann::json& first_report,
+                                nlohmann::json discovery) {
+  nlohmann::json before = nlohmann::json::object();
+  for (const char* key : {"method", "effects", "parameters", "fit", "residual", "validation",
+                          "intervals_optimistic", "method_summary"}) {
+    if (first_report.contains(key)) before[key] = first_report[key];
+  }
+  discovery["before"] = before;
+  final_report["discovery"] = std::move(discovery);
+  final_report["config"]["effects"] = first_report["config"]["effects"];
+  return final_report;
+}
+
+namespace {
+
+bool IsTrue(const nlohmann::json& object, const char* key) {
+  return object.is_object() && object.contains(key) && object[key].is_boolean() &&
+         object[key].get<bool>();
+}
+bool IsFalse(const nlohmann::json& object, const char* key) {
+  return object.is_object() && object.contains(key) && object[key].is_boolean() &&
+         !object[key].get<bool>();
+}
+const nlohmann::json& Field(const nlohmann::json& object, const char* key) {
+  static const nlohmann::json kNull;
+  return object.is_object() && object.contains(key) ? object[key] : kNull;
+}
+
+}  // namespace
+
+void AddWarnings(nlohmann::json* report_pointer) {
+  const nlohmann::json& report = *report_pointer;
+  nlohmann::json warnings = nlohmann::json::array();
+  auto add = [&](const std::string& code, const std::string& message) {
+    warnings.push_back({{"code", code}, {"message", message}});
+  };
+  const nlohmann::json& summary = Field(report, "method_summary");
+  if (IsFalse(summary, "converged")) {
+    add("not_converged", "the fit did not converge (" + Field(summary, "termination").dump() +
+                             "): the values are where the method stopped, not a minimum");
+  }
+  const nlohmann::json& fit = Field(report, "fit");
+  if (Field(fit, "nrmse").is_number() && fit["nrmse"].get<double>() >= 1.0) {
+    add("nrmse_at_least_one",
+        "NRMSE " + G(fit["nrmse"], 4) +
+            " >= 1: the model explains the measured columns no better than their means");
+  }
+  const nlohmann::json& validation = Field(report, "validation");
+  if (Field(validation, "nrmse").is_number() && validation["nrmse"].get<double>() >= 1.0) {
+    add("nrmse_at_least_one",
+        "validation NRMSE " + G(validation["nrmse"], 4) +
+            " >= 1: on the held-out traces the model is no better than the columns' means");
+  }
+  const nlohmann::json& residual = Field(report, "residual");
+  if (IsFalse(residual, "white")) {
+    add("residual_not_white",
+        "the residual is not white (Ljung-Box p = " + G(Field(residual, "whiteness_p"), 3) +
+            "): structure is left that the model does not explain; the intervals allow for "
+            "correlated noise, not for a missing effect, which may bias the estimates");
+  }
+  std::string no_interval;
+  for (const auto& [name, p] : Field(report, "parameters").items()) {
+    if (!IsTrue(p, "free")) continue;
+    if (IsTrue(p, "at_bound")) {
+      add("parameter_at_bound",
+          name + " = " + G(Field(p, "value"), 6) + " is at its bound [" +
+              G(Field(p, "bounds")[0], 4) + ", " + G(Field(p, "bounds")[1], 4) +
+              "]: the bound, not the data, set it; widen the bound or change the model");
+    }
+    const nlohmann::json& ci = Field(p, "ci95");
+    if (!ci.is_array()) {
+      no_interval += (no_interval.empty() ? "" : ", ") + name;
+    } else if (Field(p, "value").is_number() && ci[0].is_number() && ci[1].is_number()) {
+      const double value = p["value"].get<double>();
+      const double half = 0.5 * (ci[1].get<double>() - ci[0].get<double>());
+      if (!(half <= 0.5 * std::abs(value))) {
+        add("parameter_poorly_determined",
+            name + " = " + G(value, 4) + " with a 95 % interval of [" + G(ci[0], 4) + ", " +
+                G(ci[1], 4) + "] (more than ±50 %): these traces hardly determine it");
+      }
+    }
+  }
+  if (!no_interval.empty()) {
+    const nlohmann::json& interval = Field(Field(summary, "details"), "interval");
+    const nlohmann::json& reason = Field(interval, "unavailable");
+    add("interval_unavailable", "no interval for " + no_interval +
+                                    (reason.is_string() ? ": " + reason.get<std::string>() : ""));
+  }
+  const nlohmann::json& discovery = Field(report, "discovery");
+  for (const auto& group : Field(discovery, "ambiguous")) {
+    std::string effects;
+    for (const auto& e : Field(group, "effects")) effects += (effects.empty() ? "" : ", ") + e.get<std::string>();
+    add("discovery_ambiguous",
+        "discovery could not tell " + effects + " apart and added neither (" +
+            (Field(group, "reason").is_string() ? group["reason"].get<std::string>() : "") +
+            "): the model may still lack one of them; see discovery.ambiguous");
+  }
+  const nlohmann::json& held_out = Field(discovery, "validation");
+  const nlohmann::json& before = Field(Field(held_out, "before"), "nrmse");
+  const nlohmann::json& after = Field(Field(held_out, "after"), "nrmse");
+  if (before.is_number() && after.is_number() && after.get<double>() > before.get<double>()) {
+    add("validation_worse_after_discovery",
+        "the validation NRMSE rose from " + G(before, 4) + " to " + G(after, 4) +
+            " when discovery added effects: they may fit the fit traces' noise, not the "
+            "motor; compare with discovery.before");
+  }
+  (*report_pointer)["warnings"] = warnings;
+}
+
 std::string HumanSummary(const nlohmann::json& report) {
   std::ostringstream out;
   out << "blmd-ident " << report["version"].get<std::string>() << ": "
@@ -238,7 +356,14 @@ std::string HumanSummary(const nlohmann::json& report) {
     out << " " << t["path"].get<std::string>() << " (" << t["samples"].get<long>() << " samples)";
   }
   out << "\n";
-  out << "parameters:\n";
+  const bool discovered = report.contains("discovery") && !report["discovery"]["added"].empty();
+  if (discovered) {
+    std::string added;
+    for (const auto& e : report["discovery"]["added"]) added += " + " + e.get<std::string>();
+    out << "parameters of the final model (after discovery:" << added << "):\n";
+  } else {
+    out << "parameters:\n";
+  }
   for (const auto& [name, p] : report["parameters"].items()) {
     const std::string unit = p.contains("unit") ? " " + p["unit"].get<std::string>() : "";
     char line[256];
@@ -341,12 +466,18 @@ std::string HumanSummary(const nlohmann::json& report) {
       }
       out << "\n";
     }
-    if (!d["added"].empty()) {
-      out << "  parameters after:";
-      for (const auto& [name, value] : d["parameters_after"].items()) {
-        out << " " << name << " = " << G(value, 5);
+    if (!d["added"].empty() && d.contains("before")) {
+      out << "  parameters before discovery:";
+      for (const auto& [name, p] : d["before"]["parameters"].items()) {
+        out << " " << name << " = " << G(p["value"], 5);
       }
       out << "\n";
+    }
+  }
+  if (report.contains("warnings")) {
+    for (const auto& w : report["warnings"]) {
+      out << "warning [" << w["code"].get<std::string>() << "]: " << w["message"].get<std::string>()
+          << "\n";
     }
   }
   return out.str();

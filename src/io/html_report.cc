@@ -141,6 +141,7 @@ code { font-size: .85rem; word-break: break-all; }
 .card .value { font-size: 1.35rem; font-weight: bold; }
 .card .sub { font-size: .8rem; color: #555; }
 .warn { border-left: 4px solid #d55e00; padding-left: .6rem; }
+ul.warnings { border-left: 4px solid #d55e00; padding-left: 1.6rem; max-width: 60rem; }
 .grid { display: grid; grid-template-columns: repeat(auto-fill, minmax(540px, 1fr)); gap: 14px;
         margin-bottom: 14px; }
 figure.plot { margin: 0; border: 1px solid #e0e0e0; border-radius: 4px; padding: 6px 6px 4px;
@@ -276,25 +277,6 @@ std::vector<double> Difference(const std::vector<double>& a, const std::vector<d
   return out;
 }
 
-// The model after discovery as a problem over the same traces (for its simulations and
-// slices); null when discovery added nothing.
-std::unique_ptr<FitProblem> AfterProblem(const FitProblem& problem, const DiscoveryResult* discovery) {
-  if (!discovery || discovery->added.empty()) return nullptr;
-  if (discovery->final_fit.values.size() != discovery->final_free.size()) return nullptr;
-  std::vector<FreeParameter> free;
-  try {
-    free = MakeFreeParameters(discovery->final_config, discovery->final_free);
-  } catch (const std::exception&) {  // a start value outside its bounds: bounds unused here
-    free.clear();
-    for (const auto& name : discovery->final_free) {
-      const auto [lower, upper] = discovery->final_config.Bounds(name);
-      free.push_back({name, lower, upper, false, 0.0});
-    }
-  }
-  return std::make_unique<FitProblem>(discovery->final_config, problem.traces(), problem.observe(),
-                                      std::move(free));
-}
-
 // ---- sections --------------------------------------------------------------------------
 
 void WriteHeader(Page& page, const json& report, const FitProblem& problem, const std::string& date) {
@@ -330,13 +312,22 @@ void WriteHeader(Page& page, const json& report, const FitProblem& problem, cons
   h += "</table>\n</header>\n";
 }
 
+// The first fit's block `key` (parameters, fit, residual): under discovery.before when
+// discovery ran (the report's headline is the final model, schema 2), else the report's own.
+const json& FirstFit(const json& report, const char* key) {
+  const json& before = Member(Member(report, "discovery"), "before");
+  return before.is_object() ? Member(before, key) : Member(report, key);
+}
+
 void WriteKeyFigures(Page& page, const json& report) {
   std::string& h = page.html();
   const json& fit = Member(report, "fit");
   const json& residual = Member(report, "residual");
   const json& summary = Member(report, "method_summary");
+  const json& discovery = Member(report, "discovery");
+  const bool discovered = discovery.is_object() && !Member(discovery, "added").empty();
   h += "<div class=\"cards\">\n";
-  h += Card("NRMSE of the fit", G(Member(fit, "nrmse"), 4),
+  h += Card(discovered ? "NRMSE of the final model" : "NRMSE of the fit", G(Member(fit, "nrmse"), 4),
             "fit " + G(Member(fit, "fit_percent"), 4) + " % (100 % = perfect)");
   const bool white = Member(residual, "white").is_boolean() && residual["white"].get<bool>();
   h += Card("residual", white ? "white" : "NOT white",
@@ -346,9 +337,8 @@ void WriteKeyFigures(Page& page, const json& report) {
             Text(Member(summary, "termination")) + ", " + Text(Member(summary, "evaluations")) +
                 " evaluations, " + G(Member(summary, "wall_time_s"), 3) + " s",
             !converged);
-  const json& discovery = Member(report, "discovery");
   if (discovery.is_object()) {
-    h += Card("after discovery", "NRMSE " + G(Member(Member(discovery, "error_after"), "nrmse"), 4),
+    h += Card("before discovery", "NRMSE " + G(Member(Member(discovery, "error_before"), "nrmse"), 4),
               Text(Member(discovery, "conclusion")));
   }
   if (Member(report, "validation").is_object()) {
@@ -357,6 +347,15 @@ void WriteKeyFigures(Page& page, const json& report) {
   }
   h += "</div>\n";
   if (residual.contains("note")) h += "<p class=\"note warn\">" + Escape(Text(residual["note"])) + "</p>\n";
+  const json& warnings = Member(report, "warnings");
+  if (warnings.is_array() && !warnings.empty()) {
+    h += "<ul class=\"warnings\">\n";
+    for (const auto& w : warnings) {
+      h += "<li class=\"warning\" data-code=\"" + Escape(Text(Member(w, "code"))) + "\"><b>" +
+           Escape(Text(Member(w, "code"))) + "</b>: " + Escape(Text(Member(w, "message"))) + "</li>\n";
+    }
+    h += "</ul>\n";
+  }
 }
 
 void WriteParameters(Page& page, const json& report, const FitProblem& problem) {
@@ -365,11 +364,13 @@ void WriteParameters(Page& page, const json& report, const FitProblem& problem) 
   const json& parameters = Member(report, "parameters");
   const json& discovery = Member(report, "discovery");
   const bool after = discovery.is_object() && !Member(discovery, "added").empty();
+  // The headline is the final model; the first fit beside it when discovery added effects.
+  const json& before = FirstFit(report, "parameters");
   std::vector<std::string> head = {"parameter", "unit", "initial", "estimate", "std", "95 % interval",
                                    "bounds"};
   if (after) {
-    head.push_back("after discovery");
-    head.push_back("95 % interval after");
+    head.push_back("before discovery");
+    head.push_back("95 % interval before");
   }
   h += "<table class=\"parameters\">\n" + HeaderRow(head);
   // The free parameters in the problem's order (J before B), then the others.
@@ -379,11 +380,6 @@ void WriteParameters(Page& page, const json& report, const FitProblem& problem) 
   }
   for (const auto& [name, p] : parameters.items()) {
     if (std::find(names.begin(), names.end(), name) == names.end()) names.push_back(name);
-  }
-  if (after) {
-    for (const auto& [name, value] : Member(discovery, "parameters_after").items()) {
-      if (!parameters.contains(name)) names.push_back(name);
-    }
   }
   for (const auto& name : names) {
     const json& p = Member(parameters, name.c_str());
@@ -400,15 +396,15 @@ void WriteParameters(Page& page, const json& report, const FitProblem& problem) 
         "<b>" + Escape(name) + "</b>",
         Escape(unit),
         p.is_null() ? "—" : G(Member(p, "initial"), 4),
-        p.is_null() ? "— (added by discovery)" : G(Member(p, "value"), 6) + note,
+        p.is_null() ? "—" : G(Member(p, "value"), 6) + note,
         p.is_null() ? "—" : G(Member(p, "std"), 3),
         interval,
         bounds};
     std::vector<bool> numeric = {false, false, true, true, true, true, true};
     if (after) {
-      const json& value = Member(Member(discovery, "parameters_after"), name.c_str());
-      const json& ci = Member(Member(Member(discovery, "intervals_after"), name.c_str()), "ci95");
-      cells.push_back(value.is_null() ? "—" : G(value, 6));
+      const json& value = Member(Member(before, name.c_str()), "value");
+      const json& ci = Member(Member(before, name.c_str()), "ci95");
+      cells.push_back(value.is_null() ? "— (added by discovery)" : G(value, 6));
       cells.push_back(ci.is_array() ? "[" + G(ci[0], 5) + ", " + G(ci[1], 5) + "]" : "—");
       numeric.push_back(true);
       numeric.push_back(true);
@@ -590,7 +586,7 @@ void WriteResidual(Page& page, const json& report, const FitProblem& problem, co
       }
     }
   }
-  const json& columns = Member(Member(report, "residual"), "columns");
+  const json& columns = Member(FirstFit(report, "residual"), "columns");
   const json& after_columns = Member(Member(Member(report, "discovery"), "residual_after"), "columns");
   const bool show_after_acf = show_after && after_columns.is_object();
   h += "<div class=\"grid\">\n";
@@ -929,7 +925,7 @@ std::string MakeHtmlReport(const HtmlReportInputs& inputs, const HtmlReportOptio
   const std::string date = options.date.empty() ? NowUtc() : options.date;
 
   const Simulation fit = SimulateAll(problem, result.values);
-  const std::unique_ptr<FitProblem> after_problem = AfterProblem(problem, inputs.discovery);
+  const std::unique_ptr<FitProblem> after_problem = (inputs.discovery ? FinalProblem(problem, *inputs.discovery) : nullptr);
   Simulation after;
   std::string after_label;
   if (after_problem) {
@@ -958,7 +954,7 @@ std::string MakeHtmlReport(const HtmlReportInputs& inputs, const HtmlReportOptio
        "valley means a well-determined parameter; a flat one, a poorly determined one. The shaded "
        "band is the 95 % interval.</p>\n";
   json fit_intervals = json::object();
-  for (const auto& [pname, p] : Member(report, "parameters").items()) fit_intervals[pname] = p;
+  for (const auto& [pname, p] : FirstFit(report, "parameters").items()) fit_intervals[pname] = p;
   WriteSlices(page, problem, result.values, fit_intervals, "fit",
               after_problem ? "Fit (the config's model)" : "Fit", kFitColour);
   if (after_problem) {

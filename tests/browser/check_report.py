@@ -60,9 +60,12 @@ def expected_plots(report):
     parameter of the final model."""
     observe = report["fit"]["observe"]
     traces = len(report["traces"])
-    free = [name for name, p in report["parameters"].items() if p.get("free")]
-    count = 3 * len(observe) * traces + len(observe) + len(free)
     discovery = report.get("discovery")
+    # The first fit's free parameters: the headline is the final model (schema 2), the first
+    # fit is under discovery.before.
+    first = discovery["before"] if discovery and "before" in discovery else report
+    free = [name for name, p in first["parameters"].items() if p.get("free")]
+    count = 3 * len(observe) * traces + len(observe) + len(free)
     if discovery and discovery.get("added"):
         count += len(observe) * traces + len(discovery["parameters_after"])
     return count

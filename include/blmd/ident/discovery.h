@@ -21,6 +21,7 @@
 #pragma once
 
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -39,6 +40,14 @@ struct DiscoveryOptions {
   int refits = 3;                 // candidates refit in full per round (best by screening)
   std::vector<std::string> candidates;  // empty: every applicable effect
   OptimizerOptions refit;         // options of the Ceres refits (threads, budgets)
+  // Held-out traces (--validate), or null. With them, a candidate must qualify by the plain
+  // BIC on the fit traces AND lower the held-out NRMSE by more than `held_out_margin`
+  // (relative); without them, by the BIC on prewhitened residuals (evidence.h).
+  const std::vector<FitTrace>* held_out = nullptr;
+  // false: every sample counts as independent (the plain BIC of versions before 0.2; kept
+  // for comparison in the studies of docs/discovery.md).
+  bool prewhiten = true;
+  double held_out_margin = 0.01;
 };
 
 struct CandidateOutcome {
@@ -47,7 +56,18 @@ struct CandidateOutcome {
   bool valid = false;
   std::string reason;  // why not valid / not fitted
   double bic = 0.0;
-  double delta_bic = 0.0;  // vs the model before this round (negative: better)
+  double delta_bic = 0.0;  // vs the model before this round (negative: better), from the
+                           // prewhitened residuals once refit (evidence.h)
+  double delta_bic_white = 0.0;  // the same with every sample independent (plain BIC)
+  // Per observed column, the noise model the evidence used: AR order and the ratio of the
+  // innovation to the residual variance (1: white).
+  std::map<std::string, std::pair<int, double>> noise_model;
+  // With held-out traces: their NRMSE without and with the effect (parameters from the fit
+  // traces), and whether it fell by more than the margin.
+  bool has_held_out = false;
+  double held_out_before = 0.0, held_out_after = 0.0;
+  bool held_out_better = true;
+  std::string evidence_rule;  // "prewhitened_bic" or "held_out" (docs/discovery.md)
   double nrmse = 0.0;
   std::map<std::string, double> parameters;  // the effect's fitted parameters
 };
@@ -82,6 +102,10 @@ double Bic(const FitProblem& problem, const Evaluation& evaluation, std::size_t 
 // Runs discovery from an initial fit of `problem` (whose result is `initial`).
 DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
                          const DiscoveryOptions& options);
+
+// The model after discovery as a problem over the traces of `problem` (its observed columns,
+// the final free parameters with the final config's bounds); null when nothing was added.
+std::unique_ptr<FitProblem> FinalProblem(const FitProblem& problem, const DiscoveryResult& result);
 
 // The report's "discovery" block (interface.md).
 nlohmann::json DiscoveryJson(const FitProblem& problem, const FitResult& initial,

@@ -45,8 +45,24 @@ struct ReportInputs {
   int threads = 1;
 };
 
+// The report's schema version (docs/report.md): 2 since the headline is the final model
+// (parameters, fit, residual and validation after discovery; the first fit under
+// discovery.before) and `warnings` was added; 1 (no field) before.
+inline constexpr int kReportSchemaVersion = 2;
+
 nlohmann::json MakeReport(const ReportInputs& inputs);
 std::string HumanSummary(const nlohmann::json& report);
+
+// Makes the model after discovery the report's headline: `final_report` (MakeReport of the
+// final model) takes `discovery` as its "discovery" block, with the first fit's parameters,
+// fit, residual, validation and method summary under discovery.before, and the input
+// config's effects under config.effects (the final model's are in "effects").
+nlohmann::json FinalModelReport(nlohmann::json final_report, const nlohmann::json& first_report,
+                                nlohmann::json discovery);
+
+// The warnings about the final model (docs/report.md "Warnings"): [{code, message}] with
+// stable codes, from the report's own figures. Sets report["warnings"].
+void AddWarnings(nlohmann::json* report);
 
 // Replaces every non-finite number by null (a report never holds NaN or Inf).
 void SanitizeJson(nlohmann::json* value);
