@@ -253,5 +253,5 @@ int main(int argc, char** argv) {
       }
     }
     return blmd::kExitOk;
-  }, {"--observe", "--free"});
+  }, {"--observe", "--free", "--candidates"});
 }
