@@ -303,6 +303,19 @@ TEST(TraceCsvErrors, RowShapeProblems) {
             "trace.csv:3:1: comment line inside the data (only before the header)");
 }
 
+// A column name is echoed as at most 80 bytes: a quoted header name may be a whole line
+// (the csv_fuzz campaign of issue 18 found a 1141-byte message from a 1100-byte name).
+TEST(TraceCsvErrors, LongColumnNamesAreCutInMessages) {
+  const std::string name(2000, 'n');
+  const std::string cut = std::string(80, 'n') + "...";
+  EXPECT_EQ(CsvError("t,\"" + name + "\"\n0,x\n"),
+            "trace.csv:2:2: column '" + cut + "' is not a number (\"x\")");
+  EXPECT_EQ(CsvError("t,\"" + name + "\"\n0,1e999\n"),
+            "trace.csv:2:2: column '" + cut + "' value \"1e999\" is out of the double range");
+  EXPECT_EQ(CsvError("t,\"" + name + "\",\"" + name + "\"\n0,1,2\n"),
+            "trace.csv:1:3: duplicate column name '" + cut + "'");
+}
+
 TEST(TraceCsvErrors, TimeMustStrictlyIncrease) {
   EXPECT_EQ(CsvError("t,u\n0,1\n0.2,1\n0.1,1\n"),
             "trace.csv:4:1: time 't' must strictly increase (0.1 follows 0.2)");

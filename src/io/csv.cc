@@ -343,7 +343,10 @@ class TraceParser {
     columns_.assign(names_.size(), {});
   }
 
-  static std::string QuoteName(const std::string& name) { return "'" + name + "'"; }
+  // A column name in a message: at most 80 bytes of it (a quoted header name may be a line long).
+  static std::string QuoteName(const std::string& name) {
+    return "'" + InputError::Excerpt(name) + "'";
+  }
 
   void Row(std::string_view line, bool unterminated) {
     const std::size_t width = names_.size();
@@ -432,7 +435,7 @@ class TraceParser {
     const long column = static_cast<long>(column_index + 1);
     if (field.empty()) {
       Fail(line_number_, column,
-           "column '" + name + "' is empty" + (unterminated ? " (truncated last line?)" : ""));
+           "column " + QuoteName(name) + " is empty" + (unterminated ? " (truncated last line?)" : ""));
     }
     double value = 0.0;
     // A decimal comma ("0,5") in a ';'-separated file, as European spreadsheets write it.
@@ -449,13 +452,13 @@ class TraceParser {
     const auto result = std::from_chars(first, field.data() + field.size(), value);
     if (result.ec == std::errc::result_out_of_range) {
       Fail(line_number_, column,
-           "column '" + name + "' value " + Quote(field) + " is out of the double range");
+           "column " + QuoteName(name) + " value " + Quote(field) + " is out of the double range");
     }
     if (result.ec != std::errc() || result.ptr != field.data() + field.size()) {
-      Fail(line_number_, column, "column '" + name + "' is not a number (" + Quote(field) + ")");
+      Fail(line_number_, column, "column " + QuoteName(name) + " is not a number (" + Quote(field) + ")");
     }
     if (!std::isfinite(value)) {
-      Fail(line_number_, column, "column '" + name + "' is not finite (" + Quote(field) + ")");
+      Fail(line_number_, column, "column " + QuoteName(name) + " is not finite (" + Quote(field) + ")");
     }
     return value == 0.0 ? 0.0 : value;  // -0 reads as 0
   }
