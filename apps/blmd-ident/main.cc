@@ -8,6 +8,7 @@
 #include "blmd/ident/discovery.h"
 #include "blmd/ident/optimizer.h"
 #include "blmd/ident/report.h"
+#include "blmd/ident/trace_jackknife.h"
 #include "blmd/ident/trace_input.h"
 #include "blmd/io/config.h"
 #include "blmd/io/files.h"
@@ -189,11 +190,23 @@ int main(int argc, char** argv) {
     options.method_options = options_json;
     options.verbose = verbose;
     const blmd::FitResult result = optimizer.Minimize(problem, options);
+    // The spread between traces in the intervals (trace_jackknife.h): K refits, K >= 3.
+    blmd::OptimizerOptions jackknife_options = options;
+    jackknife_options.method_options = nlohmann::json::object();
+    auto widened = [&](const blmd::FitProblem& fitted, const blmd::FitResult& fit) {
+      blmd::FitResult copy = fit;
+      if (fit.evaluation.ok && fitted.traces().size() >= 3) {
+        blmd::WidenByTraceJackknife(
+            fitted, blmd::LeaveOneTraceOut(fitted, fit.values, jackknife_options), &copy);
+      }
+      return copy;
+    };
+    const blmd::FitResult first_result = widened(problem, result);
 
     blmd::ReportInputs inputs;
     inputs.config_path = config_path;
     inputs.problem = &problem;
-    inputs.result = &result;
+    inputs.result = &first_result;
     inputs.validation = validation.get();
     inputs.seed = seed;
     inputs.threads = threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
@@ -233,9 +246,10 @@ int main(int argc, char** argv) {
       const std::unique_ptr<blmd::FitProblem> final_problem = blmd::FinalProblem(problem, discovery);
       nlohmann::json headline = report;
       if (final_problem) {
+        const blmd::FitResult final_result = widened(*final_problem, discovery.final_fit);
         blmd::ReportInputs final_inputs = inputs;
         final_inputs.problem = final_problem.get();
-        final_inputs.result = &discovery.final_fit;
+        final_inputs.result = &final_result;
         final_inputs.validation = validation_after.get();
         headline = blmd::MakeReport(final_inputs);
       }

@@ -948,6 +948,7 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
   }
   result.final_config = current_problem->config();
   for (const auto& p : current_problem->free()) result.final_free.push_back(p.name);
+  result.final_free_parameters = current_problem->free();
   result.final_fit = current_fit;
   if (!result.ambiguous.empty() && result.added.empty()) {
     result.conclusion = "ambiguous: " + result.ambiguity_reason;
@@ -971,7 +972,13 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
 std::unique_ptr<FitProblem> FinalProblem(const FitProblem& problem, const DiscoveryResult& result) {
   if (result.added.empty()) return nullptr;
   if (result.final_fit.values.size() != result.final_free.size()) return nullptr;
-  std::vector<FreeParameter> free;
+  // The bounds discovery fitted the effects in (their search boxes), the values as start.
+  std::vector<FreeParameter> free = result.final_free_parameters;
+  if (free.size() == result.final_fit.values.size()) {
+    for (std::size_t k = 0; k < free.size(); ++k) free[k].initial = result.final_fit.values[k];
+    return std::make_unique<FitProblem>(result.final_config, problem.traces(), problem.observe(),
+                                        std::move(free));
+  }
   try {
     free = MakeFreeParameters(result.final_config, result.final_free);
   } catch (const std::exception&) {  // a start value outside its bounds: only the bounds matter here

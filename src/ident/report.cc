@@ -129,6 +129,10 @@ nlohmann::json MakeReport(const ReportInputs& inputs) {
     p["ci95"] = e.has_interval ? nlohmann::json::array({Number(e.ci95_low), Number(e.ci95_high)})
                                : nlohmann::json(nullptr);
     if (e.has_interval) p["interval_method"] = e.interval_method;
+    if (e.has_hac_interval) {  // widened by the spread between traces
+      p["std_hac"] = Number(e.std_hac);
+      p["ci95_hac"] = nlohmann::json::array({Number(e.ci95_hac_low), Number(e.ci95_hac_high)});
+    }
     // The white-noise interval for comparison (docs/uncertainty.md).
     if (e.has_white_interval) {
       p["std_white"] = Number(e.std_white);
@@ -208,7 +212,8 @@ nlohmann::json MakeReport(const ReportInputs& inputs) {
   // Intervals that take the residuals as white are optimistic when they are not; the HAC
   // sandwich's account for the correlation (docs/uncertainty.md).
   for (const auto& e : result.estimates) {
-    any_interval = any_interval || (e.has_interval && e.interval_method != "hac_prewhitened");
+    any_interval = any_interval || (e.has_interval && e.interval_method != "hac_prewhitened" &&
+                                    e.interval_method != "leave_one_trace_out");
   }
   if (any_interval && residual.contains("white") && !residual["white"].get<bool>()) {
     residual["note"] =

@@ -92,6 +92,7 @@ struct DiscoveryResult {
   std::string conclusion;                    // one line for people
   Config final_config;                       // with the added effects at their fitted values
   std::vector<std::string> final_free;
+  std::vector<FreeParameter> final_free_parameters;  // with the bounds discovery fitted them in
   FitResult final_fit;
   double bic_initial = 0.0;
 };

@@ -61,6 +61,11 @@ struct ParameterEstimate {
   double std_white = 0.0;
   double ci95_white_low = 0.0, ci95_white_high = 0.0;
   std::string white_method;  // "ceres_covariance" or "gauss_newton"
+  // When the spread between traces widened the interval (trace_jackknife.h): the HAC
+  // interval it replaced.
+  bool has_hac_interval = false;
+  double std_hac = 0.0;
+  double ci95_hac_low = 0.0, ci95_hac_high = 0.0;
 };
 
 struct FitResult {
