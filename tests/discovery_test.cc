@@ -115,6 +115,27 @@ TEST(Discovery, CoulombAndLoadAreAmbiguousWhenTheShaftNeverStops) {
   ASSERT_EQ(d["ambiguous"].size(), 1u);
   EXPECT_EQ(d["ambiguous"][0]["effects"], nlohmann::json::array({"coulomb_friction", "load_torque"}));
   EXPECT_EQ(d["conclusion"].get<std::string>().rfind("ambiguous: ", 0), 0u) << d["conclusion"];
+  // Issue 19: each competing model is reported with its J and B and error, and the
+  // headline's intervals cover them (here they also cover the truth, which the first fit's
+  // biased B, +52 %, did not).
+  const auto& models = d["ambiguous"][0]["models"];
+  ASSERT_EQ(models.size(), 2u);
+  for (const auto& m : models) {
+    for (const char* name : {"J", "B"}) {
+      const double v = m["parameters"][name].get<double>();
+      const auto& ci = report["parameters"][name]["ci95"];
+      EXPECT_LE(ci[0].get<double>(), v) << m["effect"] << " " << name;
+      EXPECT_GE(ci[1].get<double>(), v) << m["effect"] << " " << name;
+    }
+    EXPECT_LT(m["nrmse"].get<double>(), report["fit"]["nrmse"].get<double>());
+  }
+  const auto& B = report["parameters"]["B"];
+  EXPECT_EQ(B["interval_method"], "hac_prewhitened+ambiguity");
+  EXPECT_TRUE(B["ci95_before_ambiguity"][0].get<double>() > 2.261e-5);  // missed the truth
+  EXPECT_LE(B["ci95"][0].get<double>(), 2.261e-5);                       // covers it now
+  bool warned = false;
+  for (const auto& w : report["warnings"]) warned = warned || w["code"] == "discovery_ambiguous";
+  EXPECT_TRUE(warned);
 }
 
 }  // namespace

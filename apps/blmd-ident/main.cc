@@ -255,6 +255,7 @@ int main(int argc, char** argv) {
       }
       report = blmd::FinalModelReport(std::move(headline), report, std::move(discovery_json));
     }
+    blmd::WidenForAmbiguity(&report);
     blmd::AddWarnings(&report);
     if (!report_path.empty()) blmd::WriteFileAtomically(report_path, report.dump(2) + "\n");
     if (!html_path.empty()) {

@@ -706,6 +706,9 @@ void RefitCandidate(const FitProblem& base, const std::vector<double>& base_valu
     run->outcome.parameters[plan.free[k].name] = run->fit.values[offset + k];
   }
   for (const auto& [name, value] : run->fixed) run->outcome.parameters[name] = value;
+  for (std::size_t k = 0; k < run->free.size() && k < run->fit.values.size(); ++k) {
+    run->outcome.model_parameters[run->free[k].name] = run->fit.values[k];
+  }
   // Physical validity: off the search bounds, and the amplitude distinguishable from zero.
   run->outcome.valid = true;
   for (std::size_t k = 0; k < plan.free.size(); ++k) {
@@ -1050,7 +1053,19 @@ nlohmann::json DiscoveryJson(const FitProblem& problem, const FitResult& initial
   }
   out["ambiguous"] = nlohmann::json::array();
   for (const auto& group : result.ambiguous) {
-    out["ambiguous"].push_back({{"effects", group}, {"reason", result.ambiguity_reason}});
+    // Each competing model with its parameters and error (issue 19: reported, not hidden).
+    nlohmann::json models = nlohmann::json::array();
+    for (const auto& effect : group) {
+      for (const auto& o : result.last_round) {
+        if (o.effect != effect || !o.fitted) continue;
+        models.push_back({{"effect", o.effect},
+                          {"nrmse", number(o.nrmse)},
+                          {"delta_bic", number(o.delta_bic)},
+                          {"parameters", o.model_parameters}});
+      }
+    }
+    out["ambiguous"].push_back(
+        {{"effects", group}, {"reason", result.ambiguity_reason}, {"models", models}});
   }
   out["last_round"] = candidates_json(result.last_round);
   out["conclusion"] = result.conclusion;

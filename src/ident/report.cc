@@ -1,5 +1,6 @@
 #include "blmd/ident/report.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -270,6 +271,29 @@ const nlohmann::json& Field(const nlohmann::json& object, const char* key) {
 
 }  // namespace
 
+void WidenForAmbiguity(nlohmann::json* report) {
+  if (!report->contains("discovery") || !(*report)["discovery"].contains("ambiguous")) return;
+  nlohmann::json& parameters = (*report)["parameters"];
+  for (const auto& group : (*report)["discovery"]["ambiguous"]) {
+    if (!group.contains("models")) continue;
+    for (const auto& model : group["models"]) {
+      for (const auto& [name, value] : model["parameters"].items()) {
+        if (!parameters.contains(name) || !value.is_number()) continue;
+        nlohmann::json& p = parameters[name];
+        if (!p["ci95"].is_array() || !p["ci95"][0].is_number() || !p["ci95"][1].is_number()) continue;
+        const double v = value.get<double>();
+        const double low = p["ci95"][0].get<double>(), high = p["ci95"][1].get<double>();
+        if (v >= low && v <= high) continue;
+        if (!p.contains("ci95_before_ambiguity")) {
+          p["ci95_before_ambiguity"] = p["ci95"];
+          p["interval_method"] = p.value("interval_method", std::string()) + "+ambiguity";
+        }
+        p["ci95"] = {std::min(low, v), std::max(high, v)};
+      }
+    }
+  }
+}
+
 void AddWarnings(nlohmann::json* report_pointer) {
   const nlohmann::json& report = *report_pointer;
   nlohmann::json warnings = nlohmann::json::array();
@@ -332,10 +356,21 @@ void AddWarnings(nlohmann::json* report_pointer) {
   for (const auto& group : Field(discovery, "ambiguous")) {
     std::string effects;
     for (const auto& e : Field(group, "effects")) effects += (effects.empty() ? "" : ", ") + e.get<std::string>();
+    std::string models;
+    for (const auto& m : Field(group, "models")) {
+      models += (models.empty() ? "" : "; ") + m["effect"].get<std::string>() + ":";
+      for (const char* name : {"J", "B"}) {
+        if (Field(m, "parameters").contains(name)) {
+          models += std::string(" ") + name + " = " + G(m["parameters"][name], 4);
+        }
+      }
+      models += " (NRMSE " + G(Field(m, "nrmse"), 4) + ")";
+    }
     add("discovery_ambiguous",
         "discovery could not tell " + effects + " apart and added neither (" +
             (Field(group, "reason").is_string() ? group["reason"].get<std::string>() : "") +
-            "): the model may still lack one of them; see discovery.ambiguous");
+            "); the competing models: " + (models.empty() ? "see discovery.ambiguous" : models) +
+            "; the intervals cover them");
   }
   const nlohmann::json& held_out = Field(discovery, "validation");
   const nlohmann::json& before = Field(Field(held_out, "before"), "nrmse");
@@ -376,8 +411,10 @@ std::string HumanSummary(const nlohmann::json& report) {
                   unit.c_str());
     out << line;
     if (p["ci95"].is_array()) {
+      const bool widened = p.contains("ci95_before_ambiguity");
       out << "   ± " << G(p["std"], 3) << " (95 %: [" << G(p["ci95"][0], 5) << ", "
-          << G(p["ci95"][1], 5) << "])";
+          << G(p["ci95"][1], 5) << "]" << (widened ? ", widened to cover the ambiguous models" : "")
+          << ")";
     }
     if (p.contains("initial") && !p["initial"].is_null()) out << "   initial " << G(p["initial"], 4);
     if (p.contains("free") && !p["free"].get<bool>()) out << "   (classic estimate)";

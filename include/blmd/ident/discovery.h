@@ -70,6 +70,9 @@ struct CandidateOutcome {
   std::string evidence_rule;  // "prewhitened_bic" or "held_out" (docs/discovery.md)
   double nrmse = 0.0;
   std::map<std::string, double> parameters;  // the effect's fitted parameters
+  // Every free parameter of the model with this effect (J, B, ... and the effect's), as
+  // refit: what an ambiguous round reports for each competing model.
+  std::map<std::string, double> model_parameters;
 };
 
 struct DiscoveryStep {

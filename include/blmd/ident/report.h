@@ -60,6 +60,13 @@ std::string HumanSummary(const nlohmann::json& report);
 nlohmann::json FinalModelReport(nlohmann::json final_report, const nlohmann::json& first_report,
                                 nlohmann::json discovery);
 
+// When discovery stopped on an ambiguous round, the headline's intervals are widened to
+// cover every competing model's value of each parameter (discovery.ambiguous[].models):
+// ci95 becomes the hull, the unwidened one is kept in ci95_before_ambiguity and
+// interval_method gains "+ambiguity". The data cannot tell those models apart, so the
+// answer is no more precise than their disagreement.
+void WidenForAmbiguity(nlohmann::json* report);
+
 // The warnings about the final model (docs/report.md "Warnings"): [{code, message}] with
 // stable codes, from the report's own figures. Sets report["warnings"].
 void AddWarnings(nlohmann::json* report);
