@@ -195,7 +195,7 @@ int main(int argc, char** argv) {
     jackknife_options.method_options = nlohmann::json::object();
     auto widened = [&](const blmd::FitProblem& fitted, const blmd::FitResult& fit) {
       blmd::FitResult copy = fit;
-      if (fit.evaluation.ok && fitted.traces().size() >= 3) {
+      if (fit.evaluation.ok && fit.summary.converged && fitted.traces().size() >= 3) {
         blmd::WidenByTraceJackknife(
             fitted, blmd::LeaveOneTraceOut(fitted, fit.values, jackknife_options), &copy);
       }
