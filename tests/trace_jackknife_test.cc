@@ -11,6 +11,7 @@
 
 #include "blmd/ident/optimizer.h"
 #include "blmd/ident/problem.h"
+#include "blmd/ident/trace_input.h"
 #include "blmd/ident/trace_jackknife.h"
 #include "blmd/io/config.h"
 #include "blmd/random.h"
@@ -28,14 +29,7 @@ FitTrace NoisyTrace(const Config& truth, Random& random) {
     for (double v : trace.Column(column)) peak = std::max(peak, std::abs(v));
     for (double& v : trace.Column(column)) v += 0.01 * peak * random.Normal();
   }
-  FitTrace fit;
-  fit.path = "generated";
-  fit.input.kind = InputSignal::Kind::kRecorded;
-  fit.input.times = trace.Column("t");
-  fit.input.values = trace.Column("u");
-  fit.initial = truth.experiment.initial;
-  fit.trace = std::move(trace);
-  return fit;
+  return RecordedFitTrace(std::move(trace), truth.experiment.initial);
 }
 
 struct Outcome {

@@ -18,73 +18,10 @@
 #include "blmd/io/config.h"
 #include "blmd/random.h"
 #include "blmd/run.h"
+#include "support/random_motor.h"
 
-namespace blmd {
+namespace blmd::testing {
 namespace {
-
-struct Motor {
-  double R, L, K, J, B, tau_m;
-};
-
-double LogUniform(Random& random, double lo, double hi) {
-  return lo * std::pow(hi / lo, random.Uniform());
-}
-
-Motor RandomMotor(Random& random) {
-  Motor m{};
-  m.R = LogUniform(random, 0.5, 20.0);
-  m.L = m.R * LogUniform(random, 2e-4, 5e-3);  // electrical time constant 0.2 .. 5 ms
-  m.K = LogUniform(random, 0.02, 0.3);
-  m.J = LogUniform(random, 1e-6, 1e-3);
-  m.B = LogUniform(random, 1e-6, 1e-3);
-  m.tau_m = m.J * m.R / (m.K * m.K + m.R * m.B);
-  return m;
-}
-
-Config MotorConfig(const Motor& m) {
-  // A power-of-two sample rate near 250 samples per time constant and 2048 samples per
-  // period (about eight time constants): every edge and sample instant exact in binary.
-  const double sample_rate = std::exp2(std::round(std::log2(250.0 / m.tau_m)));
-  const double period = 2048.0 / sample_rate;
-  char text[2048];
-  std::snprintf(text, sizeof text, R"({
-  "name": "random-motor", "model": "dc_servo",
-  "parameters": { "R": %.17g, "L": %.17g, "Kt": %.17g, "Kb": %.17g, "J": %.17g, "B": %.17g },
-  "simulation": { "dt": %.17g },
-  "experiment": { "input": { "type": "square", "amplitude": 12.0, "period": %.17g },
-                  "duration": %.17g, "sample_rate": %.17g },
-  "identification": { "free": ["J", "B"], "initial": { "J": %.17g, "B": %.17g },
-                      "bounds": { "J": [%.17g, %.17g], "B": [%.17g, %.17g] },
-                      "observe": ["i", "w"], "method": "ceres" }
-})",
-                m.R, m.L, m.K, m.K, m.J, m.B, 0.25 / sample_rate, period, 2.0 * period, sample_rate,
-                2.0 * m.J, 0.5 * m.B, m.J / 100, m.J * 100, m.B / 100, m.B * 100);
-  return ParseConfig(text, "random-motor.json");
-}
-
-// 1 % noise on i and w: white (rho = 0) or AR(1) with unit marginal variance scaled to sigma.
-FitTrace NoisyTrace(const Config& config, Random& random, double rho) {
-  Trace trace;
-  const SimStatus status = RunExperiment(config, &trace);
-  EXPECT_TRUE(status.ok()) << status.message;
-  for (const char* column : {"i", "w"}) {
-    double peak = 0.0;
-    for (double v : trace.Column(column)) peak = std::max(peak, std::abs(v));
-    double state = random.Normal();
-    for (double& v : trace.Column(column)) {
-      v += (std::getenv("STUDY_NOISE_FREE") ? 0.0 : 0.01) * peak * state;
-      state = rho * state + std::sqrt(1.0 - rho * rho) * random.Normal();
-    }
-  }
-  FitTrace fit;
-  fit.path = "generated";
-  fit.input.kind = InputSignal::Kind::kRecorded;
-  fit.input.times = trace.Column("t");
-  fit.input.values = trace.Column("u");
-  fit.initial = config.experiment.initial;
-  fit.trace = std::move(trace);
-  return fit;
-}
 
 double Median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
@@ -111,7 +48,7 @@ Calibration Study(double rho, int seeds) {
     }
     const Config config = MotorConfig(motor);
     std::vector<FitTrace> traces;
-    traces.push_back(NoisyTrace(config, random, rho));
+    traces.push_back(ColouredNoiseTrace(config, random, rho));
     const FitProblem problem(config, std::move(traces), {"i", "w"},
                              MakeFreeParameters(config, {"J", "B"}));
     const FitResult result =
@@ -166,4 +103,4 @@ TEST(IntervalCalibration, RandomMotorsWhiteNoise) { ExpectCalibrated(Study(0.0, 
 TEST(IntervalCalibration, RandomMotorsAr1Noise095) { ExpectCalibrated(Study(0.95, Seeds())); }
 
 }  // namespace
-}  // namespace blmd
+}  // namespace blmd::testing

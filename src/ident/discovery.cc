@@ -620,9 +620,33 @@ CandidateRun ScreenCandidate(const FitProblem& base, const std::vector<double>& 
 }
 
 // Full refit (Ceres, all free parameters) from the screening point, and the verdict.
-void RefitCandidate(const FitProblem& base, const std::vector<double>& base_values,
-                    const CandidatePlan& plan, double bic_before, const DiscoveryOptions& options,
-                    CandidateRun* run) {
+// What every candidate of a round is compared with, computed once per round: the current
+// model's residuals on the fit traces (for the prewhitened evidence) or its error on the
+// held-out traces (for the held-out rule).
+struct RoundBase {
+  std::vector<double> residuals;  // empty when its evaluation failed
+  Evaluation held_out;            // ok only with held-out traces that simulate
+};
+
+RoundBase MakeRoundBase(const FitProblem& base, const std::vector<double>& values,
+                        const DiscoveryOptions& options) {
+  RoundBase round;
+  const bool held_out = options.held_out && !options.held_out->empty();
+  if (!held_out && options.prewhiten && !base.Evaluate(values, &round.residuals).ok) {
+    round.residuals.clear();
+  }
+  if (held_out) {
+    std::vector<std::string> names;
+    for (const auto& f : base.free()) names.push_back(f.name);
+    const FitProblem held(base.config(), *options.held_out, base.observe(),
+                          NamedFreeParameters(names));
+    round.held_out = held.Evaluate(values);
+  }
+  return round;
+}
+
+void RefitCandidate(const FitProblem& base, const RoundBase& round, const CandidatePlan& plan,
+                    double bic_before, const DiscoveryOptions& options, CandidateRun* run) {
   for (std::size_t k = 0; k < run->free.size(); ++k) run->free[k].initial = run->screen_values[k];
   const FitProblem problem = MakeProblem(run->config, base.traces(), base.observe(), run->free);
   OptimizerOptions refit = options.refit;
@@ -668,28 +692,25 @@ void RefitCandidate(const FitProblem& base, const std::vector<double>& base_valu
   // and a lower error on traces the effect was not fitted to.
   run->outcome.evidence_rule = "plain_bic";
   if (options.held_out && !options.held_out->empty()) {
-    std::vector<FreeParameter> names;
-    for (const auto& f : base.free()) names.push_back({f.name, 0.0, 0.0, false, 0.0});
-    const FitProblem held_base(base.config(), *options.held_out, base.observe(), names);
-    for (std::size_t k = base.free().size(); k < run->free.size(); ++k)
-      names.push_back({run->free[k].name, 0.0, 0.0, false, 0.0});
-    const FitProblem held_candidate(run->config, *options.held_out, base.observe(), names);
-    const Evaluation before = held_base.Evaluate(base_values);
+    std::vector<std::string> names;
+    for (const auto& f : run->free) names.push_back(f.name);
+    const FitProblem held_candidate(run->config, *options.held_out, base.observe(),
+                                    NamedFreeParameters(names));
     const Evaluation after = held_candidate.Evaluate(run->fit.values);
     run->outcome.evidence_rule = "held_out";
-    run->outcome.has_held_out = before.ok && after.ok;
+    run->outcome.has_held_out = round.held_out.ok && after.ok;
     if (run->outcome.has_held_out) {
-      run->outcome.held_out_before = std::sqrt(before.cost);
+      run->outcome.held_out_before = std::sqrt(round.held_out.cost);
       run->outcome.held_out_after = std::sqrt(after.cost);
       run->outcome.held_out_better = run->outcome.held_out_after <
                                      (1.0 - options.held_out_margin) * run->outcome.held_out_before;
     } else {
       run->outcome.held_out_better = false;
     }
-  } else if (options.prewhiten) {
+  } else if (options.prewhiten && !round.residuals.empty()) {
     const FitProblem model(run->config, base.traces(), base.observe(), run->free);
     const WhitenedEvidence evidence =
-        PrewhitenedEvidence(base, base_values, model, run->fit.values);
+        PrewhitenedEvidence(round.residuals, base.num_free(), model, run->fit.values);
     if (evidence.ok) {
       run->outcome.evidence_rule = "prewhitened_bic";
       run->outcome.delta_bic = evidence.delta_bic;
@@ -865,9 +886,9 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
       return runs[l].screen_bic < runs[r].screen_bic;
     });
     if (screened.size() > static_cast<std::size_t>(options.refits)) screened.resize(static_cast<std::size_t>(options.refits));
+    const RoundBase round_base = MakeRoundBase(*current_problem, current_fit.values, options);
     parallel(screened, [&](std::size_t k) {
-      RefitCandidate(*current_problem, current_fit.values, plans[k], current_bic, options,
-                     &runs[k]);
+      RefitCandidate(*current_problem, round_base, plans[k], current_bic, options, &runs[k]);
       runs[k].refitted = true;
     });
     for (auto& run : runs) {
@@ -974,23 +995,10 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
 
 std::unique_ptr<FitProblem> FinalProblem(const FitProblem& problem, const DiscoveryResult& result) {
   if (result.added.empty()) return nullptr;
-  if (result.final_fit.values.size() != result.final_free.size()) return nullptr;
   // The bounds discovery fitted the effects in (their search boxes), the values as start.
   std::vector<FreeParameter> free = result.final_free_parameters;
-  if (free.size() == result.final_fit.values.size()) {
-    for (std::size_t k = 0; k < free.size(); ++k) free[k].initial = result.final_fit.values[k];
-    return std::make_unique<FitProblem>(result.final_config, problem.traces(), problem.observe(),
-                                        std::move(free));
-  }
-  try {
-    free = MakeFreeParameters(result.final_config, result.final_free);
-  } catch (const std::exception&) {  // a start value outside its bounds: only the bounds matter here
-    free.clear();
-    for (const auto& name : result.final_free) {
-      const auto [lower, upper] = result.final_config.Bounds(name);
-      free.push_back({name, lower, upper, false, 0.0});
-    }
-  }
+  if (free.size() != result.final_fit.values.size()) return nullptr;
+  for (std::size_t k = 0; k < free.size(); ++k) free[k].initial = result.final_fit.values[k];
   return std::make_unique<FitProblem>(result.final_config, problem.traces(), problem.observe(),
                                       std::move(free));
 }

@@ -69,68 +69,59 @@ void AddWhitened(const double* r, std::size_t rows, const std::vector<double>& a
 
 }  // namespace
 
-WhitenedEvidence PrewhitenedEvidence(const FitProblem& base, const std::vector<double>& base_values,
-                                     const FitProblem& candidate,
+WhitenedEvidence PrewhitenedEvidence(const std::vector<double>& base_residuals,
+                                     std::size_t base_free, const FitProblem& candidate,
                                      const std::vector<double>& candidate_values) {
   // Order 2 at most: enough for a sensor's or filter's short memory; higher orders begin to
   // describe the model error's own slow structure and then absorb any effect's signature
   // (docs/discovery.md: on the ODrive records order 8 hid a 7/rev cogging that order 2 finds).
   constexpr int kMaxOrder = 2;
   WhitenedEvidence out;
-  std::vector<double> r_base, r_candidate;
-  const Evaluation eb = base.Evaluate(base_values, &r_base);
+  std::vector<double> r_candidate;
   const Evaluation ec = candidate.Evaluate(candidate_values, &r_candidate);
-  if (!eb.ok || !ec.ok || r_base.size() != r_candidate.size()) {
-    out.reason = !eb.ok ? eb.reason : !ec.ok ? ec.reason : "the residuals do not match";
+  if (!ec.ok || base_residuals.size() != r_candidate.size()) {
+    out.reason = !ec.ok ? ec.reason : "the residuals do not match";
     return out;
   }
-  const std::size_t columns = base.observe().size();
+  const std::size_t columns = candidate.observe().size();
   std::vector<double> sse_base(columns, 0.0), sse_candidate(columns, 0.0), count(columns, 0.0);
-  std::vector<double> raw_base(columns, 0.0), raw_candidate(columns, 0.0), raw_count(columns, 0.0);
+  std::vector<double> raw_candidate(columns, 0.0), raw_count(columns, 0.0);
   out.order.assign(columns, 0);
   std::size_t at = 0;
-  for (std::size_t k = 0; k < base.traces().size(); ++k) {
-    const std::size_t rows = base.measured(k).rows();
+  for (std::size_t k = 0; k < candidate.traces().size(); ++k) {
+    const std::size_t rows = candidate.measured(k).rows();
     for (std::size_t c = 0; c < columns; ++c) {
-      const double* rb = r_base.data() + at;
+      const double* rb = base_residuals.data() + at;
       const double* rc = r_candidate.data() + at;
-      const std::vector<double> segment(rc, rc + rows);
-      const std::vector<double> a = FitAutoregression(segment, kMaxOrder);
+      const std::vector<double> a = FitAutoregression(std::vector<double>(rc, rc + rows), kMaxOrder);
       out.order[c] = std::max(out.order[c], static_cast<int>(a.size()));
       AddWhitened(rb, rows, a, &sse_base[c], &count[c]);
       double unused = 0.0;
       AddWhitened(rc, rows, a, &sse_candidate[c], &unused);
-      for (std::size_t t = 0; t < rows; ++t) raw_base[c] += rb[t] * rb[t];
       for (std::size_t t = 0; t < rows; ++t) raw_candidate[c] += rc[t] * rc[t];
       raw_count[c] += static_cast<double>(rows);
       at += rows;
     }
   }
-  if (at != r_base.size()) {
+  if (at != r_candidate.size()) {
     out.reason = "the residuals do not match the traces";
     return out;
   }
   // A sum of squares below 1e-12 of the column's variance per sample is the simulator's
   // precision (see Bic in discovery.cc); residuals are weighted by 1/sqrt(C N_c Var_c).
-  double total = 0.0, raw_total = 0.0;
+  double total = 0.0;
   for (std::size_t c = 0; c < columns; ++c) {
-    const double floor_whitened = std::max(1e-12 * count[c] / (columns * raw_count[c]), 1e-300);
-    const double floor_raw = std::max(1e-12 / columns, 1e-300);
-    out.delta_bic += count[c] * std::log(std::max(sse_candidate[c], floor_whitened) /
-                                         std::max(sse_base[c], floor_whitened));
-    out.delta_bic_white += raw_count[c] * std::log(std::max(raw_candidate[c], floor_raw) /
-                                                   std::max(raw_base[c], floor_raw));
+    const double floor = std::max(1e-12 * count[c] / (columns * raw_count[c]), 1e-300);
+    out.delta_bic += count[c] * std::log(std::max(sse_candidate[c], floor) /
+                                         std::max(sse_base[c], floor));
     out.innovation_ratio.push_back(raw_candidate[c] > 0.0
                                        ? (sse_candidate[c] / std::max(count[c], 1.0)) /
                                              (raw_candidate[c] / raw_count[c])
                                        : 1.0);
     total += count[c];
-    raw_total += raw_count[c];
   }
-  const double added =
-      static_cast<double>(candidate.num_free()) - static_cast<double>(base.num_free());
+  const double added = static_cast<double>(candidate.num_free()) - static_cast<double>(base_free);
   out.delta_bic += added * std::log(std::max(total, 1.0));
-  out.delta_bic_white += added * std::log(std::max(raw_total, 1.0));
   out.ok = true;
   return out;
 }

@@ -33,8 +33,11 @@ class ClassicOptimizer final : public Optimizer {
   FitResult Minimize(const FitProblem& problem, const OptimizerOptions& options) const override;
 };
 
+// Sets estimate's std and its interval value -+ quantile * std_search (search coordinates:
+// ln x for a log-scale parameter, where the interval is value * exp(-+ quantile * sd)).
+// quantile: 1.96 for the normal 95 % interval, Student's t for few degrees of freedom.
 void SetInterval(const FreeParameter& parameter, double std_search, const std::string& method,
-                 ParameterEstimate* estimate);
+                 ParameterEstimate* estimate, double quantile = 1.959963984540054);
 std::vector<ParameterEstimate> MakeEstimates(const FitProblem& problem,
                                              const std::vector<double>& values);
 

@@ -131,15 +131,15 @@ void SetSandwichIntervals(const FitProblem& problem, const Eigen::MatrixXd& jaco
 }
 
 void SetInterval(const FreeParameter& parameter, double std_search, const std::string& method,
-                 ParameterEstimate* estimate) {
+                 ParameterEstimate* estimate, double quantile) {
   if (parameter.log_scale) {
     estimate->std = estimate->value * std_search;  // delta method
-    estimate->ci95_low = estimate->value * std::exp(-1.959963984540054 * std_search);
-    estimate->ci95_high = estimate->value * std::exp(1.959963984540054 * std_search);
+    estimate->ci95_low = estimate->value * std::exp(-quantile * std_search);
+    estimate->ci95_high = estimate->value * std::exp(quantile * std_search);
   } else {
     estimate->std = std_search;
-    estimate->ci95_low = estimate->value - 1.959963984540054 * std_search;
-    estimate->ci95_high = estimate->value + 1.959963984540054 * std_search;
+    estimate->ci95_low = estimate->value - quantile * std_search;
+    estimate->ci95_high = estimate->value + quantile * std_search;
   }
   estimate->has_interval = std::isfinite(estimate->std) && std::isfinite(estimate->ci95_low) &&
                            std::isfinite(estimate->ci95_high);

@@ -283,23 +283,29 @@ std::vector<FitTrace> LoadFitTraces(const std::string& path, const TraceInputOpt
                            "): a fit needs at least 3 per experiment");
     }
 
-    FitTrace fit;
-    fit.path = name;
-    fit.sha256 = sha256;
-    fit.input.kind = InputSignal::Kind::kRecorded;
-    fit.input.times = part.Column("t");
-    fit.input.values = part.Column("u");
-    if (part.Has("open")) fit.input.open = part.Column("open");
-    fit.initial = default_initial;
+    InitialState initial = default_initial;
     if (options.initial_from_trace) {
-      if (part.Has("w")) fit.initial.w = part.Column("w").front();
-      if (part.Has("theta")) fit.initial.theta = part.Column("theta").front();
-      if (part.Has("i")) fit.initial.i = part.Column("i").front();
+      if (part.Has("w")) initial.w = part.Column("w").front();
+      if (part.Has("theta")) initial.theta = part.Column("theta").front();
+      if (part.Has("i")) initial.i = part.Column("i").front();
     }
-    fit.trace = std::move(part);
+    FitTrace fit = RecordedFitTrace(std::move(part), initial, name);
+    fit.sha256 = sha256;
     experiments.push_back(std::move(fit));
   }
   return experiments;
+}
+
+FitTrace RecordedFitTrace(Trace trace, const InitialState& initial, const std::string& path) {
+  FitTrace fit;
+  fit.path = path;
+  fit.input.kind = InputSignal::Kind::kRecorded;
+  fit.input.times = trace.Column("t");
+  fit.input.values = trace.Column("u");
+  if (trace.Has("open")) fit.input.open = trace.Column("open");
+  fit.initial = initial;
+  fit.trace = std::move(trace);
+  return fit;
 }
 
 FitTrace LoadFitTrace(const std::string& path, const TraceInputOptions& options,

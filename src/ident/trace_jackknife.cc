@@ -3,6 +3,8 @@
 #include <boost/math/distributions/students_t.hpp>
 #include <cmath>
 
+#include "methods.h"
+
 namespace blmd {
 
 TraceJackknife LeaveOneTraceOut(const FitProblem& problem, const std::vector<double>& values,
@@ -76,20 +78,15 @@ void WidenByTraceJackknife(const FitProblem& problem, const TraceJackknife& jack
     std::vector<double> fold_values;
     for (const auto& refit : jackknife.refits) fold_values.push_back(refit[p]);
     spread[e.name] = {{"std", f.log_scale ? e.value * sd : sd}, {"refits", fold_values}};
-    const double low = f.log_scale ? e.value * std::exp(-t * sd) : e.value - t * sd;
-    const double high = f.log_scale ? e.value * std::exp(t * sd) : e.value + t * sd;
-    if (!std::isfinite(low) || !std::isfinite(high)) continue;
-    const bool wider = !e.has_interval || high - low > e.ci95_high - e.ci95_low;
-    if (!wider) continue;
-    e.has_hac_interval = e.has_interval;
-    e.std_hac = e.std;
-    e.ci95_hac_low = e.ci95_low;
-    e.ci95_hac_high = e.ci95_high;
-    e.std = f.log_scale ? e.value * sd : sd;
-    e.ci95_low = low;
-    e.ci95_high = high;
-    e.has_interval = true;
-    e.interval_method = "leave_one_trace_out";
+    ParameterEstimate widened = e;
+    internal::SetInterval(f, sd, "leave_one_trace_out", &widened, t);
+    if (!widened.has_interval) continue;
+    if (e.has_interval && !(widened.ci95_high - widened.ci95_low > e.ci95_high - e.ci95_low)) continue;
+    widened.has_hac_interval = e.has_interval;
+    widened.std_hac = e.std;
+    widened.ci95_hac_low = e.ci95_low;
+    widened.ci95_hac_high = e.ci95_high;
+    e = widened;
   }
   record["parameters"] = spread;
   details["leave_one_trace_out"] = record;

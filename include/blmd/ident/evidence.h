@@ -17,6 +17,7 @@
 // residuals the filter is the identity (p = 0) and this is the plain BIC.
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -26,9 +27,8 @@ class FitProblem;
 
 struct WhitenedEvidence {
   bool ok = false;
-  std::string reason;       // why not ok
-  double delta_bic = 0.0;   // candidate minus base, whitened (negative: the candidate is better)
-  double delta_bic_white = 0.0;  // the same with every sample independent (plain BIC)
+  std::string reason;      // why not ok
+  double delta_bic = 0.0;  // candidate minus base, whitened (negative: the candidate is better)
   // Per observed column: the largest AR order used over the traces, and the ratio of the
   // whitened to the raw residual variance of the candidate (1: white; small: strongly
   // correlated noise, much of it predictable from the past).
@@ -36,10 +36,11 @@ struct WhitenedEvidence {
   std::vector<double> innovation_ratio;
 };
 
-// `base` at `base_values` (the model without the effect), `candidate` at `candidate_values`
-// (with it: `added` more free parameters); both over the same traces and columns.
-WhitenedEvidence PrewhitenedEvidence(const FitProblem& base, const std::vector<double>& base_values,
-                                     const FitProblem& candidate,
+// The evidence for `candidate` at `candidate_values` (the model with the effect) against the
+// model without it, given by its weighted residuals `base_residuals` (FitProblem::Evaluate's,
+// over the same traces and columns) and its number of free parameters `base_free`.
+WhitenedEvidence PrewhitenedEvidence(const std::vector<double>& base_residuals,
+                                     std::size_t base_free, const FitProblem& candidate,
                                      const std::vector<double>& candidate_values);
 
 // Yule-Walker AR(p) coefficients a_1..a_p of `series` (mean removed) for p = 0..max_order,

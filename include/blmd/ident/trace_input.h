@@ -57,6 +57,11 @@ std::vector<FitTrace> LoadFitTraces(const std::string& path, const TraceInputOpt
 FitTrace LoadFitTrace(const std::string& path, const TraceInputOptions& options,
                       const InitialState& default_initial);
 
+// A trace in memory as one experiment: its `u` column (and `open`, when present) is the
+// recorded input, held between samples; `initial` is the state at its first sample.
+FitTrace RecordedFitTrace(Trace trace, const InitialState& initial,
+                          const std::string& path = "generated");
+
 // d theta/dt on a possibly irregular grid: central difference (t_{k+1} - t_{k-1}) inside,
 // one-sided at the ends (second-order accurate for smooth signals).
 std::vector<double> Differentiate(const std::vector<double>& t, const std::vector<double>& x);
