@@ -1,12 +1,12 @@
 #include "blmd/ident/discovery.h"
-#include "blmd/ident/evidence.h"
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <cmath>
 #include <functional>
 #include <limits>
-#include <cmath>
 
+#include "blmd/ident/evidence.h"
 #include "blmd/ident/report.h"
 #include "blmd/io/csv.h"
 #include "blmd/sim/effects.h"
@@ -25,12 +25,12 @@ struct CandidatePlan {
   std::string effect;
   bool applicable = true;
   std::string not_applicable;
-  std::vector<FreeParameter> free;             // the effect's free parameters
-  std::map<std::string, double> fixed;         // the effect's fixed parameters
-  std::vector<std::vector<double>> starts;     // start values for `free`
+  std::vector<FreeParameter> free;                                // the effect's free parameters
+  std::map<std::string, double> fixed;                            // the effect's fixed parameters
+  std::vector<std::vector<double>> starts;                        // start values for `free`
   std::vector<std::map<std::string, double>> fixed_alternatives;  // cogging: one per period
   std::vector<std::vector<std::vector<double>>> alternative_starts;  // extra starts per alternative
-  std::string amplitude;                       // parameter that must differ from zero
+  std::string amplitude;  // parameter that must differ from zero
   // Physical constraint on the refit's values (all parameters, model and effects): empty
   // when valid, else why not.
   std::function<std::string(const ParameterSet&)> constraint;
@@ -130,7 +130,8 @@ bool CoggingStart(const FitProblem& problem, const std::vector<double>& values, 
       if (std::abs(w[r]) <= 0.25 * w_max) continue;
       const std::size_t h = std::min(n / 4, static_cast<std::size_t>(kPi / std::abs(w[r]) * rate));
       const std::size_t lo = r >= h ? r - h : 0, hi = std::min(n, r + h + 1);
-      const double detrended = (measured[r] - w[r]) - (prefix[hi] - prefix[lo]) / static_cast<double>(hi - lo);
+      const double detrended =
+          (measured[r] - w[r]) - (prefix[hi] - prefix[lo]) / static_cast<double>(hi - lo);
       const double y = detrended * w[r];
       const double c = std::cos(order * theta[r]), s = std::sin(order * theta[r]);
       a += y * c;
@@ -163,8 +164,8 @@ bool CoggingStart(const FitProblem& problem, const std::vector<double>& values, 
 // spectrum's orders. Returns the orders best first, with their (Tcog, phase) estimates.
 struct OrderScreen {
   int order = 0;
-  double reduction = 0.0;  // fall of the torque balance's sum of squares, (N·m)^2
-  double share = 0.0;      // reduction / the sum of squares left by [a, w, sign w, 1]
+  double reduction = 0.0;       // fall of the torque balance's sum of squares, (N·m)^2
+  double share = 0.0;           // reduction / the sum of squares left by [a, w, sign w, 1]
   int lowest = 0, highest = 0;  // the range of orders screened
   double tcog = 0.0, phase = 0.0;
 };
@@ -415,7 +416,8 @@ FitProblem CandidateProblem(const FitProblem& base, const std::vector<double>& b
                             std::vector<FreeParameter>* free_out) {
   Config config = base.config();
   ParameterSet effect_parameters;
-  for (std::size_t k = 0; k < plan.free.size(); ++k) effect_parameters.Set(plan.free[k].name, effect_values[k]);
+  for (std::size_t k = 0; k < plan.free.size(); ++k)
+    effect_parameters.Set(plan.free[k].name, effect_values[k]);
   for (const auto& [name, value] : fixed) effect_parameters.Set(name, value);
   config.AddEffect(plan.effect, effect_parameters);
   std::vector<FreeParameter> free = base.free();
@@ -465,7 +467,8 @@ std::pair<std::vector<double>, Evaluation> OneStepGaussNewton(const FitProblem& 
   Eigen::MatrixXd jacobian(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(p));
   for (std::size_t k = 0; k < p; ++k) {
     const FreeParameter& fp = problem.free()[k];
-    const double h = fp.log_scale ? 1e-3 : 1e-3 * std::max(std::abs(x0[k]), 1e-2 * (fp.upper - fp.lower));
+    const double h =
+        fp.log_scale ? 1e-3 : 1e-3 * std::max(std::abs(x0[k]), 1e-2 * (fp.upper - fp.lower));
     std::vector<double> xp = x0, xm = x0, rp, rm;
     xp[k] += h;
     xm[k] -= h;
@@ -474,7 +477,8 @@ std::pair<std::vector<double>, Evaluation> OneStepGaussNewton(const FitProblem& 
       return {values, start};
     }
     for (std::size_t i = 0; i < n; ++i) {
-      jacobian(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(k)) = (rp[i] - rm[i]) / (2.0 * h);
+      jacobian(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(k)) =
+          (rp[i] - rm[i]) / (2.0 * h);
     }
   }
   const Eigen::Map<const Eigen::VectorXd> residual(r0.data(), static_cast<Eigen::Index>(n));
@@ -522,14 +526,16 @@ CandidateRun ScreenCandidate(const FitProblem& base, const std::vector<double>& 
   for (std::size_t a = 0; a < alternatives.size(); ++a) {
     std::vector<std::vector<double>> starts = plan.starts;
     if (a < plan.alternative_starts.size()) {
-      starts.insert(starts.begin(), plan.alternative_starts[a].begin(), plan.alternative_starts[a].end());
+      starts.insert(starts.begin(), plan.alternative_starts[a].begin(),
+                    plan.alternative_starts[a].end());
     }
     Scanned best_of_alternative{std::numeric_limits<double>::infinity(), a, {}};
     std::vector<Scanned> of_alternative;
     for (const auto& start : starts) {
       Config config;
       std::vector<FreeParameter> free;
-      const FitProblem problem = CandidateProblem(base, base_values, plan, start, alternatives[a], &config, &free);
+      const FitProblem problem =
+          CandidateProblem(base, base_values, plan, start, alternatives[a], &config, &free);
       const Evaluation evaluation = problem.Evaluate(problem.InitialValues());
       if (evaluation.ok) of_alternative.push_back({evaluation.cost, a, start});
     }
@@ -537,7 +543,8 @@ CandidateRun ScreenCandidate(const FitProblem& base, const std::vector<double>& 
     std::stable_sort(of_alternative.begin(), of_alternative.end(),
                      [](const Scanned& l, const Scanned& r) { return l.cost < r.cost; });
     const std::size_t keep = alternatives.size() > 1 ? 1 : 2;
-    for (std::size_t k = 0; k < of_alternative.size() && k < keep; ++k) scanned.push_back(of_alternative[k]);
+    for (std::size_t k = 0; k < of_alternative.size() && k < keep; ++k)
+      scanned.push_back(of_alternative[k]);
   }
   if (scanned.empty()) {
     run.outcome.reason = "every start point failed to simulate";
@@ -556,8 +563,9 @@ CandidateRun ScreenCandidate(const FitProblem& base, const std::vector<double>& 
   for (const auto& candidate : scanned) {
     Config config;
     std::vector<FreeParameter> free;
-    const FitProblem problem = CandidateProblem(base, base_values, plan, candidate.start,
-                                                alternatives[candidate.alternative], &config, &free);
+    const FitProblem problem =
+        CandidateProblem(base, base_values, plan, candidate.start,
+                         alternatives[candidate.alternative], &config, &free);
     double cost = std::numeric_limits<double>::infinity();
     std::vector<double> values;
     if (problem.effect_angle_forced()) {
@@ -587,8 +595,10 @@ CandidateRun ScreenCandidate(const FitProblem& base, const std::vector<double>& 
     run.outcome.reason = "the local searches of the scan's best points failed";
     return run;
   }
-  const std::vector<double> searched_base(best_values.begin(), best_values.begin() + static_cast<long>(base.num_free()));
-  const std::vector<double> best_start(best_values.begin() + static_cast<long>(base.num_free()), best_values.end());
+  const std::vector<double> searched_base(best_values.begin(),
+                                          best_values.begin() + static_cast<long>(base.num_free()));
+  const std::vector<double> best_start(best_values.begin() + static_cast<long>(base.num_free()),
+                                       best_values.end());
   const FitProblem problem =
       CandidateProblem(base, searched_base, plan, best_start, best_fixed, &run.config, &run.free);
   const Evaluation at_start = problem.Evaluate(problem.InitialValues());
@@ -749,8 +759,8 @@ void RefitCandidate(const FitProblem& base, const RoundBase& round, const Candid
       const ParameterEstimate& e = run->fit.estimates[offset + k];
       if (e.has_interval && std::abs(v) < 2.0 * e.std) {
         run->outcome.valid = false;
-        run->outcome.reason = p.name + " = " + G(v) + " is within two standard deviations (" +
-                              G(e.std) + ") of zero";
+        run->outcome.reason =
+            p.name + " = " + G(v) + " is within two standard deviations (" + G(e.std) + ") of zero";
         break;
       }
     }
@@ -767,27 +777,27 @@ void RefitCandidate(const FitProblem& base, const RoundBase& round, const Candid
   if (run->outcome.valid && !(run->outcome.delta_bic < -options.bic_margin)) {
     run->outcome.reason = "BIC does not fall by more than " + G(options.bic_margin);
   } else if (run->outcome.valid && !run->outcome.held_out_better) {
-    run->outcome.reason =
-        run->outcome.has_held_out
-            ? "the held-out NRMSE does not fall by more than " +
-                  G(100.0 * options.held_out_margin) + " % (" + G(run->outcome.held_out_before) +
-                  " -> " + G(run->outcome.held_out_after) + ")"
-            : "the held-out traces could not be simulated with the effect";
+    run->outcome.reason = run->outcome.has_held_out
+                              ? "the held-out NRMSE does not fall by more than " +
+                                    G(100.0 * options.held_out_margin) + " % (" +
+                                    G(run->outcome.held_out_before) + " -> " +
+                                    G(run->outcome.held_out_after) + ")"
+                              : "the held-out traces could not be simulated with the effect";
   }
 }
 
 std::string Evidence(const std::string& effect, const ResidualAnalysis& analysis,
                      const CandidateOutcome& outcome, double nrmse_before) {
-  std::string text = "BIC " + G(outcome.delta_bic, 5) +
-                     (outcome.evidence_rule == "prewhitened_bic" &&
-                              G(outcome.delta_bic_white, 5) != G(outcome.delta_bic, 5)
-                          ? " on whitened residuals (" + G(outcome.delta_bic_white, 5) +
-                                " counting every sample)"
-                          : std::string()) +
-                     ", NRMSE " + G(nrmse_before) + " -> " + G(outcome.nrmse) +
-                     (outcome.has_held_out ? ", held-out NRMSE " + G(outcome.held_out_before) +
-                                                 " -> " + G(outcome.held_out_after)
-                                           : std::string());
+  std::string text =
+      "BIC " + G(outcome.delta_bic, 5) +
+      (outcome.evidence_rule == "prewhitened_bic" &&
+               G(outcome.delta_bic_white, 5) != G(outcome.delta_bic, 5)
+           ? " on whitened residuals (" + G(outcome.delta_bic_white, 5) + " counting every sample)"
+           : std::string()) +
+      ", NRMSE " + G(nrmse_before) + " -> " + G(outcome.nrmse) +
+      (outcome.has_held_out
+           ? ", held-out NRMSE " + G(outcome.held_out_before) + " -> " + G(outcome.held_out_after)
+           : std::string());
   // The diagnostic that points at this effect, from the column where it is strongest.
   const ColumnDiagnostics* strongest = nullptr;
   auto pick = [&](auto score) {
@@ -796,20 +806,35 @@ std::string Evidence(const std::string& effect, const ResidualAnalysis& analysis
     }
   };
   if (effect == "coulomb_friction" || effect == "stribeck" || effect == "asymmetric_viscous") {
-    pick([](const ColumnDiagnostics& d) { return d.sign_w.available ? std::abs(d.sign_w.t_statistic) : 0.0; });
-    if (strongest) text += "; " + strongest->column + " residual mean differs by sign of w (t = " + G(strongest->sign_w.t_statistic, 3) + ")";
+    pick([](const ColumnDiagnostics& d) {
+      return d.sign_w.available ? std::abs(d.sign_w.t_statistic) : 0.0;
+    });
+    if (strongest)
+      text += "; " + strongest->column +
+              " residual mean differs by sign of w (t = " + G(strongest->sign_w.t_statistic, 3) +
+              ")";
   } else if (effect == "dead_time") {
-    pick([](const ColumnDiagnostics& d) { return d.sign_i.available ? std::abs(d.sign_i.t_statistic) : 0.0; });
-    if (strongest) text += "; " + strongest->column + " residual mean differs by sign of i (t = " + G(strongest->sign_i.t_statistic, 3) + ")";
+    pick([](const ColumnDiagnostics& d) {
+      return d.sign_i.available ? std::abs(d.sign_i.t_statistic) : 0.0;
+    });
+    if (strongest)
+      text += "; " + strongest->column +
+              " residual mean differs by sign of i (t = " + G(strongest->sign_i.t_statistic, 3) +
+              ")";
   } else if (effect == "cogging") {
-    pick([](const ColumnDiagnostics& d) { return d.angle_peaks.empty() ? 0.0 : d.angle_peaks.front().ratio; });
+    pick([](const ColumnDiagnostics& d) {
+      return d.angle_peaks.empty() ? 0.0 : d.angle_peaks.front().ratio;
+    });
     if (strongest) {
-      text += "; " + strongest->column + " residual peaks at " + std::to_string(strongest->angle_peaks.front().order) +
-              " periods/rev (" + G(strongest->angle_peaks.front().ratio, 3) + " x the spectrum's median)";
+      text += "; " + strongest->column + " residual peaks at " +
+              std::to_string(strongest->angle_peaks.front().order) + " periods/rev (" +
+              G(strongest->angle_peaks.front().ratio, 3) + " x the spectrum's median)";
     }
   } else {
     pick([](const ColumnDiagnostics& d) { return d.rms > 0.0 ? std::abs(d.mean) / d.rms : 0.0; });
-    if (strongest) text += "; " + strongest->column + " residual mean " + G(strongest->mean) + " (rms " + G(strongest->rms) + ")";
+    if (strongest)
+      text += "; " + strongest->column + " residual mean " + G(strongest->mean) + " (rms " +
+              G(strongest->rms) + ")";
   }
   return text;
 }
@@ -885,7 +910,8 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     std::stable_sort(screened.begin(), screened.end(), [&](std::size_t l, std::size_t r) {
       return runs[l].screen_bic < runs[r].screen_bic;
     });
-    if (screened.size() > static_cast<std::size_t>(options.refits)) screened.resize(static_cast<std::size_t>(options.refits));
+    if (screened.size() > static_cast<std::size_t>(options.refits))
+      screened.resize(static_cast<std::size_t>(options.refits));
     const RoundBase round_base = MakeRoundBase(*current_problem, current_fit.values, options);
     parallel(screened, [&](std::size_t k) {
       RefitCandidate(*current_problem, round_base, plans[k], current_bic, options, &runs[k]);
@@ -894,9 +920,11 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     for (auto& run : runs) {
       if (!run.refitted && !run.screen_values.empty()) {
         run.outcome.reason = run.screen_bic >= 0.0
-                                 ? "screened out: one Gauss-Newton step does not lower BIC (" + G(run.screen_bic, 4) + ")"
-                                 : "screened out (one-step BIC " + G(run.screen_bic, 4) + "; only the best " +
-                                       std::to_string(options.refits) + " are refit)";
+                                 ? "screened out: one Gauss-Newton step does not lower BIC (" +
+                                       G(run.screen_bic, 4) + ")"
+                                 : "screened out (one-step BIC " + G(run.screen_bic, 4) +
+                                       "; only the best " + std::to_string(options.refits) +
+                                       " are refit)";
       }
     }
     // Best first: fitted before not, then by BIC; ties by name (deterministic).
@@ -907,7 +935,8 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
       const auto& b = runs[r].outcome;
       if (a.fitted != b.fitted) return a.fitted;
       if (a.fitted && a.bic != b.bic) return a.bic < b.bic;
-      if (!a.fitted && runs[l].screen_bic != runs[r].screen_bic) return runs[l].screen_bic < runs[r].screen_bic;
+      if (!a.fitted && runs[l].screen_bic != runs[r].screen_bic)
+        return runs[l].screen_bic < runs[r].screen_bic;
       return a.effect < b.effect;
     });
     std::vector<CandidateOutcome> outcomes;
@@ -935,11 +964,13 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
       result.ambiguous.push_back(tied);
       std::string names;
       for (const auto& n : tied) names += (names.empty() ? "" : " and ") + n;
-      result.ambiguity_reason = names + " explain the residual equally well (BIC within " +
-                                G(options.ambiguity_margin) + ")" +
-                                (analysis.w_changes_sign ? "" : "; w never changes sign on this data, "
-                                                                "so friction and a constant load look alike") +
-                                ": record motion in both directions to tell them apart";
+      result.ambiguity_reason =
+          names + " explain the residual equally well (BIC within " + G(options.ambiguity_margin) +
+          ")" +
+          (analysis.w_changes_sign ? ""
+                                   : "; w never changes sign on this data, "
+                                     "so friction and a constant load look alike") +
+          ": record motion in both directions to tell them apart";
       result.last_round = outcomes;
       break;
     }
@@ -962,7 +993,8 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     result.added.push_back(step.effect);
     // The winner becomes the current model, its fitted values its parameters.
     Config config = best.config;
-    for (std::size_t k = 0; k < best.free.size(); ++k) config.parameters.Set(best.free[k].name, best.fit.values[k]);
+    for (std::size_t k = 0; k < best.free.size(); ++k)
+      config.parameters.Set(best.free[k].name, best.fit.values[k]);
     std::vector<FreeParameter> free = best.free;
     for (std::size_t k = 0; k < free.size(); ++k) free[k].initial = best.fit.values[k];
     current_problem = std::make_unique<FitProblem>(
@@ -988,7 +1020,8 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     std::string names;
     for (const auto& n : result.added) names += (names.empty() ? "" : ", ") + n;
     result.conclusion = "added " + names;
-    if (!result.ambiguous.empty()) result.conclusion += "; then ambiguous: " + result.ambiguity_reason;
+    if (!result.ambiguous.empty())
+      result.conclusion += "; then ambiguous: " + result.ambiguity_reason;
   }
   return result;
 }
@@ -1006,7 +1039,9 @@ std::unique_ptr<FitProblem> FinalProblem(const FitProblem& problem, const Discov
 nlohmann::json DiscoveryJson(const FitProblem& problem, const FitResult& initial,
                              const DiscoveryResult& result, const FitProblem* validation_before,
                              const FitProblem* validation_after) {
-  auto number = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+  auto number = [](double v) {
+    return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+  };
   auto candidates_json = [&](const std::vector<CandidateOutcome>& outcomes) {
     nlohmann::json list = nlohmann::json::array();
     for (const auto& o : outcomes) {
@@ -1044,7 +1079,8 @@ nlohmann::json DiscoveryJson(const FitProblem& problem, const FitResult& initial
     for (const auto& e : step.effect_parameters) {
       parameters[e.name] = number(e.value);
       if (e.has_interval) {
-        intervals[e.name] = {{"std", number(e.std)}, {"ci95", {number(e.ci95_low), number(e.ci95_high)}}};
+        intervals[e.name] = {{"std", number(e.std)},
+                             {"ci95", {number(e.ci95_low), number(e.ci95_high)}}};
       }
     }
     for (const auto& [name, value] : step.fixed_parameters) parameters[name] = number(value);
@@ -1077,23 +1113,23 @@ nlohmann::json DiscoveryJson(const FitProblem& problem, const FitResult& initial
   }
   out["last_round"] = candidates_json(result.last_round);
   out["conclusion"] = result.conclusion;
-  const FitProblem final_problem(result.final_config, problem.traces(), problem.observe(),
-                                 [&] {
-                                   std::vector<FreeParameter> free;
-                                   for (const auto& name : result.final_free) {
-                                     FreeParameter p;
-                                     p.name = name;
-                                     free.push_back(p);
-                                   }
-                                   return free;
-                                 }());
+  const FitProblem final_problem(result.final_config, problem.traces(), problem.observe(), [&] {
+    std::vector<FreeParameter> free;
+    for (const auto& name : result.final_free) {
+      FreeParameter p;
+      p.name = name;
+      free.push_back(p);
+    }
+    return free;
+  }());
   out["error_before"] = ErrorsJson(ComputeErrors(problem, initial.values));
   out["error_after"] = ErrorsJson(ComputeErrors(final_problem, result.final_fit.values));
   nlohmann::json after = nlohmann::json::object(), intervals = nlohmann::json::object();
   for (const auto& e : result.final_fit.estimates) {
     after[e.name] = number(e.value);
     if (e.has_interval) {
-      intervals[e.name] = {{"std", number(e.std)}, {"ci95", {number(e.ci95_low), number(e.ci95_high)}}};
+      intervals[e.name] = {{"std", number(e.std)},
+                           {"ci95", {number(e.ci95_low), number(e.ci95_high)}}};
     }
   }
   out["parameters_after"] = after;

@@ -93,7 +93,8 @@ WhitenedEvidence PrewhitenedEvidence(const std::vector<double>& base_residuals,
     for (std::size_t c = 0; c < columns; ++c) {
       const double* rb = base_residuals.data() + at;
       const double* rc = r_candidate.data() + at;
-      const std::vector<double> a = FitAutoregression(std::vector<double>(rc, rc + rows), kMaxOrder);
+      const std::vector<double> a =
+          FitAutoregression(std::vector<double>(rc, rc + rows), kMaxOrder);
       out.order[c] = std::max(out.order[c], static_cast<int>(a.size()));
       AddWhitened(rb, rows, a, &sse_base[c], &count[c]);
       double unused = 0.0;
@@ -112,8 +113,8 @@ WhitenedEvidence PrewhitenedEvidence(const std::vector<double>& base_residuals,
   double total = 0.0;
   for (std::size_t c = 0; c < columns; ++c) {
     const double floor = std::max(1e-12 * count[c] / (columns * raw_count[c]), 1e-300);
-    out.delta_bic += count[c] * std::log(std::max(sse_candidate[c], floor) /
-                                         std::max(sse_base[c], floor));
+    out.delta_bic +=
+        count[c] * std::log(std::max(sse_candidate[c], floor) / std::max(sse_base[c], floor));
     out.innovation_ratio.push_back(raw_candidate[c] > 0.0
                                        ? (sse_candidate[c] / std::max(count[c], 1.0)) /
                                              (raw_candidate[c] / raw_count[c])

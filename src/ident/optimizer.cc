@@ -1,7 +1,5 @@
 #include "blmd/ident/optimizer.h"
 
-#include "blmd/ident/uncertainty.h"
-
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
@@ -9,6 +7,7 @@
 #include <optional>
 
 #include "blmd/error.h"
+#include "blmd/ident/uncertainty.h"
 #include "blmd/io/csv.h"
 #include "ident/counting_cost.h"
 #include "ident/methods.h"
@@ -32,7 +31,8 @@ const Optimizer& FindOptimizer(std::string_view name) {
   for (const Optimizer* optimizer : OptimizerRegistry()) {
     valid += (valid.empty() ? "" : ", ") + std::string(optimizer->name());
   }
-  throw InputError("unknown method '" + InputError::Excerpt(std::string(name)) + "' (valid: " + valid + ")");
+  throw InputError("unknown method '" + InputError::Excerpt(std::string(name)) +
+                   "' (valid: " + valid + ")");
 }
 
 void EstimateUncertainty(const FitProblem& problem, const std::vector<double>& values,
@@ -66,8 +66,8 @@ bool NormalisedResidualJacobian(const FitProblem& problem, const std::vector<dou
     const FreeParameter& fp = problem.free()[k];
     // The same step as the ceres method (see ceres_fit.cc): coarse enough to step over the
     // simulator's whole-step event jitter.
-    const double h = fp.log_scale ? 1e-3 : 1e-3 * std::max(std::abs(values[k]),
-                                                           1e-3 * (fp.upper - fp.lower));
+    const double h =
+        fp.log_scale ? 1e-3 : 1e-3 * std::max(std::abs(values[k]), 1e-3 * (fp.upper - fp.lower));
     std::vector<double> plus = values, minus = values;
     if (fp.log_scale) {
       plus[k] = values[k] * std::exp(h);
@@ -180,8 +180,9 @@ void CheckProgress(const FitProblem& problem, FitResult* result) {
     for (const double direction : {-1.0, 1.0}) {
       std::vector<double> probe = result->values;
       const double x = probe[k];
-      probe[k] = fp.log_scale ? x * std::exp(0.05 * direction)
-                              : x + 0.05 * direction * std::max(std::abs(x), 1e-3 * (fp.upper - fp.lower));
+      probe[k] = fp.log_scale
+                     ? x * std::exp(0.05 * direction)
+                     : x + 0.05 * direction * std::max(std::abs(x), 1e-3 * (fp.upper - fp.lower));
       probe[k] = std::clamp(probe[k], fp.lower, fp.upper);
       if (probe[k] == x) continue;
       const Evaluation moved = problem.Evaluate(probe);
@@ -205,8 +206,8 @@ void CheckMethodOptions(const std::string& method, const nlohmann::json& options
     if (!known) {
       std::string list;
       for (const auto& name : valid) list += (list.empty() ? "" : ", ") + name;
-      throw InputError("unknown option '" + InputError::Excerpt(key) + "' for method " + method + " (valid: " + list +
-                       ")");
+      throw InputError("unknown option '" + InputError::Excerpt(key) + "' for method " + method +
+                       " (valid: " + list + ")");
     }
   }
 }
@@ -264,9 +265,8 @@ int OptionWholeNumber(const std::string& method, const nlohmann::json& options, 
   return static_cast<int>(*value);
 }
 
-std::string OptionChoice(const std::string& method, const nlohmann::json& options,
-                         const char* key, const std::string& fallback,
-                         const std::vector<std::string>& choices) {
+std::string OptionChoice(const std::string& method, const nlohmann::json& options, const char* key,
+                         const std::string& fallback, const std::vector<std::string>& choices) {
   if (!options.contains(key)) return fallback;
   const nlohmann::json& value = options[key];
   if (value.is_string() &&

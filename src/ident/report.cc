@@ -13,7 +13,9 @@
 namespace blmd {
 namespace {
 
-nlohmann::json Number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+nlohmann::json Number(double v) {
+  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+}
 
 std::string G(double v, int digits = 5) {
   if (!std::isfinite(v)) return "n/a";
@@ -59,7 +61,8 @@ nlohmann::json ErrorsJson(const ErrorFigures& errors) {
   out["nrmse"] = Number(errors.nrmse);
   out["mse"] = Number(errors.mse);
   nlohmann::json rmse = nlohmann::json::object();
-  for (std::size_t c = 0; c < errors.observe.size(); ++c) rmse[errors.observe[c]] = Number(errors.rmse[c]);
+  for (std::size_t c = 0; c < errors.observe.size(); ++c)
+    rmse[errors.observe[c]] = Number(errors.rmse[c]);
   out["rmse"] = rmse;
   return out;
 }
@@ -98,10 +101,12 @@ nlohmann::json MakeReport(const ReportInputs& inputs) {
   report["schema_version"] = kReportSchemaVersion;
   report["model"] = std::string(config.model->name());
   report["method"] = result.summary.method;
-  report["config"] = {{"path", inputs.config_path}, {"name", config.name}, {"effects", config.effects}};
+  report["config"] = {
+      {"path", inputs.config_path}, {"name", config.name}, {"effects", config.effects}};
   report["effects"] = config.effects;  // the model's (after discovery: with the added ones)
   const FitTrace& first = problem.traces().front();
-  report["trace"] = {{"path", first.path}, {"samples", first.trace.rows()}, {"sha256", first.sha256}};
+  report["trace"] = {
+      {"path", first.path}, {"samples", first.trace.rows()}, {"sha256", first.sha256}};
   nlohmann::json traces = nlohmann::json::array();
   const Evaluation& evaluation = result.evaluation;
   for (std::size_t k = 0; k < problem.traces().size(); ++k) {
@@ -115,7 +120,8 @@ nlohmann::json MakeReport(const ReportInputs& inputs) {
         normalised += evaluation.mse_per_trace[k][c] / problem.variance()[c];
       }
       entry["rmse"] = rmse;
-      entry["nrmse"] = Number(std::sqrt(normalised / static_cast<double>(problem.observe().size())));
+      entry["nrmse"] =
+          Number(std::sqrt(normalised / static_cast<double>(problem.observe().size())));
     }
     traces.push_back(entry);
   }
@@ -137,7 +143,8 @@ nlohmann::json MakeReport(const ReportInputs& inputs) {
     // The white-noise interval for comparison (docs/uncertainty.md).
     if (e.has_white_interval) {
       p["std_white"] = Number(e.std_white);
-      p["ci95_white"] = nlohmann::json::array({Number(e.ci95_white_low), Number(e.ci95_white_high)});
+      p["ci95_white"] =
+          nlohmann::json::array({Number(e.ci95_white_low), Number(e.ci95_white_high)});
       p["white_interval_method"] = e.white_method;
     }
     if (const ParamInfo* info = config.FindParameterInfo(e.name)) p["unit"] = info->unit;
@@ -163,7 +170,8 @@ nlohmann::json MakeReport(const ReportInputs& inputs) {
   }
   for (const auto& [name, value] : result.extra_estimates) {
     if (parameters.contains(name)) continue;
-    nlohmann::json p = {{"value", Number(value)}, {"std", nullptr}, {"ci95", nullptr}, {"free", false}};
+    nlohmann::json p = {
+        {"value", Number(value)}, {"std", nullptr}, {"ci95", nullptr}, {"free", false}};
     if (const ParamInfo* info = config.FindParameterInfo(name)) p["unit"] = info->unit;
     parameters[name] = p;
   }
@@ -196,14 +204,19 @@ nlohmann::json MakeReport(const ReportInputs& inputs) {
   }
   report["fit"] = fit;
 
-  nlohmann::json summary = {{"method", s.method}, {"algorithm", s.algorithm},
-                            {"converged", s.converged}, {"termination", s.termination},
-                            {"message", s.message}, {"raw_code", s.raw_code},
+  nlohmann::json summary = {{"method", s.method},
+                            {"algorithm", s.algorithm},
+                            {"converged", s.converged},
+                            {"termination", s.termination},
+                            {"message", s.message},
+                            {"raw_code", s.raw_code},
                             {"evaluations", s.evaluations},
                             {"failed_evaluations", s.failed_evaluations},
                             {"failure_reasons", s.failure_reasons},
-                            {"iterations", s.iterations}, {"wall_time_s", Number(s.wall_time_s)},
-                            {"seed", inputs.seed}, {"threads", inputs.threads},
+                            {"iterations", s.iterations},
+                            {"wall_time_s", Number(s.wall_time_s)},
+                            {"seed", inputs.seed},
+                            {"threads", inputs.threads},
                             {"details", s.details}};
   report["method_summary"] = summary;
 
@@ -232,8 +245,8 @@ nlohmann::json MakeReport(const ReportInputs& inputs) {
     for (const auto& t : inputs.validation->traces()) paths.push_back(t.path);
     validation["traces"] = paths;
     if (inputs.validation->equation_error()) {
-      validation["simulated"] =
-          SimulatedErrors(*inputs.validation, inputs.validation->config(), free_names, result.values);
+      validation["simulated"] = SimulatedErrors(*inputs.validation, inputs.validation->config(),
+                                                free_names, result.values);
     }
     report["validation"] = validation;
   }
@@ -280,7 +293,8 @@ void WidenForAmbiguity(nlohmann::json* report) {
       for (const auto& [name, value] : model["parameters"].items()) {
         if (!parameters.contains(name) || !value.is_number()) continue;
         nlohmann::json& p = parameters[name];
-        if (!p["ci95"].is_array() || !p["ci95"][0].is_number() || !p["ci95"][1].is_number()) continue;
+        if (!p["ci95"].is_array() || !p["ci95"][0].is_number() || !p["ci95"][1].is_number())
+          continue;
         const double v = value.get<double>();
         const double low = p["ci95"][0].get<double>(), high = p["ci95"][1].get<double>();
         if (v >= low && v <= high) continue;
@@ -355,7 +369,8 @@ void AddWarnings(nlohmann::json* report_pointer) {
   const nlohmann::json& discovery = Field(report, "discovery");
   for (const auto& group : Field(discovery, "ambiguous")) {
     std::string effects;
-    for (const auto& e : Field(group, "effects")) effects += (effects.empty() ? "" : ", ") + e.get<std::string>();
+    for (const auto& e : Field(group, "effects"))
+      effects += (effects.empty() ? "" : ", ") + e.get<std::string>();
     std::string models;
     for (const auto& m : Field(group, "models")) {
       models += (models.empty() ? "" : "; ") + m["effect"].get<std::string>() + ":";
@@ -416,7 +431,8 @@ std::string HumanSummary(const nlohmann::json& report) {
           << G(p["ci95"][1], 5) << "]" << (widened ? ", widened to cover the ambiguous models" : "")
           << ")";
     }
-    if (p.contains("initial") && !p["initial"].is_null()) out << "   initial " << G(p["initial"], 4);
+    if (p.contains("initial") && !p["initial"].is_null())
+      out << "   initial " << G(p["initial"], 4);
     if (p.contains("free") && !p["free"].get<bool>()) out << "   (classic estimate)";
     if (p.contains("at_bound") && p["at_bound"].get<bool>()) out << "   AT ITS BOUND";
     out << "\n";
@@ -427,13 +443,16 @@ std::string HumanSummary(const nlohmann::json& report) {
     out << "failed (" << (fit.contains("failed") ? fit["failed"].get<std::string>() : "") << ")\n";
   } else {
     out << "NRMSE " << G(fit["nrmse"], 4) << " (fit " << G(fit["fit_percent"], 4) << " %), RMSE";
-    for (const auto& [column, value] : fit["rmse"].items()) out << " " << column << " " << G(value, 4);
+    for (const auto& [column, value] : fit["rmse"].items())
+      out << " " << column << " " << G(value, 4);
     out << "\n";
     if (fit.contains("error") && fit["error"]["type"] == "equation") {
       out << "  equation error (the input the model needs along the measured motion): low-pass "
-          << G(fit["error"]["filter_hz"], 4) << " Hz, decimation " << fit["error"]["decimate"].get<int>()
-          << ", " << fit["error"]["samples"].get<long>() << " samples";
-      if (fit.contains("simulated") && fit["simulated"].is_object() && !fit["simulated"]["nrmse"].is_null()) {
+          << G(fit["error"]["filter_hz"], 4) << " Hz, decimation "
+          << fit["error"]["decimate"].get<int>() << ", " << fit["error"]["samples"].get<long>()
+          << " samples";
+      if (fit.contains("simulated") && fit["simulated"].is_object() &&
+          !fit["simulated"]["nrmse"].is_null()) {
         out << "; simulated " << fit["simulated"]["observe"][0].get<std::string>() << ": NRMSE "
             << G(fit["simulated"]["nrmse"], 4);
       }
@@ -451,7 +470,8 @@ std::string HumanSummary(const nlohmann::json& report) {
   const auto& residual = report["residual"];
   if (residual.contains("whiteness_p") && !residual["whiteness_p"].is_null()) {
     out << "residual: Ljung-Box p = " << G(residual["whiteness_p"], 3)
-        << (residual["white"].get<bool>() ? " (white)" : " (NOT white: structure left in the residual)")
+        << (residual["white"].get<bool>() ? " (white)"
+                                          : " (NOT white: structure left in the residual)")
         << "\n";
   }
   if (report.contains("intervals_optimistic") && report["intervals_optimistic"].get<bool>()) {
@@ -478,7 +498,8 @@ std::string HumanSummary(const nlohmann::json& report) {
     }
     const auto& before = d["error_before"];
     const auto& after = d["error_after"];
-    out << "  error before -> after: NRMSE " << G(before["nrmse"], 4) << " -> " << G(after["nrmse"], 4);
+    out << "  error before -> after: NRMSE " << G(before["nrmse"], 4) << " -> "
+        << G(after["nrmse"], 4);
     if (before.contains("rmse") && after.contains("rmse")) {
       for (const auto& [column, value] : before["rmse"].items()) {
         out << ", " << column << " " << G(value, 4) << " -> " << G(after["rmse"][column], 4);
@@ -486,8 +507,8 @@ std::string HumanSummary(const nlohmann::json& report) {
     }
     out << "\n";
     if (d.contains("validation")) {
-      out << "  validation NRMSE before -> after: " << G(d["validation"]["before"]["nrmse"], 4) << " -> "
-          << G(d["validation"]["after"]["nrmse"], 4) << "\n";
+      out << "  validation NRMSE before -> after: " << G(d["validation"]["before"]["nrmse"], 4)
+          << " -> " << G(d["validation"]["after"]["nrmse"], 4) << "\n";
     }
     // Equation error: the same models judged as simulations of the motion.
     const auto simulated_nrmse = [](const nlohmann::json& parent, const char* key) {
@@ -497,9 +518,10 @@ std::string HumanSummary(const nlohmann::json& report) {
                  : std::string("n/a");
     };
     if (d.contains("simulated_after") && fit.contains("simulated")) {
-      out << "  simulated " << (fit["simulated"].is_object() && fit["simulated"].contains("observe")
-                                    ? fit["simulated"]["observe"][0].get<std::string>()
-                                    : std::string("motion"))
+      out << "  simulated "
+          << (fit["simulated"].is_object() && fit["simulated"].contains("observe")
+                  ? fit["simulated"]["observe"][0].get<std::string>()
+                  : std::string("motion"))
           << " NRMSE before -> after: " << simulated_nrmse(fit, "simulated") << " -> "
           << simulated_nrmse(d, "simulated_after");
       if (d.contains("validation") && report.contains("validation")) {

@@ -16,7 +16,8 @@ namespace {
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
 std::string SelectFormatError(const std::string& text) {
-  return "--select '" + text + "': expected NAME=VALUE[,VALUE...] or NAME=LO:HI (LO or HI may be left out)";
+  return "--select '" + text +
+         "': expected NAME=VALUE[,VALUE...] or NAME=LO:HI (LO or HI may be left out)";
 }
 
 // A finite decimal number, the whole of `field`.
@@ -59,7 +60,8 @@ RowSelection ParseRowSelection(const std::string& text) {
   std::size_t start = 0;
   while (true) {
     const std::size_t comma = spec.find(',', start);
-    const std::string item = spec.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+    const std::string item =
+        spec.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
     if (item.empty()) throw InputError(SelectFormatError(text));
     const std::size_t colon = item.find(':');
     if (colon == std::string::npos) {
@@ -145,16 +147,17 @@ std::vector<FitTrace> LoadFitTraces(const std::string& path, const TraceInputOpt
     return found == file_field.end() ? 0 : found->second;
   };
   for (const auto& [name, factor] : options.scales) {
-    if (!trace.Has(name)) throw InputError(path + ": --scale " + name + ": no column '" + name + "'");
+    if (!trace.Has(name))
+      throw InputError(path + ": --scale " + name + ": no column '" + name + "'");
     for (double& v : trace.Column(name)) v *= factor;
   }
   std::vector<std::string> required = {"t", "u"};
   for (const auto& [target, source] : options.derive) required.push_back(source);
   for (const auto& name : required) {
     if (!trace.Has(name)) {
-      throw InputError(path + ": missing required column '" + name + "' (header has: " +
-                       HeaderSummary(trace.names()) + "; map another header with --column " +
-                       name + "=HEADER)");
+      throw InputError(path + ": missing required column '" + name +
+                       "' (header has: " + HeaderSummary(trace.names()) +
+                       "; map another header with --column " + name + "=HEADER)");
     }
   }
   for (const auto& selection : options.select) {
@@ -196,7 +199,8 @@ std::vector<FitTrace> LoadFitTraces(const std::string& path, const TraceInputOpt
     double value = 0.0;              // of the split column
   };
   std::vector<Block> blocks;
-  const std::vector<double>* split_values = options.split.empty() ? nullptr : &trace.Column(options.split);
+  const std::vector<double>* split_values =
+      options.split.empty() ? nullptr : &trace.Column(options.split);
   for (std::size_t row : kept) {
     const double value = split_values ? (*split_values)[row] : 0.0;
     if (!blocks.empty() && value == blocks.back().value) {
@@ -205,14 +209,16 @@ std::vector<FitTrace> LoadFitTraces(const std::string& path, const TraceInputOpt
         continue;
       }
       // The same experiment resumes after rows the selection dropped.
-      const std::string part =
-          split_values ? "the rows with " + options.split + " = " + DisplayNumber(value) : "the rows kept";
+      const std::string part = split_values
+                                   ? "the rows with " + options.split + " = " + DisplayNumber(value)
+                                   : "the rows kept";
       throw InputError(path, line_of(row), 1,
                        "--select keeps " + part + " in more than one block (line " +
                            std::to_string(line_of(blocks.back().end - 1)) + ", then line " +
                            std::to_string(line_of(row)) +
                            "): one experiment must be an unbroken block of rows; narrow the "
-                           "selection" + (split_values ? "" : ", or cut the file with --split COLUMN"));
+                           "selection" +
+                           (split_values ? "" : ", or cut the file with --split COLUMN"));
     }
     if (split_values) {
       for (const Block& earlier : blocks) {
@@ -249,17 +255,20 @@ std::vector<FitTrace> LoadFitTraces(const std::string& path, const TraceInputOpt
       part.comments = trace.comments;
       for (std::size_t c = 0; c < trace.num_columns(); ++c) {
         const auto& column = trace.Column(c);
-        part.Set(trace.names()[c], std::vector<double>(column.begin() + static_cast<long>(block.begin),
-                                                        column.begin() + static_cast<long>(block.end)));
+        part.Set(trace.names()[c],
+                 std::vector<double>(column.begin() + static_cast<long>(block.begin),
+                                     column.begin() + static_cast<long>(block.end)));
       }
     }
     const auto& t = part.Column("t");
     for (std::size_t k = 1; k < t.size(); ++k) {
       if (!(t[k] > t[k - 1])) {
-        throw InputError(path, line_of(block.begin + k), field_of("t"),
-                         "time 't' must strictly increase (" + DisplayNumber(t[k]) +
-                             (t[k] == t[k - 1] ? " repeats " : " follows ") + DisplayNumber(t[k - 1]) +
-                             ")" + (split_values ? " within " + options.split + " = " + DisplayNumber(block.value) : ""));
+        throw InputError(
+            path, line_of(block.begin + k), field_of("t"),
+            "time 't' must strictly increase (" + DisplayNumber(t[k]) +
+                (t[k] == t[k - 1] ? " repeats " : " follows ") + DisplayNumber(t[k - 1]) + ")" +
+                (split_values ? " within " + options.split + " = " + DisplayNumber(block.value)
+                              : ""));
       }
     }
     for (const auto& [target, source] : options.derive) {
@@ -267,13 +276,14 @@ std::vector<FitTrace> LoadFitTraces(const std::string& path, const TraceInputOpt
     }
     for (const auto& required_name : options.required) {
       if (!part.Has(required_name)) {
-        throw InputError(path + ": missing observed column '" + required_name + "' (header has: " +
-                         HeaderSummary(part.names()) + "; map another header with --column " +
-                         required_name + "=HEADER)");
+        throw InputError(path + ": missing observed column '" + required_name +
+                         "' (header has: " + HeaderSummary(part.names()) +
+                         "; map another header with --column " + required_name + "=HEADER)");
       }
     }
     if (part.rows() < 3) {
-      const std::string samples = std::to_string(part.rows()) + " sample" + (part.rows() == 1 ? "" : "s");
+      const std::string samples =
+          std::to_string(part.rows()) + " sample" + (part.rows() == 1 ? "" : "s");
       if (!by_rows) throw InputError(path + ": " + samples + " only: a fit needs at least 3");
       throw InputError(path, line_of(block.begin), 0,
                        name.substr(path.size()) + " has " + samples + " only (line" +
@@ -313,7 +323,8 @@ FitTrace LoadFitTrace(const std::string& path, const TraceInputOptions& options,
   std::vector<FitTrace> experiments = LoadFitTraces(path, options, default_initial);
   if (experiments.size() != 1) {
     throw InputError(path + ": --split " + options.split + " gives " +
-                     std::to_string(experiments.size()) + " experiments where one trace is expected");
+                     std::to_string(experiments.size()) +
+                     " experiments where one trace is expected");
   }
   return std::move(experiments.front());
 }

@@ -28,9 +28,10 @@ TraceJackknife LeaveOneTraceOut(const FitProblem& problem, const std::vector<dou
     const FitProblem fold(problem.config(), std::move(kept), problem.observe(), free);
     const FitResult refit = ceres.Minimize(fold, options);
     if (!refit.evaluation.ok || !refit.summary.converged) {
-      out.reason = "the refit without trace " + std::to_string(left + 1) + " failed: " +
-                   (refit.evaluation.ok ? refit.summary.termination + " (" + refit.summary.message + ")"
-                                        : refit.evaluation.reason);
+      out.reason =
+          "the refit without trace " + std::to_string(left + 1) + " failed: " +
+          (refit.evaluation.ok ? refit.summary.termination + " (" + refit.summary.message + ")"
+                               : refit.evaluation.reason);
       return out;
     }
     std::vector<double> s(free.size());
@@ -81,7 +82,8 @@ void WidenByTraceJackknife(const FitProblem& problem, const TraceJackknife& jack
     ParameterEstimate widened = e;
     internal::SetInterval(f, sd, "leave_one_trace_out", &widened, t);
     if (!widened.has_interval) continue;
-    if (e.has_interval && !(widened.ci95_high - widened.ci95_low > e.ci95_high - e.ci95_low)) continue;
+    if (e.has_interval && !(widened.ci95_high - widened.ci95_low > e.ci95_high - e.ci95_low))
+      continue;
     widened.has_hac_interval = e.has_interval;
     widened.std_hac = e.std;
     widened.ci95_hac_low = e.ci95_low;

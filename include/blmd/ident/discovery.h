@@ -22,10 +22,9 @@
 
 #include <map>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "blmd/ident/diagnostics.h"
 #include "blmd/ident/optimizer.h"
@@ -34,12 +33,12 @@
 namespace blmd {
 
 struct DiscoveryOptions {
-  double bic_margin = 10.0;       // BIC must fall by more than this to add an effect
-  double ambiguity_margin = 2.0;  // candidates closer than this to the best are ambiguous
-  int max_effects = 3;            // rounds
-  int refits = 3;                 // candidates refit in full per round (best by screening)
+  double bic_margin = 10.0;             // BIC must fall by more than this to add an effect
+  double ambiguity_margin = 2.0;        // candidates closer than this to the best are ambiguous
+  int max_effects = 3;                  // rounds
+  int refits = 3;                       // candidates refit in full per round (best by screening)
   std::vector<std::string> candidates;  // empty: every applicable effect
-  OptimizerOptions refit;         // options of the Ceres refits (threads, budgets)
+  OptimizerOptions refit;               // options of the Ceres refits (threads, budgets)
   // Held-out traces (--validate), or null. With them, a candidate must qualify by the plain
   // BIC on the fit traces AND lower the held-out NRMSE by more than `held_out_margin`
   // (relative); without them, by the BIC on prewhitened residuals (evidence.h).
@@ -56,8 +55,8 @@ struct CandidateOutcome {
   bool valid = false;
   std::string reason;  // why not valid / not fitted
   double bic = 0.0;
-  double delta_bic = 0.0;  // vs the model before this round (negative: better), from the
-                           // prewhitened residuals once refit (evidence.h)
+  double delta_bic = 0.0;        // vs the model before this round (negative: better), from the
+                                 // prewhitened residuals once refit (evidence.h)
   double delta_bic_white = 0.0;  // the same with every sample independent (plain BIC)
   // Per observed column, the noise model the evidence used: AR order and the ratio of the
   // innovation to the residual variance (1: white).

@@ -10,20 +10,19 @@
 
 #include <cstdint>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "blmd/ident/problem.h"
 
 namespace blmd {
 
 struct OptimizerOptions {
-  std::uint64_t seed = 1;     // random seed (fsd)
-  int threads = 0;            // worker threads; 0 = all cores
-  int max_evaluations = 0;    // cost evaluations; 0 = the method's default
+  std::uint64_t seed = 1;   // random seed (fsd)
+  int threads = 0;          // worker threads; 0 = all cores
+  int max_evaluations = 0;  // cost evaluations; 0 = the method's default
   // The back-end's own log on stderr (Ceres's glog lines). Off: a command's only stderr line
   // on a failure is its own one-line error (docs/errors.md).
   bool verbose = false;
@@ -34,7 +33,7 @@ struct OptimizerOptions {
 
 struct OptimizerSummary {
   std::string method = "none";
-  std::string algorithm;              // e.g. "LN_BOBYQA", "LEVENBERG_MARQUARDT"
+  std::string algorithm;  // e.g. "LN_BOBYQA", "LEVENBERG_MARQUARDT"
   bool converged = false;
   std::string termination = "not run";  // short reason it stopped
   std::string message;                  // the back-end's own words
@@ -51,8 +50,8 @@ struct ParameterEstimate {
   std::string name;
   double value = 0.0;
   double initial = 0.0;
-  bool has_interval = false;   // std and ci95 valid
-  double std = 0.0;            // standard deviation, physical units
+  bool has_interval = false;  // std and ci95 valid
+  double std = 0.0;           // standard deviation, physical units
   double ci95_low = 0.0, ci95_high = 0.0;
   std::string interval_method;  // "hac_prewhitened" (docs/uncertainty.md), or the white one's
   // The interval with the residuals taken as white noise (every sample independent): the

@@ -1,10 +1,9 @@
 // The blmd-ident report (interface.md "Report JSON", docs/report.md) and its human summary.
 #pragma once
 
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "blmd/ident/optimizer.h"
 #include "blmd/ident/problem.h"

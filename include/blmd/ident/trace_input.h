@@ -32,7 +32,7 @@ struct TraceInputOptions {
   std::map<std::string, std::string> columns;  // standard name -> header in the file
   std::map<std::string, double> scales;        // standard name -> factor (after mapping)
   std::vector<std::pair<std::string, std::string>> derive;  // {"w", "theta"}: w = d theta/dt
-  std::vector<std::string> required;           // standard columns needed besides t and u
+  std::vector<std::string> required;  // standard columns needed besides t and u
   bool initial_from_trace = false;  // initial w, theta (and i) from each experiment's first sample
   // Rows kept: those matching every selection (all rows when empty). The kept rows of one
   // experiment must be one unbroken block of the file.

@@ -24,9 +24,9 @@ namespace blmd {
 
 struct TraceJackknife {
   bool ok = false;
-  std::string reason;                     // why not ok (fewer than 3 traces, a refit failed)
-  int traces = 0;                         // K
-  std::vector<double> std_search;         // per free parameter, search coordinates
+  std::string reason;                       // why not ok (fewer than 3 traces, a refit failed)
+  int traces = 0;                           // K
+  std::vector<double> std_search;           // per free parameter, search coordinates
   std::vector<std::vector<double>> refits;  // per left-out trace: the free values (physical)
 };
 
