@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "blmd/ident/discovery.h"
+#include "blmd/ident/evidence.h"
 #include "blmd/ident/optimizer.h"
 #include "blmd/ident/problem.h"
 #include "blmd/io/config.h"
@@ -74,6 +75,36 @@ std::vector<std::string> Discover(const Config& fit_config, FitTrace trace, bool
   return blmd::Discover(problem, fit, discovery).added;
 }
 
+// The evidence the true model itself has, the bound no discovery rule can beat: the truth's
+// structure refit from the true values (J, B and the effect's own parameters free, cogging's
+// periods fixed), scored by the prewhitened evidence (docs/discovery.md §3a) against the first
+// fit (J and B only). When it does not fall below -margin, no rule that keeps the controls
+// clean at this margin could add the effect from this trace: the effect is present but not
+// identifiable in it (e.g. a cogging torque whose ripple the shaft's inertia filters below
+// the noise, or a shaft that turns less than one cogging period, where the torque is a load).
+double OracleDeltaBic(const Config& truth, const Config& fit_config, const std::string& effect,
+                      const FitTrace& trace) {
+  std::vector<std::string> names = {"J", "B"};
+  if (effect == "coulomb_friction") names.push_back("Tc");
+  if (effect == "load_torque") names.push_back("TL");
+  if (effect == "quadratic_drag") names.push_back("Cd");
+  if (effect == "cogging") names.insert(names.end(), {"Tcog", "phase"});
+  if (effect == "dead_time") names.push_back("Vdt");
+  std::vector<FreeParameter> free = MakeFreeParameters(truth, names);
+  for (auto& parameter : free) parameter.initial = truth.parameters.Get(parameter.name);
+  OptimizerOptions options;
+  options.threads = 2;
+  const FitProblem base(fit_config, {trace}, {"i", "w"}, MakeFreeParameters(fit_config, {"J", "B"}));
+  const FitResult base_fit = FindOptimizer("ceres").Minimize(base, options);
+  std::vector<double> base_residuals;
+  base.Evaluate(base_fit.values, &base_residuals);
+  const FitProblem oracle(truth, {trace}, {"i", "w"}, free);
+  const FitResult fit = FindOptimizer("ceres").Minimize(oracle, options);
+  const WhitenedEvidence evidence = PrewhitenedEvidence(base_residuals, 2, oracle, fit.values);
+  EXPECT_TRUE(evidence.ok) << evidence.reason;
+  return evidence.delta_bic;
+}
+
 // " a b" for effects {a, b}, " nothing" for none.
 std::string Listed(const std::vector<std::string>& effects) {
   std::string out;
@@ -108,6 +139,7 @@ TEST(DiscoveryUnderColouredNoise, ControlsAddNothing) {
 TEST(DiscoveryUnderColouredNoise, HiddenEffectsAreStillNamedFirst) {
   const int cases = Count("STUDY_CASES", 40);
   int named = 0, plain_named = 0;
+  int identifiable_cases = 0, identifiable_named = 0, unidentifiable_named = 0;
   for (int k = 0; k < cases; ++k) {
     Random random(static_cast<std::uint64_t>(k + 1) * 15485863u);
     const Motor motor = RandomMotor(random);
@@ -118,19 +150,31 @@ TEST(DiscoveryUnderColouredNoise, HiddenEffectsAreStillNamedFirst) {
     const FitTrace trace = ColouredNoiseTrace(truth, random, 0.95);
     const std::vector<std::string> added = Discover(fit_config, trace);
     const std::vector<std::string> plain = Discover(fit_config, trace, false);
-    std::printf("case %d (%s): added%s (plain BIC:%s)\n", k, effect.c_str(), Listed(added).c_str(),
-                Listed(plain).c_str());
-    named += !added.empty() && added.front() == effect;
+    const double oracle = OracleDeltaBic(truth, fit_config, effect, trace);
+    const bool identifiable = oracle < -DiscoveryOptions().bic_margin;
+    const bool first = !added.empty() && added.front() == effect;
+    std::printf("case %d (%s): added%s (plain BIC:%s); the true model's evidence %.1f%s\n", k,
+                effect.c_str(), Listed(added).c_str(), Listed(plain).c_str(), oracle,
+                identifiable ? "" : " (not identifiable)");
+    named += first;
     plain_named += !plain.empty() && plain.front() == effect;
+    identifiable_cases += identifiable;
+    identifiable_named += identifiable && first;
+    unidentifiable_named += !identifiable && first;
   }
   std::printf("AR(1) 0.95 hidden effect named first: %d/%d (plain BIC: %d/%d)\n", named, cases,
               plain_named, cases);
-  // Measured (40 cases): 29 named first, the plain BIC 30. Issue 19 asks for 80 %; the
-  // misses (drag 6 of 8, cogging 5 of 8) are nearly the same with the plain BIC (6 and 4):
-  // discovery's power on small drag and cogging under strongly coloured noise more than the
-  // evidence rule. The bar here is what holds: at least 70 %, and no more than one case
-  // below the plain BIC.
+  std::printf("cases whose true model clears the margin: %d/%d, named first in %d of them; "
+              "named first where it does not: %d\n",
+              identifiable_cases, cases, identifiable_named, unidentifiable_named);
+  // Measured (40 cases): 29 named first, the plain BIC 30. Issue 19 asks for 80 %. Seven of
+  // the 40 effects are not identifiable from their trace: the true model, refit from the
+  // truth, does not clear the margin (five drags, ΔBIC -5.5 ... +5.3; two coggings filtered
+  // by the inertia, +8.3 and +25.4). Of the 33 that are, 29 are named first (88 %); the
+  // misses are three coggings on shafts that turn less than half a revolution (over such a
+  // span a cogging torque is a load torque: load_torque is added on two) and a drag at -18.
   EXPECT_GE(named, 0.7 * cases);
+  EXPECT_GE(identifiable_named, 0.8 * identifiable_cases);
   EXPECT_GE(named, plain_named - 1);
 }
 
