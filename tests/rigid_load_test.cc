@@ -1,0 +1,99 @@
+// The rigid load (docs/model-rigid-load.md) against its closed forms: the viscous shaft's
+// exponential spin-up, the coast-down under viscous and Coulomb friction to a stop at the
+// predicted instant, and sticking below the breakaway torque. The zero-order-hold
+// discretisation is exact for a torque held constant over each step, so the samples match
+// the closed forms to rounding.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "blmd/io/config.h"
+#include "blmd/run.h"
+
+namespace blmd::testing {
+namespace {
+
+constexpr double kJ = 2.0e-3;  // kg·m²
+constexpr double kB = 4.0e-3;  // N·m·s/rad
+constexpr double kKt = 0.5;    // N·m per unit of u
+
+Trace Shaft(const std::string& effects, const std::string& input, double w0, double duration) {
+  char text[2048];
+  std::snprintf(text, sizeof text, R"({
+  "name": "shaft", "model": "rigid_load",
+  "parameters": { "J": %.17g, "B": %.17g, "Kt": %.17g },
+  "effects": { %s },
+  "simulation": { "dt": 1e-4 },
+  "experiment": { "input": %s, "duration": %.17g, "sample_rate": 1000,
+                  "initial": { "w": %.17g } }
+})",
+                kJ, kB, kKt, effects.c_str(), input.c_str(), duration, w0);
+  Trace trace;
+  const SimStatus status = RunExperiment(ParseConfig(text, "shaft.json"), &trace);
+  EXPECT_TRUE(status.ok()) << status.message;
+  return trace;
+}
+
+TEST(RigidLoad, ViscousSpinUpIsTheExponentialOfTheClosedForm) {
+  // u = 2 from t = 0: w(t) = w_inf (1 - e^{-t/tau}), theta(t) = w_inf (t - tau (1 - e^{-t/tau})),
+  // w_inf = Kt u / B = 250 rad/s, tau = J / B = 0.5 s.
+  const Trace trace = Shaft("", R"({ "type": "step", "amplitude": 2.0 })", 0.0, 2.0);
+  const double w_inf = kKt * 2.0 / kB, tau = kJ / kB;
+  const auto& t = trace.Column("t");
+  double worst_w = 0.0, worst_theta = 0.0;
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    const double decay = std::exp(-t[k] / tau);
+    worst_w = std::max(worst_w, std::abs(trace.Column("w")[k] - w_inf * (1.0 - decay)));
+    worst_theta = std::max(worst_theta, std::abs(trace.Column("theta")[k] -
+                                                 w_inf * (t[k] - tau * (1.0 - decay))));
+  }
+  EXPECT_LT(worst_w, 1e-9 * w_inf);
+  EXPECT_LT(worst_theta, 1e-9 * w_inf * 2.0);
+  EXPECT_NEAR(trace.Column("w").back(), w_inf * (1.0 - std::exp(-2.0 / tau)), 1e-9 * w_inf);
+}
+
+TEST(RigidLoad, CoulombCoastDownStopsAtThePredictedInstantAndStays) {
+  // u = 0, w(0) = 100 rad/s, Tc = 0.1 N·m: w(t) = (w0 + Tc/B) e^{-t/tau} - Tc/B until
+  // t_stop = tau ln(1 + B w0 / Tc) = 0.5 ln 5 = 0.8047 s, then 0.
+  const double w0 = 100.0, Tc = 0.1, tau = kJ / kB;
+  const Trace trace =
+      Shaft(R"("coulomb_friction": { "Tc": 0.1 })", R"({ "type": "step", "amplitude": 0.0 })", w0, 1.5);
+  const double t_stop = tau * std::log(1.0 + kB * w0 / Tc);
+  const auto& t = trace.Column("t");
+  const auto& w = trace.Column("w");
+  double worst = 0.0;
+  std::size_t first_zero = t.size();
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    if (t[k] < t_stop - 1e-3) {
+      worst = std::max(worst, std::abs(w[k] - ((w0 + Tc / kB) * std::exp(-t[k] / tau) - Tc / kB)));
+    }
+    if (w[k] == 0.0 && first_zero == t.size()) first_zero = k;
+    if (t[k] > t_stop + 1e-3) {
+      EXPECT_EQ(w[k], 0.0) << "at t = " << t[k];
+    }
+  }
+  EXPECT_LT(worst, 1e-9 * w0);
+  ASSERT_LT(first_zero, t.size());
+  // The first zero sample is the first sample instant after the stop (1 ms samples).
+  EXPECT_GE(t[first_zero], t_stop);
+  EXPECT_LT(t[first_zero], t_stop + 1e-3 + 1e-4);
+  // The angle stops where the closed form's integral ends.
+  const double theta_stop = (w0 + Tc / kB) * tau * (1.0 - std::exp(-t_stop / tau)) - Tc / kB * t_stop;
+  EXPECT_NEAR(trace.Column("theta").back(), theta_stop, 1e-4 * theta_stop);
+}
+
+TEST(RigidLoad, StaysAtRestBelowTheBreakawayTorque) {
+  // Kt u = 0.5 x 0.19 = 0.095 N·m < Tc = 0.1 N·m: the shaft never moves; at 0.21 it does.
+  const Trace held =
+      Shaft(R"("coulomb_friction": { "Tc": 0.1 })", R"({ "type": "step", "amplitude": 0.19 })", 0.0, 1.0);
+  for (double w : held.Column("w")) ASSERT_EQ(w, 0.0);
+  for (double theta : held.Column("theta")) ASSERT_EQ(theta, 0.0);
+  const Trace moving =
+      Shaft(R"("coulomb_friction": { "Tc": 0.1 })", R"({ "type": "step", "amplitude": 0.21 })", 0.0, 1.0);
+  // Net torque 0.005 N·m: w(1 s) = (0.005 / B)(1 - e^{-2}) = 1.0808 rad/s.
+  EXPECT_NEAR(moving.Column("w").back(), 0.005 / kB * (1.0 - std::exp(-1.0 / (kJ / kB))), 1e-6);
+}
+
+}  // namespace
+}  // namespace blmd::testing
