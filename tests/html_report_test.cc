@@ -1,8 +1,8 @@
-// The HTML report (include/blmd/io/html_report.h, docs/report.md): its parts counted on
+// The HTML report (include/blmd/report/html_report.h, docs/report.md): its parts counted on
 // real fits of the bundled traces, the cost slices against direct evaluations, the first
 // transient window on a first-order response with a known time constant, and the size of
 // the page for a 1e6-sample trace through the real blmd-ident --html.
-#include "blmd/io/html_report.h"
+#include "blmd/report/html_report.h"
 
 #include <gtest/gtest.h>
 
@@ -16,10 +16,10 @@
 #include <set>
 #include <sstream>
 
-#include "blmd/ident/report.h"
+#include "blmd/report/report.h"
 #include "blmd/ident/trace_input.h"
 #include "blmd/io/config.h"
-#include "blmd/io/plot.h"
+#include "blmd/report/plot.h"
 #include "support/test_support.h"
 
 namespace blmd::testing {

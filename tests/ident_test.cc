@@ -8,7 +8,7 @@
 
 #include "blmd/ident/optimizer.h"
 #include "blmd/ident/problem.h"
-#include "blmd/ident/report.h"
+#include "blmd/report/report.h"
 #include "blmd/io/config.h"
 #include "blmd/random.h"
 #include "blmd/run.h"

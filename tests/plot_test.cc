@@ -1,7 +1,7 @@
 // SVG plots (src/io/plot.cc): structure of the output (well-formed, one element per grid
 // cell, markers where the data says), tick generation and decimation against hand-computed
 // answers, and that non-finite data never leaks into the text.
-#include "blmd/io/plot.h"
+#include "blmd/report/plot.h"
 
 #include <gtest/gtest.h>
 
@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "io/plot_ticks.h"
+#include "report/plot_ticks.h"
 
 namespace blmd {
 namespace {

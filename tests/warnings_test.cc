@@ -7,7 +7,7 @@
 #include <vector>
 #include <string>
 
-#include "blmd/ident/report.h"
+#include "blmd/report/report.h"
 #include "support/test_support.h"
 
 namespace blmd::testing {

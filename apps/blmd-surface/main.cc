@@ -16,8 +16,8 @@
 #include "blmd/io/csv.h"
 #include "blmd/io/files.h"
 #include "blmd/io/flags.h"
-#include "blmd/io/plot.h"
-#include "blmd/io/surface_file.h"
+#include "blmd/report/plot.h"
+#include "blmd/report/surface_file.h"
 #include "blmd/sim/effects.h"
 #include "blmd/sim/model.h"
 

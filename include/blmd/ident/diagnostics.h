@@ -5,7 +5,6 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
 
 #include "blmd/ident/problem.h"
 
@@ -62,6 +61,5 @@ struct DiagnosticsOptions {
 
 ResidualAnalysis AnalyseResidual(const FitProblem& problem, const std::vector<double>& values,
                                  const DiagnosticsOptions& options = {});
-nlohmann::json ResidualJson(const ResidualAnalysis& analysis);
 
 }  // namespace blmd

@@ -22,7 +22,6 @@
 
 #include <map>
 #include <memory>
-#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -109,10 +108,5 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
 // The model after discovery as a problem over the traces of `problem` (its observed columns,
 // the final free parameters with the final config's bounds); null when nothing was added.
 std::unique_ptr<FitProblem> FinalProblem(const FitProblem& problem, const DiscoveryResult& result);
-
-// The report's "discovery" block (interface.md).
-nlohmann::json DiscoveryJson(const FitProblem& problem, const FitResult& initial,
-                             const DiscoveryResult& result, const FitProblem* validation_before,
-                             const FitProblem* validation_after);
 
 }  // namespace blmd

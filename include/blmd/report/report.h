@@ -1,26 +1,29 @@
-// The blmd-ident report (interface.md "Report JSON", docs/report.md) and its human summary.
+// The blmd-ident report (interface.md "Report JSON", docs/report.md) and its human summary:
+// the report layer renders what the identification layer computed (ident/errors.h,
+// ident/diagnostics.h, ident/discovery.h) as JSON and text.
 #pragma once
 
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
+#include "blmd/ident/diagnostics.h"
+#include "blmd/ident/discovery.h"
+#include "blmd/ident/errors.h"
 #include "blmd/ident/optimizer.h"
 #include "blmd/ident/problem.h"
 
 namespace blmd {
 
-// The error of a parameter set on a set of traces (fit or validation).
-struct ErrorFigures {
-  bool ok = false;
-  std::string reason;
-  std::vector<std::string> observe;
-  std::vector<double> rmse;  // per observed column, measured units
-  double nrmse = 0.0;        // sqrt(mean_c MSE_c / Var_c)
-  double mse = 0.0;          // the cost, = nrmse^2 (dimensionless)
-};
-ErrorFigures ComputeErrors(const FitProblem& problem, const std::vector<double>& values);
 nlohmann::json ErrorsJson(const ErrorFigures& errors);
+
+// The residual diagnostics (ident/diagnostics.h) as the report's "residual" block.
+nlohmann::json ResidualJson(const ResidualAnalysis& analysis);
+
+// The report's "discovery" block (interface.md) from discovery's result.
+nlohmann::json DiscoveryJson(const FitProblem& problem, const FitResult& initial,
+                             const DiscoveryResult& result, const FitProblem* validation_before,
+                             const FitProblem* validation_after);
 
 // With the equation error: the motion simulated from the recorded input with `config` (its
 // error set to "output") at the free parameters `values`, compared on the traces' w (else

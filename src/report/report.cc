@@ -1,4 +1,4 @@
-#include "blmd/ident/report.h"
+#include "blmd/report/report.h"
 
 #include <algorithm>
 #include <cmath>
@@ -36,19 +36,6 @@ void SanitizeJson(nlohmann::json* value) {
   } else if (value->is_structured()) {
     for (auto& item : *value) SanitizeJson(&item);
   }
-}
-
-ErrorFigures ComputeErrors(const FitProblem& problem, const std::vector<double>& values) {
-  ErrorFigures errors;
-  errors.observe = problem.observe();
-  const Evaluation evaluation = problem.Evaluate(values);
-  errors.ok = evaluation.ok;
-  errors.reason = evaluation.reason;
-  if (!evaluation.ok) return errors;
-  for (double mse : evaluation.mse) errors.rmse.push_back(std::sqrt(mse));
-  errors.mse = evaluation.cost;
-  errors.nrmse = std::sqrt(evaluation.cost);
-  return errors;
 }
 
 nlohmann::json ErrorsJson(const ErrorFigures& errors) {

@@ -1,4 +1,4 @@
-#include "blmd/io/surface_file.h"
+#include "blmd/report/surface_file.h"
 
 #include <algorithm>
 #include <charconv>

@@ -1,6 +1,6 @@
 // The HTML report (docs/report.md). Every plot is a LinePlotSvg inlined in the page; the
 // page's only styling is the <style> block below. Nothing is fetched and nothing runs.
-#include "blmd/io/html_report.h"
+#include "blmd/report/html_report.h"
 
 #include <algorithm>
 #include <cmath>
@@ -11,7 +11,7 @@
 #include <stdexcept>
 
 #include "blmd/io/files.h"
-#include "blmd/io/plot.h"
+#include "blmd/report/plot.h"
 #include "blmd/version.h"
 #include "parallel.h"
 

@@ -1,6 +1,6 @@
 // SVG plots (docs/plots.md). Layout is computed from estimated text widths (a sans-serif
 // glyph is about 0.6 em wide), so labels can be kept apart without a font engine.
-#include "blmd/io/plot.h"
+#include "blmd/report/plot.h"
 
 #include <algorithm>
 #include <cmath>
@@ -14,7 +14,7 @@
 #include <utility>
 
 #include "blmd/io/csv.h"
-#include "io/plot_ticks.h"
+#include "report/plot_ticks.h"
 
 namespace blmd {
 namespace internal {

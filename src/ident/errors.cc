@@ -1,0 +1,20 @@
+#include "blmd/ident/errors.h"
+
+#include <cmath>
+
+namespace blmd {
+
+ErrorFigures ComputeErrors(const FitProblem& problem, const std::vector<double>& values) {
+  ErrorFigures errors;
+  errors.observe = problem.observe();
+  const Evaluation evaluation = problem.Evaluate(values);
+  errors.ok = evaluation.ok;
+  errors.reason = evaluation.reason;
+  if (!evaluation.ok) return errors;
+  for (double mse : evaluation.mse) errors.rmse.push_back(std::sqrt(mse));
+  errors.mse = evaluation.cost;
+  errors.nrmse = std::sqrt(evaluation.cost);
+  return errors;
+}
+
+}  // namespace blmd
