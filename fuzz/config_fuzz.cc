@@ -38,7 +38,8 @@ void CheckConfig(const blmd::Config& config) {
     }
     for (const char c : experiment.invalid) {
       const auto byte = static_cast<unsigned char>(c);
-      if (byte < 0x20 || byte == 0x7f) Broken("control character in the message:", experiment.invalid);
+      if (byte < 0x20 || byte == 0x7f)
+        Broken("control character in the message:", experiment.invalid);
     }
   } else {
     if (!(experiment.duration / config.simulation.dt <= 1e10)) Broken("too many steps");

@@ -20,7 +20,8 @@ int ThreadCount(int requested) {
 
 void ParallelFor(std::size_t count, int threads, const std::function<void(std::size_t)>& body) {
   if (count == 0) return;
-  const std::size_t workers = std::min<std::size_t>(count, static_cast<std::size_t>(ThreadCount(threads)));
+  const std::size_t workers =
+      std::min<std::size_t>(count, static_cast<std::size_t>(ThreadCount(threads)));
   std::atomic<std::size_t> next{0};
   std::atomic<bool> failed{false};
   std::exception_ptr first_error;

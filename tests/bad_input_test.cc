@@ -77,7 +77,8 @@ void CheckInput(Kind kind, const std::string& input, std::string expected_templa
     const std::string command = ReplaceAll(command_template, "{IN}", input);
     SCOPED_TRACE(command);
     bool refuses = only.empty();
-    for (const auto& name : only) refuses = refuses || command.find("/" + name + " ") != std::string::npos;
+    for (const auto& name : only)
+      refuses = refuses || command.find("/" + name + " ") != std::string::npos;
     const std::string expected = refuses ? refused : "";
     if (expected.empty()) {  // valid input: the command succeeds and writes its output
       TempDir dir;

@@ -26,7 +26,8 @@ TEST(BlmdIdentCli, ReportHasTheStableKeysOfTheInterface) {
   EXPECT_EQ(report["model"], "dc_servo");
   EXPECT_EQ(report["method"], "ceres");
   EXPECT_EQ(report["trace"]["samples"], 10001);  // 1 s at 10 kHz
-  const CommandResult sha = blmd::testing::Run("sha256sum " + SourcePath("testdata/ganesh-noload-step.csv"));
+  const CommandResult sha =
+      blmd::testing::Run("sha256sum " + SourcePath("testdata/ganesh-noload-step.csv"));
   EXPECT_EQ(report["trace"]["sha256"].get<std::string>(), sha.out.substr(0, 64));
   for (const char* name : {"J", "B"}) {
     const auto& p = report["parameters"][name];
@@ -49,7 +50,8 @@ TEST(BlmdIdentCli, ReportHasTheStableKeysOfTheInterface) {
   EXPECT_GT(fit["evaluations"].get<long>(), 0);
   EXPECT_GT(fit["iterations"].get<long>(), 0);
   EXPECT_EQ(fit["converged"], true);
-  EXPECT_NEAR(fit["nrmse"].get<double>() * fit["nrmse"].get<double>(), fit["mse"].get<double>(), 1e-12);
+  EXPECT_NEAR(fit["nrmse"].get<double>() * fit["nrmse"].get<double>(), fit["mse"].get<double>(),
+              1e-12);
   EXPECT_TRUE(report["residual"]["whiteness_p"].is_number());
   EXPECT_EQ(report.dump().find("NaN"), std::string::npos);
 }
@@ -64,7 +66,8 @@ TEST(BlmdIdentCli, JsonPrintsTheReportOnStdout) {
 
 TEST(BlmdIdentCli, GateAboveNrmseExitsThreeAndStillWritesTheReport) {
   TempDir dir;
-  const CommandResult run = blmd::testing::Run(Ident("--fail-above-nrmse 0.001 --quiet --report " + dir.File("r.json")));
+  const CommandResult run =
+      blmd::testing::Run(Ident("--fail-above-nrmse 0.001 --quiet --report " + dir.File("r.json")));
   EXPECT_EQ(run.exit_code, 3);
   EXPECT_TRUE(FileExists(dir.File("r.json")));
   EXPECT_NE(run.err.find("above --fail-above-nrmse"), std::string::npos) << run.err;
@@ -74,14 +77,16 @@ TEST(BlmdIdentCli, GateAboveNrmseExitsThreeAndStillWritesTheReport) {
 // With --discover the final model is the one after discovery: the gate reads its NRMSE
 // (0.0157 on this trace; the first fit's is 0.051).
 TEST(BlmdIdentCli, GateReadsTheNrmseAfterDiscovery) {
-  const std::string command = BinPath("blmd-ident") + " --config " + SourcePath("configs/ganesh-square.json") +
-                              " --trace " + SourcePath("testdata/dc-hidden-coulomb.csv") + " --discover --quiet";
+  const std::string command = BinPath("blmd-ident") + " --config " +
+                              SourcePath("configs/ganesh-square.json") + " --trace " +
+                              SourcePath("testdata/dc-hidden-coulomb.csv") + " --discover --quiet";
   EXPECT_EQ(blmd::testing::Run(command + " --fail-above-nrmse 0.03").exit_code, 0);
   EXPECT_EQ(blmd::testing::Run(command + " --fail-above-nrmse 0.01").exit_code, 3);
 }
 
 TEST(BlmdIdentCli, AFitThatDoesNotConvergeExitsOne) {
-  const CommandResult run = blmd::testing::Run(Ident("--method powell --max-evaluations 3 --quiet"));
+  const CommandResult run =
+      blmd::testing::Run(Ident("--method powell --max-evaluations 3 --quiet"));
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_NE(run.err.find("did not converge"), std::string::npos) << run.err;
 }
@@ -99,7 +104,8 @@ TEST(BlmdIdentCli, BadFlagsAndFilesExitTwoWithOneLineAndNoReport) {
       {"--method simplex", "unknown method 'simplex' (valid: ceres, classic, fsd, powell)"},
       {"--observe i,q", "--observe: 'q' is not an output of model dc_servo (valid: i,w,theta)"},
       {"--free J,Q", "free parameter 'Q' is not a parameter of"},
-      {"--option algorithm=simplex --method powell", "powell option algorithm='simplex' (valid: bobyqa, praxis)"},
+      {"--option algorithm=simplex --method powell",
+       "powell option algorithm='simplex' (valid: bobyqa, praxis)"},
       {"--option speed=3", "unknown option 'speed' for method ceres"},
       {"--initial J=abc", "--initial J: 'abc' is not a finite number"},
       {"--initial J=1", "initial value 1 of 'J' is outside its bounds [1e-07, 0.01]"},
@@ -119,9 +125,9 @@ TEST(BlmdIdentCli, BadFlagsAndFilesExitTwoWithOneLineAndNoReport) {
 }
 
 TEST(BlmdIdentCli, ClassicOnTheBundledCoastDownIsWithinTwoPercent) {
-  const CommandResult run =
-      blmd::testing::Run(BinPath("blmd-ident") + " --config " + SourcePath("configs/ganesh-coastdown.json") +
-          " --trace " + SourcePath("testdata/ganesh-coastdown.csv") + " --json");
+  const CommandResult run = blmd::testing::Run(
+      BinPath("blmd-ident") + " --config " + SourcePath("configs/ganesh-coastdown.json") +
+      " --trace " + SourcePath("testdata/ganesh-coastdown.csv") + " --json");
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const auto report = nlohmann::json::parse(run.out);
   EXPECT_EQ(report["method"], "classic");

@@ -30,7 +30,9 @@ std::size_t FilesIn(const std::string& folder) {
                                                 std::filesystem::directory_iterator()));
 }
 
-CommandResult Sim(const std::string& arguments) { return Run(BinPath("blmd-sim") + " " + arguments); }
+CommandResult Sim(const std::string& arguments) {
+  return Run(BinPath("blmd-sim") + " " + arguments);
+}
 
 // Ganesh's no-load motor run long enough (3 s) to reach its steady state.
 constexpr const char* kSteadyConfig = R"({
@@ -59,9 +61,9 @@ TEST(BlmdSimCli, GoodRunWritesTheTrace) {
   EXPECT_EQ(result.out.substr(0, result.out.find('\n')),
             "blmd-sim: dc_servo 'ganesh-noload', 10001 samples over 1 s -> " + out);
   const std::string text = Slurp(out);
-  EXPECT_EQ(text.substr(0, text.find("\n0,") + 1),
-            "# blmd-sim " + std::string(kVersion) + " model=dc_servo config=" + config +
-                "\nt,u,i,w,theta\n");
+  EXPECT_EQ(text.substr(0, text.find("\n0,") + 1), "# blmd-sim " + std::string(kVersion) +
+                                                       " model=dc_servo config=" + config +
+                                                       "\nt,u,i,w,theta\n");
   const Trace trace = ReadTraceCsv(out);
   EXPECT_EQ(trace.rows(), 10001u);
   EXPECT_EQ(trace.Column("t").back(), 1.0);
@@ -130,7 +132,8 @@ TEST(BlmdSimCli, InputFlagDrivesTheModelWithARecordedTrace) {
   const std::string input =
       dir.Write("drive.csv", "t,u,open\n0,0,0\n0.01,24,0\n0.2,24,0\n0.3,0,1\n0.35,0,1\n0.5,0,1\n");
   const std::string out = dir.File("out.csv");
-  const CommandResult result = Sim("--quiet --config " + config + " --input " + input + " --out " + out);
+  const CommandResult result =
+      Sim("--quiet --config " + config + " --input " + input + " --out " + out);
   ASSERT_EQ(result.exit_code, 0) << result.err;
   const Trace trace = ReadTraceCsv(out);
   // Read at the recorded instants; u as recorded; i = 0 once the armature is open.
@@ -141,20 +144,21 @@ TEST(BlmdSimCli, InputFlagDrivesTheModelWithARecordedTrace) {
   EXPECT_EQ(trace.Column("i")[4], 0.0);
   EXPECT_EQ(trace.Column("i")[5], 0.0);
   // Coasting from t = 0.3 s: w(0.5) = w(0.3) exp(-B 0.2 / J).
-  EXPECT_NEAR(trace.Column("w")[5] / (trace.Column("w")[3] * std::exp(-2.261e-5 * 0.2 / 2.26e-5)), 1.0,
-              1e-9);
+  EXPECT_NEAR(trace.Column("w")[5] / (trace.Column("w")[3] * std::exp(-2.261e-5 * 0.2 / 2.26e-5)),
+              1.0, 1e-9);
 }
 
 TEST(BlmdSimCli, BadInputExitsTwoWithOneLineAndWritesNothing) {
   TempDir dir;
   const std::string good = SourcePath("configs/ganesh-noload.json");
   const std::string out = dir.File("out.csv");
-  const std::string bad = dir.Write(
-      "bad.json", "{\n  \"model\": \"dc_servo\",\n  \"paramters\": {}\n}\n");
+  const std::string bad =
+      dir.Write("bad.json", "{\n  \"model\": \"dc_servo\",\n  \"paramters\": {}\n}\n");
   ExpectBadInput(Sim("--config " + bad + " --out " + out), out,
-                 "error: " + bad + ":3:3: unknown key 'paramters' in '(top level)' (did you mean "
-                 "'parameters'?); valid keys: name, description, notes, model, parameters, "
-                 "effects, simulation, experiment, identification");
+                 "error: " + bad +
+                     ":3:3: unknown key 'paramters' in '(top level)' (did you mean "
+                     "'parameters'?); valid keys: name, description, notes, model, parameters, "
+                     "effects, simulation, experiment, identification");
   ExpectBadInput(Sim("--config " + dir.File("missing.json") + " --out " + out), out,
                  "error: " + dir.File("missing.json") + ": cannot read: No such file or directory");
   ExpectBadInput(
@@ -176,7 +180,8 @@ TEST(BlmdSimCli, BadInputExitsTwoWithOneLineAndWritesNothing) {
   ExpectBadInput(Sim("--config " + good + " --out " + out + " --noise w"), out,
                  "error: --noise 'w': expected NAME=VALUE");
   ExpectBadInput(Sim("--config " + good + " --out " + out + " --input " + dir.File("none.csv")),
-                 out, "error: " + dir.File("none.csv") + ": cannot read: No such file or directory");
+                 out,
+                 "error: " + dir.File("none.csv") + ": cannot read: No such file or directory");
   ExpectBadInput(Sim("--config " + good + " --out /nonexistent-folder/out.csv"),
                  "/nonexistent-folder/out.csv",
                  "error: /nonexistent-folder/out.csv: cannot write in folder "
@@ -213,8 +218,8 @@ TEST(BlmdSimCli, HelpAndVersion) {
   const CommandResult help = Sim("--help");
   EXPECT_EQ(help.exit_code, 0);
   EXPECT_EQ(help.err, "");
-  for (const char* flag : {"--config", "--out", "--effect", "--noise", "--seed", "--input", "--quiet",
-                           "--version"}) {
+  for (const char* flag :
+       {"--config", "--out", "--effect", "--noise", "--seed", "--input", "--quiet", "--version"}) {
     EXPECT_NE(help.out.find(flag), std::string::npos) << flag;
   }
   const CommandResult version = Sim("--version");

@@ -56,21 +56,25 @@ TEST(CliHardening, DeviceOutputsAreWrittenInPlaceAndAFullDiskIsAFailure) {
     GTEST_SKIP() << "mknod needs root";
   }
   const std::string trace = TraceCopy(dir);
-  CommandResult run = blmd::testing::Run(BinPath("blmd-sim") + " --config " + Config() + " --quiet --out " + null);
+  CommandResult run =
+      blmd::testing::Run(BinPath("blmd-sim") + " --config " + Config() + " --quiet --out " + null);
   EXPECT_EQ(run.exit_code, 0) << run.err;
   EXPECT_TRUE(IsCharacterDevice(null));
   run = blmd::testing::Run(BinPath("blmd-ident") + " --config " + Config() + " --trace " + trace +
-            " --quiet --report " + null);
+                           " --quiet --report " + null);
   EXPECT_EQ(run.exit_code, 0) << run.err;
   EXPECT_TRUE(IsCharacterDevice(null));
-  run = blmd::testing::Run(BinPath("blmd-sim") + " --config " + Config() + " --quiet --out " + full);
+  run =
+      blmd::testing::Run(BinPath("blmd-sim") + " --config " + Config() + " --quiet --out " + full);
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_EQ(run.err, "error: " + full + ": cannot write: write: No space left on device\n");
   EXPECT_TRUE(IsCharacterDevice(full));
   // Standard output on a full device: the summary, and --json.
-  run = blmd::testing::Run(BinPath("blmd-sim") + " --config " + Config() + " --out " + dir.File("s.csv") + " > " + full);
+  run = blmd::testing::Run(BinPath("blmd-sim") + " --config " + Config() + " --out " +
+                           dir.File("s.csv") + " > " + full);
   EXPECT_EQ(run.exit_code, 1);
-  run = blmd::testing::Run(BinPath("blmd-ident") + " --config " + Config() + " --trace " + trace + " --json > " + full);
+  run = blmd::testing::Run(BinPath("blmd-ident") + " --config " + Config() + " --trace " + trace +
+                           " --json > " + full);
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_EQ(run.err.rfind("error: cannot write to standard output", 0), 0u) << run.err;
   // --help and --version write to standard output too (they exited 0 on a full disk).
@@ -87,9 +91,9 @@ TEST(CliHardening, FifoOutputIsWrittenInPlace) {
   const std::string fifo = dir.File("report.fifo");
   ASSERT_EQ(mkfifo(fifo.c_str(), 0644), 0);
   const std::string trace = TraceCopy(dir);
-  const CommandResult run = blmd::testing::Run("(cat " + fifo + " > " + dir.File("got.json") + " &) ; " +
-                               BinPath("blmd-ident") + " --config " + Config() + " --trace " +
-                               trace + " --quiet --report " + fifo + "; sleep 0.2");
+  const CommandResult run = blmd::testing::Run(
+      "(cat " + fifo + " > " + dir.File("got.json") + " &) ; " + BinPath("blmd-ident") +
+      " --config " + Config() + " --trace " + trace + " --quiet --report " + fifo + "; sleep 0.2");
   EXPECT_EQ(run.exit_code, 0) << run.err;
   struct stat info {};
   ASSERT_EQ(stat(fifo.c_str(), &info), 0);
@@ -105,16 +109,18 @@ TEST(CliHardening, OutputsAreCheckedBeforeTheWorkAndNeverOverwriteAnInput) {
   const std::string trace = TraceCopy(dir);
   const std::string before = Slurp(trace);
   const std::string ident = "--config " + Config() + " --trace " + trace + " --quiet";
-  ExpectCases("blmd-ident",
-              {{ident + " --report " + dir.File("r.json") + " --html /nonexistent/r.html", 2,
-                "error: /nonexistent/r.html: cannot write in folder '/nonexistent': No such file or "
-                "directory\n"},
-               {ident + " --report " + trace, 2,
-                "error: --report " + trace +
-                    " is the --trace input: writing it would destroy the input; choose another "
-                    "output file\n"},
-               {ident + " --report " + dir.File("same") + " --html " + dir.File("same"), 2,
-                "error: --html " + dir.File("same") + " is also --report: give each output its own file\n"}});
+  ExpectCases(
+      "blmd-ident",
+      {{ident + " --report " + dir.File("r.json") + " --html /nonexistent/r.html", 2,
+        "error: /nonexistent/r.html: cannot write in folder '/nonexistent': No such file or "
+        "directory\n"},
+       {ident + " --report " + trace, 2,
+        "error: --report " + trace +
+            " is the --trace input: writing it would destroy the input; choose another "
+            "output file\n"},
+       {ident + " --report " + dir.File("same") + " --html " + dir.File("same"), 2,
+        "error: --html " + dir.File("same") +
+            " is also --report: give each output its own file\n"}});
   EXPECT_FALSE(FileExists(dir.File("r.json")));
   EXPECT_EQ(Slurp(trace), before);
   const std::string config = dir.Write("config.json", Slurp(Config()));
@@ -130,23 +136,24 @@ TEST(CliHardening, BadFlagValuesAreExitTwo) {
   TempDir dir;
   const std::string trace = TraceCopy(dir);
   const std::string ident = "--config " + Config() + " --trace " + trace + " --quiet ";
-  ExpectCases("blmd-ident",
-              {{ident + "--fail-above-nrmse nan", 2,
-                "error: --fail-above-nrmse: must be a finite number >= 0, not nan (see " +
-                    BinPath("blmd-ident") + " --help)\n"},
-               {ident + "--fail-above-nrmse -1", 2,
-                "error: --fail-above-nrmse: must be a finite number >= 0, not -1 (see " +
-                    BinPath("blmd-ident") + " --help)\n"},
-               {ident + "--initial Q=1", 2,
-                "error: --initial Q: 'Q' is not a free parameter, so it has no start value (free: "
-                "J, B; free it with --free)\n"},
-               {ident + "--observe ''", 2, "error: --observe: empty (valid: i, w, theta)\n"},
-               {ident + "--free ''", 2, "error: --free: empty (valid: R, L, Kt, Kb, J, B)\n"},
-               {ident + "--seed -1", 2,
-                "error: --seed: must be a whole number >= 0, not -1 (see " + BinPath("blmd-ident") +
-                    " --help)\n"},
-               {"--config /dev/zero --trace " + trace, 2,
-                "error: /dev/zero: larger than 16 MiB: not a config (a JSON file of a few KiB)\n"}});
+  ExpectCases(
+      "blmd-ident",
+      {{ident + "--fail-above-nrmse nan", 2,
+        "error: --fail-above-nrmse: must be a finite number >= 0, not nan (see " +
+            BinPath("blmd-ident") + " --help)\n"},
+       {ident + "--fail-above-nrmse -1", 2,
+        "error: --fail-above-nrmse: must be a finite number >= 0, not -1 (see " +
+            BinPath("blmd-ident") + " --help)\n"},
+       {ident + "--initial Q=1", 2,
+        "error: --initial Q: 'Q' is not a free parameter, so it has no start value (free: "
+        "J, B; free it with --free)\n"},
+       {ident + "--observe ''", 2, "error: --observe: empty (valid: i, w, theta)\n"},
+       {ident + "--free ''", 2, "error: --free: empty (valid: R, L, Kt, Kb, J, B)\n"},
+       {ident + "--seed -1", 2,
+        "error: --seed: must be a whole number >= 0, not -1 (see " + BinPath("blmd-ident") +
+            " --help)\n"},
+       {"--config /dev/zero --trace " + trace, 2,
+        "error: /dev/zero: larger than 16 MiB: not a config (a JSON file of a few KiB)\n"}});
   const std::string out = " --quiet --out " + dir.File("never.csv");
   ExpectCases("blmd-sim",
               {{"--config " + Config() + out + " --noise w=1e308", 2,
@@ -187,10 +194,12 @@ TEST(CliHardening, EmptyValuesAreRefusedAndUnknownNamesListTheChoices) {
   ExpectCases("blmd-ident",
               {{ident + "--method ''", 2,
                 "error: --method: empty value (expected ceres|powell|fsd|classic (default: "
-                "config, else ceres))" + help},
+                "config, else ceres))" +
+                    help},
                {ident + "--split ''", 2,
                 "error: --split: empty value (expected cut each trace into one experiment per "
-                "block of equal COLUMN values)" + help},
+                "block of equal COLUMN values)" +
+                    help},
                {ident + "--report= --html " + dir.File("r.html"), 2,
                 "error: --report: empty value (expected write the JSON report here)" + help},
                {ident + "--free Jq,B", 2,
@@ -199,18 +208,19 @@ TEST(CliHardening, EmptyValuesAreRefusedAndUnknownNamesListTheChoices) {
   EXPECT_FALSE(FileExists(dir.File("r.html")));
   const std::string surface =
       "--config " + Config() + " --trace " + trace + " --quiet --out " + dir.File("s.csv");
-  ExpectCases("blmd-surface",
-              {{surface + " --grid J=1e-5:3e-5:2 --observe ''", 2,
-                "error: --observe: empty (valid: i, w, theta)\n"},
-               {surface + " --grid J=1e-5:3e-5:2 --observe q", 2,
-                "error: --observe: 'q' is not an output of model dc_servo (valid: i, w, theta)\n"},
-               {surface + " --grid J=1e-5:3e-5:2 --shard ' 1/3'", 2,
-                "error: --shard ' 1/3': expected K/N, e.g. 3/8\n"},
-               {surface + " --grid J=1e-5:3e-5:2 --shard +1/3", 2,
-                "error: --shard '+1/3': expected K/N, e.g. 3/8\n"},
-               {surface + " --grid Jx=1e-5:3e-5:2", 2,
-                "error: --grid: unknown parameter 'Jx' (did you mean 'J'?); valid: R, L, Kt, Kb, J, "
-                "B\n"}});
+  ExpectCases(
+      "blmd-surface",
+      {{surface + " --grid J=1e-5:3e-5:2 --observe ''", 2,
+        "error: --observe: empty (valid: i, w, theta)\n"},
+       {surface + " --grid J=1e-5:3e-5:2 --observe q", 2,
+        "error: --observe: 'q' is not an output of model dc_servo (valid: i, w, theta)\n"},
+       {surface + " --grid J=1e-5:3e-5:2 --shard ' 1/3'", 2,
+        "error: --shard ' 1/3': expected K/N, e.g. 3/8\n"},
+       {surface + " --grid J=1e-5:3e-5:2 --shard +1/3", 2,
+        "error: --shard '+1/3': expected K/N, e.g. 3/8\n"},
+       {surface + " --grid Jx=1e-5:3e-5:2", 2,
+        "error: --grid: unknown parameter 'Jx' (did you mean 'J'?); valid: R, L, Kt, Kb, J, "
+        "B\n"}});
   EXPECT_FALSE(FileExists(dir.File("s.csv")));
 }
 
@@ -221,9 +231,9 @@ TEST(CliHardening, SymbolicLinkOutputIsFollowed) {
   const std::string trace = TraceCopy(dir);
   ASSERT_EQ(mkdir(dir.File("reports").c_str(), 0755), 0);
   ASSERT_EQ(symlink("reports/real.json", dir.File("link.json").c_str()), 0);
-  const CommandResult run = blmd::testing::Run(BinPath("blmd-ident") + " --config " + Config() +
-                                               " --trace " + trace + " --quiet --report " +
-                                               dir.File("link.json"));
+  const CommandResult run =
+      blmd::testing::Run(BinPath("blmd-ident") + " --config " + Config() + " --trace " + trace +
+                         " --quiet --report " + dir.File("link.json"));
   EXPECT_EQ(run.exit_code, 0) << run.err;
   struct stat info {};
   ASSERT_EQ(lstat(dir.File("link.json").c_str(), &info), 0);
@@ -235,8 +245,8 @@ TEST(CliHardening, SymbolicLinkOutputIsFollowed) {
 TEST(CliHardening, ThreadsAreCapped) {
   TempDir dir;
   const CommandResult run =
-      blmd::testing::Run(BinPath("blmd-ident") + " --config " + Config() + " --trace " + TraceCopy(dir) +
-          " --method fsd --threads 40000 --quiet");
+      blmd::testing::Run(BinPath("blmd-ident") + " --config " + Config() + " --trace " +
+                         TraceCopy(dir) + " --method fsd --threads 40000 --quiet");
   EXPECT_EQ(run.exit_code, 0);
   EXPECT_EQ(run.err, "note: --threads 40000 is more than 256: using 256\n");
 }

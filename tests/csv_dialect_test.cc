@@ -54,10 +54,12 @@ TEST(CsvDialects, EuropeanExcelExport) {
 
 TEST(CsvDialects, UsedColumnsStayStrictWithLineAndColumn) {
   const std::string text = "t,u,w,note\n0,1,2,ok\n0.1,1,fast,\n";
-  EXPECT_EQ(ErrorOf(text, Strict({"t", "u", "w"})), "log.csv:3:3: column 'w' is not a number (\"fast\")");
+  EXPECT_EQ(ErrorOf(text, Strict({"t", "u", "w"})),
+            "log.csv:3:3: column 'w' is not a number (\"fast\")");
   EXPECT_EQ(ErrorOf("t,u,w\n0,1,\n", Strict({"t", "u", "w"})), "log.csv:2:3: column 'w' is empty");
   // An unused numeric column is kept; one with text anywhere is left out.
-  const Trace trace = ParseTraceCsv("t,u,x,note\n0,1,5,a\n0.1,2,6,b\n", "log.csv", Strict({"t", "u"}));
+  const Trace trace =
+      ParseTraceCsv("t,u,x,note\n0,1,5,a\n0.1,2,6,b\n", "log.csv", Strict({"t", "u"}));
   EXPECT_EQ(trace.names(), (std::vector<std::string>{"t", "u", "x"}));
   // Found by csv_dialect_fuzz: -0 in a column not used read as 0 (the strict reader's
   // promise), and a file whose every column is left out is an error, not an empty trace.
@@ -67,22 +69,26 @@ TEST(CsvDialects, UsedColumnsStayStrictWithLineAndColumn) {
             "log.csv: no column holds a number in every row (columns with text or empty cells "
             "are left out when not used)");
   // Without a list every column is read strictly, as before.
-  EXPECT_EQ(ErrorOf("t,u,note\n0,1,a\n", CsvReadOptions{}), "log.csv:2:3: column 'note' is not a number (\"a\")");
+  EXPECT_EQ(ErrorOf("t,u,note\n0,1,a\n", CsvReadOptions{}),
+            "log.csv:2:3: column 'note' is not a number (\"a\")");
 }
 
 TEST(CsvDialects, QuotesFollowRfc4180) {
-  const Trace trace = ParseTraceCsv("\"t\",\"say \"\"hi\"\", then go\",u\n0,\"1\",2\n", "log.csv", {});
+  const Trace trace =
+      ParseTraceCsv("\"t\",\"say \"\"hi\"\", then go\",u\n0,\"1\",2\n", "log.csv", {});
   EXPECT_EQ(trace.names(), (std::vector<std::string>{"t", "say \"hi\", then go", "u"}));
   EXPECT_EQ(trace.Column(1), std::vector<double>{1.0});
   // Written back, such a name is quoted again and reads back as itself.
   const Trace back = ParseTraceCsv(FormatTraceCsv(trace), "back.csv", {});
   EXPECT_EQ(back.names(), trace.names());
-  EXPECT_EQ(ErrorOf("t,u\n0,\"1\n", CsvReadOptions{}), "log.csv:2:2: unclosed quote (a '\"' without its closing '\"')");
+  EXPECT_EQ(ErrorOf("t,u\n0,\"1\n", CsvReadOptions{}),
+            "log.csv:2:2: unclosed quote (a '\"' without its closing '\"')");
   // Found by the hour-long fuzz campaigns: a lone quoted name with a space inside was written
   // back plainly and then read as a space-separated header. Names with spaces are quoted.
   for (const std::string text : {"\"t(n .00\"\n0\n", "h\"$  i\"\n 0\n"}) {
     const Trace lone = ParseTraceCsv(text, "log.csv", CsvReadOptions{});
-    EXPECT_EQ(ParseTraceCsv(FormatTraceCsv(lone), "back.csv", CsvReadOptions{}).names(), lone.names());
+    EXPECT_EQ(ParseTraceCsv(FormatTraceCsv(lone), "back.csv", CsvReadOptions{}).names(),
+              lone.names());
   }
 }
 
@@ -92,7 +98,8 @@ TEST(CsvDialects, DelimiterCanBeForced) {
   const Trace trace = ParseTraceCsv("t;u,v\n0;1\n0.1;2\n", "log.csv", options);
   EXPECT_EQ(trace.names(), (std::vector<std::string>{"t", "u,v"}));
   options.delimiter = '\t';
-  EXPECT_EQ(ParseTraceCsv("t\tu\n0\t1\n", "log.csv", options).Column("u"), std::vector<double>{1.0});
+  EXPECT_EQ(ParseTraceCsv("t\tu\n0\t1\n", "log.csv", options).Column("u"),
+            std::vector<double>{1.0});
 }
 
 TEST(CsvDialects, RepeatedTimeStamps) {
@@ -126,12 +133,14 @@ TEST(CsvDialects, Mg996rServoLogWithRepeatedTimeStamps) {
                              " --column t=t_s --column u=u_V --column i=i_A --observe i --quiet";
   CommandResult run = blmd::testing::Run(common);
   EXPECT_EQ(run.exit_code, 2);
-  EXPECT_EQ(run.err, "error: " + log +
-                         ":8:1: time 't_s' must strictly increase (0.007 repeats 0.007 of line 7); "
-                         "for several rows logged at one instant use --duplicate-time first|mean\n");
+  EXPECT_EQ(run.err,
+            "error: " + log +
+                ":8:1: time 't_s' must strictly increase (0.007 repeats 0.007 of line 7); "
+                "for several rows logged at one instant use --duplicate-time first|mean\n");
   TempDir dir;
   for (const std::string mode : {"first", "mean"}) {
-    run = blmd::testing::Run(common + " --duplicate-time " + mode + " --report " + dir.File(mode + ".json"));
+    run = blmd::testing::Run(common + " --duplicate-time " + mode + " --report " +
+                             dir.File(mode + ".json"));
     EXPECT_EQ(run.exit_code, 0) << run.err;
     const nlohmann::json report = nlohmann::json::parse(Slurp(dir.File(mode + ".json")));
     EXPECT_EQ(report["trace"]["samples"].get<int>(), 19571 - 27);
@@ -143,8 +152,8 @@ TEST(CsvDialects, Mg996rServoLogWithRepeatedTimeStamps) {
     options.duplicate_time = DuplicateTime::kFirst;
     return options;
   }());
-  EXPECT_EQ(trace.names(),
-            (std::vector<std::string>{"timestamp_Angle_DEG", "Angle_DEG", "Current_A", "Voltage_V"}));
+  EXPECT_EQ(trace.names(), (std::vector<std::string>{"timestamp_Angle_DEG", "Angle_DEG",
+                                                     "Current_A", "Voltage_V"}));
   EXPECT_EQ(trace.rows(), 19571u - 27u);
   EXPECT_EQ(trace.Column("Angle_DEG").front(), 330.99609375);
   EXPECT_EQ(trace.Column("Voltage_V")[2], -1.3079999685287476);

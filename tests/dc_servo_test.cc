@@ -48,12 +48,14 @@ ParameterSet Parameters(const Motor& m = Motor()) {
 // by partial fractions over the roots s1, s2 of a2 s^2 + a1 s + a0 (complex arithmetic so
 // that real and complex roots are both handled):
 //   w(t)/Kt     = (1/a2) [1/(s1 s2) + e^{s1 t}/(s1 (s1-s2)) + e^{s2 t}/(s2 (s2-s1))]
-//   i(t)        = (1/a2) [B/(s1 s2) + (J s1 + B) e^{s1 t}/(s1 (s1-s2)) + (J s2 + B) e^{s2 t}/(s2 (s2-s1))]
-//   theta(t)/Kt = (1/a2) [t/(s1 s2) + (s1+s2)/(s1 s2)^2 + e^{s1 t}/(s1^2 (s1-s2)) + e^{s2 t}/(s2^2 (s2-s1))]
+//   i(t)        = (1/a2) [B/(s1 s2) + (J s1 + B) e^{s1 t}/(s1 (s1-s2)) + (J s2 + B) e^{s2 t}/(s2
+//   (s2-s1))] theta(t)/Kt = (1/a2) [t/(s1 s2) + (s1+s2)/(s1 s2)^2 + e^{s1 t}/(s1^2 (s1-s2)) + e^{s2
+//   t}/(s2^2 (s2-s1))]
 class UnitStep {
  public:
   explicit UnitStep(const Motor& m) : m_(m) {
-    const std::complex<double> root = std::sqrt(std::complex<double>(m.a1() * m.a1() - 4.0 * m.a2() * m.a0()));
+    const std::complex<double> root =
+        std::sqrt(std::complex<double>(m.a1() * m.a1() - 4.0 * m.a2() * m.a0()));
     s1_ = (-m.a1() + root) / (2.0 * m.a2());
     s2_ = (-m.a1() - root) / (2.0 * m.a2());
   }
@@ -113,7 +115,8 @@ struct Scenario {
   SimulationSettings settings;
   std::vector<double> times;  // empty: experiment.SampleTimes()
 
-  void Effect(const std::string& name, std::initializer_list<std::pair<const char*, double>> values) {
+  void Effect(const std::string& name,
+              std::initializer_list<std::pair<const char*, double>> values) {
     effects.push_back(name);
     for (const auto& [key, value] : values) parameters.Set(key, value);
   }
@@ -304,8 +307,8 @@ TEST(DcServoInputs, StepsColumnAndResponseAtSeveralSteps) {
     s.experiment.sample_rate = 20000.0;
     s.settings.dt = dt;
     const Trace trace = Simulate(s);
-    const Superposition exact{UnitStep(m), {0.0, 0.005, 0.012, 0.021, 0.03},
-                              {1.0, 5.0, -3.0, 10.0, 24.0}};
+    const Superposition exact{
+        UnitStep(m), {0.0, 0.005, 0.012, 0.021, 0.03}, {1.0, 5.0, -3.0, 10.0, 24.0}};
     const auto& t = trace.Column("t");
     int mismatches = 0;
     double i_error = 0.0, w_error = 0.0;
@@ -340,7 +343,8 @@ TEST(DcServoInputs, SweepHoldsEachLevelAndReachesEachSteadyState) {
     "parameters": { "R": 12.6, "L": 0.283, "Kt": 0.04, "Kb": 0.04, "J": 2.26e-5, "B": 2.261e-5 },
     "experiment": { "input": { "type": "sweep", "levels": [6, 12, 24], "hold": 2.5 },
                     "duration": 7.5, "sample_rate": 1000 }
-  })", "sweep.json");
+  })",
+                                    "sweep.json");
   Trace trace;
   ASSERT_TRUE(RunExperiment(config, &trace).ok());
   const auto& t = trace.Column("t");
@@ -350,7 +354,8 @@ TEST(DcServoInputs, SweepHoldsEachLevelAndReachesEachSteadyState) {
     const double expected = k < 2500 ? 6.0 : (k < 5000 ? 12.0 : 24.0);
     ASSERT_EQ(u[k], expected) << "t = " << t[k];
   }
-  for (const auto& [index, U] : {std::pair<std::size_t, double>{2499, 6.0}, {4999, 12.0}, {7500, 24.0}}) {
+  for (const auto& [index, U] :
+       {std::pair<std::size_t, double>{2499, 6.0}, {4999, 12.0}, {7500, 24.0}}) {
     const double w_ss = m.Kt * U / m.a0(), i_ss = m.B * U / m.a0();
     EXPECT_NEAR(trace.Column("w")[index] / w_ss, 1.0, 1e-6) << "level " << U;
     EXPECT_NEAR(trace.Column("i")[index] / i_ss, 1.0, 1e-6) << "level " << U;
@@ -400,7 +405,8 @@ TEST(DcServoInputs, RecordedOpenColumnCoastsDown) {
   double error = 0.0;
   for (std::size_t k = 2001; k < t.size(); ++k) {
     EXPECT_EQ(trace.Column("i")[k], 0.0) << "t = " << t[k];
-    error = std::max(error, std::abs(trace.Column("w")[k] - w_off * std::exp(-m.B / m.J * (t[k] - 2.0))));
+    error = std::max(error,
+                     std::abs(trace.Column("w")[k] - w_off * std::exp(-m.B / m.J * (t[k] - 2.0))));
   }
   EXPECT_LT(error, 1e-6 * w_off);
 }
@@ -422,7 +428,8 @@ TEST(DcServoCoastDown, ExponentialWithoutEffects) {
   double error = 0.0;
   for (std::size_t k = off + 1; k < t.size(); ++k) {
     ASSERT_EQ(trace.Column("i")[k], 0.0) << "t = " << t[k];
-    error = std::max(error, std::abs(trace.Column("w")[k] - w0 * std::exp(-m.B * (t[k] - 2.5) / m.J)));
+    error =
+        std::max(error, std::abs(trace.Column("w")[k] - w0 * std::exp(-m.B * (t[k] - 2.5) / m.J)));
   }
   Report("coast-down max |w - w0 exp(-B t/J)| / w0", error / w0, 1e-6);
   EXPECT_LT(error, 1e-6 * w0);
@@ -470,7 +477,8 @@ TEST(DcServoCoastDown, TraceReplaysThroughItsUAndOpenColumns) {
     "effects": { "coulomb_friction": { "Tc": 0.002 } },
     "experiment": { "input": { "type": "step", "amplitude": 24.0 }, "coast_off_time": 1.5,
                     "duration": 4.0, "sample_rate": 1000 }
-  })", "coast.json");
+  })",
+                                    "coast.json");
   Trace trace;
   ASSERT_TRUE(RunExperiment(config, &trace).ok());
   ASSERT_TRUE(trace.Has("open"));
@@ -515,7 +523,8 @@ TEST(DcServoCoastDown, CoulombFrictionStopsAtTheAnalyticInstant) {
       first_zero = k;
       break;
     }
-    error = std::max(error, std::abs(w[k] - ((w0 + Tc / m.B) * std::exp(-m.B * t[k] / m.J) - Tc / m.B)));
+    error = std::max(error,
+                     std::abs(w[k] - ((w0 + Tc / m.B) * std::exp(-m.B * t[k] / m.J) - Tc / m.B)));
   }
   ASSERT_LT(first_zero, t.size());
   Report("coulomb coast-down max |w - w_exact| / w0", error / w0, 1e-6);
@@ -526,8 +535,8 @@ TEST(DcServoCoastDown, CoulombFrictionStopsAtTheAnalyticInstant) {
   EXPECT_LE(t[first_zero] - t_stop, 1.0 / fs + dt);
   // theta(t*) = (w0 + Tc/B)(J/B)(1 - e^{-B t*/J}) - Tc t*/B; the last partial step is
   // integrated with the trapezoid rule, off by at most (Tc/J) dt^2.
-  const double theta_stop = (w0 + Tc / m.B) * (m.J / m.B) * (1.0 - std::exp(-m.B * t_stop / m.J)) -
-                            Tc * t_stop / m.B;
+  const double theta_stop =
+      (w0 + Tc / m.B) * (m.J / m.B) * (1.0 - std::exp(-m.B * t_stop / m.J)) - Tc * t_stop / m.B;
   EXPECT_NEAR(theta[first_zero], theta_stop, Tc / m.J * dt * dt + 1e-9 * theta_stop);
   for (std::size_t k = first_zero; k < t.size(); ++k) {
     ASSERT_EQ(w[k], 0.0) << "t = " << t[k];
@@ -658,8 +667,8 @@ TEST(DcServoEffects, CoggingHoldsTheShaftWhereTheTorquesBalance) {
   s.experiment = Step(U, 20.0, 100.0);
   const Trace trace = Simulate(s);
   const double theta_eq = std::asin(0.5) / periods;
-  Report("cogging balance |theta - theta_eq| (rad)", std::abs(trace.Column("theta").back() - theta_eq),
-         1e-9);
+  Report("cogging balance |theta - theta_eq| (rad)",
+         std::abs(trace.Column("theta").back() - theta_eq), 1e-9);
   EXPECT_NEAR(trace.Column("theta").back(), theta_eq, 1e-9);
   EXPECT_NEAR(trace.Column("i").back(), U / m.R, 1e-12);
   EXPECT_NEAR(trace.Column("w").back(), 0.0, 1e-9);
@@ -799,7 +808,8 @@ TEST(DcServoRun, DivergenceIsAStatusWithItsInstant) {
   EXPECT_EQ(status.message, "simulation diverged (non-finite or |state| > 100)");
   const UnitStep unit(m);
   double lo = 0.0, hi = 1.0;
-  for (int k = 0; k < 100; ++k) (24.0 * unit.w(0.5 * (lo + hi)) < 100.0 ? lo : hi) = 0.5 * (lo + hi);
+  for (int k = 0; k < 100; ++k)
+    (24.0 * unit.w(0.5 * (lo + hi)) < 100.0 ? lo : hi) = 0.5 * (lo + hi);
   EXPECT_GE(status.at_time, lo);
   EXPECT_LE(status.at_time, lo + s.settings.dt + 1e-12);
 }
@@ -938,8 +948,9 @@ TEST(StepMetrics, SecondOrderOvershoot) {
   for (long k = 0; k <= 1000000; ++k) {
     t.push_back(k * h);
     const double x = t.back();
-    y.push_back(1.0 - std::exp(-zeta * wn * x) *
-                          (std::cos(wd * x) + zeta / std::sqrt(1.0 - zeta * zeta) * std::sin(wd * x)));
+    y.push_back(1.0 -
+                std::exp(-zeta * wn * x) *
+                    (std::cos(wd * x) + zeta / std::sqrt(1.0 - zeta * zeta) * std::sin(wd * x)));
   }
   const StepMetrics metrics = ComputeStepMetrics(t, y);
   ASSERT_TRUE(metrics.valid);

@@ -16,18 +16,18 @@ struct HiddenEffectCase {
   std::string config;  // configs/...
   std::string trace;   // testdata/...
   std::string observe;
-  std::string effect;                       // the hidden effect ("" for controls)
-  std::map<std::string, double> truth;      // its parameters
-  double J = 0.0, B = 0.0;                  // the true inertia and damping
-  std::string known_failure;                // non-empty: skipped, with the reason
+  std::string effect;                   // the hidden effect ("" for controls)
+  std::map<std::string, double> truth;  // its parameters
+  double J = 0.0, B = 0.0;              // the true inertia and damping
+  std::string known_failure;            // non-empty: skipped, with the reason
 };
 
 void PrintTo(const HiddenEffectCase& c, std::ostream* out) { *out << c.name; }
 
 nlohmann::json Discover(const HiddenEffectCase& c) {
-  const CommandResult run = blmd::testing::Run(
-      BinPath("blmd-ident") + " --config " + SourcePath(c.config) + " --trace " +
-      SourcePath(c.trace) + " --observe " + c.observe + " --discover --json");
+  const CommandResult run =
+      blmd::testing::Run(BinPath("blmd-ident") + " --config " + SourcePath(c.config) + " --trace " +
+                         SourcePath(c.trace) + " --observe " + c.observe + " --discover --json");
   EXPECT_EQ(run.exit_code, 0) << run.err;
   return nlohmann::json::parse(run.out);
 }
@@ -36,7 +36,8 @@ class HiddenEffect : public ::testing::TestWithParam<HiddenEffectCase> {};
 
 TEST_P(HiddenEffect, IsFoundFittedAndExplainsTheResidual) {
   const HiddenEffectCase& c = GetParam();
-  if (!c.known_failure.empty()) GTEST_SKIP() << "KNOWN FAILURE, not solved yet: " << c.known_failure;
+  if (!c.known_failure.empty())
+    GTEST_SKIP() << "KNOWN FAILURE, not solved yet: " << c.known_failure;
   const nlohmann::json report = Discover(c);
   const auto& d = report["discovery"];
   ASSERT_EQ(d["added"], nlohmann::json::array({c.effect})) << d["conclusion"];
@@ -59,8 +60,9 @@ TEST_P(HiddenEffect, IsFoundFittedAndExplainsTheResidual) {
   EXPECT_EQ(report["parameters"]["J"]["value"].get<double>(), J_after);
   EXPECT_EQ(report["parameters"]["B"]["value"].get<double>(), B_after);
   EXPECT_EQ(report["fit"]["nrmse"], d["error_after"]["nrmse"]);
-  std::cout << c.name << ": J " << 100 * (J_before / c.J - 1) << " % -> " << 100 * (J_after / c.J - 1)
-            << " %, B " << 100 * (B_before / c.B - 1) << " % -> " << 100 * (B_after / c.B - 1) << " %\n";
+  std::cout << c.name << ": J " << 100 * (J_before / c.J - 1) << " % -> "
+            << 100 * (J_after / c.J - 1) << " %, B " << 100 * (B_before / c.B - 1) << " % -> "
+            << 100 * (B_after / c.B - 1) << " %\n";
   EXPECT_NEAR(J_after, c.J, 0.02 * c.J);
   EXPECT_NEAR(B_after, c.B, 0.02 * c.B);
   // Before, the model without the effect absorbs it into J and B: visibly biased means at
@@ -68,30 +70,93 @@ TEST_P(HiddenEffect, IsFoundFittedAndExplainsTheResidual) {
   EXPECT_TRUE(std::abs(J_before / c.J - 1) > 0.02 || std::abs(B_before / c.B - 1) > 0.02);
 }
 
-const double kJ = 2.26e-5, kB = 2.261e-5;         // Ganesh no-load motor
-const double kJb = 11.9e-4, kBb = 5e-4;           // blmd-d31x
-INSTANTIATE_TEST_SUITE_P(
-    Testdata, HiddenEffect,
-    ::testing::Values(
-        HiddenEffectCase{"DcCoulomb", "configs/ganesh-square.json", "testdata/dc-hidden-coulomb.csv", "i,w",
-                         "coulomb_friction", {{"Tc", 0.012}}, kJ, kB, ""},
-        HiddenEffectCase{"DcLoad", "configs/ganesh-square.json", "testdata/dc-hidden-load.csv", "i,w",
-                         "load_torque", {{"TL", 0.0015}}, kJ, kB, ""},
-        HiddenEffectCase{"DcDrag", "configs/ganesh-staircase.json", "testdata/dc-hidden-drag.csv", "i,w",
-                         "quadratic_drag", {{"Cd", 3e-7}}, kJ, kB, ""},
-        HiddenEffectCase{"DcDeadTime", "configs/ganesh-square.json", "testdata/dc-hidden-dead-time.csv", "i,w",
-                         "dead_time", {{"Vdt", 0.6}}, kJ, kB, ""},
-        HiddenEffectCase{"DcCurrentOffset", "configs/ganesh-square.json", "testdata/dc-hidden-current-offset.csv",
-                         "i,w", "current_offset", {{"i0", 0.04}}, kJ, kB, ""},
-        HiddenEffectCase{"DcStribeck", "configs/ganesh-square.json", "testdata/dc-hidden-stribeck.csv", "i,w",
-                         "stribeck", {{"Ts", 0.02}, {"ws", 50.0}}, kJ, kB, ""},
-        HiddenEffectCase{"DcCogging", "configs/ganesh-square.json", "testdata/dc-hidden-cogging.csv", "i,w",
-                         "cogging", {{"Tcog", 0.025}, {"periods", 6.0}}, kJ, kB, ""},
-        HiddenEffectCase{"BlmdLoad", "configs/blmd-d31x-square.json", "testdata/blmd-hidden-load.csv", "w",
-                         "load_torque", {{"TL", 0.15}}, kJb, kBb, ""},
-        HiddenEffectCase{"BlmdCogging", "configs/blmd-d31x-square.json", "testdata/blmd-hidden-cogging.csv", "w",
-                         "cogging", {{"Tcog", 0.15}, {"periods", 12.0}}, kJb, kBb, ""}),
-    [](const ::testing::TestParamInfo<HiddenEffectCase>& info) { return info.param.name; });
+const double kJ = 2.26e-5, kB = 2.261e-5;  // Ganesh no-load motor
+const double kJb = 11.9e-4, kBb = 5e-4;    // blmd-d31x
+INSTANTIATE_TEST_SUITE_P(Testdata, HiddenEffect,
+                         ::testing::Values(HiddenEffectCase{"DcCoulomb",
+                                                            "configs/ganesh-square.json",
+                                                            "testdata/dc-hidden-coulomb.csv",
+                                                            "i,w",
+                                                            "coulomb_friction",
+                                                            {{"Tc", 0.012}},
+                                                            kJ,
+                                                            kB,
+                                                            ""},
+                                           HiddenEffectCase{"DcLoad",
+                                                            "configs/ganesh-square.json",
+                                                            "testdata/dc-hidden-load.csv",
+                                                            "i,w",
+                                                            "load_torque",
+                                                            {{"TL", 0.0015}},
+                                                            kJ,
+                                                            kB,
+                                                            ""},
+                                           HiddenEffectCase{"DcDrag",
+                                                            "configs/ganesh-staircase.json",
+                                                            "testdata/dc-hidden-drag.csv",
+                                                            "i,w",
+                                                            "quadratic_drag",
+                                                            {{"Cd", 3e-7}},
+                                                            kJ,
+                                                            kB,
+                                                            ""},
+                                           HiddenEffectCase{"DcDeadTime",
+                                                            "configs/ganesh-square.json",
+                                                            "testdata/dc-hidden-dead-time.csv",
+                                                            "i,w",
+                                                            "dead_time",
+                                                            {{"Vdt", 0.6}},
+                                                            kJ,
+                                                            kB,
+                                                            ""},
+                                           HiddenEffectCase{"DcCurrentOffset",
+                                                            "configs/ganesh-square.json",
+                                                            "testdata/dc-hidden-current-offset.csv",
+                                                            "i,w",
+                                                            "current_offset",
+                                                            {{"i0", 0.04}},
+                                                            kJ,
+                                                            kB,
+                                                            ""},
+                                           HiddenEffectCase{"DcStribeck",
+                                                            "configs/ganesh-square.json",
+                                                            "testdata/dc-hidden-stribeck.csv",
+                                                            "i,w",
+                                                            "stribeck",
+                                                            {{"Ts", 0.02}, {"ws", 50.0}},
+                                                            kJ,
+                                                            kB,
+                                                            ""},
+                                           HiddenEffectCase{"DcCogging",
+                                                            "configs/ganesh-square.json",
+                                                            "testdata/dc-hidden-cogging.csv",
+                                                            "i,w",
+                                                            "cogging",
+                                                            {{"Tcog", 0.025}, {"periods", 6.0}},
+                                                            kJ,
+                                                            kB,
+                                                            ""},
+                                           HiddenEffectCase{"BlmdLoad",
+                                                            "configs/blmd-d31x-square.json",
+                                                            "testdata/blmd-hidden-load.csv",
+                                                            "w",
+                                                            "load_torque",
+                                                            {{"TL", 0.15}},
+                                                            kJb,
+                                                            kBb,
+                                                            ""},
+                                           HiddenEffectCase{"BlmdCogging",
+                                                            "configs/blmd-d31x-square.json",
+                                                            "testdata/blmd-hidden-cogging.csv",
+                                                            "w",
+                                                            "cogging",
+                                                            {{"Tcog", 0.15}, {"periods", 12.0}},
+                                                            kJb,
+                                                            kBb,
+                                                            ""}),
+                         [](const ::testing::TestParamInfo<HiddenEffectCase>& info) {
+                           return info.param.name;
+                         });
 
 TEST(Discovery, ControlsWithoutAHiddenEffectAddNothing) {
   for (const auto& [config, trace, observe] :
@@ -107,13 +172,21 @@ TEST(Discovery, ControlsWithoutAHiddenEffectAddNothing) {
 }
 
 TEST(Discovery, CoulombAndLoadAreAmbiguousWhenTheShaftNeverStops) {
-  HiddenEffectCase c{"ambiguous", "configs/ganesh-running.json", "testdata/dc-ambiguous-coulomb.csv", "i,w",
-                     "", {}, 0, 0, ""};
+  HiddenEffectCase c{"ambiguous",
+                     "configs/ganesh-running.json",
+                     "testdata/dc-ambiguous-coulomb.csv",
+                     "i,w",
+                     "",
+                     {},
+                     0,
+                     0,
+                     ""};
   const nlohmann::json report = Discover(c);
   const auto& d = report["discovery"];
   EXPECT_EQ(d["added"], nlohmann::json::array());
   ASSERT_EQ(d["ambiguous"].size(), 1u);
-  EXPECT_EQ(d["ambiguous"][0]["effects"], nlohmann::json::array({"coulomb_friction", "load_torque"}));
+  EXPECT_EQ(d["ambiguous"][0]["effects"],
+            nlohmann::json::array({"coulomb_friction", "load_torque"}));
   EXPECT_EQ(d["conclusion"].get<std::string>().rfind("ambiguous: ", 0), 0u) << d["conclusion"];
   // Issue 19: each competing model is reported with its J and B and error, and the
   // headline's intervals cover them (here they also cover the truth, which the first fit's
@@ -132,7 +205,7 @@ TEST(Discovery, CoulombAndLoadAreAmbiguousWhenTheShaftNeverStops) {
   const auto& B = report["parameters"]["B"];
   EXPECT_EQ(B["interval_method"], "hac_prewhitened+ambiguity");
   EXPECT_TRUE(B["ci95_before_ambiguity"][0].get<double>() > 2.261e-5);  // missed the truth
-  EXPECT_LE(B["ci95"][0].get<double>(), 2.261e-5);                       // covers it now
+  EXPECT_LE(B["ci95"][0].get<double>(), 2.261e-5);                      // covers it now
   bool warned = false;
   for (const auto& w : report["warnings"]) warned = warned || w["code"] == "discovery_ambiguous";
   EXPECT_TRUE(warned);

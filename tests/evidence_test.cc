@@ -1,17 +1,19 @@
 // The noise model behind discovery's evidence (evidence.h): Yule-Walker AR fits with the
 // order chosen by BIC, on series whose model is known.
+#include "blmd/ident/evidence.h"
+
 #include <gtest/gtest.h>
 
 #include <vector>
 
-#include "blmd/ident/evidence.h"
 #include "blmd/random.h"
 
 namespace blmd {
 namespace {
 
 // x_t = a_1 x_{t-1} + ... + a_p x_{t-p} + N(0, 1), after 500 samples of burn-in.
-std::vector<double> Autoregressive(const std::vector<double>& a, std::size_t n, std::uint64_t seed) {
+std::vector<double> Autoregressive(const std::vector<double>& a, std::size_t n,
+                                   std::uint64_t seed) {
   Random random(seed);
   std::vector<double> x(n + 500, 0.0);
   for (std::size_t t = 0; t < x.size(); ++t) {

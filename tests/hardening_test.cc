@@ -75,7 +75,8 @@ TEST(MethodOptions, OutOfRangeValuesAreExit2WithTheValidRange) {
 }
 
 TEST(MethodOptions, ValidValuesAtTheEndsOfTheRangesRun) {
-  const CommandResult result = blmd::testing::Run(Ident("--option fd_step=0.5 --option max_iterations=1 --quiet"));
+  const CommandResult result =
+      blmd::testing::Run(Ident("--option fd_step=0.5 --option max_iterations=1 --quiet"));
   // One iteration does not converge (exit 1), but it runs: the ends are inside the range.
   EXPECT_EQ(result.exit_code, 1);
   EXPECT_EQ(result.err, "error: the fit did not converge: NO_CONVERGENCE\n");
@@ -97,8 +98,8 @@ TEST(FlatCost, AbsurdStartValuesAreNotConverged) {
     const std::string report = dir.File(method + ".json");
     const CommandResult result =
         blmd::testing::Run(BinPath("blmd-ident") + " --config " + config + " --trace " +
-            SourcePath("testdata/dc-hidden-coulomb.csv") + " --method " + method +
-            " --initial J=1e8 --initial B=1e8 --quiet --report " + report);
+                           SourcePath("testdata/dc-hidden-coulomb.csv") + " --method " + method +
+                           " --initial J=1e8 --initial B=1e8 --quiet --report " + report);
     EXPECT_EQ(result.exit_code, 1);
     EXPECT_EQ(result.err, "error: the fit did not converge: flat cost\n");
     const nlohmann::json json = nlohmann::json::parse(Slurp(report));
@@ -116,9 +117,9 @@ TEST(FlatCost, GoodStartValuesStillConverge) {
   TempDir dir;
   const std::string config = WideBoundsConfig(dir);
   const std::string report = dir.File("report.json");
-  CommandResult result = blmd::testing::Run(BinPath("blmd-ident") + " --config " + config + " --trace " +
-                             SourcePath("testdata/dc-hidden-coulomb.csv") +
-                             " --quiet --report " + report);
+  CommandResult result = blmd::testing::Run(
+      BinPath("blmd-ident") + " --config " + config + " --trace " +
+      SourcePath("testdata/dc-hidden-coulomb.csv") + " --quiet --report " + report);
   ASSERT_EQ(result.exit_code, 0) << result.err;
   const nlohmann::json first = nlohmann::json::parse(Slurp(report));
   const double J = first["parameters"]["J"]["value"], B = first["parameters"]["B"]["value"];
@@ -126,7 +127,7 @@ TEST(FlatCost, GoodStartValuesStillConverge) {
   char initial[128];
   std::snprintf(initial, sizeof initial, " --initial J=%.17g --initial B=%.17g", J, B);
   result = blmd::testing::Run(BinPath("blmd-ident") + " --config " + config + " --trace " +
-               SourcePath("testdata/dc-hidden-coulomb.csv") + initial + " --quiet");
+                              SourcePath("testdata/dc-hidden-coulomb.csv") + initial + " --quiet");
   EXPECT_EQ(result.exit_code, 0) << result.err;
 }
 
@@ -244,8 +245,9 @@ TEST(TraceTimeBase, ATraceFasterThanTheStepIsFittedNotRefused) {
                          {"sample_rate", 10000}};
   const std::string truth_path = dir.Write("truth.json", truth.dump(2));
   const std::string trace = dir.File("trace.csv");
-  CommandResult result = blmd::testing::Run(BinPath("blmd-sim") + " --config " + truth_path +
-                                            " --out " + trace + " --noise i=1% --noise w=1% --quiet");
+  CommandResult result =
+      blmd::testing::Run(BinPath("blmd-sim") + " --config " + truth_path + " --out " + trace +
+                         " --noise i=1% --noise w=1% --quiet");
   ASSERT_EQ(result.exit_code, 0) << result.err;
 
   nlohmann::json coarse = nlohmann::json::parse(Slurp(SourcePath("configs/ganesh-square.json")));
@@ -291,8 +293,10 @@ TEST(CeresLog, SilentUnlessVerbose) {
   TraceInputOptions input;
   input.required = {"i", "w"};
   std::vector<FitTrace> traces;
-  traces.push_back(LoadFitTrace(SourcePath("testdata/dc-hidden-coulomb.csv"), input, config.experiment.initial));
-  const FitProblem problem(config, std::move(traces), {"i", "w"}, MakeFreeParameters(config, {"J", "B"}));
+  traces.push_back(
+      LoadFitTrace(SourcePath("testdata/dc-hidden-coulomb.csv"), input, config.experiment.initial));
+  const FitProblem problem(config, std::move(traces), {"i", "w"},
+                           MakeFreeParameters(config, {"J", "B"}));
   OptimizerOptions options;
   for (const bool verbose : {false, true}) {
     SCOPED_TRACE(verbose);

@@ -16,10 +16,10 @@
 #include <set>
 #include <sstream>
 
-#include "blmd/report/report.h"
 #include "blmd/ident/trace_input.h"
 #include "blmd/io/config.h"
 #include "blmd/report/plot.h"
+#include "blmd/report/report.h"
 #include "support/test_support.h"
 
 namespace blmd::testing {
@@ -27,7 +27,9 @@ namespace {
 
 std::size_t Count(const std::string& text, const std::string& what) {
   std::size_t n = 0;
-  for (std::size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + what.size())) ++n;
+  for (std::size_t at = text.find(what); at != std::string::npos;
+       at = text.find(what, at + what.size()))
+    ++n;
   return n;
 }
 
@@ -78,8 +80,9 @@ Fitted Fit(const std::string& config_name, const std::string& trace_name) {
   std::vector<FitTrace> traces = {
       LoadFitTrace(SourcePath("testdata/" + trace_name), input, config.experiment.initial)};
   Fitted fitted;
-  fitted.problem = std::make_unique<FitProblem>(config, std::move(traces), config.identification.observe,
-                                                MakeFreeParameters(config, config.identification.free));
+  fitted.problem =
+      std::make_unique<FitProblem>(config, std::move(traces), config.identification.observe,
+                                   MakeFreeParameters(config, config.identification.free));
   OptimizerOptions options;
   options.threads = 2;
   fitted.result = FindOptimizer("ceres").Minimize(*fitted.problem, options);
@@ -201,7 +204,8 @@ TEST(FirstTransientWindow, LastsTwoTimeConstantsFromTheStep) {
     TraceInputOptions input;
     input.required = {"w"};
     std::vector<FitTrace> traces = {LoadFitTrace(dir.Write("first-order.csv", csv), input, {})};
-    const FitProblem problem(config, std::move(traces), {"w"}, MakeFreeParameters(config, {"J", "B"}));
+    const FitProblem problem(config, std::move(traces), {"w"},
+                             MakeFreeParameters(config, {"J", "B"}));
     const auto [begin, end] = FirstTransientWindow(problem, 0, problem.traces()[0].trace);
     // 63.2 % is first reached at the sample t0 + tau (1 - e^-1 = 0.63212 > 0.632).
     EXPECT_NEAR(end, t0 + 2 * tau, 1e-9);
@@ -214,7 +218,8 @@ TEST(HtmlReport, HasEveryPartOfAFitWithoutDiscovery) {
   HtmlReportOptions options;
   options.date = "2001-02-03 04:05 UTC";
   options.threads = 2;
-  const std::string html = MakeHtmlReport({&f.report, f.problem.get(), &f.result, nullptr}, options);
+  const std::string html =
+      MakeHtmlReport({&f.report, f.problem.get(), &f.result, nullptr}, options);
   ExpectSelfContained(html);
   // Header.
   EXPECT_EQ(Count(html, "<h1>blmd-ident report: ganesh-noload</h1>"), 1u);
@@ -228,7 +233,7 @@ TEST(HtmlReport, HasEveryPartOfAFitWithoutDiscovery) {
   EXPECT_EQ(Count(html, "data-name=\"J\""), 1u);
   EXPECT_EQ(Count(html, "data-name=\"B\""), 1u);
   EXPECT_LT(html.find("data-name=\"J\""), html.find("data-name=\"B\""));  // the config's order
-  EXPECT_EQ(Count(html, "<td class=\"num\">1e-5</td>"), 2u);  // both start at 1e-5
+  EXPECT_EQ(Count(html, "<td class=\"num\">1e-5</td>"), 2u);              // both start at 1e-5
   // Plots: per observed column (i, w) the trace, its first transient, the residual and its
   // autocorrelation; one cost slice per free parameter (J, B). Each is one inline SVG.
   const std::vector<std::string> figures = Figures(html);
@@ -242,8 +247,8 @@ TEST(HtmlReport, HasEveryPartOfAFitWithoutDiscovery) {
     EXPECT_EQ(Count(figure, "class=\"zoom\" href=\"#" + Attribute(figure, "id") + "\""), 1u);
     EXPECT_EQ(Count(figure, "class=\"axis-label\""), 2u);  // both axes labelled
   }
-  EXPECT_EQ(kinds, (std::map<std::string, int>{{"trace", 2}, {"detail", 2}, {"residual", 2}, {"acf", 2},
-                                                {"slice", 2}}));
+  EXPECT_EQ(kinds, (std::map<std::string, int>{
+                       {"trace", 2}, {"detail", 2}, {"residual", 2}, {"acf", 2}, {"slice", 2}}));
   for (const auto& figure : figures) {
     const std::string kind = Attribute(figure, "data-kind");
     if (kind == "trace" || kind == "detail") {  // measured and simulated: two series
@@ -270,7 +275,8 @@ TEST(HtmlReport, HasEveryPartOfAFitWithoutDiscovery) {
   // Unique SVG ids on the page.
   std::set<std::string> ids;
   const std::regex id_pattern("id=\"([^\"]+)\"");
-  for (auto it = std::sregex_iterator(html.begin(), html.end(), id_pattern); it != std::sregex_iterator(); ++it) {
+  for (auto it = std::sregex_iterator(html.begin(), html.end(), id_pattern);
+       it != std::sregex_iterator(); ++it) {
     EXPECT_TRUE(ids.insert((*it)[1]).second) << "duplicate id " << (*it)[1];
   }
 }
@@ -289,13 +295,14 @@ TEST(HtmlReport, ShowsTheModelBeforeAndAfterDiscovery) {
   final_inputs.config_path = "configs/ganesh-square.json";
   final_inputs.problem = final_problem.get();
   final_inputs.result = &discovery.final_fit;
-  nlohmann::json report = FinalModelReport(
-      MakeReport(final_inputs), f.report,
-      DiscoveryJson(*f.problem, f.result, discovery, nullptr, nullptr));
+  nlohmann::json report =
+      FinalModelReport(MakeReport(final_inputs), f.report,
+                       DiscoveryJson(*f.problem, f.result, discovery, nullptr, nullptr));
   AddWarnings(&report);
   HtmlReportOptions html_options;
   html_options.threads = 2;
-  const std::string html = MakeHtmlReport({&report, f.problem.get(), &f.result, &discovery}, html_options);
+  const std::string html =
+      MakeHtmlReport({&report, f.problem.get(), &f.result, &discovery}, html_options);
   ExpectSelfContained(html);
   // Parameters: J, B and the added Tc of the final model, the first fit's beside them.
   EXPECT_EQ(Count(html, "<tr class=\"parameter\""), 3u);
@@ -346,13 +353,15 @@ TEST(HtmlReportCli, MillionSampleTraceGivesAPageUnderTwoMegabytes) {
   config["experiment"]["sample_rate"] = 100000;  // 1e6 + 1 samples, one per simulation step
   const std::string config_path = dir.Write("long.json", config.dump(2));
   const std::string trace = dir.File("long.csv"), html = dir.File("long.html");
-  const CommandResult sim = blmd::testing::Run(BinPath("blmd-sim") + " --config " + config_path + " --out " + trace +
-                                " --noise i=1% --noise w=1% --seed 7");
+  const CommandResult sim =
+      blmd::testing::Run(BinPath("blmd-sim") + " --config " + config_path + " --out " + trace +
+                         " --noise i=1% --noise w=1% --seed 7");
   ASSERT_EQ(sim.exit_code, 0) << sim.err;
   ASSERT_NE(sim.out.find("1000001 samples"), std::string::npos) << sim.out;
   // A small evaluation budget: the fit stops early (exit 1) but the page is still written.
-  const CommandResult ident = blmd::testing::Run(BinPath("blmd-ident") + " --config " + config_path + " --trace " + trace +
-                                  " --method powell --max-evaluations 12 --threads 2 --quiet --html " + html);
+  const CommandResult ident = blmd::testing::Run(
+      BinPath("blmd-ident") + " --config " + config_path + " --trace " + trace +
+      " --method powell --max-evaluations 12 --threads 2 --quiet --html " + html);
   ASSERT_TRUE(ident.exit_code == 0 || ident.exit_code == 1) << ident.err;
   ASSERT_TRUE(FileExists(html));
   const auto size = std::filesystem::file_size(html);
@@ -367,9 +376,11 @@ TEST(HtmlReportCli, MillionSampleTraceGivesAPageUnderTwoMegabytes) {
 
 TEST(HtmlReportCli, WritesBesideTheJsonAndFailsCleanlyOnABadPath) {
   TempDir dir;
-  const std::string base = BinPath("blmd-ident") + " --config " + SourcePath("configs/ganesh-noload.json") +
-                           " --trace " + SourcePath("testdata/ganesh-noload-step.csv");
-  const CommandResult ok = blmd::testing::Run(base + " --report " + dir.File("r.json") + " --html " + dir.File("r.html"));
+  const std::string base = BinPath("blmd-ident") + " --config " +
+                           SourcePath("configs/ganesh-noload.json") + " --trace " +
+                           SourcePath("testdata/ganesh-noload-step.csv");
+  const CommandResult ok = blmd::testing::Run(base + " --report " + dir.File("r.json") +
+                                              " --html " + dir.File("r.html"));
   ASSERT_EQ(ok.exit_code, 0) << ok.err;
   EXPECT_NE(ok.out.find("html report: " + dir.File("r.html")), std::string::npos);
   const std::string page = Slurp(dir.File("r.html"));
@@ -379,7 +390,8 @@ TEST(HtmlReportCli, WritesBesideTheJsonAndFailsCleanlyOnABadPath) {
   EXPECT_NE(page.find(report["trace"]["sha256"].get<std::string>()), std::string::npos);
   // No temporary left beside it.
   std::size_t files = 0;
-  for (const auto& entry : std::filesystem::directory_iterator(dir.path())) files += entry.is_regular_file();
+  for (const auto& entry : std::filesystem::directory_iterator(dir.path()))
+    files += entry.is_regular_file();
   EXPECT_EQ(files, 2u);
 
   const std::string missing = dir.File("no-such-folder/r.html");

@@ -8,9 +8,9 @@
 
 #include "blmd/ident/optimizer.h"
 #include "blmd/ident/problem.h"
-#include "blmd/report/report.h"
 #include "blmd/io/config.h"
 #include "blmd/random.h"
+#include "blmd/report/report.h"
 #include "blmd/run.h"
 #include "support/test_support.h"
 
@@ -40,7 +40,8 @@ FitTrace MakeNoisyTrace(const Config& config, const std::vector<std::string>& no
   return fit;
 }
 
-FitProblem MakeProblem(const Config& config, FitTrace trace, const std::vector<std::string>& observe,
+FitProblem MakeProblem(const Config& config, FitTrace trace,
+                       const std::vector<std::string>& observe,
                        const std::vector<std::string>& free_names,
                        const std::vector<double>& initial) {
   Config start = config;
@@ -64,11 +65,14 @@ TEST(Identification, DcServoCeresAndPowellRecoverJAndBFromFactorThreeOff) {
   const Config config = GaneshShort(0.6);
   const double J = config.parameters.Get("J"), B = config.parameters.Get("B");
   const FitTrace trace = MakeNoisyTrace(config, {"i", "w"}, 11);
-  for (const auto& [jf, bf] : std::vector<std::pair<double, double>>{{3.0, 1.0 / 3.0}, {1.0 / 3.0, 3.0}, {3.0, 3.0}, {1.0 / 3.0, 1.0 / 3.0}}) {
+  for (const auto& [jf, bf] : std::vector<std::pair<double, double>>{
+           {3.0, 1.0 / 3.0}, {1.0 / 3.0, 3.0}, {3.0, 3.0}, {1.0 / 3.0, 1.0 / 3.0}}) {
     for (const char* method : {"ceres", "powell"}) {
-      const FitProblem problem = MakeProblem(config, trace, {"i", "w"}, {"J", "B"}, {J * jf, B * bf});
+      const FitProblem problem =
+          MakeProblem(config, trace, {"i", "w"}, {"J", "B"}, {J * jf, B * bf});
       const FitResult result = FindOptimizer(method).Minimize(problem, OptimizerOptions{});
-      SCOPED_TRACE(std::string(method) + " from J x" + std::to_string(jf) + ", B x" + std::to_string(bf));
+      SCOPED_TRACE(std::string(method) + " from J x" + std::to_string(jf) + ", B x" +
+                   std::to_string(bf));
       EXPECT_TRUE(result.summary.converged) << result.summary.message;
       EXPECT_LT(RelativeError(result.values[0], J), 0.01) << "J = " << result.values[0];
       EXPECT_LT(RelativeError(result.values[1], B), 0.01) << "B = " << result.values[1];
@@ -85,7 +89,8 @@ TEST(Identification, DcServoCeresAndPowellRecoverJAndBFromFactorThreeOff) {
 // to give 35/40 for J (a 10 % chance event at that rate). 200 seeds make the verdict stable:
 // P(count < 180 | p = 0.94) < 0.2 %. COVERAGE_FIRST / COVERAGE_SEEDS override for studies.
 TEST(Identification, CeresIntervalsCoverTheTruthInAtLeast90PercentOfSeeds) {
-  const int kFirstSeed = std::getenv("COVERAGE_FIRST") ? std::atoi(std::getenv("COVERAGE_FIRST")) : 1;
+  const int kFirstSeed =
+      std::getenv("COVERAGE_FIRST") ? std::atoi(std::getenv("COVERAGE_FIRST")) : 1;
   const int kSeeds = std::getenv("COVERAGE_SEEDS") ? std::atoi(std::getenv("COVERAGE_SEEDS")) : 200;
   Config config = GaneshShort(0.3);
   config.experiment.sample_rate = 2000.0;
@@ -93,7 +98,8 @@ TEST(Identification, CeresIntervalsCoverTheTruthInAtLeast90PercentOfSeeds) {
   int covered_J = 0, covered_B = 0;
   for (int seed = kFirstSeed; seed < kFirstSeed + kSeeds; ++seed) {
     const FitTrace trace = MakeNoisyTrace(config, {"i", "w"}, static_cast<std::uint64_t>(seed));
-    const FitProblem problem = MakeProblem(config, trace, {"i", "w"}, {"J", "B"}, {J * 2.0, B * 0.5});
+    const FitProblem problem =
+        MakeProblem(config, trace, {"i", "w"}, {"J", "B"}, {J * 2.0, B * 0.5});
     const FitResult result = FindOptimizer("ceres").Minimize(problem, OptimizerOptions{});
     ASSERT_TRUE(result.estimates[0].has_interval && result.estimates[1].has_interval);
     EXPECT_EQ(result.estimates[0].interval_method, "hac_prewhitened");
@@ -145,7 +151,8 @@ FitTrace* BlmdIdentification::trace_ = nullptr;
 
 TEST_F(BlmdIdentification, PowellOnCurrentStopsInALocalMinimum) {
   const double J = config_->parameters.Get("J"), B = config_->parameters.Get("B");
-  const FitProblem problem = MakeProblem(*config_, *trace_, {"i"}, {"J", "B"}, {J * kStartFactor, B});
+  const FitProblem problem =
+      MakeProblem(*config_, *trace_, {"i"}, {"J", "B"}, {J * kStartFactor, B});
   const FitResult result = FindOptimizer("powell").Minimize(problem, OptimizerOptions{});
   std::cout << "powell on i from J x" << kStartFactor << ": J = " << result.values[0] << " (error "
             << RelativeError(result.values[0], J) * 100 << " %), NRMSE "
@@ -156,7 +163,8 @@ TEST_F(BlmdIdentification, PowellOnCurrentStopsInALocalMinimum) {
 
 TEST_F(BlmdIdentification, FsdOnCurrentFindsTheGlobalMinimum) {
   const double J = config_->parameters.Get("J"), B = config_->parameters.Get("B");
-  const FitProblem problem = MakeProblem(*config_, *trace_, {"i"}, {"J", "B"}, {J * kStartFactor, B});
+  const FitProblem problem =
+      MakeProblem(*config_, *trace_, {"i"}, {"J", "B"}, {J * kStartFactor, B});
   OptimizerOptions options;
   options.seed = 1;
   const FitResult result = FindOptimizer("fsd").Minimize(problem, options);
@@ -169,7 +177,8 @@ TEST_F(BlmdIdentification, FsdOnCurrentFindsTheGlobalMinimum) {
 
 TEST_F(BlmdIdentification, PowellOnVelocityFindsJFromTheSameStart) {
   const double J = config_->parameters.Get("J"), B = config_->parameters.Get("B");
-  const FitProblem problem = MakeProblem(*config_, *trace_, {"w"}, {"J", "B"}, {J * kStartFactor, B});
+  const FitProblem problem =
+      MakeProblem(*config_, *trace_, {"w"}, {"J", "B"}, {J * kStartFactor, B});
   const FitResult result = FindOptimizer("powell").Minimize(problem, OptimizerOptions{});
   std::cout << "powell on w from J x" << kStartFactor << ": J = " << result.values[0] << " (error "
             << RelativeError(result.values[0], J) * 100 << " %)\n";

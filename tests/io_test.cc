@@ -146,8 +146,8 @@ TEST(TraceCsv, ReadingInPiecesMatchesTheWholeText) {
   const std::vector<std::string> texts = {
       "# c\nt,u,w\n0,1,2\n0.1,-3.5,1e-300\n0.2,4,5",
       "t,u\n0,1\n0.1,2\n",
-      "t,u\n0,1\n0.1,2\n\n",                             // one final blank line is fine
-      "t,u\n0,1\n\n0.1,2\n",                             // a blank line inside is not
+      "t,u\n0,1\n0.1,2\n\n",                            // one final blank line is fine
+      "t,u\n0,1\n\n0.1,2\n",                            // a blank line inside is not
       "t,u\n0,1\n0.1," + std::string(300, '7') + "\n",  // a line longer than small pieces
       std::string("\xEF\xBB\xBFt,u\n0,1\n"),
       std::string("t,u\n0,1\n0.1,2\n0.2,\0\n", 20),
@@ -178,7 +178,8 @@ TEST(TraceCsv, ReadingInPiecesMatchesTheWholeText) {
         EXPECT_EQ(whole_error, "");
         EXPECT_EQ(read.names(), whole.names());
         EXPECT_EQ(read.comments, whole.comments);
-        for (std::size_t c = 0; c < read.num_columns(); ++c) EXPECT_EQ(read.Column(c), whole.Column(c));
+        for (std::size_t c = 0; c < read.num_columns(); ++c)
+          EXPECT_EQ(read.Column(c), whole.Column(c));
         EXPECT_EQ(sha, Sha256Hex(text));
       } catch (const InputError& error) {
         EXPECT_EQ(error.what(), whole_error);
@@ -232,7 +233,8 @@ TEST(TraceCsvErrors, EmptyFileAndMissingRows) {
   EXPECT_EQ(CsvError("# logger v2\n# rig 3\nt,u,w"), "trace.csv:3: no data rows after the header");
   EXPECT_EQ(CsvError("# only a comment\n"),
             "trace.csv:1: no header row: expected a row such as 't,u,i,w'");
-  EXPECT_EQ(CsvError("\nt,u\n0,1\n"), "trace.csv:1:1: empty line where the header row was expected");
+  EXPECT_EQ(CsvError("\nt,u\n0,1\n"),
+            "trace.csv:1:1: empty line where the header row was expected");
 }
 
 TEST(TraceCsvErrors, HeaderProblems) {
@@ -257,8 +259,9 @@ TEST(TraceCsvErrors, HeaderProblems) {
 }
 
 TEST(TraceCsvErrors, EncodingProblems) {
-  EXPECT_EQ(CsvError("\xEF\xBB\xBFt,u\n0,1\n"),
-            "trace.csv:1:1: file starts with a UTF-8 byte-order mark; save it as plain UTF-8/ASCII");
+  EXPECT_EQ(
+      CsvError("\xEF\xBB\xBFt,u\n0,1\n"),
+      "trace.csv:1:1: file starts with a UTF-8 byte-order mark; save it as plain UTF-8/ASCII");
   // CRLF line ends are read (they were an error), also mixed with LF; CR alone is not.
   EXPECT_EQ(CsvError("t,u\r\n0,1\r\n"), "");
   EXPECT_EQ(CsvError("t,u\n0,1\n0.1,2\r\n"), "");
@@ -271,7 +274,8 @@ TEST(TraceCsvErrors, EncodingProblems) {
 
 TEST(TraceCsvErrors, CellProblems) {
   EXPECT_EQ(CsvError("t,u\n0,\"1.5\"\n"), "");  // quoted numbers are read (RFC 4180)
-  EXPECT_EQ(CsvError("t,u\n0,\"1.5\n"), "trace.csv:2:2: unclosed quote (a '\"' without its closing '\"')");
+  EXPECT_EQ(CsvError("t,u\n0,\"1.5\n"),
+            "trace.csv:2:2: unclosed quote (a '\"' without its closing '\"')");
   EXPECT_EQ(CsvError("t,u,w\n0,1,2\n0.1,abc,2\n"),
             "trace.csv:3:2: column 'u' is not a number (\"abc\")");
   EXPECT_EQ(CsvError("t,u,w\n0,1,2.5V\n"), "trace.csv:2:3: column 'w' is not a number (\"2.5V\")");
@@ -292,7 +296,8 @@ TEST(TraceCsvErrors, CellProblems) {
 
 TEST(TraceCsvErrors, RowShapeProblems) {
   EXPECT_EQ(CsvError("t,u\n0,1,2\n"), "trace.csv:2:3: too many fields: the header has 2 columns");
-  EXPECT_EQ(CsvError("t,u,w\n0,1\n0.1,1,2\n"), "trace.csv:2:3: too few fields: expected 3, found 2");
+  EXPECT_EQ(CsvError("t,u,w\n0,1\n0.1,1,2\n"),
+            "trace.csv:2:3: too few fields: expected 3, found 2");
   // A truncated last line (a logger killed mid-write) says so.
   EXPECT_EQ(CsvError("t,u,w\n0,1,2\n0.1,1"),
             "trace.csv:3:3: too few fields: expected 3, found 2 (truncated last line?)");
@@ -429,7 +434,8 @@ TEST(Config, DefaultsEffectsAndInputs) {
     "experiment": { "input": { "type": "square", "amplitude": 5, "period": 0.2 },
                     "coast_off_time": 0.5, "initial": { "w": 3 } },
     "identification": { "free": "J, B, Tc", "observe": ["w"] }
-  })", "inline.json");
+  })",
+                                    "inline.json");
   EXPECT_EQ(config.path, "inline.json");
   EXPECT_EQ(config.name, "");
   // The JSON object's members are read in name order, not in the order written.
@@ -523,20 +529,23 @@ TEST(ConfigErrors, InvalidJsonWithLineAndColumn) {
   EXPECT_EQ(ConfigError(""),
             "config.json:1:1: invalid JSON: syntax error while parsing value - unexpected end of "
             "input; expected '[', '{', or a literal");
-  EXPECT_EQ(ConfigError("[1, 2]"), "config.json:1:1: '(top level)' must be an object, not an array");
+  EXPECT_EQ(ConfigError("[1, 2]"),
+            "config.json:1:1: '(top level)' must be an object, not an array");
 }
 
 TEST(ConfigErrors, UnknownKeysSuggestTheNearest) {
-  EXPECT_EQ(ConfigError(Base("\"model\": \"dc_servo\",", "\"model\": \"dc_servo\", \"experimnet\": {},")),
-            "config.json:2:24: unknown key 'experimnet' in '(top level)' (did you mean "
-            "'experiment'?); valid keys: name, description, notes, model, parameters, effects, "
-            "simulation, experiment, identification");
+  EXPECT_EQ(
+      ConfigError(Base("\"model\": \"dc_servo\",", "\"model\": \"dc_servo\", \"experimnet\": {},")),
+      "config.json:2:24: unknown key 'experimnet' in '(top level)' (did you mean "
+      "'experiment'?); valid keys: name, description, notes, model, parameters, effects, "
+      "simulation, experiment, identification");
   EXPECT_EQ(ConfigError(Base("\"B\": 2.261e-5", "\"b\": 2.261e-5")),
             "config.json:9:5: unknown key 'b' in 'parameters' (did you mean 'B'?); valid keys: R, "
             "L, Kt, Kb, J, B");
-  EXPECT_EQ(ConfigError(Base("\"free\"", "\"fre\"")),
-            "config.json:12:5: unknown key 'fre' in 'identification' (did you mean 'free'?); "
-            "valid keys: free, initial, bounds, observe, method, options, error, filter_hz, decimate");
+  EXPECT_EQ(
+      ConfigError(Base("\"free\"", "\"fre\"")),
+      "config.json:12:5: unknown key 'fre' in 'identification' (did you mean 'free'?); "
+      "valid keys: free, initial, bounds, observe, method, options, error, filter_hz, decimate");
   // Nothing close: no suggestion.
   EXPECT_EQ(ConfigError(Base("\"free\"", "\"zzzzzz\"")),
             "config.json:12:5: unknown key 'zzzzzz' in 'identification'; valid keys: free, "
@@ -570,9 +579,11 @@ TEST(ConfigErrors, ImpossibleParameterValues) {
             "config.json:4:5: parameter 'R' must be > 0 (got -12.6 ohm)");
   EXPECT_EQ(ConfigError(Base("\"J\": 2.26e-5", "\"J\": 0")),
             "config.json:8:5: parameter 'J' must be > 0 (got 0 kg·m²)");
-  EXPECT_EQ(ConfigError(Base("    \"B\": 2.261e-5\n", "").replace(Base().find("\"J\": 2.26e-5,") + 12, 1, "")),
-            "config.json:3:3: missing parameter 'B' (viscous damping of motor and load, N·m·s/rad) "
-            "for model dc_servo");
+  EXPECT_EQ(
+      ConfigError(
+          Base("    \"B\": 2.261e-5\n", "").replace(Base().find("\"J\": 2.26e-5,") + 12, 1, "")),
+      "config.json:3:3: missing parameter 'B' (viscous damping of motor and load, N·m·s/rad) "
+      "for model dc_servo");
 }
 
 TEST(ConfigErrors, IdentificationSetUp) {
@@ -590,8 +601,9 @@ TEST(ConfigErrors, IdentificationSetUp) {
   EXPECT_EQ(ConfigError(Base("\"initial\": { \"J\": 1e-5", "\"initial\": { \"J\": 1.0")),
             "config.json:13:18: initial value 1 of 'J' is outside its bounds [1e-07, 0.01]");
   // No initial value: the parameter value is the start, and must lie inside the bounds.
-  EXPECT_EQ(ConfigError(Base("\"initial\": { \"J\": 1e-5, \"B\": 1e-5 },", "\"initial\": { \"B\": 1e-5 },")
-                            .replace(Base().find("\"J\": 2.26e-5"), 12, "\"J\": 0.5   ")),
+  EXPECT_EQ(ConfigError(
+                Base("\"initial\": { \"J\": 1e-5, \"B\": 1e-5 },", "\"initial\": { \"B\": 1e-5 },")
+                    .replace(Base().find("\"J\": 2.26e-5"), 12, "\"J\": 0.5   ")),
             "config.json:8:5: initial value 0.5 of 'J' is outside its bounds [1e-07, 0.01]");
 }
 
@@ -629,10 +641,13 @@ TEST(ConfigErrors, ExperimentAndSimulation) {
             "sweep)");
   EXPECT_EQ(ConfigError(with("\"experiment\": { \"input\": { \"type\": \"square\" } }")),
             "config.json:11:19: square input needs \"period\" (s)");
-  EXPECT_EQ(ConfigError(with("\"experiment\": { \"input\": { \"type\": \"step\", \"amplitude\": 1, \"hold\": 2 } }")),
-            "config.json:11:62: unknown key 'hold' in 'experiment.input'; valid keys: type, "
-            "amplitude, offset, t0");
-  EXPECT_EQ(ConfigError(with("\"experiment\": { \"input\": { \"type\": \"steps\", \"times\": [0, 0], \"values\": [1, 2] } }")),
+  EXPECT_EQ(
+      ConfigError(with(
+          "\"experiment\": { \"input\": { \"type\": \"step\", \"amplitude\": 1, \"hold\": 2 } }")),
+      "config.json:11:62: unknown key 'hold' in 'experiment.input'; valid keys: type, "
+      "amplitude, offset, t0");
+  EXPECT_EQ(ConfigError(with("\"experiment\": { \"input\": { \"type\": \"steps\", \"times\": [0, "
+                             "0], \"values\": [1, 2] } }")),
             "config.json:11:60: step times must increase");
   // Loads (a trace brings its own time base), but cannot be run: the error is kept for
   // those that run the experiment (issue 18 item 2).

@@ -86,7 +86,8 @@ std::string EmpsCommand(const std::string& discovery) {
 std::string EmpsIdimCommand(const std::string& discovery) {
   const std::string d = RealData() + "/emps/";
   return "--config configs/real/emps-idim.json --trace " + d + "emps_estimation.csv --validate " +
-         d + "emps_validation_pulses.csv --column t=t_s --column u=F_N --column theta=q_m "
+         d +
+         "emps_validation_pulses.csv --column t=t_s --column u=F_N --column theta=q_m "
          "--derive w=theta --initial-state trace --discover" +
          discovery;
 }
@@ -251,7 +252,8 @@ TEST_F(Emps, EquationErrorIsInsensitiveToTheFilterAndTheDecimation) {
         Ident(EmpsIdimCommand(" --candidates coulomb_friction,load_torque") + flags);
     ASSERT_TRUE(report.contains("discovery")) << flags;
     EXPECT_EQ(report["discovery"]["added"],
-              nlohmann::json::array({"coulomb_friction", "load_torque"})) << flags;
+              nlohmann::json::array({"coulomb_friction", "load_torque"}))
+        << flags;
     const double m = After(report, "J"), fv = After(report, "B");
     EXPECT_NEAR(m, m_expected, 0.01) << flags;
     EXPECT_NEAR(fv, fv_expected, 0.02) << flags;
@@ -328,7 +330,8 @@ TEST_F(Emps, EquationErrorValidationErrorFallsAfterDiscovery) {
   EXPECT_NEAR(Value(d["validation"]["simulated_after"]["nrmse"]), 0.0733, 0.0005);
   EXPECT_NEAR(Value(FirstFit(*idim_)["fit"]["simulated"]["nrmse"]), 0.189, 0.0005);
   // The headline is the model after discovery.
-  EXPECT_EQ((*idim_)["validation"]["simulated"]["nrmse"], d["validation"]["simulated_after"]["nrmse"]);
+  EXPECT_EQ((*idim_)["validation"]["simulated"]["nrmse"],
+            d["validation"]["simulated_after"]["nrmse"]);
   EXPECT_NEAR(Value(d["simulated_after"]["nrmse"]), 0.04958, 0.0005);
 }
 
@@ -482,7 +485,8 @@ TEST_F(Hsm150, InertiaBeforeAndAfterDiscovery) {
   // Measured: J = 5.09e-4 (+324 %) with J, B alone; 1.4387e-4 (+19.9 %) after discovery
   // (1.519e-4, +26.6 %, without asymmetric_viscous among the candidates).
   EXPECT_NEAR(Value(FirstFit(*report_)["parameters"]["J"]["value"]), 5.088e-4, 0.005e-4);
-  EXPECT_EQ((*report_)["parameters"]["J"]["value"], (*report_)["discovery"]["parameters_after"]["J"]);
+  EXPECT_EQ((*report_)["parameters"]["J"]["value"],
+            (*report_)["discovery"]["parameters_after"]["J"]);
   EXPECT_NEAR(Value((*report_)["discovery"]["parameters_after"]["J"]), 1.4387e-4, 0.002e-4);
 }
 
@@ -891,7 +895,8 @@ TEST(Hslu, HeldOutSpeedLoopRecordRefusesEveryCandidate) {
   for (const auto& c : d["last_round"]) {
     if (!c.contains("held_out_nrmse")) continue;
     ++held_out;
-    EXPECT_GT(Value(c["held_out_nrmse"]["after"]), Value(c["held_out_nrmse"]["before"])) << c["effect"];
+    EXPECT_GT(Value(c["held_out_nrmse"]["after"]), Value(c["held_out_nrmse"]["before"]))
+        << c["effect"];
   }
   EXPECT_EQ(held_out, 3);  // the three candidates refit (Stribeck, Coulomb, load)
   bool warned = false;

@@ -45,8 +45,8 @@ TEST(RigidLoad, ViscousSpinUpIsTheExponentialOfTheClosedForm) {
   for (std::size_t k = 0; k < t.size(); ++k) {
     const double decay = std::exp(-t[k] / tau);
     worst_w = std::max(worst_w, std::abs(trace.Column("w")[k] - w_inf * (1.0 - decay)));
-    worst_theta = std::max(worst_theta, std::abs(trace.Column("theta")[k] -
-                                                 w_inf * (t[k] - tau * (1.0 - decay))));
+    worst_theta = std::max(
+        worst_theta, std::abs(trace.Column("theta")[k] - w_inf * (t[k] - tau * (1.0 - decay))));
   }
   EXPECT_LT(worst_w, 1e-9 * w_inf);
   EXPECT_LT(worst_theta, 1e-9 * w_inf * 2.0);
@@ -57,8 +57,8 @@ TEST(RigidLoad, CoulombCoastDownStopsAtThePredictedInstantAndStays) {
   // u = 0, w(0) = 100 rad/s, Tc = 0.1 N·m: w(t) = (w0 + Tc/B) e^{-t/tau} - Tc/B until
   // t_stop = tau ln(1 + B w0 / Tc) = 0.5 ln 5 = 0.8047 s, then 0.
   const double w0 = 100.0, Tc = 0.1, tau = kJ / kB;
-  const Trace trace =
-      Shaft(R"("coulomb_friction": { "Tc": 0.1 })", R"({ "type": "step", "amplitude": 0.0 })", w0, 1.5);
+  const Trace trace = Shaft(R"("coulomb_friction": { "Tc": 0.1 })",
+                            R"({ "type": "step", "amplitude": 0.0 })", w0, 1.5);
   const double t_stop = tau * std::log(1.0 + kB * w0 / Tc);
   const auto& t = trace.Column("t");
   const auto& w = trace.Column("w");
@@ -79,18 +79,19 @@ TEST(RigidLoad, CoulombCoastDownStopsAtThePredictedInstantAndStays) {
   EXPECT_GE(t[first_zero], t_stop);
   EXPECT_LT(t[first_zero], t_stop + 1e-3 + 1e-4);
   // The angle stops where the closed form's integral ends.
-  const double theta_stop = (w0 + Tc / kB) * tau * (1.0 - std::exp(-t_stop / tau)) - Tc / kB * t_stop;
+  const double theta_stop =
+      (w0 + Tc / kB) * tau * (1.0 - std::exp(-t_stop / tau)) - Tc / kB * t_stop;
   EXPECT_NEAR(trace.Column("theta").back(), theta_stop, 1e-4 * theta_stop);
 }
 
 TEST(RigidLoad, StaysAtRestBelowTheBreakawayTorque) {
   // Kt u = 0.5 x 0.19 = 0.095 N·m < Tc = 0.1 N·m: the shaft never moves; at 0.21 it does.
-  const Trace held =
-      Shaft(R"("coulomb_friction": { "Tc": 0.1 })", R"({ "type": "step", "amplitude": 0.19 })", 0.0, 1.0);
+  const Trace held = Shaft(R"("coulomb_friction": { "Tc": 0.1 })",
+                           R"({ "type": "step", "amplitude": 0.19 })", 0.0, 1.0);
   for (double w : held.Column("w")) ASSERT_EQ(w, 0.0);
   for (double theta : held.Column("theta")) ASSERT_EQ(theta, 0.0);
-  const Trace moving =
-      Shaft(R"("coulomb_friction": { "Tc": 0.1 })", R"({ "type": "step", "amplitude": 0.21 })", 0.0, 1.0);
+  const Trace moving = Shaft(R"("coulomb_friction": { "Tc": 0.1 })",
+                             R"({ "type": "step", "amplitude": 0.21 })", 0.0, 1.0);
   // Net torque 0.005 N·m: w(1 s) = (0.005 / B)(1 - e^{-2}) = 1.0808 rad/s.
   EXPECT_NEAR(moving.Column("w").back(), 0.005 / kB * (1.0 - std::exp(-1.0 / (kJ / kB))), 1e-6);
 }

@@ -41,7 +41,8 @@ TEST_P(SquareEdges, WrittenInputFollowsTheSampleRuleAndTheTraceFitsItsOwnModel) 
   TempDir dir;
   const std::string config = SquareConfig(dir, c);
   const std::string trace = dir.File("trace.csv");
-  CommandResult run = blmd::testing::Run(BinPath("blmd-sim") + " --config " + config + " --out " + trace + " --quiet");
+  CommandResult run = blmd::testing::Run(BinPath("blmd-sim") + " --config " + config + " --out " +
+                                         trace + " --quiet");
   ASSERT_EQ(run.exit_code, 0) << run.err;
 
   const Trace t = ReadTraceCsv(trace);
@@ -56,7 +57,7 @@ TEST_P(SquareEdges, WrittenInputFollowsTheSampleRuleAndTheTraceFitsItsOwnModel) 
 
   const std::string report = dir.File("report.json");
   run = blmd::testing::Run(BinPath("blmd-ident") + " --config " + config + " --trace " + trace +
-            " --discover --quiet --report " + report);
+                           " --discover --quiet --report " + report);
   EXPECT_EQ(run.exit_code, 0) << run.err;
   const nlohmann::json json = nlohmann::json::parse(Slurp(report));
   EXPECT_LT(json["discovery"]["error_before"]["nrmse"].get<double>(), 1e-6);
@@ -66,11 +67,12 @@ TEST_P(SquareEdges, WrittenInputFollowsTheSampleRuleAndTheTraceFitsItsOwnModel) 
 INSTANTIATE_TEST_SUITE_P(PeriodsAndRates, SquareEdges,
                          ::testing::Values(Case{0.1, 2000}, Case{0.15, 2000}, Case{0.2, 2000},
                                            Case{0.4, 2000}, Case{1.0, 2000}, Case{0.1, 10000},
-                                           Case{0.15, 10000}, Case{0.2, 10000},
-                                           Case{0.4, 10000}, Case{1.0, 10000}),
+                                           Case{0.15, 10000}, Case{0.2, 10000}, Case{0.4, 10000},
+                                           Case{1.0, 10000}),
                          [](const ::testing::TestParamInfo<Case>& info) {
                            return "P" + std::to_string(std::lround(info.param.period * 1000)) +
-                                  "ms_" + std::to_string(std::lround(info.param.sample_rate / 1000)) +
+                                  "ms_" +
+                                  std::to_string(std::lround(info.param.sample_rate / 1000)) +
                                   "kHz";
                          });
 

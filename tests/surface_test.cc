@@ -20,11 +20,15 @@ TEST(Surface, NoiseFreeGridMinimumIsAtTheTrueJAndB) {
   TempDir dir;
   const std::string config = SourcePath("configs/ganesh-noload.json");
   const std::string trace = dir.File("clean.csv");
-  ASSERT_EQ(blmd::testing::Run(BinPath("blmd-sim") + " --config " + config + " --out " + trace + " --quiet").exit_code, 0);
+  ASSERT_EQ(blmd::testing::Run(BinPath("blmd-sim") + " --config " + config + " --out " + trace +
+                               " --quiet")
+                .exit_code,
+            0);
   // 2.26e-5 and 2.261e-5 are interior grid points (index 5 of 11 on each axis).
-  const CommandResult run = blmd::testing::Run(Surface(config, trace,
-                                        "--grid J=1.26e-5:3.26e-5:11 --grid B=1.261e-5:3.261e-5:11 --json --out " +
-                                            dir.File("s.csv")));
+  const CommandResult run = blmd::testing::Run(
+      Surface(config, trace,
+              "--grid J=1.26e-5:3.26e-5:11 --grid B=1.261e-5:3.261e-5:11 --json --out " +
+                  dir.File("s.csv")));
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const auto out = nlohmann::json::parse(run.out);
   EXPECT_DOUBLE_EQ(out["minimum"]["J"].get<double>(), 2.26e-5);
@@ -44,8 +48,9 @@ TEST(Surface, CurrentCostOverJIsSincLikeAndVelocityCostHasOneMinimum) {
   const CommandResult velocity = blmd::testing::Run(Surface(config, trace, grid + " --observe w"));
   ASSERT_EQ(velocity.exit_code, 0) << velocity.err;
   const auto w_out = nlohmann::json::parse(velocity.out);
-  std::cout << "current: " << i_out["local_minima"].size() << " local minima, global at J = "
-            << i_out["minimum"]["J"] << "; velocity: " << w_out["local_minima"].size()
+  std::cout << "current: " << i_out["local_minima"].size()
+            << " local minima, global at J = " << i_out["minimum"]["J"]
+            << "; velocity: " << w_out["local_minima"].size()
             << " local minimum at J = " << w_out["minimum"]["J"] << "\n";
   EXPECT_GE(i_out["local_minima"].size(), 3u);  // the global one and at least two others
   int below = 0, above = 0;
@@ -65,16 +70,27 @@ TEST(Surface, ShardedThenMergedEqualsUnshardedAndThreadsDoNotChangeResults) {
   const std::string config = SourcePath("configs/ganesh-noload.json");
   const std::string trace = SourcePath("testdata/ganesh-noload-step.csv");
   const std::string grid = "--grid J=log:1e-5:5e-5:7 --grid B=log:1e-5:5e-5:5 --quiet";
-  ASSERT_EQ(blmd::testing::Run(Surface(config, trace, grid + " --threads 1 --out " + dir.File("one.csv"))).exit_code, 0);
-  ASSERT_EQ(blmd::testing::Run(Surface(config, trace, grid + " --threads 2 --out " + dir.File("two.csv"))).exit_code, 0);
+  ASSERT_EQ(
+      blmd::testing::Run(Surface(config, trace, grid + " --threads 1 --out " + dir.File("one.csv")))
+          .exit_code,
+      0);
+  ASSERT_EQ(
+      blmd::testing::Run(Surface(config, trace, grid + " --threads 2 --out " + dir.File("two.csv")))
+          .exit_code,
+      0);
   EXPECT_EQ(Slurp(dir.File("one.csv")), Slurp(dir.File("two.csv")));
   std::string parts;
   for (int k = 1; k <= 3; ++k) {
     const std::string part = dir.File("part" + std::to_string(k) + ".csv");
-    ASSERT_EQ(blmd::testing::Run(Surface(config, trace, grid + " --shard " + std::to_string(k) + "/3 --out " + part)).exit_code, 0);
+    ASSERT_EQ(
+        blmd::testing::Run(
+            Surface(config, trace, grid + " --shard " + std::to_string(k) + "/3 --out " + part))
+            .exit_code,
+        0);
     parts = part + " " + parts;  // merge must not depend on the order given
   }
-  const CommandResult merge = blmd::testing::Run(BinPath("blmd-surface") + " merge " + parts + " --out " + dir.File("merged.csv"));
+  const CommandResult merge = blmd::testing::Run(BinPath("blmd-surface") + " merge " + parts +
+                                                 " --out " + dir.File("merged.csv"));
   ASSERT_EQ(merge.exit_code, 0) << merge.err;
   EXPECT_EQ(Slurp(dir.File("merged.csv")), Slurp(dir.File("one.csv")));
   // 35 rows plus the header.
@@ -82,8 +98,9 @@ TEST(Surface, ShardedThenMergedEqualsUnshardedAndThreadsDoNotChangeResults) {
   const std::string table = merged.substr(merged.find("J,B,"));
   EXPECT_EQ(std::count(table.begin(), table.end(), '\n'), 36);
   // A missing shard is an error.
-  const CommandResult incomplete = blmd::testing::Run(BinPath("blmd-surface") + " merge " + dir.File("part1.csv") + " " +
-                                       dir.File("part2.csv") + " --out " + dir.File("bad.csv"));
+  const CommandResult incomplete =
+      blmd::testing::Run(BinPath("blmd-surface") + " merge " + dir.File("part1.csv") + " " +
+                         dir.File("part2.csv") + " --out " + dir.File("bad.csv"));
   EXPECT_EQ(incomplete.exit_code, 2);
   EXPECT_NE(incomplete.err.find("shard 3/3 is missing"), std::string::npos) << incomplete.err;
   EXPECT_FALSE(FileExists(dir.File("bad.csv")));
@@ -103,7 +120,8 @@ TEST(Surface, BadGridsExitTwoWithAClearMessageAndNoOutput) {
   };
   for (const auto& [arguments, message] : cases) {
     const std::string out = dir.File("s.csv");
-    const CommandResult run = blmd::testing::Run(Surface(config, trace, arguments + " --out " + out));
+    const CommandResult run =
+        blmd::testing::Run(Surface(config, trace, arguments + " --out " + out));
     EXPECT_EQ(run.exit_code, 2) << arguments << ": " << run.err;
     EXPECT_NE(run.err.find(message), std::string::npos) << arguments << ": " << run.err;
     EXPECT_FALSE(FileExists(out)) << arguments;

@@ -3,6 +3,8 @@
 // white noise on i and w), each with its own damping B drawn around a population value, as
 // the runs of a real rig differ (direction, temperature). The pooled fit's HAC interval
 // describes the noise only; the jackknife over traces must cover the population value.
+#include "blmd/ident/trace_jackknife.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -12,7 +14,6 @@
 #include "blmd/ident/optimizer.h"
 #include "blmd/ident/problem.h"
 #include "blmd/ident/trace_input.h"
-#include "blmd/ident/trace_jackknife.h"
 #include "blmd/io/config.h"
 #include "blmd/random.h"
 #include "blmd/run.h"
@@ -66,7 +67,8 @@ TEST(TraceJackknife, NeedsThreeTraces) {
   const Config base = LoadConfig(SourcePath("configs/ganesh-square.json"));
   Random random(1);
   std::vector<FitTrace> traces = {NoisyTrace(base, random), NoisyTrace(base, random)};
-  const FitProblem problem(base, std::move(traces), {"i", "w"}, MakeFreeParameters(base, {"J", "B"}));
+  const FitProblem problem(base, std::move(traces), {"i", "w"},
+                           MakeFreeParameters(base, {"J", "B"}));
   const TraceJackknife j = LeaveOneTraceOut(problem, {2.26e-5, 2.261e-5}, {});
   EXPECT_FALSE(j.ok);
   EXPECT_EQ(j.reason, "fewer than 3 traces");

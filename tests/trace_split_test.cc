@@ -35,7 +35,7 @@ std::string RowsWithRun(const std::string& path, int run) {
 }
 
 const std::string kStep = "testdata/ganesh-noload-step.csv";  // 10001 rows, t from 0
-const std::string kSquare = "testdata/ganesh-square.csv";      // 4001 rows, t from 0
+const std::string kSquare = "testdata/ganesh-square.csv";     // 4001 rows, t from 0
 
 // run 0 = the step trace, run 1 = the square-wave trace; the time restarts at run 1.
 std::string GluedRuns(const TempDir& dir) {
@@ -95,7 +95,8 @@ TEST(TraceSplit, ValidateTakesTheSplitToo) {
   // were fitted gives exactly the fit's error.
   TempDir dir;
   const std::string runs = GluedRuns(dir);
-  const nlohmann::json report = RunJson(Ident("--trace " + runs + " --validate " + runs + " --split run"));
+  const nlohmann::json report =
+      RunJson(Ident("--trace " + runs + " --validate " + runs + " --split run"));
   ASSERT_TRUE(report.contains("validation"));
   EXPECT_EQ(report["validation"]["nrmse"].get<double>(), report["fit"]["nrmse"].get<double>());
   EXPECT_EQ(report["validation"]["traces"].size(), 2u);
@@ -110,12 +111,12 @@ TEST(TraceSplit, SurfaceOverTheSplitRunsEqualsNothingNewButRecordsTheRows) {
       " --trace " + runs + " --select run=1 --grid J=2e-5:2.5e-5:3 --quiet --out " + out);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const std::string plain_out = dir.File("p.csv");
-  ASSERT_EQ(blmd::testing::Run(BinPath("blmd-surface") + " --config " +
-                               SourcePath("configs/ganesh-square.json") + " --trace " +
-                               SourcePath(kSquare) + " --grid J=2e-5:2.5e-5:3 --quiet --out " +
-                               plain_out)
-                .exit_code,
-            0);
+  ASSERT_EQ(
+      blmd::testing::Run(BinPath("blmd-surface") + " --config " +
+                         SourcePath("configs/ganesh-square.json") + " --trace " +
+                         SourcePath(kSquare) + " --grid J=2e-5:2.5e-5:3 --quiet --out " + plain_out)
+          .exit_code,
+      0);
   const std::string with_rows = Slurp(out), plain = Slurp(plain_out);
   EXPECT_NE(with_rows.find("# rows: --select run=1 (1 experiment)\n"), std::string::npos);
   // The same cost at every grid point: the data rows after the header are identical.
@@ -125,8 +126,9 @@ TEST(TraceSplit, SurfaceOverTheSplitRunsEqualsNothingNewButRecordsTheRows) {
 // Library level: the parts, their names, rows and initial states.
 TEST(TraceSplit, PartsStartFromTheirOwnFirstSampleWithInitialStateTrace) {
   TempDir dir;
-  const std::string path = dir.Write(
-      "r.csv", "run,t,u,w,theta\n7,0,1,0,0\n7,1,1,1,0.5\n7,2,1,2,2\n-3,0,0,5,10\n-3,1,0,4,15\n-3,2,0,3,19\n");
+  const std::string path = dir.Write("r.csv",
+                                     "run,t,u,w,theta\n7,0,1,0,0\n7,1,1,1,0.5\n7,2,1,2,2\n-3,0,0,5,"
+                                     "10\n-3,1,0,4,15\n-3,2,0,3,19\n");
   TraceInputOptions options;
   options.split = "run";
   options.initial_from_trace = true;
@@ -165,7 +167,8 @@ struct BadCase {
 void PrintTo(const BadCase& c, std::ostream* os) { *os << c.name; }
 
 std::string Replace(std::string text, const std::string& from, const std::string& to) {
-  for (std::size_t at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size())) {
+  for (std::size_t at = text.find(from); at != std::string::npos;
+       at = text.find(from, at + to.size())) {
     text.replace(at, from.size(), to);
   }
   return text;
@@ -185,7 +188,8 @@ TEST_P(TraceSplitBad, ExitsTwoWithOneExactLineAndWritesNothing) {
   for (const std::string& command :
        {Ident("--trace " + trace + " " + c.flags + " --report " + report),
         BinPath("blmd-surface") + " --config " + SourcePath("configs/ganesh-square.json") +
-            " --trace " + trace + " " + c.flags + " --grid J=1e-5:2e-5:2 --quiet --out " + report}) {
+            " --trace " + trace + " " + c.flags + " --grid J=1e-5:2e-5:2 --quiet --out " +
+            report}) {
     SCOPED_TRACE(command);
     const CommandResult run = blmd::testing::Run(command);
     EXPECT_EQ(run.exit_code, 2);
@@ -199,7 +203,8 @@ INSTANTIATE_TEST_SUITE_P(
     Cases, TraceSplitBad,
     ::testing::Values(
         BadCase{"RunAppearsAgain",
-                "run,t,u,i,w\n0,0,1,0,0\n0,1,1,1,1\n0,2,1,1,2\n1,0,2,0,0\n1,1,2,1,1\n1,2,2,1,2\n0,3,1,1,3\n",
+                "run,t,u,i,w\n0,0,1,0,0\n0,1,1,1,1\n0,2,1,1,2\n1,0,2,0,0\n1,1,2,1,1\n1,2,2,1,2\n0,"
+                "3,1,1,3\n",
                 "--split run",
                 "error: {FILE}:8:1: --split run: run = 0 appears again (its first block is lines "
                 "2-4); the rows of one experiment must be an unbroken block\n"},
@@ -230,11 +235,13 @@ INSTANTIATE_TEST_SUITE_P(
                 "the selection\n"},
         BadCase{"TimeRestartsWithoutSplit", kThreeRuns, "",
                 "error: {FILE}:6:2: time 't' must strictly increase (0 follows 2)\n"},
-        BadCase{"TimeGoesBackWithinARun",
-                "run,t,u,i,w\n0,0,1,0,0\n0,1,1,1,1\n0,2,1,1,2\n1,0,2,0,0\n1,2,2,1,1\n1,1,2,1,2\n",
-                "--split run",
-                "error: {FILE}:7:2: time 't' must strictly increase (1 follows 2) within run = 1\n"},
-        BadCase{"RunTooShort", "run,t,u,i,w\n0,0,1,0,0\n0,1,1,1,1\n0,2,1,1,2\n1,0,2,0,0\n1,1,2,1,1\n",
+        BadCase{
+            "TimeGoesBackWithinARun",
+            "run,t,u,i,w\n0,0,1,0,0\n0,1,1,1,1\n0,2,1,1,2\n1,0,2,0,0\n1,2,2,1,1\n1,1,2,1,2\n",
+            "--split run",
+            "error: {FILE}:7:2: time 't' must strictly increase (1 follows 2) within run = 1\n"},
+        BadCase{"RunTooShort",
+                "run,t,u,i,w\n0,0,1,0,0\n0,1,1,1,1\n0,2,1,1,2\n1,0,2,0,0\n1,1,2,1,1\n",
                 "--split run",
                 "error: {FILE}:5: [run=1] has 2 samples only (lines 5-6): a fit needs at least 3 "
                 "per experiment\n"}),

@@ -61,7 +61,9 @@ Calibration Study(double rho, int seeds) {
       const ParameterEstimate& e = result.estimates[static_cast<std::size_t>(k)];
       const double error = std::abs(e.value - truth[k]) / truth[k];
       c.error[k].push_back(error);
-      if (std::getenv("STUDY_VERBOSE")) std::printf("seed %d %s rel %+.3e half %.3e\n", seed, k ? "B" : "J", e.value / truth[k] - 1, 0.5 * (e.ci95_high - e.ci95_low) / truth[k]);
+      if (std::getenv("STUDY_VERBOSE"))
+        std::printf("seed %d %s rel %+.3e half %.3e\n", seed, k ? "B" : "J", e.value / truth[k] - 1,
+                    0.5 * (e.ci95_high - e.ci95_low) / truth[k]);
       if (e.has_interval) {
         c.covered[k] += e.ci95_low <= truth[k] && truth[k] <= e.ci95_high;
         c.half[k].push_back(0.5 * (e.ci95_high - e.ci95_low) / truth[k]);
@@ -77,12 +79,13 @@ Calibration Study(double rho, int seeds) {
   }
   const char* names[2] = {"J", "B"};
   for (int k = 0; k < 2; ++k) {
-    std::printf("rho %.2f %s: coverage %d/%d (white %d/%d); median relative half-width / median "
-                "relative |error| %.2f (white %.2f); median per-run half-width/|error| %.2f "
-                "(white %.2f)\n",
-                rho, names[k], c.covered[k], c.runs, c.covered_white[k], c.runs,
-                Median(c.half[k]) / Median(c.error[k]), Median(c.half_white[k]) / Median(c.error[k]),
-                Median(c.per_run[k]), Median(c.per_run_white[k]));
+    std::printf(
+        "rho %.2f %s: coverage %d/%d (white %d/%d); median relative half-width / median "
+        "relative |error| %.2f (white %.2f); median per-run half-width/|error| %.2f "
+        "(white %.2f)\n",
+        rho, names[k], c.covered[k], c.runs, c.covered_white[k], c.runs,
+        Median(c.half[k]) / Median(c.error[k]), Median(c.half_white[k]) / Median(c.error[k]),
+        Median(c.per_run[k]), Median(c.per_run_white[k]));
   }
   return c;
 }

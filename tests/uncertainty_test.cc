@@ -1,13 +1,14 @@
 // The prewhitened HAC sandwich (include/blmd/ident/uncertainty.h) against closed forms:
 // linear regressions with white and AR(1) noise, where the true covariance of the least-
 // squares estimate is known, and Monte-Carlo coverage of its 95 % intervals.
+#include "blmd/ident/uncertainty.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <vector>
 
-#include "blmd/ident/uncertainty.h"
 #include "blmd/random.h"
 
 namespace blmd {
@@ -20,7 +21,8 @@ using Eigen::VectorXd;
 VectorXd Ar1(Random& random, Eigen::Index n, double rho) {
   VectorXd x(n);
   x(0) = random.Normal();
-  for (Eigen::Index t = 1; t < n; ++t) x(t) = rho * x(t - 1) + std::sqrt(1.0 - rho * rho) * random.Normal();
+  for (Eigen::Index t = 1; t < n; ++t)
+    x(t) = rho * x(t - 1) + std::sqrt(1.0 - rho * rho) * random.Normal();
   return x;
 }
 
@@ -39,7 +41,8 @@ TEST(HacSandwich, MeanOfAr1NoiseHasTheLongRunVariance) {
       const MatrixXd J = MatrixXd::Ones(n, 1);
       const SandwichCovariance c = HacSandwichCovariance(J, r, {{static_cast<std::size_t>(n)}, 1});
       ASSERT_TRUE(c.ok) << c.reason;
-      EXPECT_NEAR(c.white(0, 0), r.squaredNorm() / static_cast<double>(n) / static_cast<double>(n), 1e-15);
+      EXPECT_NEAR(c.white(0, 0), r.squaredNorm() / static_cast<double>(n) / static_cast<double>(n),
+                  1e-15);
       ratio_sum += c.variance_ratio[0];
     }
     const double expected = (1.0 + rho) / (1.0 - rho);
@@ -67,7 +70,8 @@ TEST(HacSandwich, IntervalsCoverUnderStronglyCorrelatedNoise) {
     const VectorXd beta = X.colPivHouseholderQr().solve(y);
     const VectorXd e = y - X * beta;
     const double s = std::sqrt(e.squaredNorm() / static_cast<double>(n - 2));
-    const SandwichCovariance c = HacSandwichCovariance(X / s, e / s, {{static_cast<std::size_t>(n)}, 1});
+    const SandwichCovariance c =
+        HacSandwichCovariance(X / s, e / s, {{static_cast<std::size_t>(n)}, 1});
     ASSERT_TRUE(c.ok) << c.reason;
     if (std::abs(beta(1)) <= 1.959964 * std::sqrt(c.covariance(1, 1))) ++covered_hac;
     if (std::abs(beta(1)) <= 1.959964 * std::sqrt(c.white(1, 1))) ++covered_white;

@@ -4,8 +4,8 @@
 
 #include <algorithm>
 #include <nlohmann/json.hpp>
-#include <vector>
 #include <string>
+#include <vector>
 
 #include "blmd/report/report.h"
 #include "support/test_support.h"
@@ -65,8 +65,9 @@ TEST(Warnings, EachCodeFromItsFigure) {
   EXPECT_EQ(with["warnings"][0]["code"], "interval_unavailable");
   EXPECT_EQ(with["warnings"][0]["message"], "no interval for J: the Jacobian is rank deficient");
   r = CleanReport();
-  r["discovery"] = {{"ambiguous", {{{"effects", {"coulomb_friction", "load_torque"}},
-                                    {"reason", "they explain the residual equally well"}}}},
+  r["discovery"] = {{"ambiguous",
+                     {{{"effects", {"coulomb_friction", "load_torque"}},
+                       {"reason", "they explain the residual equally well"}}}},
                     {"validation", {{"before", {{"nrmse", 0.1}}}, {"after", {{"nrmse", 0.12}}}}}};
   EXPECT_EQ(Codes(r), (Codes_{"discovery_ambiguous", "validation_worse_after_discovery"}));
 }
@@ -78,14 +79,16 @@ TEST(Warnings, FailOnWarningIsExitThreeAfterWritingTheReport) {
   const std::string base = BinPath("blmd-ident") + " --config " +
                            SourcePath("configs/ganesh-square.json") + " --trace " +
                            SourcePath("testdata/dc-hidden-coulomb.csv") + " --quiet --threads 2";
-  CommandResult run = blmd::testing::Run(base + " --report " + dir.File("r.json") + " --fail-on-warning");
+  CommandResult run =
+      blmd::testing::Run(base + " --report " + dir.File("r.json") + " --fail-on-warning");
   EXPECT_EQ(run.exit_code, 3);
   EXPECT_EQ(run.err, "error: 1 warning (residual_not_white) and --fail-on-warning\n");
   const nlohmann::json report = nlohmann::json::parse(Slurp(dir.File("r.json")));
   EXPECT_EQ(report["schema_version"], 2);
   ASSERT_EQ(report["warnings"].size(), 1u);
   EXPECT_EQ(report["warnings"][0]["code"], "residual_not_white");
-  run = blmd::testing::Run(base + " --discover --candidates coulomb_friction,load_torque --fail-on-warning");
+  run = blmd::testing::Run(
+      base + " --discover --candidates coulomb_friction,load_torque --fail-on-warning");
   EXPECT_EQ(run.exit_code, 0) << run.err;
 }
 
@@ -100,9 +103,9 @@ TEST(Warnings, LoadTorqueAndDragTogetherKeepHonestIntervals) {
   config["effects"] = {{"load_torque", {{"TL", 0.0015}}}, {"quadratic_drag", {{"Cd", 3e-7}}}};
   config["identification"]["free"] = {"J", "B", "TL", "Cd"};
   const std::string path = dir.Write("lq.json", config.dump());
-  CommandResult run = blmd::testing::Run(BinPath("blmd-sim") + " --config " + path +
-                                         " --noise i=1% --noise w=1% --seed 3 --quiet --out " +
-                                         dir.File("lq.csv"));
+  CommandResult run =
+      blmd::testing::Run(BinPath("blmd-sim") + " --config " + path +
+                         " --noise i=1% --noise w=1% --seed 3 --quiet --out " + dir.File("lq.csv"));
   ASSERT_EQ(run.exit_code, 0) << run.err;
   run = blmd::testing::Run(BinPath("blmd-ident") + " --config " + path + " --trace " +
                            dir.File("lq.csv") + " --threads 2 --json");
@@ -118,7 +121,8 @@ TEST(Warnings, LoadTorqueAndDragTogetherKeepHonestIntervals) {
     const auto& p = report["parameters"][name];
     ASSERT_TRUE(p["ci95"].is_array()) << name;
     EXPECT_GT(p["ci95"][1].get<double>() - p["ci95"][0].get<double>(),
-              0.01 * p["value"].get<double>()) << name;
+              0.01 * p["value"].get<double>())
+        << name;
     EXPECT_FALSE(p["at_bound"].get<bool>()) << name;
   }
   std::vector<std::string> codes;

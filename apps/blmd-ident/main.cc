@@ -7,13 +7,13 @@
 #include "../common/trace_flags.h"
 #include "blmd/ident/discovery.h"
 #include "blmd/ident/optimizer.h"
-#include "blmd/report/report.h"
 #include "blmd/ident/trace_input.h"
 #include "blmd/ident/trace_jackknife.h"
 #include "blmd/io/config.h"
 #include "blmd/io/files.h"
 #include "blmd/io/flags.h"
 #include "blmd/report/html_report.h"
+#include "blmd/report/report.h"
 #include "blmd/sim/effects.h"
 
 int main(int argc, char** argv) {

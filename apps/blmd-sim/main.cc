@@ -33,8 +33,11 @@ int main(int argc, char** argv) {
   app.add_option("--out", out_path, "trace CSV to write")->required();
   app.add_option("--effect", effects,
                  "add an undeclared effect, NAME:KEY=VALUE[,KEY=VALUE...] (repeatable)");
-  app.add_option("--noise", noises, "white Gaussian noise on a column, NAME=SIGMA or NAME=P% of its peak (repeatable)");
-  app.add_option("--seed", seed, "noise seed (default 1)")->check(blmd::app::NonNegativeWholeNumber());
+  app.add_option(
+      "--noise", noises,
+      "white Gaussian noise on a column, NAME=SIGMA or NAME=P% of its peak (repeatable)");
+  app.add_option("--seed", seed, "noise seed (default 1)")
+      ->check(blmd::app::NonNegativeWholeNumber());
   blmd::app::TraceFlags trace_flags;  // for --input
   trace_flags.Add(app);
   app.add_option("--input", input_path, "drive the model with the u column of this trace");
@@ -88,14 +91,14 @@ int main(int argc, char** argv) {
       if (input.Has("open")) recorded.open = input.Column("open");
       // The run covers the recorded span at the recorded instants.
       config.experiment.duration = recorded.times.back() - recorded.times.front();
-      if (const std::string error = blmd::RunLengthError(config.experiment.duration,
-                                                         config.simulation.dt, 0.0);
+      if (const std::string error =
+              blmd::RunLengthError(config.experiment.duration, config.simulation.dt, 0.0);
           !error.empty()) {
         throw blmd::InputError(input_path + ": " + error);
       }
     }
     if (input_path.empty()) config.experiment.CheckRunnable();  // the config's own time base
-    blmd::CheckWritable(out_path);  // before the run, not after it
+    blmd::CheckWritable(out_path);                              // before the run, not after it
     blmd::Trace trace;
     blmd::SimStatus status;
     if (input_path.empty()) {
@@ -113,8 +116,8 @@ int main(int argc, char** argv) {
     }
     if (!status.ok()) {
       // A run the user asked for failed: exit 1, one line, nothing written.
-      std::cerr << "error: " << config_path << ": " << status.message << " at t = "
-                << Fixed(status.at_time) << " s";
+      std::cerr << "error: " << config_path << ": " << status.message
+                << " at t = " << Fixed(status.at_time) << " s";
       if (status.code == blmd::SimStatus::Code::kDiverged) {
         std::cerr << "; the step simulation.dt = " << blmd::FormatNumber(config.simulation.dt)
                   << " s may be too large for the model's fastest dynamics, or a parameter is "
@@ -174,9 +177,10 @@ int main(int argc, char** argv) {
       const auto metrics = blmd::ComputeStepMetrics(trace.Column("t"), trace.Column("theta"),
                                                     config.experiment.input.t0);
       if (metrics.valid) {
-        std::printf("  closed loop: rise time (10-90 %%) %s s, overshoot %s %%, settling (2 %%) %s s\n",
-                    Fixed(metrics.rise_time).c_str(), Fixed(metrics.overshoot_percent).c_str(),
-                    Fixed(metrics.settling_time).c_str());
+        std::printf(
+            "  closed loop: rise time (10-90 %%) %s s, overshoot %s %%, settling (2 %%) %s s\n",
+            Fixed(metrics.rise_time).c_str(), Fixed(metrics.overshoot_percent).c_str(),
+            Fixed(metrics.settling_time).c_str());
       } else {
         std::printf("  closed loop: theta did not respond (no step metrics)\n");
       }

@@ -43,8 +43,9 @@ struct ErrorFlags {
                        " applies to the equation error only (--error equation)");
     }
     if (equation && config->model->name() != "rigid_load") {
-      throw InputError("--error equation needs model rigid_load (its input is the drive torque); model " +
-                       std::string(config->model->name()) + "'s drive torque is a state of the model");
+      throw InputError(
+          "--error equation needs model rigid_load (its input is the drive torque); model " +
+          std::string(config->model->name()) + "'s drive torque is a state of the model");
     }
     std::vector<std::string> observe =
         observe_text.empty() ? ident.observe : ParseNameList(observe_text, "--observe");

@@ -17,9 +17,9 @@ SimStatus RunExperiment(const Config& config, Trace* out, const InputSignal* inp
 // Step-response figures of y(t) towards its final value (the mean of the last 2 % of the
 // samples), from y(t[0]).
 struct StepMetrics {
-  bool valid = false;          // false when y never moves
+  bool valid = false;  // false when y never moves
   double final_value = 0.0;
-  double rise_time = 0.0;      // s, 10 % to 90 % of the change
+  double rise_time = 0.0;  // s, 10 % to 90 % of the change
   double overshoot_percent = 0.0;
   double settling_time = 0.0;  // s, after which |y - final| stays within 2 % of the change
 };

@@ -45,8 +45,8 @@ class SimulationCost final : public ceres::CostFunction {
   }
   // The residuals and Jacobian CheckJacobian evaluated.
   Eigen::VectorXd RememberedResiduals() const {
-    return Eigen::Map<const Eigen::VectorXd>(remembered_residuals_.data(),
-                                             static_cast<Eigen::Index>(remembered_residuals_.size()));
+    return Eigen::Map<const Eigen::VectorXd>(
+        remembered_residuals_.data(), static_cast<Eigen::Index>(remembered_residuals_.size()));
   }
   Eigen::MatrixXd RememberedJacobian() const {  // Ceres's layout: row-major n x p
     const auto p = static_cast<Eigen::Index>(cost_->problem().num_free());
@@ -259,8 +259,7 @@ FitResult CeresOptimizer::Minimize(const FitProblem& problem,
   summary.algorithm =
       "LEVENBERG_MARQUARDT (forward differences, central for the covariance; DENSE_QR)";
   summary.raw_code = static_cast<int>(ceres_summary.termination_type);
-  summary.converged = ceres_summary.termination_type == ceres::CONVERGENCE &&
-                      result.evaluation.ok;
+  summary.converged = ceres_summary.termination_type == ceres::CONVERGENCE && result.evaluation.ok;
   summary.termination = ceres::TerminationTypeToString(ceres_summary.termination_type);
   summary.message = ceres_summary.message;
   summary.iterations = static_cast<long>(ceres_summary.iterations.size());

@@ -36,7 +36,9 @@ std::vector<Plateau> FindPlateaus(const Trace& trace, std::size_t end, double ta
     if (k == end || std::abs(u[k] - u[start]) > tolerance) {
       const std::size_t length = k - start;
       if (length >= 20 && std::abs(u[start]) > tolerance) {
-        const std::size_t from = k - std::max<std::size_t>(2, static_cast<std::size_t>(tail * static_cast<double>(length)));
+        const std::size_t from =
+            k -
+            std::max<std::size_t>(2, static_cast<std::size_t>(tail * static_cast<double>(length)));
         Plateau p;
         p.u = u[start];
         for (std::size_t r = from; r < k; ++r) {
@@ -61,7 +63,8 @@ std::vector<std::string> ClassicOptimizer::option_names() const { return {"tail"
 FitResult ClassicOptimizer::Minimize(const FitProblem& problem,
                                      const OptimizerOptions& options) const {
   CheckMethodOptions("classic", options.method_options, option_names());
-  const double tail = OptionNumber("classic", options.method_options, "tail", 0.1, {0.0, 1.0, true});
+  const double tail =
+      OptionNumber("classic", options.method_options, "tail", 0.1, {0.0, 1.0, true});
   const auto started = std::chrono::steady_clock::now();
   const Config& config = problem.config();
   if (config.model->name() != "dc_servo") {

@@ -2,7 +2,6 @@
 #pragma once
 
 #include <Eigen/Dense>
-
 #include <atomic>
 #include <map>
 #include <mutex>
@@ -110,9 +109,8 @@ double OptionNumber(const std::string& method, const nlohmann::json& options, co
 int OptionWholeNumber(const std::string& method, const nlohmann::json& options, const char* key,
                       int fallback, int low, int high);
 // A text option that must be one of `choices` (the message lists them).
-std::string OptionChoice(const std::string& method, const nlohmann::json& options,
-                         const char* key, const std::string& fallback,
-                         const std::vector<std::string>& choices);
+std::string OptionChoice(const std::string& method, const nlohmann::json& options, const char* key,
+                         const std::string& fallback, const std::vector<std::string>& choices);
 
 // BOBYQA/PRAXIS in scaled coordinates from `start`; shared by powell and the FSD polish.
 struct LocalResult {
@@ -126,6 +124,5 @@ struct LocalResult {
 LocalResult NloptLocal(CountingCost& cost, const std::string& algorithm,
                        const std::vector<double>& start, double initial_step, int max_evaluations,
                        double xtol_abs, double ftol_rel);
-
 
 }  // namespace blmd::internal

@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "saturating_cast.h"
 #include "blmd/ident/stats.h"
+#include "saturating_cast.h"
 
 namespace blmd {
 namespace {
@@ -25,7 +25,8 @@ SignDependence SplitBySign(const std::vector<double>& residual, const std::vecto
     }
   }
   if (out.count_positive < 10 || out.count_negative < 10) return out;
-  const double np = static_cast<double>(out.count_positive), nn = static_cast<double>(out.count_negative);
+  const double np = static_cast<double>(out.count_positive),
+               nn = static_cast<double>(out.count_negative);
   out.mean_positive = sum_p / np;
   out.mean_negative = sum_n / nn;
   const double var_p = std::max(0.0, sq_p / np - out.mean_positive * out.mean_positive);
@@ -175,8 +176,8 @@ ResidualAnalysis AnalyseResidual(const FitProblem& problem, const std::vector<do
         const std::size_t cap = std::max<std::size_t>(1, (last - first) / 4);
         for (std::size_t k = first; k < last; ++k) {
           if (std::abs(w[k]) <= 0.25 * analysis.w_max) continue;
-          const std::size_t h =
-              std::min(cap, internal::SaturatingCast<std::size_t>(M_PI / std::abs(w[k]) * rates[s_index]));
+          const std::size_t h = std::min(
+              cap, internal::SaturatingCast<std::size_t>(M_PI / std::abs(w[k]) * rates[s_index]));
           const std::size_t lo = k - first >= h ? k - first - h : 0;
           const std::size_t hi = std::min(last - first, k - first + h + 1);
           detrended[k] = e[k] - (prefix[hi] - prefix[lo]) / static_cast<double>(hi - lo);
@@ -206,13 +207,17 @@ ResidualAnalysis AnalyseResidual(const FitProblem& problem, const std::vector<do
         const auto n = static_cast<std::size_t>(order);
         amplitude[n - 1] = scale * std::hypot(a[n], b[n]);
       }
-      std::vector<double> sorted(amplitude.begin() + std::min<long>(min_order - 1, options.max_order - 1), amplitude.end());
-      std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
+      std::vector<double> sorted(
+          amplitude.begin() + std::min<long>(min_order - 1, options.max_order - 1),
+          amplitude.end());
+      std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2),
+                       sorted.end());
       const double floor = sorted[sorted.size() / 2];
       std::vector<int> orders(amplitude.size());
       for (std::size_t k = 0; k < orders.size(); ++k) orders[k] = static_cast<int>(k + 1);
       std::stable_sort(orders.begin(), orders.end(), [&](int l, int r) {
-        return amplitude[static_cast<std::size_t>(l - 1)] > amplitude[static_cast<std::size_t>(r - 1)];
+        return amplitude[static_cast<std::size_t>(l - 1)] >
+               amplitude[static_cast<std::size_t>(r - 1)];
       });
       for (int k = 0; k < options.peaks && k < static_cast<int>(orders.size()); ++k) {
         AnglePeak peak;

@@ -110,9 +110,9 @@ std::size_t FiltFiltSettling(const std::vector<Biquad>& sections) {
   double radius = 0.0;
   for (const Biquad& s : sections) {
     const double discriminant = s.a1 * s.a1 - 4.0 * s.a2;
-    radius = std::max(radius, discriminant < 0.0
-                                  ? std::sqrt(s.a2)
-                                  : 0.5 * (std::abs(s.a1) + std::sqrt(discriminant)));
+    radius =
+        std::max(radius, discriminant < 0.0 ? std::sqrt(s.a2)
+                                            : 0.5 * (std::abs(s.a1) + std::sqrt(discriminant)));
   }
   if (!(radius > 0.0)) return 0;
   if (!(radius < 1.0)) return std::numeric_limits<std::size_t>::max();
@@ -121,8 +121,9 @@ std::size_t FiltFiltSettling(const std::vector<Biquad>& sections) {
 
 std::vector<double> FiltFilt(const std::vector<Biquad>& sections, const std::vector<double>& x) {
   const std::size_t n = x.size(), minimum = FiltFiltPadding(sections);
-  if (n <= minimum) throw InputError("zero-phase filter: " + std::to_string(n) +
-                                     " samples, need more than " + std::to_string(minimum));
+  if (n <= minimum)
+    throw InputError("zero-phase filter: " + std::to_string(n) + " samples, need more than " +
+                     std::to_string(minimum));
   const std::size_t pad = std::min(n - 1, std::max(minimum, FiltFiltSettling(sections)));
   std::vector<double> y;
   y.reserve(n + 2 * pad);
@@ -143,8 +144,9 @@ EquationTrace PrepareEquationTrace(const FitTrace& fit_trace,
   const std::string where = fit_trace.path.empty() ? "trace" : fit_trace.path;
   const bool has_theta = trace.Has("theta");
   if (!has_theta && !trace.Has("w")) {
-    throw InputError(where + ": the equation error needs the measured motion: a theta or w "
-                             "column (--column theta=HEADER or --column w=HEADER)");
+    throw InputError(where +
+                     ": the equation error needs the measured motion: a theta or w "
+                     "column (--column theta=HEADER or --column w=HEADER)");
   }
   const auto& t = trace.Column("t");
   const auto& u = trace.Column("u");
@@ -162,8 +164,9 @@ EquationTrace PrepareEquationTrace(const FitTrace& fit_trace,
   const double dt = sorted[sorted.size() / 2];
   const auto [lo, hi] = std::minmax_element(steps.begin(), steps.end());
   if (!(dt > 0.0) || *hi - dt > 0.01 * dt || dt - *lo > 0.01 * dt) {
-    throw InputError(where + ": the equation error filters the samples, which must be evenly "
-                             "spaced; the time step varies from " +
+    throw InputError(where +
+                     ": the equation error filters the samples, which must be evenly "
+                     "spaced; the time step varies from " +
                      FormatSignificant(*lo, 6) + " to " + FormatSignificant(*hi, 6) + " s");
   }
   const double sample_hz = 1.0 / dt;
@@ -184,8 +187,10 @@ EquationTrace PrepareEquationTrace(const FitTrace& fit_trace,
   const std::size_t needed =
       std::max(FiltFiltPadding(motion_filter), FiltFiltPadding(out.anti_alias)) + 3;
   if (n < needed || (n - 2) / static_cast<std::size_t>(out.decimate) < 10) {
-    throw InputError(where + ": " + std::to_string(n) + " samples: too few for the equation "
-                     "error's filters (need " + std::to_string(needed) + " and 10 after decimating by " +
+    throw InputError(where + ": " + std::to_string(n) +
+                     " samples: too few for the equation "
+                     "error's filters (need " +
+                     std::to_string(needed) + " and 10 after decimating by " +
                      std::to_string(out.decimate) + ")");
   }
   const std::vector<double> filtered = FiltFilt(motion_filter, motion);

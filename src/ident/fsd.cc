@@ -26,17 +26,17 @@ namespace blmd::internal {
 namespace {
 
 struct FsdSettings {
-  int walkers = 4;            // independent diffusions (the first starts at the initial point)
-  int bursts = 6;             // diffusion bursts per walker, each followed by a quench
-  int burst_steps = 8;        // Langevin steps per burst
-  int quench_evaluations = 30;  // BOBYQA evaluations per quench
-  double quench_step = 0.03;  // scaled units, BOBYQA initial step in a quench
-  int probes = 0;             // random probe points for the cost scale (0: 8 per parameter)
+  int walkers = 4;               // independent diffusions (the first starts at the initial point)
+  int bursts = 6;                // diffusion bursts per walker, each followed by a quench
+  int burst_steps = 8;           // Langevin steps per burst
+  int quench_evaluations = 30;   // BOBYQA evaluations per quench
+  double quench_step = 0.03;     // scaled units, BOBYQA initial step in a quench
+  int probes = 0;                // random probe points for the cost scale (0: 8 per parameter)
   double initial_spread = 0.15;  // scaled units: sqrt(2 a T0) at the first step
-  double t0 = 1.0;            // initial temperature in units of the probe spread
-  double fd_step = 1e-3;      // scaled units, forward-difference gradient step
-  double max_step = 0.2;      // scaled units, cap on one move per coordinate
-  bool polish = true;         // final BOBYQA from each walker's best point and the best probe
+  double t0 = 1.0;               // initial temperature in units of the probe spread
+  double fd_step = 1e-3;         // scaled units, forward-difference gradient step
+  double max_step = 0.2;         // scaled units, cap on one move per coordinate
+  bool polish = true;            // final BOBYQA from each walker's best point and the best probe
   int polish_evaluations = 120;  // per polished point
   // BOBYQA's initial trust radius in the polish (scaled units). Large enough for its
   // quadratic model to see past the ripples of a rugged valley floor: measured on the BLMD
@@ -157,8 +157,10 @@ thread_local long FsdRun::walker_evaluations = 0;
 }  // namespace
 
 std::vector<std::string> FsdOptimizer::option_names() const {
-  return {"walkers", "bursts", "burst_steps", "quench_evaluations", "quench_step", "probes", "initial_spread",
-          "t0", "fd_step", "max_step", "polish", "polish_evaluations", "polish_step"};
+  return {"walkers",     "bursts",   "burst_steps",    "quench_evaluations",
+          "quench_step", "probes",   "initial_spread", "t0",
+          "fd_step",     "max_step", "polish",         "polish_evaluations",
+          "polish_step"};
 }
 
 FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptions& options) const {
@@ -171,15 +173,18 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
   s.walkers = OptionWholeNumber(m, o, "walkers", s.walkers, 1, 1024);
   s.bursts = OptionWholeNumber(m, o, "bursts", s.bursts, 1, 100000);
   s.burst_steps = OptionWholeNumber(m, o, "burst_steps", s.burst_steps, 1, 100000);
-  s.quench_evaluations = OptionWholeNumber(m, o, "quench_evaluations", s.quench_evaluations, 0, 1000000);
+  s.quench_evaluations =
+      OptionWholeNumber(m, o, "quench_evaluations", s.quench_evaluations, 0, 1000000);
   s.quench_step = OptionNumber(m, o, "quench_step", s.quench_step, {0.0, 1.0, true});
-  s.probes = OptionWholeNumber(m, o, "probes", static_cast<int>(std::min<std::size_t>(8 * n, 100000)), 2, 100000);
+  s.probes = OptionWholeNumber(m, o, "probes",
+                               static_cast<int>(std::min<std::size_t>(8 * n, 100000)), 2, 100000);
   s.initial_spread = OptionNumber(m, o, "initial_spread", s.initial_spread, {0.0, 1.0, true});
   s.t0 = OptionNumber(m, o, "t0", s.t0, {0.0, 1e6, true});
   s.fd_step = OptionNumber(m, o, "fd_step", s.fd_step, {0.0, 0.5, true});
   s.max_step = OptionNumber(m, o, "max_step", s.max_step, {0.0, 1.0, true});
   s.polish = OptionWholeNumber(m, o, "polish", 1, 0, 1) != 0;
-  s.polish_evaluations = OptionWholeNumber(m, o, "polish_evaluations", s.polish_evaluations, 1, 1000000);
+  s.polish_evaluations =
+      OptionWholeNumber(m, o, "polish_evaluations", s.polish_evaluations, 1, 1000000);
   s.polish_step = OptionNumber(m, o, "polish_step", s.polish_step, {0.0, 1.0, true});
   s.probes = std::max(2, s.probes);
 
@@ -189,7 +194,8 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
 
   // Probe points: the cost's spread sets the temperature scale; the best probes seed walkers.
   Random master(options.seed);
-  std::vector<std::vector<double>> probes(static_cast<std::size_t>(s.probes), std::vector<double>(n));
+  std::vector<std::vector<double>> probes(static_cast<std::size_t>(s.probes),
+                                          std::vector<double>(n));
   for (auto& p : probes) {
     for (double& v : p) v = master.Uniform();
   }
@@ -227,7 +233,8 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
 
   std::vector<Walker> walkers(static_cast<std::size_t>(s.walkers));
   walkers[0].x = problem.ToScaled(problem.InitialValues());
-  for (std::size_t w = 1; w < walkers.size(); ++w) walkers[w].x = probes[order[(w - 1) % order.size()]];
+  for (std::size_t w = 1; w < walkers.size(); ++w)
+    walkers[w].x = probes[order[(w - 1) % order.size()]];
 
   FsdRun run(cost, s, scale);
   if (options.max_evaluations > 0) {
@@ -253,18 +260,21 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
   std::vector<PolishCandidate> candidates;
   for (std::size_t w = 0; w < walkers.size(); ++w) {
     if (std::isfinite(walkers[w].best)) {
-      candidates.push_back({"walker " + std::to_string(w), walkers[w].best_x, walkers[w].best * scale, {}});
+      candidates.push_back(
+          {"walker " + std::to_string(w), walkers[w].best_x, walkers[w].best * scale, {}});
     }
   }
   {
     std::size_t best_probe = probes.size();
     for (std::size_t k = 0; k < probes.size(); ++k) {
-      if (std::isfinite(probe_cost[k]) && (best_probe == probes.size() || probe_cost[k] < probe_cost[best_probe])) {
+      if (std::isfinite(probe_cost[k]) &&
+          (best_probe == probes.size() || probe_cost[k] < probe_cost[best_probe])) {
         best_probe = k;
       }
     }
     if (best_probe < probes.size()) {
-      candidates.push_back({"probe " + std::to_string(best_probe), probes[best_probe], probe_cost[best_probe], {}});
+      candidates.push_back(
+          {"probe " + std::to_string(best_probe), probes[best_probe], probe_cost[best_probe], {}});
     }
   }
   // Drop near-duplicates (within 1e-3 of the unit cube), keeping the first.
@@ -273,7 +283,8 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
     bool duplicate = false;
     for (const auto& u : unique) {
       double d2 = 0.0;
-      for (std::size_t k = 0; k < n; ++k) d2 += (c.start[k] - u.start[k]) * (c.start[k] - u.start[k]);
+      for (std::size_t k = 0; k < n; ++k)
+        d2 += (c.start[k] - u.start[k]) * (c.start[k] - u.start[k]);
       duplicate = duplicate || d2 < 1e-6;
     }
     if (!duplicate) unique.push_back(c);
@@ -293,7 +304,8 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
   for (const auto& c : candidates) {
     const bool improved = s.polish && c.local.cost <= c.start_cost;
     const double end_cost = improved ? c.local.cost : c.start_cost;
-    polished.push_back({{"source", c.source}, {"start_cost", c.start_cost}, {"end_cost", end_cost}});
+    polished.push_back(
+        {{"source", c.source}, {"start_cost", c.start_cost}, {"end_cost", end_cost}});
     if (end_cost < best_cost) {
       best_cost = end_cost;
       x = improved ? c.local.scaled : c.start;
@@ -311,8 +323,8 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
   summary.method = "fsd";
   summary.algorithm = "fast simulated diffusion + LN_BOBYQA polish";
   summary.converged = result.evaluation.ok && (!s.polish || polish.converged);
-  summary.termination = s.polish ? "schedule completed; polish: " + polish.message
-                                 : "schedule completed";
+  summary.termination =
+      s.polish ? "schedule completed; polish: " + polish.message : "schedule completed";
   summary.message = summary.termination;
   summary.raw_code = polish.code;
   long steps = 0;

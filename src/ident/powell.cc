@@ -1,9 +1,8 @@
-#include <nlopt.hpp>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <nlopt.hpp>
 
 #include "blmd/error.h"
 #include "ident/counting_cost.h"
@@ -34,18 +33,30 @@ double Objective(const std::vector<double>& x, std::vector<double>& /*grad*/, vo
 
 std::string ResultName(nlopt::result result) {
   switch (result) {
-    case nlopt::SUCCESS: return "success";
-    case nlopt::STOPVAL_REACHED: return "stopval reached";
-    case nlopt::FTOL_REACHED: return "relative cost change below ftol";
-    case nlopt::XTOL_REACHED: return "parameter change below xtol";
-    case nlopt::MAXEVAL_REACHED: return "evaluation budget exhausted";
-    case nlopt::MAXTIME_REACHED: return "time budget exhausted";
-    case nlopt::FAILURE: return "failure";
-    case nlopt::INVALID_ARGS: return "invalid arguments";
-    case nlopt::OUT_OF_MEMORY: return "out of memory";
-    case nlopt::ROUNDOFF_LIMITED: return "round-off limited";
-    case nlopt::FORCED_STOP: return "forced stop";
-    default: return "code " + std::to_string(static_cast<int>(result));
+    case nlopt::SUCCESS:
+      return "success";
+    case nlopt::STOPVAL_REACHED:
+      return "stopval reached";
+    case nlopt::FTOL_REACHED:
+      return "relative cost change below ftol";
+    case nlopt::XTOL_REACHED:
+      return "parameter change below xtol";
+    case nlopt::MAXEVAL_REACHED:
+      return "evaluation budget exhausted";
+    case nlopt::MAXTIME_REACHED:
+      return "time budget exhausted";
+    case nlopt::FAILURE:
+      return "failure";
+    case nlopt::INVALID_ARGS:
+      return "invalid arguments";
+    case nlopt::OUT_OF_MEMORY:
+      return "out of memory";
+    case nlopt::ROUNDOFF_LIMITED:
+      return "round-off limited";
+    case nlopt::FORCED_STOP:
+      return "forced stop";
+    default:
+      return "code " + std::to_string(static_cast<int>(result));
   }
 }
 
@@ -79,8 +90,8 @@ LocalResult NloptLocal(CountingCost& cost, const std::string& algorithm,
     const nlopt::result code = opt.optimize(x, minimum);
     result.code = static_cast<int>(code);
     result.message = ResultName(code);
-    result.converged = code == nlopt::SUCCESS || code == nlopt::FTOL_REACHED ||
-                       code == nlopt::XTOL_REACHED;
+    result.converged =
+        code == nlopt::SUCCESS || code == nlopt::FTOL_REACHED || code == nlopt::XTOL_REACHED;
   } catch (const nlopt::roundoff_limited&) {
     result.code = static_cast<int>(nlopt::ROUNDOFF_LIMITED);
     result.message = "round-off limited (the cost is flat to machine precision)";
@@ -108,7 +119,8 @@ FitResult PowellOptimizer::Minimize(const FitProblem& problem,
                                     const OptimizerOptions& options) const {
   CheckMethodOptions("powell", options.method_options, option_names());
   const nlohmann::json& o = options.method_options;
-  const std::string algorithm = OptionChoice("powell", o, "algorithm", "bobyqa", {"bobyqa", "praxis"});
+  const std::string algorithm =
+      OptionChoice("powell", o, "algorithm", "bobyqa", {"bobyqa", "praxis"});
   const double initial_step = OptionNumber("powell", o, "initial_step", 0.1, {0.0, 1.0, true});
   const double xtol = OptionNumber("powell", o, "xtol", 1e-8, {0.0, 1.0, true});
   const double ftol = OptionNumber("powell", o, "ftol", 1e-12, {0.0, 1.0, true});

@@ -26,9 +26,10 @@ FitProblem::FitProblem(Config config, std::vector<FitTrace> traces,
   }
   if (config_.identification.error == "equation") {
     if (config_.model->name() != "rigid_load") {
-      throw InputError("the equation error needs model rigid_load (its input is the drive "
-                       "torque); model " + std::string(config_.model->name()) +
-                       "'s drive torque is a state of the model");
+      throw InputError(
+          "the equation error needs model rigid_load (its input is the drive "
+          "torque); model " +
+          std::string(config_.model->name()) + "'s drive torque is a state of the model");
     }
     if (observe_ != std::vector<std::string>{"u"}) {
       throw InputError("the equation error compares the input: observe u (--observe u)");
@@ -40,7 +41,8 @@ FitProblem::FitProblem(Config config, std::vector<FitTrace> traces,
     for (const auto& fit_trace : traces_) {  // the runs to simulate must be feasible
       if (!fit_trace.trace.Has("t") || fit_trace.trace.rows() == 0) continue;
       const auto& t = fit_trace.trace.Column("t");
-      if (const std::string error = RunLengthError(t.back() - t.front(), config_.simulation.dt, 0.0);
+      if (const std::string error =
+              RunLengthError(t.back() - t.front(), config_.simulation.dt, 0.0);
           !error.empty()) {
         throw InputError(fit_trace.path + ": " + error);
       }
@@ -71,7 +73,8 @@ FitProblem::FitProblem(Config config, std::vector<FitTrace> traces,
     if (!std::isfinite(variance)) {
       throw InputError(Where() + "observed column '" + observe_[c] +
                        "' holds values too large to fit (its variance overflows a double); "
-                       "rescale it with --scale " + observe_[c] + "=FACTOR");
+                       "rescale it with --scale " +
+                       observe_[c] + "=FACTOR");
     }
     variance_[c] = variance;
     samples_per_column_[c] = n;
@@ -98,7 +101,8 @@ double FitProblem::column_weight(std::size_t c) const {
 }
 
 std::vector<double> FitProblem::NoiseNormalisation(const Evaluation& evaluation) const {
-  const double p_per_column = static_cast<double>(free_.size()) / static_cast<double>(observe_.size());
+  const double p_per_column =
+      static_cast<double>(free_.size()) / static_cast<double>(observe_.size());
   std::vector<double> factor_per_column(observe_.size(), 0.0);
   for (std::size_t c = 0; c < observe_.size(); ++c) {
     const double n = static_cast<double>(samples_per_column_[c]);

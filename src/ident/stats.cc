@@ -30,7 +30,8 @@ LjungBox LjungBoxTest(const std::vector<double>& x, int lags) {
   const std::vector<double> r = Autocorrelation(x, lags);
   if (r.empty()) return result;
   double q = 0.0;
-  for (int k = 1; k <= lags; ++k) q += r[static_cast<std::size_t>(k - 1)] * r[static_cast<std::size_t>(k - 1)] / (n - k);
+  for (int k = 1; k <= lags; ++k)
+    q += r[static_cast<std::size_t>(k - 1)] * r[static_cast<std::size_t>(k - 1)] / (n - k);
   result.lags = lags;
   result.q = n * (n + 2.0) * q;
   result.p_value = ChiSquareSurvival(result.q, lags);

@@ -83,7 +83,8 @@ std::pair<std::size_t, std::size_t> ShardRange(std::size_t total, int index, int
   return {total * k / n, total * (k + 1) / n};
 }
 
-std::vector<SurfacePoint> ComputeSurface(const FitProblem& problem, const std::vector<GridAxis>& axes,
+std::vector<SurfacePoint> ComputeSurface(const FitProblem& problem,
+                                         const std::vector<GridAxis>& axes,
                                          const SurfaceOptions& options) {
   std::size_t total = 1;
   for (const auto& axis : axes) total *= static_cast<std::size_t>(axis.count);
@@ -129,7 +130,9 @@ std::vector<std::size_t> LocalMinima(const std::vector<GridAxis>& axes,
   const int n0 = axes[0].count;
   const int n1 = axes.size() > 1 ? axes[1].count : 1;
   auto cost = [&](int i, int j) {
-    return points[static_cast<std::size_t>(i) * static_cast<std::size_t>(n1) + static_cast<std::size_t>(j)].evaluation.cost;
+    return points[static_cast<std::size_t>(i) * static_cast<std::size_t>(n1) +
+                  static_cast<std::size_t>(j)]
+        .evaluation.cost;
   };
   for (int i = 0; i < n0; ++i) {
     for (int j = 0; j < n1; ++j) {
@@ -149,7 +152,9 @@ std::vector<std::size_t> LocalMinima(const std::vector<GridAxis>& axes,
           }
         }
       }
-      if (lowest && neighbours > 0) minima.push_back(static_cast<std::size_t>(i) * static_cast<std::size_t>(n1) + static_cast<std::size_t>(j));
+      if (lowest && neighbours > 0)
+        minima.push_back(static_cast<std::size_t>(i) * static_cast<std::size_t>(n1) +
+                         static_cast<std::size_t>(j));
     }
   }
   return minima;

@@ -81,8 +81,9 @@ SandwichCovariance HacSandwichCovariance(const MatrixXd& jacobian, const VectorX
   Eigen::JacobiSVD<MatrixXd> svd(information, Eigen::ComputeFullU | Eigen::ComputeFullV);
   const VectorXd& singular = svd.singularValues();
   if (!(singular(p - 1) >= 1e-12 * singular(0))) {
-    result.reason = "the Jacobian is rank deficient: the free parameters are not separately "
-                    "identifiable from these traces";
+    result.reason =
+        "the Jacobian is rank deficient: the free parameters are not separately "
+        "identifiable from these traces";
     return result;
   }
   const MatrixXd inverse = svd.solve(MatrixXd::Identity(p, p));
@@ -137,8 +138,8 @@ SandwichCovariance HacSandwichCovariance(const MatrixXd& jacobian, const VectorX
     return result;
   }
   const double mean_length = total / static_cast<double>(whitened.size());
-  const double bandwidth = std::min(AndrewsBartlettBandwidth(whitened, mean_length),
-                                    std::max(0.0, mean_length - 1.0));
+  const double bandwidth =
+      std::min(AndrewsBartlettBandwidth(whitened, mean_length), std::max(0.0, mean_length - 1.0));
   result.bandwidth = bandwidth;
   const Index lags = static_cast<Index>(std::floor(bandwidth));
   MatrixXd s_h = MatrixXd::Zero(p, p);
@@ -146,8 +147,7 @@ SandwichCovariance HacSandwichCovariance(const MatrixXd& jacobian, const VectorX
     s_h += h.transpose() * h;
     for (Index l = 1; l <= lags && l < h.rows(); ++l) {
       const double weight = 1.0 - static_cast<double>(l) / (bandwidth + 1.0);
-      const MatrixXd gamma =
-          h.bottomRows(h.rows() - l).transpose() * h.topRows(h.rows() - l);
+      const MatrixXd gamma = h.bottomRows(h.rows() - l).transpose() * h.topRows(h.rows() - l);
       s_h += weight * (gamma + gamma.transpose());
     }
   }

@@ -42,22 +42,36 @@ class PositionIndex {
   static std::size_t Unescape(const std::string& text, std::size_t k, std::string* out) {
     const char e = text[k + 1];
     switch (e) {
-      case 'b': *out += '\b'; return 2;
-      case 'f': *out += '\f'; return 2;
-      case 'n': *out += '\n'; return 2;
-      case 'r': *out += '\r'; return 2;
-      case 't': *out += '\t'; return 2;
-      case 'u': break;
-      default: *out += e; return 2;  // \" \\ \/
+      case 'b':
+        *out += '\b';
+        return 2;
+      case 'f':
+        *out += '\f';
+        return 2;
+      case 'n':
+        *out += '\n';
+        return 2;
+      case 'r':
+        *out += '\r';
+        return 2;
+      case 't':
+        *out += '\t';
+        return 2;
+      case 'u':
+        break;
+      default:
+        *out += e;
+        return 2;  // \" \\ \/
     }
     auto hex4 = [&](std::size_t at, unsigned* value) {
       if (at + 4 > text.size()) return false;
       *value = 0;
       for (std::size_t d = at; d < at + 4; ++d) {
         const char h = text[d];
-        const int digit = h >= '0' && h <= '9' ? h - '0'
+        const int digit = h >= '0' && h <= '9'   ? h - '0'
                           : h >= 'a' && h <= 'f' ? h - 'a' + 10
-                          : h >= 'A' && h <= 'F' ? h - 'A' + 10 : -1;
+                          : h >= 'A' && h <= 'F' ? h - 'A' + 10
+                                                 : -1;
         if (digit < 0) return false;
         *value = *value * 16 + static_cast<unsigned>(digit);
       }
@@ -161,8 +175,8 @@ class PositionIndex {
         if (!stack.empty() && stack.back().is_object) stack.back().expecting_key = true;
       } else if (c == '-' || (c >= '0' && c <= '9') || c == 't' || c == 'f' || c == 'n') {
         value_started(here_line, here_column);
-        while (k + 1 < text.size() && std::string_view(",}] \t\r\n").find(text[k + 1]) ==
-                                          std::string_view::npos) {
+        while (k + 1 < text.size() &&
+               std::string_view(",}] \t\r\n").find(text[k + 1]) == std::string_view::npos) {
           ++k;
           ++column;
         }
@@ -230,8 +244,8 @@ std::string SyntaxHint(const std::string& what) {
   while (word > 0 && std::isalpha(static_cast<unsigned char>(token[word - 1]))) --word;
   std::string tail = token.substr(word);
   for (auto& c : tail) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  if (!tail.empty() && (std::string("nan").rfind(tail, 0) == 0 ||
-                        std::string("infinity").rfind(tail, 0) == 0)) {
+  if (!tail.empty() &&
+      (std::string("nan").rfind(tail, 0) == 0 || std::string("infinity").rfind(tail, 0) == 0)) {
     return " (NaN and Infinity are not JSON numbers)";
   }
   return {};
@@ -324,10 +338,10 @@ class Reader {
     for (const auto& [key, value] : object.items()) {
       if (std::find(allowed.begin(), allowed.end(), key) != allowed.end()) continue;
       const std::string near = NearestName(key, allowed);
-      Fail(pointer + "/" + key,
-           "unknown key '" + InputError::Excerpt(key) + "' in '" + Label(pointer) + "'" +
-               (near.empty() ? "" : " (did you mean '" + near + "'?)") + "; valid keys: " +
-               Join(allowed));
+      Fail(pointer + "/" + key, "unknown key '" + InputError::Excerpt(key) + "' in '" +
+                                    Label(pointer) + "'" +
+                                    (near.empty() ? "" : " (did you mean '" + near + "'?)") +
+                                    "; valid keys: " + Join(allowed));
     }
   }
 
@@ -342,8 +356,8 @@ class Reader {
 
   double Positive(const json& value, const std::string& pointer) const {
     const double v = Number(value, pointer);
-    if (!(v > 0.0)) Fail(pointer, "'" + Label(pointer) + "' must be > 0 (got " +
-                                      FormatNumber(v) + ")");
+    if (!(v > 0.0))
+      Fail(pointer, "'" + Label(pointer) + "' must be > 0 (got " + FormatNumber(v) + ")");
     return v;
   }
 
@@ -363,8 +377,7 @@ class Reader {
 
   std::vector<double> Numbers(const json& value, const std::string& pointer) const {
     if (!value.is_array()) {
-      Fail(pointer, "'" + Label(pointer) + "' must be an array of numbers, not " +
-                        TypeName(value));
+      Fail(pointer, "'" + Label(pointer) + "' must be an array of numbers, not " + TypeName(value));
     }
     std::vector<double> out;
     for (std::size_t k = 0; k < value.size(); ++k) {
@@ -388,8 +401,7 @@ class Reader {
       return out;
     }
     if (!value.is_array()) {
-      Fail(pointer, "'" + Label(pointer) + "' must be an array of names, not " +
-                        TypeName(value));
+      Fail(pointer, "'" + Label(pointer) + "' must be an array of names, not " + TypeName(value));
     }
     std::vector<std::string> out;
     for (std::size_t k = 0; k < value.size(); ++k) {
@@ -408,9 +420,10 @@ class Reader {
 InputSignal ReadInput(const Reader& reader, const json& input, const std::string& pointer,
                       const std::string& config_path) {
   reader.RequireObject(input, pointer);
-  if (!input.contains("type")) reader.Fail(pointer, "'" + Reader::Label(pointer) +
-                                                        "' needs a \"type\" (step, square, "
-                                                        "steps, sweep, recorded)");
+  if (!input.contains("type"))
+    reader.Fail(pointer, "'" + Reader::Label(pointer) +
+                             "' needs a \"type\" (step, square, "
+                             "steps, sweep, recorded)");
   const std::string type = reader.String(input["type"], pointer + "/type");
   InputSignal signal;
   auto number_or = [&](const char* key, double fallback) {
@@ -474,8 +487,8 @@ InputSignal ReadInput(const Reader& reader, const json& input, const std::string
     CsvReadOptions options;
     options.required = {"t", column};
     if (access(file.c_str(), R_OK) != 0) {
-      reader.Fail(pointer + "/file", "recorded input '" + file + "' cannot be read: " +
-                                         std::strerror(errno));
+      reader.Fail(pointer + "/file",
+                  "recorded input '" + file + "' cannot be read: " + std::strerror(errno));
     }
     const Trace trace = ReadTraceCsv(file, options);
     signal.kind = InputSignal::Kind::kRecorded;
@@ -496,8 +509,8 @@ std::string RunLengthError(double span, double dt, double samples) {
   auto short_form = [](double v) { return Short(v, 3); };
   const double steps = span / dt;
   if (!(steps <= kMaxSteps)) {
-    return "a run of " + short_form(span) + " s at simulation.dt = " + short_form(dt) +
-           " s is " + short_form(steps) + " steps, more than 1e10; raise dt or shorten the run";
+    return "a run of " + short_form(span) + " s at simulation.dt = " + short_form(dt) + " s is " +
+           short_form(steps) + " steps, more than 1e10; raise dt or shorten the run";
   }
   if (!(samples <= kMaxSamples)) {
     return short_form(samples) +
@@ -544,15 +557,16 @@ std::string NearestName(const std::string& word, const std::vector<std::string>&
 }
 
 Config LoadConfig(const std::string& path) {
-  return ParseConfig(ReadFileText(path, kMaxConfigBytes, "config (a JSON file of a few KiB)"), path);
+  return ParseConfig(ReadFileText(path, kMaxConfigBytes, "config (a JSON file of a few KiB)"),
+                     path);
 }
 
 Config ParseConfig(const std::string& text, const std::string& path) {
   if (const std::size_t at = TooDeep(text); at != std::string::npos) {
     const Position p = PositionOf(text, at);
-    throw InputError(path, p.line, p.column,
-                     "JSON nested deeper than " + std::to_string(kMaxNesting) +
-                         " levels: not a config");
+    throw InputError(
+        path, p.line, p.column,
+        "JSON nested deeper than " + std::to_string(kMaxNesting) + " levels: not a config");
   }
   json root;
   try {
@@ -587,13 +601,13 @@ Config ParseConfig(const std::string& text, const std::string& path) {
     throw InputError(path, index.duplicate_at().line, index.duplicate_at().column,
                      "duplicate key '" + InputError::Excerpt(Printable(pointer.substr(slash + 1))) +
                          "' in '" + InputError::Excerpt(Reader::Label(pointer.substr(0, slash))) +
-                         "' (first at line " +
-                         std::to_string(first.line) +
+                         "' (first at line " + std::to_string(first.line) +
                          "): JSON keeps only one of them; remove the other");
   }
   reader.RequireObject(root, "");
-  reader.CheckKeys(root, "", {"name", "description", "notes", "model", "parameters", "effects",
-                              "simulation", "experiment", "identification"});
+  reader.CheckKeys(root, "",
+                   {"name", "description", "notes", "model", "parameters", "effects", "simulation",
+                    "experiment", "identification"});
 
   Config config;
   config.path = path;
@@ -625,8 +639,8 @@ Config ParseConfig(const std::string& text, const std::string& path) {
         config.parameters.Set(info.name, info.default_value);
         continue;
       }
-      reader.Fail("/parameters", "missing parameter '" + info.name + "' (" + info.meaning +
-                                     ", " + info.unit + ") for model " + model_name);
+      reader.Fail("/parameters", "missing parameter '" + info.name + "' (" + info.meaning + ", " +
+                                     info.unit + ") for model " + model_name);
     }
     const double v = reader.Number(parameters[info.name], pointer);
     if (info.positive && !(v > 0.0)) {
@@ -634,8 +648,8 @@ Config ParseConfig(const std::string& text, const std::string& path) {
                                " " + info.unit + ")");
     }
     if (info.non_negative && v < 0.0) {
-      reader.Fail(pointer, "parameter '" + info.name + "' must be >= 0 (got " +
-                               FormatNumber(v) + ")");
+      reader.Fail(pointer,
+                  "parameter '" + info.name + "' must be >= 0 (got " + FormatNumber(v) + ")");
     }
     config.parameters.Set(info.name, v);
   }
@@ -666,13 +680,13 @@ Config ParseConfig(const std::string& text, const std::string& path) {
       reader.CheckKeys(effect_values, pointer, effect_params);
       for (const auto& p : info->parameters) {
         if (!effect_values.contains(p.name)) {
-          reader.Fail(pointer, "effect '" + effect_name + "' needs parameter '" + p.name +
-                                   "' (" + p.meaning + ", " + p.unit + ")");
+          reader.Fail(pointer, "effect '" + effect_name + "' needs parameter '" + p.name + "' (" +
+                                   p.meaning + ", " + p.unit + ")");
         }
         const double v = reader.Number(effect_values[p.name], pointer + "/" + p.name);
         if ((p.positive && !(v > 0.0)) || (p.non_negative && v < 0.0)) {
-          reader.Fail(pointer + "/" + p.name, "effect parameter '" + p.name + "' must be " +
-                                                  (p.positive ? "> 0" : ">= 0"));
+          reader.Fail(pointer + "/" + p.name,
+                      "effect parameter '" + p.name + "' must be " + (p.positive ? "> 0" : ">= 0"));
         }
         config.parameters.Set(p.name, v);
       }
@@ -685,8 +699,9 @@ Config ParseConfig(const std::string& text, const std::string& path) {
   if (root.contains("simulation")) {
     const json& sim = root["simulation"];
     reader.RequireObject(sim, "/simulation");
-    reader.CheckKeys(sim, "/simulation", {"dt", "regula_falsi", "friction_smoothing_w",
-                                          "diagnostics", "divergence_limit"});
+    reader.CheckKeys(
+        sim, "/simulation",
+        {"dt", "regula_falsi", "friction_smoothing_w", "diagnostics", "divergence_limit"});
     if (sim.contains("dt")) config.simulation.dt = reader.Positive(sim["dt"], "/simulation/dt");
     if (sim.contains("regula_falsi")) {
       config.simulation.regula_falsi = reader.Bool(sim["regula_falsi"], "/simulation/regula_falsi");
@@ -716,8 +731,8 @@ Config ParseConfig(const std::string& text, const std::string& path) {
   if (root.contains("experiment")) {
     const json& exp = root["experiment"];
     reader.RequireObject(exp, "/experiment");
-    reader.CheckKeys(exp, "/experiment", {"input", "duration", "sample_rate", "coast_off_time",
-                                          "pid", "initial"});
+    reader.CheckKeys(exp, "/experiment",
+                     {"input", "duration", "sample_rate", "coast_off_time", "pid", "initial"});
     if (exp.contains("input")) {
       experiment.input = ReadInput(reader, exp["input"], "/experiment/input", path);
     }
@@ -731,7 +746,8 @@ Config ParseConfig(const std::string& text, const std::string& path) {
       if (model_name != "dc_servo") {
         reader.Fail("/experiment/coast_off_time", "coast-down applies to model dc_servo only");
       }
-      experiment.coast_off_time = reader.Number(exp["coast_off_time"], "/experiment/coast_off_time");
+      experiment.coast_off_time =
+          reader.Number(exp["coast_off_time"], "/experiment/coast_off_time");
       if (experiment.coast_off_time < 0.0) {
         reader.Fail("/experiment/coast_off_time", "coast_off_time must be >= 0 (s)");
       }
@@ -745,7 +761,8 @@ Config ParseConfig(const std::string& text, const std::string& path) {
       reader.CheckKeys(pid, "/experiment/pid", {"Kp", "Ki", "Kd", "tau_d", "u_max"});
       experiment.closed_loop = true;
       auto get = [&](const char* key, double* field) {
-        if (pid.contains(key)) *field = reader.Number(pid[key], std::string("/experiment/pid/") + key);
+        if (pid.contains(key))
+          *field = reader.Number(pid[key], std::string("/experiment/pid/") + key);
       };
       get("Kp", &experiment.pid.Kp);
       get("Ki", &experiment.pid.Ki);
@@ -759,8 +776,10 @@ Config ParseConfig(const std::string& text, const std::string& path) {
       const json& initial = exp["initial"];
       reader.RequireObject(initial, "/experiment/initial");
       reader.CheckKeys(initial, "/experiment/initial", {"i", "w", "theta"});
-      if (initial.contains("i")) experiment.initial.i = reader.Number(initial["i"], "/experiment/initial/i");
-      if (initial.contains("w")) experiment.initial.w = reader.Number(initial["w"], "/experiment/initial/w");
+      if (initial.contains("i"))
+        experiment.initial.i = reader.Number(initial["i"], "/experiment/initial/i");
+      if (initial.contains("w"))
+        experiment.initial.w = reader.Number(initial["w"], "/experiment/initial/w");
       if (initial.contains("theta")) {
         experiment.initial.theta = reader.Number(initial["theta"], "/experiment/initial/theta");
       }
@@ -773,10 +792,11 @@ Config ParseConfig(const std::string& text, const std::string& path) {
   // experiment's 10 kHz sample_rate).
   if (experiment.sample_rate * config.simulation.dt > 1.0 + 1e-9) {
     experiment.invalid =
-        reader.Error("/experiment/sample_rate",
-                     "sample_rate " + DisplayNumber(experiment.sample_rate) +
-                         " Hz is faster than the simulation step allows (1/dt = " +
-                         Short(1.0 / config.simulation.dt) + " Hz); lower it or reduce dt")
+        reader
+            .Error("/experiment/sample_rate",
+                   "sample_rate " + DisplayNumber(experiment.sample_rate) +
+                       " Hz is faster than the simulation step allows (1/dt = " +
+                       Short(1.0 / config.simulation.dt) + " Hz); lower it or reduce dt")
             .what();
   } else if (const std::string error =
                  RunLengthError(experiment.duration, config.simulation.dt,
@@ -785,7 +805,8 @@ Config ParseConfig(const std::string& text, const std::string& path) {
     const bool has_duration = root.contains("experiment") && root["experiment"].is_object() &&
                               root["experiment"].contains("duration");
     experiment.invalid =
-        reader.Error(has_duration ? "/experiment/duration" : "/simulation/dt", "experiment: " + error)
+        reader
+            .Error(has_duration ? "/experiment/duration" : "/simulation/dt", "experiment: " + error)
             .what();
   }
 
@@ -806,10 +827,12 @@ Config ParseConfig(const std::string& text, const std::string& path) {
       ident.observe = reader.Strings(id["observe"], "/identification/observe");
       if (ident.observe.empty()) {  // would run a fit of nothing and call it converged
         std::string valid;
-        for (const auto& name : config.model->outputs()) valid += (valid.empty() ? "" : ", ") + name;
-        reader.Fail("/identification/observe",
-                    "'identification.observe' is empty: name the columns the fit compares (valid: " +
-                        valid + ")");
+        for (const auto& name : config.model->outputs())
+          valid += (valid.empty() ? "" : ", ") + name;
+        reader.Fail(
+            "/identification/observe",
+            "'identification.observe' is empty: name the columns the fit compares (valid: " +
+                valid + ")");
       }
     }
     if (id.contains("method")) ident.method = reader.String(id["method"], "/identification/method");
@@ -826,7 +849,8 @@ Config ParseConfig(const std::string& text, const std::string& path) {
       if (ident.error == "equation" && model_name != "rigid_load") {
         reader.Fail("/identification/error",
                     "the equation error needs model rigid_load (its input is the drive torque); "
-                    "model " + model_name + "'s drive torque is a state of the model");
+                    "model " +
+                        model_name + "'s drive torque is a state of the model");
       }
       if (ident.error == "equation" && !id.contains("observe")) ident.observe = {"u"};
     }
@@ -870,15 +894,18 @@ Config ParseConfig(const std::string& text, const std::string& path) {
         const std::string pointer = "/identification/bounds/" + name;
         check_known(name, pointer);
         const auto values = reader.Numbers(pair, pointer);
-        if (values.size() != 2) reader.Fail(pointer, "bounds of '" + name + "' must be [lower, upper]");
+        if (values.size() != 2)
+          reader.Fail(pointer, "bounds of '" + name + "' must be [lower, upper]");
         if (!(values[0] < values[1])) {
           reader.Fail(pointer, "bounds of '" + name + "' are inverted or empty: lower " +
-                                   FormatNumber(values[0]) + " >= upper " + FormatNumber(values[1]));
+                                   FormatNumber(values[0]) + " >= upper " +
+                                   FormatNumber(values[1]));
         }
         const ParamInfo* info = config.FindParameterInfo(name);
         if (info && info->positive && !(values[0] > 0.0)) {
-          reader.Fail(pointer, "lower bound of '" + name + "' must be > 0 (it is a positive "
-                                                           "scale parameter)");
+          reader.Fail(pointer, "lower bound of '" + name +
+                                   "' must be > 0 (it is a positive "
+                                   "scale parameter)");
         }
         ident.bounds[name] = {values[0], values[1]};
       }
@@ -895,15 +922,16 @@ Config ParseConfig(const std::string& text, const std::string& path) {
   }
   for (const auto& name : ident.free) {
     if (!config.parameters.Has(name)) {
-      reader.Fail("/identification/free", "free parameter '" + name + "' is not a parameter of "
-                                          "this config");
+      reader.Fail("/identification/free", "free parameter '" + name +
+                                              "' is not a parameter of "
+                                              "this config");
     }
-    const double initial = ident.initial.Has(name) ? ident.initial.Get(name)
-                                                   : config.parameters.Get(name);
+    const double initial =
+        ident.initial.Has(name) ? ident.initial.Get(name) : config.parameters.Get(name);
     const auto [lower, upper] = config.Bounds(name);
     if (initial < lower || initial > upper) {
-      const std::string pointer = ident.initial.Has(name) ? "/identification/initial/" + name
-                                                          : "/parameters/" + name;
+      const std::string pointer =
+          ident.initial.Has(name) ? "/identification/initial/" + name : "/parameters/" + name;
       reader.Fail(pointer, "initial value " + FormatNumber(initial) + " of '" + name +
                                "' is outside its bounds [" + FormatNumber(lower) + ", " +
                                FormatNumber(upper) + "]");
@@ -933,10 +961,12 @@ std::pair<double, double> Config::Bounds(const std::string& parameter) const {
     // must serve a 20 g rotor and a 100 kg axis alike, and a search box of 20 decades would
     // make every step of a scaled-coordinate search a leap of decades.
     if (info->positive) {
-      const double start = identification.initial.Has(parameter) ? identification.initial.Get(parameter)
-                                                                 : parameters.GetOr(parameter, 0.0);
+      const double start = identification.initial.Has(parameter)
+                               ? identification.initial.Get(parameter)
+                               : parameters.GetOr(parameter, 0.0);
       if (start > 0.0) {
-        return {std::max(info->default_lower, start * 1e-3), std::min(info->default_upper, start * 1e3)};
+        return {std::max(info->default_lower, start * 1e-3),
+                std::min(info->default_upper, start * 1e3)};
       }
     }
     return {info->default_lower, info->default_upper};
@@ -948,8 +978,8 @@ void Config::AddEffect(const std::string& effect, const ParameterSet& values) {
   const EffectInfo& info = FindEffect(effect);
   const std::string model_name(model->name());
   if (std::find(info.models.begin(), info.models.end(), model_name) == info.models.end()) {
-    throw InputError("effect '" + effect + "' does not apply to model " + model_name + " (only to " +
-                     Join(info.models) + ")");
+    throw InputError("effect '" + effect + "' does not apply to model " + model_name +
+                     " (only to " + Join(info.models) + ")");
   }
   for (const auto& [key, value] : values.entries()) {
     bool known = false;

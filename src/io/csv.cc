@@ -133,13 +133,15 @@ class TraceParser {
       if (!text_[c]) trace_.Append(names_[c], std::move(columns_[c]));
     }
     if (trace_.num_columns() == 0) {
-      Fail(0, 0, "no column holds a number in every row (columns with text or empty cells are "
-                 "left out when not used)");
+      Fail(0, 0,
+           "no column holds a number in every row (columns with text or empty cells are "
+           "left out when not used)");
     }
     if (merged_rows_ > 0) {
-      trace_.comments.push_back("read with --duplicate-time " +
-                                std::string(options_.duplicate_time == DuplicateTime::kMean ? "mean" : "first") +
-                                ": " + std::to_string(merged_rows_) + " repeated-time rows merged");
+      trace_.comments.push_back(
+          "read with --duplicate-time " +
+          std::string(options_.duplicate_time == DuplicateTime::kMean ? "mean" : "first") + ": " +
+          std::to_string(merged_rows_) + " repeated-time rows merged");
     }
     return std::move(trace_);
   }
@@ -292,8 +294,9 @@ class TraceParser {
       if (field.empty()) Fail(line_number_, column_index, "empty column name in the header");
       if (field.front() == '\'') {
         Fail(line_number_, column_index,
-             "quoted column name " + Quote(field) + ": write plain names such as t,u,w, or "
-             "double quotes");
+             "quoted column name " + Quote(field) +
+                 ": write plain names such as t,u,w, or "
+                 "double quotes");
       }
       for (char c : any_quote ? std::string_view() : field) {
         // Another separator inside a name: the file uses one we do not read ('|', or
@@ -435,7 +438,8 @@ class TraceParser {
     const long column = static_cast<long>(column_index + 1);
     if (field.empty()) {
       Fail(line_number_, column,
-           "column " + QuoteName(name) + " is empty" + (unterminated ? " (truncated last line?)" : ""));
+           "column " + QuoteName(name) + " is empty" +
+               (unterminated ? " (truncated last line?)" : ""));
     }
     double value = 0.0;
     // A decimal comma ("0,5") in a ';'-separated file, as European spreadsheets write it.
@@ -455,10 +459,12 @@ class TraceParser {
            "column " + QuoteName(name) + " value " + Quote(field) + " is out of the double range");
     }
     if (result.ec != std::errc() || result.ptr != field.data() + field.size()) {
-      Fail(line_number_, column, "column " + QuoteName(name) + " is not a number (" + Quote(field) + ")");
+      Fail(line_number_, column,
+           "column " + QuoteName(name) + " is not a number (" + Quote(field) + ")");
     }
     if (!std::isfinite(value)) {
-      Fail(line_number_, column, "column " + QuoteName(name) + " is not finite (" + Quote(field) + ")");
+      Fail(line_number_, column,
+           "column " + QuoteName(name) + " is not finite (" + Quote(field) + ")");
     }
     return value == 0.0 ? 0.0 : value;  // -0 reads as 0
   }

@@ -89,8 +89,8 @@ std::string ReadFileText(const std::string& path, std::size_t max_bytes, const s
     text.append(chunk, static_cast<std::size_t>(n));
     if (text.size() > max_bytes) {
       close(fd);
-      throw InputError(path + ": larger than " + std::to_string(max_bytes >> 20) +
-                       " MiB: not a " + what);
+      throw InputError(path + ": larger than " + std::to_string(max_bytes >> 20) + " MiB: not a " +
+                       what);
     }
   }
   close(fd);
@@ -151,7 +151,8 @@ void WriteInPlace(const std::string& path, const std::string& content) {
 
 void CheckOutputs(const std::vector<NamedPath>& outputs, const std::vector<NamedPath>& inputs) {
   auto same = [](const std::string& a, const std::string& b) {
-    struct stat sa {}, sb {};
+    struct stat sa {
+    }, sb{};
     return stat(a.c_str(), &sa) == 0 && stat(b.c_str(), &sb) == 0 && S_ISREG(sa.st_mode) &&
            sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
   };

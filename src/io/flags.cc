@@ -46,8 +46,8 @@ std::pair<std::string, ParameterSet> ParseEffectSpec(const std::string& text) {
     std::size_t start = 0;
     while (start <= rest.size()) {
       const auto comma = rest.find(',', start);
-      const std::string item = rest.substr(start, comma == std::string::npos ? rest.npos
-                                                                             : comma - start);
+      const std::string item =
+          rest.substr(start, comma == std::string::npos ? rest.npos : comma - start);
       const auto [key, value] = ParseAssignment(item, "--effect " + name);
       values.Set(key, value);
       if (comma == std::string::npos) break;

@@ -39,12 +39,23 @@ std::string Escape(const std::string& text) {
   out.reserve(text.size());
   for (char c : text) {
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&#39;"; break;
-      default: out += c;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&#39;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -80,7 +91,8 @@ std::string Text(const json& v) {
   if (v.is_null()) return "n/a";
   if (v.is_object()) {  // {"i": 0.025, "w": 7.9} -> "i 0.025, w 7.9"
     std::string out;
-    for (const auto& [key, value] : v.items()) out += (out.empty() ? "" : ", ") + key + " " + Text(value);
+    for (const auto& [key, value] : v.items())
+      out += (out.empty() ? "" : ", ") + key + " " + Text(value);
     return out;
   }
   return v.dump();
@@ -213,8 +225,8 @@ std::string HeaderRow(const std::vector<std::string>& names) {
 std::string Card(const std::string& label, const std::string& value, const std::string& sub,
                  bool warn = false) {
   return std::string("<div class=\"card") + (warn ? " warn" : "") + "\"><div class=\"label\">" +
-         Escape(label) + "</div><div class=\"value\">" + Escape(value) + "</div><div class=\"sub\">" +
-         Escape(sub) + "</div></div>\n";
+         Escape(label) + "</div><div class=\"value\">" + Escape(value) +
+         "</div><div class=\"sub\">" + Escape(sub) + "</div></div>\n";
 }
 
 // ---- data ------------------------------------------------------------------------------
@@ -279,7 +291,8 @@ std::vector<double> Difference(const std::vector<double>& a, const std::vector<d
 
 // ---- sections --------------------------------------------------------------------------
 
-void WriteHeader(Page& page, const json& report, const FitProblem& problem, const std::string& date) {
+void WriteHeader(Page& page, const json& report, const FitProblem& problem,
+                 const std::string& date) {
   std::string& h = page.html();
   const std::string name = Text(Member(Member(report, "config"), "name"));
   h += "<header>\n<h1>blmd-ident report: " + Escape(name) + "</h1>\n<table class=\"meta\">\n";
@@ -288,7 +301,8 @@ void WriteHeader(Page& page, const json& report, const FitProblem& problem, cons
   };
   meta("model", "<code>" + Escape(Text(Member(report, "model"))) + "</code>");
   const json& config = Member(report, "config");
-  meta("config", "<code>" + Escape(Text(Member(config, "path"))) + "</code> (" + Escape(name) + ")");
+  meta("config",
+       "<code>" + Escape(Text(Member(config, "path"))) + "</code> (" + Escape(name) + ")");
   const json& summary = Member(report, "method_summary");
   meta("method", "<code>" + Escape(Text(Member(report, "method"))) + "</code> — " +
                      Escape(Text(Member(summary, "algorithm"))));
@@ -298,8 +312,9 @@ void WriteHeader(Page& page, const json& report, const FitProblem& problem, cons
     const json& t = traces[k];
     const std::string sha = Text(Member(t, "sha256"));
     traces_html += (k ? "<br>" : "") + std::string("<code>") + Escape(Text(Member(t, "path"))) +
-                   "</code>, " + Escape(Text(Member(t, "samples"))) + " samples, sha256 <code title=\"" +
-                   Escape(sha) + "\">" + Escape(sha.substr(0, 12)) + "…</code>";
+                   "</code>, " + Escape(Text(Member(t, "samples"))) +
+                   " samples, sha256 <code title=\"" + Escape(sha) + "\">" +
+                   Escape(sha.substr(0, 12)) + "…</code>";
   }
   meta(traces.size() > 1 ? "traces" : "trace", traces_html);
   std::string observed, free;
@@ -327,18 +342,21 @@ void WriteKeyFigures(Page& page, const json& report) {
   const json& discovery = Member(report, "discovery");
   const bool discovered = discovery.is_object() && !Member(discovery, "added").empty();
   h += "<div class=\"cards\">\n";
-  h += Card(discovered ? "NRMSE of the final model" : "NRMSE of the fit", G(Member(fit, "nrmse"), 4),
-            "fit " + G(Member(fit, "fit_percent"), 4) + " % (100 % = perfect)");
+  h +=
+      Card(discovered ? "NRMSE of the final model" : "NRMSE of the fit", G(Member(fit, "nrmse"), 4),
+           "fit " + G(Member(fit, "fit_percent"), 4) + " % (100 % = perfect)");
   const bool white = Member(residual, "white").is_boolean() && residual["white"].get<bool>();
   h += Card("residual", white ? "white" : "NOT white",
             "Ljung-Box p = " + G(Member(residual, "whiteness_p"), 3), !white);
-  const bool converged = Member(summary, "converged").is_boolean() && summary["converged"].get<bool>();
+  const bool converged =
+      Member(summary, "converged").is_boolean() && summary["converged"].get<bool>();
   h += Card("method", converged ? "converged" : "NOT converged",
             Text(Member(summary, "termination")) + ", " + Text(Member(summary, "evaluations")) +
                 " evaluations, " + G(Member(summary, "wall_time_s"), 3) + " s",
             !converged);
   if (discovery.is_object()) {
-    h += Card("before discovery", "NRMSE " + G(Member(Member(discovery, "error_before"), "nrmse"), 4),
+    h += Card("before discovery",
+              "NRMSE " + G(Member(Member(discovery, "error_before"), "nrmse"), 4),
               Text(Member(discovery, "conclusion")));
   }
   if (Member(report, "validation").is_object()) {
@@ -346,13 +364,15 @@ void WriteKeyFigures(Page& page, const json& report) {
               std::to_string(Member(report["validation"], "traces").size()) + " held-out trace(s)");
   }
   h += "</div>\n";
-  if (residual.contains("note")) h += "<p class=\"note warn\">" + Escape(Text(residual["note"])) + "</p>\n";
+  if (residual.contains("note"))
+    h += "<p class=\"note warn\">" + Escape(Text(residual["note"])) + "</p>\n";
   const json& warnings = Member(report, "warnings");
   if (warnings.is_array() && !warnings.empty()) {
     h += "<ul class=\"warnings\">\n";
     for (const auto& w : warnings) {
       h += "<li class=\"warning\" data-code=\"" + Escape(Text(Member(w, "code"))) + "\"><b>" +
-           Escape(Text(Member(w, "code"))) + "</b>: " + Escape(Text(Member(w, "message"))) + "</li>\n";
+           Escape(Text(Member(w, "code"))) + "</b>: " + Escape(Text(Member(w, "message"))) +
+           "</li>\n";
     }
     h += "</ul>\n";
   }
@@ -366,8 +386,8 @@ void WriteParameters(Page& page, const json& report, const FitProblem& problem) 
   const bool after = discovery.is_object() && !Member(discovery, "added").empty();
   // The headline is the final model; the first fit beside it when discovery added effects.
   const json& before = FirstFit(report, "parameters");
-  std::vector<std::string> head = {"parameter", "unit", "initial", "estimate", "std", "95 % interval",
-                                   "bounds"};
+  std::vector<std::string> head = {"parameter", "unit",          "initial", "estimate",
+                                   "std",       "95 % interval", "bounds"};
   if (after) {
     head.push_back("before discovery");
     head.push_back("95 % interval before");
@@ -387,19 +407,20 @@ void WriteParameters(Page& page, const json& report, const FitProblem& problem) 
     if (Member(p, "ci95").is_array()) {
       interval = "[" + G(p["ci95"][0], 5) + ", " + G(p["ci95"][1], 5) + "]";
     }
-    if (Member(p, "bounds").is_array()) bounds = G(p["bounds"][0], 3) + " … " + G(p["bounds"][1], 3);
-    if (Member(p, "at_bound").is_boolean() && p["at_bound"].get<bool>()) note = " <b>at its bound</b>";
+    if (Member(p, "bounds").is_array())
+      bounds = G(p["bounds"][0], 3) + " … " + G(p["bounds"][1], 3);
+    if (Member(p, "at_bound").is_boolean() && p["at_bound"].get<bool>())
+      note = " <b>at its bound</b>";
     if (Member(p, "free").is_boolean() && !p["free"].get<bool>()) note = " (classic estimate)";
     std::string unit = Text(Member(p, "unit"));
     if (unit == "n/a") unit.clear();
-    std::vector<std::string> cells = {
-        "<b>" + Escape(name) + "</b>",
-        Escape(unit),
-        p.is_null() ? "—" : G(Member(p, "initial"), 4),
-        p.is_null() ? "—" : G(Member(p, "value"), 6) + note,
-        p.is_null() ? "—" : G(Member(p, "std"), 3),
-        interval,
-        bounds};
+    std::vector<std::string> cells = {"<b>" + Escape(name) + "</b>",
+                                      Escape(unit),
+                                      p.is_null() ? "—" : G(Member(p, "initial"), 4),
+                                      p.is_null() ? "—" : G(Member(p, "value"), 6) + note,
+                                      p.is_null() ? "—" : G(Member(p, "std"), 3),
+                                      interval,
+                                      bounds};
     std::vector<bool> numeric = {false, false, true, true, true, true, true};
     if (after) {
       const json& value = Member(Member(before, name.c_str()), "value");
@@ -412,8 +433,10 @@ void WriteParameters(Page& page, const json& report, const FitProblem& problem) 
     h += Row(cells, " class=\"parameter\" data-name=\"" + Escape(name) + "\"", numeric);
   }
   h += "</table>\n";
-  if (Member(report, "intervals_optimistic").is_boolean() && report["intervals_optimistic"].get<bool>()) {
-    h += "<p class=\"note warn\">The intervals assume white residuals; the residual is not white, so "
+  if (Member(report, "intervals_optimistic").is_boolean() &&
+      report["intervals_optimistic"].get<bool>()) {
+    h += "<p class=\"note warn\">The intervals assume white residuals; the residual is not white, "
+         "so "
          "they are optimistic.</p>\n";
   }
   page.EndSection();
@@ -433,22 +456,29 @@ void WriteTraces(Page& page, const json& report, const FitProblem& problem, cons
   page.Section("traces", "Measured and simulated");
   std::string& h = page.html();
   h += "<p class=\"note\">Grey: the measurement. Blue: simulated with the fitted parameters";
-  if (after) h += "; vermilion, dashed: simulated with the model and parameters " + Escape(after_label);
-  h += ". Each plot draws at most five samples per pixel column (first, last, lowest, highest, first "
+  if (after)
+    h += "; vermilion, dashed: simulated with the model and parameters " + Escape(after_label);
+  h += ". Each plot draws at most five samples per pixel column (first, last, lowest, highest, "
+       "first "
        "gap), so spikes stay visible. The second plot of each column is the first transient, "
-       "enlarged; any figure can be enlarged to the whole window with its <i>enlarge</i> link.</p>\n";
+       "enlarged; any figure can be enlarged to the whole window with its <i>enlarge</i> "
+       "link.</p>\n";
   if (problem.equation_error()) {
-    h += "<p class=\"note\">Equation error (docs/identification.md &sect;8): the measured curve is the "
-         "recorded input u after the filters, the model's is the input the model needs along the measured "
+    h += "<p class=\"note\">Equation error (docs/identification.md &sect;8): the measured curve is "
+         "the "
+         "recorded input u after the filters, the model's is the input the model needs along the "
+         "measured "
          "motion, at the kept samples; no motion is simulated here.</p>\n";
   }
-  if (!fit.ok) h += "<p class=\"note warn\">The fit's simulation failed: " + Escape(fit.reason) + "</p>\n";
+  if (!fit.ok)
+    h += "<p class=\"note warn\">The fit's simulation failed: " + Escape(fit.reason) + "</p>\n";
   for (std::size_t k = 0; k < traces; ++k) {
     const FitTrace& ft = problem.traces()[k];
     const Trace& measured = problem.measured(k);
     const std::vector<double>& t = measured.Column("t");
     const std::string trace_note = traces > 1 ? " (trace " + std::to_string(k + 1) + ")" : "";
-    if (traces > 1) h += "<h3>Trace " + std::to_string(k + 1) + ": <code>" + Escape(ft.path) + "</code></h3>\n";
+    if (traces > 1)
+      h += "<h3>Trace " + std::to_string(k + 1) + ": <code>" + Escape(ft.path) + "</code></h3>\n";
     const std::pair<double, double> window =
         FirstTransientWindow(problem, k, fit.ok ? fit.traces[k] : measured);
     std::size_t begin = 0, end = t.size();
@@ -469,8 +499,8 @@ void WriteTraces(Page& page, const json& report, const FitProblem& problem, cons
         }
         if (after && after->ok) {
           series.push_back(Line("simulated, " + after_label, Slice(t, b, e),
-                                Slice(after->traces[k].Column(column), b, e), kAfterColour, kAfterDash,
-                                1.6));
+                                Slice(after->traces[k].Column(column), b, e), kAfterColour,
+                                kAfterDash, 1.6));
         }
         LinePlotOptions plot;
         plot.title = detail ? info.quantity + ": first transient" + trace_note
@@ -482,14 +512,15 @@ void WriteTraces(Page& page, const json& report, const FitProblem& problem, cons
         plot.width = o.plot_width;
         plot.height = o.plot_height;
         plot.id_prefix = page.NextPrefix();
-        const std::string caption =
-            detail ? Escape(info.quantity) + " from " + G(window.first, 4) + " s to " +
-                         G(window.second, 4) + " s (" + std::to_string(end - begin) + " samples)."
-                   : Escape(info.quantity) + " over the whole trace (" + std::to_string(t.size()) +
-                         " samples).";
-        page.Figure(detail ? "detail" : "trace",
-                    " data-column=\"" + Escape(column) + "\" data-trace=\"" + std::to_string(k) + "\"",
-                    LinePlotSvg(plot, series), caption);
+        const std::string caption = detail ? Escape(info.quantity) + " from " + G(window.first, 4) +
+                                                 " s to " + G(window.second, 4) + " s (" +
+                                                 std::to_string(end - begin) + " samples)."
+                                           : Escape(info.quantity) + " over the whole trace (" +
+                                                 std::to_string(t.size()) + " samples).";
+        page.Figure(
+            detail ? "detail" : "trace",
+            " data-column=\"" + Escape(column) + "\" data-trace=\"" + std::to_string(k) + "\"",
+            LinePlotSvg(plot, series), caption);
       }
       h += "</div>\n";
     }
@@ -547,7 +578,8 @@ void WriteResidual(Page& page, const json& report, const FitProblem& problem, co
         fit_residual.push_back(Difference(measured.Column(column), fit.traces[k].Column(column)));
         Range(fit_residual.back(), &lo, &hi);
         if (show_after) {
-          after_residual.push_back(Difference(measured.Column(column), after->traces[k].Column(column)));
+          after_residual.push_back(
+              Difference(measured.Column(column), after->traces[k].Column(column)));
           Range(after_residual.back(), &lo, &hi);
         }
         const double pad = 0.05 * (hi - lo);
@@ -560,7 +592,8 @@ void WriteResidual(Page& page, const json& report, const FitProblem& problem, co
           const ColumnInfo info = DescribeColumn(column, model);
           const bool is_after = which == 1;
           LinePlotOptions plot;
-          plot.title = info.quantity + ": residual, " + (is_after ? "after discovery" : "fit") + trace_note;
+          plot.title =
+              info.quantity + ": residual, " + (is_after ? "after discovery" : "fit") + trace_note;
           plot.x_label = "time";
           plot.x_unit = "s";
           plot.y_label = column + " measured − simulated";
@@ -573,21 +606,23 @@ void WriteResidual(Page& page, const json& report, const FitProblem& problem, co
           plot.bands.push_back({"", false, 0.0, 0.0, "#444444", 1.0, ""});
           const std::vector<Series> series = {
               Line(is_after ? "residual, " + after_label : "residual, fit", t,
-                   is_after ? after_residual[c] : fit_residual[c], is_after ? kAfterColour : kFitColour, "",
-                   1.0)};
+                   is_after ? after_residual[c] : fit_residual[c],
+                   is_after ? kAfterColour : kFitColour, "", 1.0)};
           page.Figure("residual",
                       " data-column=\"" + Escape(column) + "\" data-trace=\"" + std::to_string(k) +
                           "\" data-model=\"" + (is_after ? "after" : "fit") + "\"",
                       LinePlotSvg(plot, series),
                       "Residual of " + Escape(info.quantity) + " over time, " +
-                          (is_after ? "model " + Escape(after_label) : std::string("the fit")) + ".");
+                          (is_after ? "model " + Escape(after_label) : std::string("the fit")) +
+                          ".");
         }
         h += "</div>\n";
       }
     }
   }
   const json& columns = Member(FirstFit(report, "residual"), "columns");
-  const json& after_columns = Member(Member(Member(report, "discovery"), "residual_after"), "columns");
+  const json& after_columns =
+      Member(Member(Member(report, "discovery"), "residual_after"), "columns");
   const bool show_after_acf = show_after && after_columns.is_object();
   h += "<div class=\"grid\">\n";
   for (const auto& column : problem.observe()) {
@@ -614,19 +649,22 @@ void WriteResidual(Page& page, const json& report, const FitProblem& problem, co
     const double band = Member(c, "acf_band95").is_number() ? c["acf_band95"].get<double>() : kNaN;
     plot.bands.push_back({"95 % band of white noise", false, -band, band, kBandColour, 0.22, ""});
     plot.bands.push_back({"", false, 0.0, 0.0, "#444444", 1.0, ""});
-    std::string caption = "Autocorrelation of the " + Escape(info.quantity) + " residual at lags 1…" +
-                          std::to_string(acf.size()) + "; band ±" + G(band, 3) + ". Ljung-Box p = " +
-                          G(Member(c, "whiteness_p"), 3);
-    if (show_after_acf) caption += ", after discovery p = " + G(Member(Member(after_columns, column.c_str()), "whiteness_p"), 3);
-    page.Figure("acf", " data-column=\"" + Escape(column) + "\"", LinePlotSvg(plot, series), caption + ".");
+    std::string caption = "Autocorrelation of the " + Escape(info.quantity) +
+                          " residual at lags 1…" + std::to_string(acf.size()) + "; band ±" +
+                          G(band, 3) + ". Ljung-Box p = " + G(Member(c, "whiteness_p"), 3);
+    if (show_after_acf)
+      caption += ", after discovery p = " +
+                 G(Member(Member(after_columns, column.c_str()), "whiteness_p"), 3);
+    page.Figure("acf", " data-column=\"" + Escape(column) + "\"", LinePlotSvg(plot, series),
+                caption + ".");
   }
   h += "</div>\n";
   page.EndSection();
 }
 
 void WriteSlices(Page& page, const FitProblem& problem, const std::vector<double>& values,
-                 const json& intervals, const std::string& model_tag, const std::string& model_label,
-                 const char* colour) {
+                 const json& intervals, const std::string& model_tag,
+                 const std::string& model_label, const char* colour) {
   const HtmlReportOptions& o = page.options();
   if (o.slice_points <= 0 || problem.num_free() == 0) return;
   const std::vector<CostSlice> slices =
@@ -653,22 +691,25 @@ void WriteSlices(Page& page, const FitProblem& problem, const std::vector<double
     plot.id_prefix = page.NextPrefix();
     const json& ci = Member(Member(intervals, slice.parameter.c_str()), "ci95");
     if (ci.is_array() && ci[0].is_number() && ci[1].is_number()) {
-      plot.bands.push_back({"95 % interval", true, ci[0].get<double>(), ci[1].get<double>(), kBandColour,
-                            0.3, ""});
+      plot.bands.push_back(
+          {"95 % interval", true, ci[0].get<double>(), ci[1].get<double>(), kBandColour, 0.3, ""});
     }
     plot.bands.push_back({"estimate", true, slice.estimate, slice.estimate, "#222222", 1.0, "5 3"});
-    std::string caption = "Cost along " + Escape(slice.parameter) + " with the other parameters held, " +
-                          std::to_string(slice.x.size()) + " points from " + G(slice.x.front(), 4) +
-                          " to " + G(slice.x.back(), 4) + (unit.empty() ? "" : " " + Escape(unit)) +
-                          "; estimate " + G(slice.estimate, 5) + ".";
-    if (!slice.cost.empty() && std::isfinite(slice.cost[slice.argmin]) && slice.argmin != slice.centre) {
+    std::string caption = "Cost along " + Escape(slice.parameter) +
+                          " with the other parameters held, " + std::to_string(slice.x.size()) +
+                          " points from " + G(slice.x.front(), 4) + " to " + G(slice.x.back(), 4) +
+                          (unit.empty() ? "" : " " + Escape(unit)) + "; estimate " +
+                          G(slice.estimate, 5) + ".";
+    if (!slice.cost.empty() && std::isfinite(slice.cost[slice.argmin]) &&
+        slice.argmin != slice.centre) {
       caption += " The lowest point of the slice is at " + G(slice.x[slice.argmin], 5) +
                  ", not at the estimate.";
     }
     page.Figure("slice",
                 " data-parameter=\"" + Escape(slice.parameter) + "\" data-model=\"" + model_tag +
                     "\" data-points=\"" + std::to_string(slice.x.size()) + "\" data-centre=\"" +
-                    std::to_string(slice.centre) + "\" data-argmin=\"" + std::to_string(slice.argmin) + "\"",
+                    std::to_string(slice.centre) + "\" data-argmin=\"" +
+                    std::to_string(slice.argmin) + "\"",
                 LinePlotSvg(plot, series), caption);
   }
   h += "</div>\n";
@@ -681,17 +722,19 @@ void WriteDiscovery(Page& page, const json& discovery) {
   const json& before = Member(discovery, "error_before");
   const json& after = Member(discovery, "error_after");
   h += "<table class=\"errors\">\n" + HeaderRow({"error", "before", "after"});
-  h += Row({"NRMSE", G(Member(before, "nrmse"), 4), G(Member(after, "nrmse"), 4)}, "", {false, true, true});
+  h += Row({"NRMSE", G(Member(before, "nrmse"), 4), G(Member(after, "nrmse"), 4)}, "",
+           {false, true, true});
   for (const auto& [column, value] : Member(before, "rmse").items()) {
-    h += Row({"RMSE " + Escape(column), G(value, 4), G(Member(Member(after, "rmse"), column.c_str()), 4)}, "",
-             {false, true, true});
+    h += Row({"RMSE " + Escape(column), G(value, 4),
+              G(Member(Member(after, "rmse"), column.c_str()), 4)},
+             "", {false, true, true});
   }
   h += "</table>\n";
   const json& steps = Member(discovery, "steps");
   if (steps.is_array() && !steps.empty()) {
     h += "<table class=\"steps\">\n" +
-         HeaderRow({"step", "effect added", "parameters (95 % interval)", "NRMSE before → after", "ΔBIC",
-                    "evidence"});
+         HeaderRow({"step", "effect added", "parameters (95 % interval)", "NRMSE before → after",
+                    "ΔBIC", "evidence"});
     for (std::size_t k = 0; k < steps.size(); ++k) {
       const json& step = steps[k];
       std::string parameters;
@@ -701,10 +744,11 @@ void WriteDiscovery(Page& page, const json& discovery) {
         const json& ci = Member(Member(Member(step, "intervals"), name.c_str()), "ci95");
         if (ci.is_array()) parameters += " [" + G(ci[0], 4) + ", " + G(ci[1], 4) + "]";
       }
-      h += Row({std::to_string(k + 1), "<b>" + Escape(Text(Member(step, "effect"))) + "</b>", parameters,
-                G(Member(step, "nrmse_before"), 4) + " → " + G(Member(step, "nrmse_after"), 4),
-                G(Member(step, "delta_bic"), 4), Escape(Text(Member(step, "evidence")))},
-               " class=\"discovery-step\"", {true, false, false, true, true, false});
+      h += Row(
+          {std::to_string(k + 1), "<b>" + Escape(Text(Member(step, "effect"))) + "</b>", parameters,
+           G(Member(step, "nrmse_before"), 4) + " → " + G(Member(step, "nrmse_after"), 4),
+           G(Member(step, "delta_bic"), 4), Escape(Text(Member(step, "evidence")))},
+          " class=\"discovery-step\"", {true, false, false, true, true, false});
     }
     h += "</table>\n";
   }
@@ -720,8 +764,9 @@ void WriteDiscovery(Page& page, const json& discovery) {
       const bool fitted = Member(c, "fitted").is_boolean() && c["fitted"].get<bool>();
       const bool valid = Member(c, "valid").is_boolean() && c["valid"].get<bool>();
       h += Row({Escape(Text(Member(c, "effect"))), fitted ? "yes" : "no", valid ? "yes" : "no",
-                fitted ? G(Member(c, "delta_bic"), 4) : "—", fitted ? G(Member(c, "nrmse"), 4) : "—",
-                parameters, Escape(Member(c, "reason").is_string() ? c["reason"].get<std::string>() : "")},
+                fitted ? G(Member(c, "delta_bic"), 4) : "—",
+                fitted ? G(Member(c, "nrmse"), 4) : "—", parameters,
+                Escape(Member(c, "reason").is_string() ? c["reason"].get<std::string>() : "")},
                "", {false, false, false, true, true, false, false});
     }
     h += "</table>\n</details>\n";
@@ -738,9 +783,9 @@ void WriteMethod(Page& page, const json& report) {
   page.Section("method", "Method summary");
   const json& s = Member(report, "method_summary");
   h += "<table class=\"meta method\">\n";
-  for (const char* key : {"method", "algorithm", "converged", "termination", "message", "raw_code",
-                          "evaluations", "failed_evaluations", "iterations", "wall_time_s", "seed",
-                          "threads"}) {
+  for (const char* key :
+       {"method", "algorithm", "converged", "termination", "message", "raw_code", "evaluations",
+        "failed_evaluations", "iterations", "wall_time_s", "seed", "threads"}) {
     if (!s.contains(key)) continue;
     std::string value = Text(s[key]);
     if (std::string(key) == "wall_time_s") value = G(s[key], 4) + " s";
@@ -761,7 +806,8 @@ void WriteValidation(Page& page, const json& validation) {
   page.Section("validation", "Validation on held-out traces");
   h += "<table>\n" + HeaderRow({"held-out trace(s)", "NRMSE", "RMSE"});
   std::string paths, rmse;
-  for (const auto& p : Member(validation, "traces")) paths += (paths.empty() ? "" : "<br>") + Escape(Text(p));
+  for (const auto& p : Member(validation, "traces"))
+    paths += (paths.empty() ? "" : "<br>") + Escape(Text(p));
   for (const auto& [column, value] : Member(validation, "rmse").items()) {
     rmse += (rmse.empty() ? "" : ", ") + Escape(column) + " " + G(value, 4);
   }
@@ -772,8 +818,9 @@ void WriteValidation(Page& page, const json& validation) {
 
 }  // namespace
 
-std::vector<CostSlice> ComputeCostSlices(const FitProblem& problem, const std::vector<double>& values,
-                                         int points, double span, int threads) {
+std::vector<CostSlice> ComputeCostSlices(const FitProblem& problem,
+                                         const std::vector<double>& values, int points, double span,
+                                         int threads) {
   std::vector<CostSlice> slices;
   if (points <= 0 || values.size() != problem.num_free()) return slices;
   points = std::max(3, points);
@@ -806,7 +853,8 @@ std::vector<CostSlice> ComputeCostSlices(const FitProblem& problem, const std::v
     slice.x.resize(n);
     for (std::size_t m = 0; m < n; ++m) {
       const double f = static_cast<double>(m) / static_cast<double>(n - 1);
-      slice.x[m] = log ? std::exp(std::log(lo) + f * (std::log(hi) - std::log(lo))) : lo + f * (hi - lo);
+      slice.x[m] =
+          log ? std::exp(std::log(lo) + f * (std::log(hi) - std::log(lo))) : lo + f * (hi - lo);
     }
     slice.x.front() = lo;
     slice.x.back() = hi;
@@ -893,7 +941,8 @@ std::pair<double, double> FirstTransientWindow(const FitProblem& problem, std::s
       hi = std::max(hi, v);
     }
     const double y0 = y[start], y1 = y[next_change - 1];
-    if (!std::isfinite(y0) || !std::isfinite(y1) || !(std::abs(y1 - y0) > 1e-3 * (hi - lo))) continue;
+    if (!std::isfinite(y0) || !std::isfinite(y1) || !(std::abs(y1 - y0) > 1e-3 * (hi - lo)))
+      continue;
     for (std::size_t i = start; i < next_change; ++i) {
       if ((y[i] - y0) / (y1 - y0) >= 0.632) {
         settle = std::max(settle, t[i] - t[start]);
@@ -925,7 +974,8 @@ std::string MakeHtmlReport(const HtmlReportInputs& inputs, const HtmlReportOptio
   const std::string date = options.date.empty() ? NowUtc() : options.date;
 
   const Simulation fit = SimulateAll(problem, result.values);
-  const std::unique_ptr<FitProblem> after_problem = (inputs.discovery ? FinalProblem(problem, *inputs.discovery) : nullptr);
+  const std::unique_ptr<FitProblem> after_problem =
+      (inputs.discovery ? FinalProblem(problem, *inputs.discovery) : nullptr);
   Simulation after;
   std::string after_label;
   if (after_problem) {
@@ -939,8 +989,9 @@ std::string MakeHtmlReport(const HtmlReportInputs& inputs, const HtmlReportOptio
   const std::string name = Text(Member(Member(report, "config"), "name"));
   h += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
        "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n"
-       "<meta name=\"generator\" content=\"blmd-ident " + Escape(kVersion) + "\">\n<title>blmd-ident: " +
-       Escape(name) + "</title>\n<style>" + kStyle + "</style>\n</head>\n<body>\n";
+       "<meta name=\"generator\" content=\"blmd-ident " +
+       Escape(kVersion) + "\">\n<title>blmd-ident: " + Escape(name) + "</title>\n<style>" + kStyle +
+       "</style>\n</head>\n<body>\n";
   WriteHeader(page, report, problem, date);
   WriteKeyFigures(page, report);
   WriteParameters(page, report, problem);
@@ -950,7 +1001,8 @@ std::string MakeHtmlReport(const HtmlReportInputs& inputs, const HtmlReportOptio
   page.Section("slices", "Cost along each parameter");
   h += "<p class=\"note\">The cost (normalised MSE, the quantity the fit minimises) along one free "
        "parameter at a time, the others held at their estimates, over ±" +
-       G(100 * options.slice_span, 3) + " % around the estimate (dashed line). A sharp, centred "
+       G(100 * options.slice_span, 3) +
+       " % around the estimate (dashed line). A sharp, centred "
        "valley means a well-determined parameter; a flat one, a poorly determined one. The shaded "
        "band is the 95 % interval.</p>\n";
   json fit_intervals = json::object();

@@ -1383,9 +1383,9 @@ std::string LinePlotSvg(const LinePlotOptions& options, const std::vector<Series
     }
     if (s.marker_radius > 0 || s.line_width <= 0) {
       symbol += "<circle r=\"" + Num(std::max(2.5, s.marker_radius)) + "\" " +
-                (s.hollow_markers
-                     ? "fill=\"#ffffff\" stroke=\"" + Escape(colours.back()) + "\" stroke-width=\"1.5\""
-                     : "fill=\"" + Escape(colours.back()) + "\"") +
+                (s.hollow_markers ? "fill=\"#ffffff\" stroke=\"" + Escape(colours.back()) +
+                                        "\" stroke-width=\"1.5\""
+                                  : "fill=\"" + Escape(colours.back()) + "\"") +
                 "/>";
     }
     legend.push_back({symbol, s.label});
@@ -1394,11 +1394,11 @@ std::string LinePlotSvg(const LinePlotOptions& options, const std::vector<Series
     if (band.label.empty()) continue;
     const std::string colour = Escape(band.colour);
     if (band.low == band.high) {
-      legend.push_back({"<line x1=\"-11\" y1=\"0\" x2=\"11\" y2=\"0\" stroke=\"" + colour +
-                            "\" stroke-width=\"1.5\"" +
-                            (band.dash.empty() ? "" : " stroke-dasharray=\"" + Escape(band.dash) + "\"") +
-                            "/>",
-                        band.label});
+      legend.push_back(
+          {"<line x1=\"-11\" y1=\"0\" x2=\"11\" y2=\"0\" stroke=\"" + colour +
+               "\" stroke-width=\"1.5\"" +
+               (band.dash.empty() ? "" : " stroke-dasharray=\"" + Escape(band.dash) + "\"") + "/>",
+           band.label});
     } else {
       legend.push_back({"<rect x=\"-10\" y=\"-6\" width=\"20\" height=\"12\" fill=\"" + colour +
                             "\" fill-opacity=\"" + Num(std::clamp(band.opacity, 0.05, 1.0), 3) +
@@ -1460,8 +1460,8 @@ std::string LinePlotSvg(const LinePlotOptions& options, const std::vector<Series
                                 "\" height=\"" + Num(bottom - top) + "\""
                           : "x=\"" + Num(left) + "\" y=\"" + Num(lo) + "\" width=\"" +
                                 Num(right - left) + "\" height=\"" + Num(extent) + "\"") +
-           " fill=\"" + colour + "\" fill-opacity=\"" + Num(std::clamp(band.opacity, 0.05, 1.0), 3) +
-           "\"/>\n";
+           " fill=\"" + colour + "\" fill-opacity=\"" +
+           Num(std::clamp(band.opacity, 0.05, 1.0), 3) + "\"/>\n";
   }
   const double columns = right - left;
   for (std::size_t k = 0; k < series.size(); ++k) {
@@ -1504,12 +1504,12 @@ std::string LinePlotSvg(const LinePlotOptions& options, const std::vector<Series
              (s.dash.empty() ? "" : " stroke-dasharray=\"" + Escape(s.dash) + "\"") + "/>\n";
     }
     const double r = s.marker_radius > 0 ? s.marker_radius : 2.0;
-    const std::string paint = s.hollow_markers
-                                  ? "fill=\"#ffffff\" stroke=\"" + colour + "\" stroke-width=\"1.5\""
-                                  : "fill=\"" + colour + "\"";
+    const std::string paint =
+        s.hollow_markers ? "fill=\"#ffffff\" stroke=\"" + colour + "\" stroke-width=\"1.5\""
+                         : "fill=\"" + colour + "\"";
     for (const auto& [x, y] : dots) {
-      out += "<circle cx=\"" + Num(x, 1) + "\" cy=\"" + Num(y, 1) + "\" r=\"" + Num(r) + "\" " + paint +
-             "/>\n";
+      out += "<circle cx=\"" + Num(x, 1) + "\" cy=\"" + Num(y, 1) + "\" r=\"" + Num(r) + "\" " +
+             paint + "/>\n";
     }
     out += "</g>\n";
   }

@@ -49,7 +49,8 @@ nlohmann::json ResidualJson(const ResidualAnalysis& analysis) {
     c["by_sign_of_i"] = sign(d.sign_i);
     nlohmann::json peaks = nlohmann::json::array();
     for (const auto& p : d.angle_peaks) {
-      nlohmann::json peak = {{"order_per_rev", p.order}, {"amplitude", Number(p.amplitude)},
+      nlohmann::json peak = {{"order_per_rev", p.order},
+                             {"amplitude", Number(p.amplitude)},
                              {"ratio_to_floor", Number(p.ratio)}};
       if (p.electrical_multiple > 0.0) peak["electrical_multiple"] = Number(p.electrical_multiple);
       peaks.push_back(peak);

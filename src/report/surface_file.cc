@@ -57,7 +57,8 @@ std::vector<std::string> SplitFields(const std::string& line, std::vector<long>*
   while (true) {
     const auto comma = line.find(',', start);
     columns->push_back(static_cast<long>(start) + 1);
-    fields.push_back(line.substr(start, comma == std::string::npos ? std::string::npos : comma - start));
+    fields.push_back(
+        line.substr(start, comma == std::string::npos ? std::string::npos : comma - start));
     if (comma == std::string::npos) break;
     start = comma + 1;
   }
@@ -66,7 +67,9 @@ std::vector<std::string> SplitFields(const std::string& line, std::vector<long>*
 
 }  // namespace
 
-SurfaceFile ReadSurfaceCsv(const std::string& path) { return ParseSurfaceCsv(ReadFileText(path), path); }
+SurfaceFile ReadSurfaceCsv(const std::string& path) {
+  return ParseSurfaceCsv(ReadFileText(path), path);
+}
 
 SurfaceFile ParseSurfaceCsv(const std::string& text, const std::string& path) {
   SurfaceFile file;
@@ -94,8 +97,8 @@ SurfaceFile ParseSurfaceCsv(const std::string& text, const std::string& path) {
         const auto slash = s.find('/');
         double k = 0, n = 0;
         if (slash == std::string::npos || !ParseDecimal(s.substr(0, slash), &k) ||
-            !ParseDecimal(s.substr(slash + 1), &n) || k != std::floor(k) || n != std::floor(n) || k < 1 ||
-            n < 1 || k > n || n > 1e9) {
+            !ParseDecimal(s.substr(slash + 1), &n) || k != std::floor(k) || n != std::floor(n) ||
+            k < 1 || n < 1 || k > n || n > 1e9) {
           throw fail(1, "bad shard line '" + line + "' (expected '# shard: K/N' with 1 <= K <= N)");
         }
         file.metadata.shard_index = static_cast<int>(k);
@@ -109,11 +112,13 @@ SurfaceFile ParseSurfaceCsv(const std::string& text, const std::string& path) {
         std::vector<long> unused;
         file.observe = SplitFields(names, &unused);
         for (const auto& name : file.observe) {
-          if (name.empty()) throw fail(1, "bad observe line '" + line + "' (expected '# observe: i[,w...]')");
+          if (name.empty())
+            throw fail(1, "bad observe line '" + line + "' (expected '# observe: i[,w...]')");
         }
       }
       if (const char* spec = value_of("grid: ")) {
-        if (file.axes.size() == 2) throw fail(1, "a third '# grid:' line (a surface has 1 or 2 axes)");
+        if (file.axes.size() == 2)
+          throw fail(1, "a third '# grid:' line (a surface has 1 or 2 axes)");
         GridAxis axis;
         try {
           axis = ParseGridAxis(spec);
@@ -135,26 +140,31 @@ SurfaceFile ParseSurfaceCsv(const std::string& text, const std::string& path) {
       if (file.axes.empty()) {
         throw fail(0, "not a blmd-surface CSV: no '# grid: P=LO:HI:N' line before the header");
       }
-      if (!observe_seen) throw fail(0, "not a blmd-surface CSV: no '# observe:' line before the header");
+      if (!observe_seen)
+        throw fail(0, "not a blmd-surface CSV: no '# observe:' line before the header");
       std::string expected;
       for (const auto& axis : file.axes) expected += axis.name + ",";
       for (const auto& column : file.observe) expected += "mse_" + column + ",";
       expected += "cost";
       if (line != expected) {
-        throw fail(1, "header '" + line + "' does not match the grid and observe lines (expected '" + expected + "')");
+        throw fail(1, "header '" + line +
+                          "' does not match the grid and observe lines (expected '" + expected +
+                          "')");
       }
       expected_header = SplitFields(expected, &columns);
       file.grid_size = 1;
       for (const auto& axis : file.axes) file.grid_size *= static_cast<std::size_t>(axis.count);
-      std::tie(first, last) = ShardRange(file.grid_size, file.metadata.shard_index, file.metadata.shard_count);
+      std::tie(first, last) =
+          ShardRange(file.grid_size, file.metadata.shard_index, file.metadata.shard_count);
       row = first;
       continue;
     }
     // A data row: the next grid point of the slice.
     if (line.empty()) throw fail(0, "empty line");
     if (row >= last) {
-      throw fail(1, "more rows than the " + std::string(file.is_shard() ? "shard's slice of the " : "") + "grid has points (" +
-                        std::to_string(last - first) + ")");
+      throw fail(1, "more rows than the " +
+                        std::string(file.is_shard() ? "shard's slice of the " : "") +
+                        "grid has points (" + std::to_string(last - first) + ")");
     }
     const std::vector<std::string> fields = SplitFields(line, &columns);
     if (fields.size() != expected_header.size()) {
@@ -174,14 +184,15 @@ SurfaceFile ParseSurfaceCsv(const std::string& text, const std::string& path) {
       const double expected = axis.Value(position[a]);
       double value = 0.0;
       if (!ParseDecimal(fields[a], &value)) {
-        throw fail(columns[a], "column '" + axis.name + "' is not a finite number (\"" + fields[a] + "\")");
+        throw fail(columns[a],
+                   "column '" + axis.name + "' is not a finite number (\"" + fields[a] + "\")");
       }
       const double scale = std::max({std::abs(expected), std::abs(axis.low), std::abs(axis.high)});
       if (!(std::abs(value - expected) <= 1e-9 * scale)) {
         throw fail(columns[a], axis.name + " = " + fields[a] + " is not the next grid point (row " +
                                    std::to_string(row - first + 1) + " of the " +
-                                   (file.is_shard() ? "shard" : "grid") + " should have " + axis.name + " = " +
-                                   FormatNumber(expected) + ")");
+                                   (file.is_shard() ? "shard" : "grid") + " should have " +
+                                   axis.name + " = " + FormatNumber(expected) + ")");
       }
       point.coordinates.push_back(expected);
     }
@@ -196,7 +207,8 @@ SurfaceFile ParseSurfaceCsv(const std::string& text, const std::string& path) {
       point.evaluation.ok = true;
       point.evaluation.cost = cost;
     } else {
-      throw fail(columns[cost_field], "column 'cost' is not a number >= 0 or 'inf' (\"" + cost_text + "\")");
+      throw fail(columns[cost_field],
+                 "column 'cost' is not a number >= 0 or 'inf' (\"" + cost_text + "\")");
     }
     for (std::size_t f = file.axes.size(); f < cost_field; ++f) {
       double mse = 0.0;
@@ -204,7 +216,8 @@ SurfaceFile ParseSurfaceCsv(const std::string& text, const std::string& path) {
       if (point.evaluation.ok ? !(ParseDecimal(fields[f], &mse) && mse >= 0.0)
                               : !(empty || ParseDecimal(fields[f], &mse))) {
         throw fail(columns[f], "column '" + expected_header[f] + "' is not a number >= 0" +
-                                   (point.evaluation.ok ? "" : " or empty") + " (\"" + fields[f] + "\")");
+                                   (point.evaluation.ok ? "" : " or empty") + " (\"" + fields[f] +
+                                   "\")");
       }
       if (point.evaluation.ok) point.evaluation.mse.push_back(mse);
     }
@@ -220,8 +233,8 @@ SurfaceFile ParseSurfaceCsv(const std::string& text, const std::string& path) {
     throw InputError(path, line_number, 0,
                      "the file ends after " + std::to_string(row - first) + " of the " +
                          std::to_string(last - first) + " points of the " +
-                         (file.is_shard() ? "shard " + std::to_string(file.metadata.shard_index) + "/" +
-                                                std::to_string(file.metadata.shard_count)
+                         (file.is_shard() ? "shard " + std::to_string(file.metadata.shard_index) +
+                                                "/" + std::to_string(file.metadata.shard_count)
                                           : std::string("grid")) +
                          " (truncated?)");
   }
@@ -241,8 +254,8 @@ std::vector<SurfacePoint> SurfaceGridPoints(const SurfaceFile& file) {
     }
     grid[index].evaluation.ok = false;
     grid[index].evaluation.cost = std::numeric_limits<double>::quiet_NaN();
-    grid[index].evaluation.reason = "not in shard " + std::to_string(file.metadata.shard_index) + "/" +
-                                    std::to_string(file.metadata.shard_count);
+    grid[index].evaluation.reason = "not in shard " + std::to_string(file.metadata.shard_index) +
+                                    "/" + std::to_string(file.metadata.shard_count);
   }
   for (std::size_t k = 0; k < file.points.size(); ++k) grid[file.grid_indices[k]] = file.points[k];
   return grid;
@@ -295,11 +308,12 @@ std::string MergeSurfaceParts(const std::vector<std::string>& paths) {
       header = part.header;
     } else {
       if (part.count != count) {
-        throw InputError(path + ": shard of " + std::to_string(part.count) + " parts, others have " +
-                         std::to_string(count));
+        throw InputError(path + ": shard of " + std::to_string(part.count) +
+                         " parts, others have " + std::to_string(count));
       }
       if (part.metadata != metadata || part.header != header) {
-        throw InputError(path + ": belongs to another sweep (config, trace, observe or grid differ from " +
+        throw InputError(path +
+                         ": belongs to another sweep (config, trace, observe or grid differ from " +
                          parts.begin()->second.path + ")");
       }
     }
@@ -311,7 +325,8 @@ std::string MergeSurfaceParts(const std::vector<std::string>& paths) {
   }
   for (int k = 1; k <= count; ++k) {
     if (!parts.count(k)) {
-      throw InputError("merge: shard " + std::to_string(k) + "/" + std::to_string(count) + " is missing");
+      throw InputError("merge: shard " + std::to_string(k) + "/" + std::to_string(count) +
+                       " is missing");
     }
   }
   std::string out = metadata + header + "\n";

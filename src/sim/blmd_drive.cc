@@ -195,7 +195,7 @@ SimStatus BlmdDriveModel::SimulateReference(const SimulationRequest& request, Tr
         leg.upper_commanded = d_low < 0.0;
         leg.t_edge = t_low - 2.0 * delta - dt;  // settled before the run
       }
-      double upper_on = 0.0, off_time = 0.0;  // s, upper switch on / both off, in the step
+      double upper_on = 0.0, off_time = 0.0;    // s, upper switch on / both off, in the step
       auto conduct = [&](double a, double b) {  // [a, b] under the present command
         if (leg.upper_commanded) upper_on += internal::ConductingTime(a, b, leg.t_edge, delta);
         // Blanking part [a, min(b, t_edge + delta)]: both switches off; the diodes (or
@@ -263,8 +263,8 @@ SimStatus BlmdDriveModel::SimulateReference(const SimulationRequest& request, Tr
 
     pack(demand, now.data());
     if (!internal::AllFinite(now.data() + 1, 5, settings.divergence_limit)) {
-      return {SimStatus::Code::kDiverged,
-              internal::DivergedMessage(settings.divergence_limit), t_high};
+      return {SimStatus::Code::kDiverged, internal::DivergedMessage(settings.divergence_limit),
+              t_high};
     }
     sampler.Record(t_low, prev.data(), t_high, now.data());
     prev = now;

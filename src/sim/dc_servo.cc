@@ -24,7 +24,6 @@ ParamInfo P(const char* name, const char* unit, const char* meaning, double lo, 
 
 double Sign(double x) { return x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : 0.0); }
 
-
 }  // namespace
 
 const std::vector<ParamInfo>& DcServoModel::parameters() const {
@@ -129,8 +128,7 @@ SimStatus DcServoModel::SimulateReference(const SimulationRequest& request, Trac
     const double t = t_start + static_cast<double>(step) * dt;
     const double t_next = t_start + static_cast<double>(step + 1) * dt;
     const double t_mid = t + 0.5 * dt;
-    const bool open =
-        (has_coast && t_mid >= experiment.coast_off_time) || input.OpenAt(t_mid);
+    const bool open = (has_coast && t_mid >= experiment.coast_off_time) || input.OpenAt(t_mid);
 
     const double non_friction =
         shaft.NonFrictionTorque(effect_angle.At(t, theta)) + shaft.DragTorque(w);
@@ -151,8 +149,8 @@ SimStatus DcServoModel::SimulateReference(const SimulationRequest& request, Trac
       if (stuck) {
         i = Ads(0, 0) * i + Bds(0, 0) * u_eff;
       } else {
-        const Eigen::Vector3d x =
-            Ad * Eigen::Vector3d(i, w, theta) + Bd * Eigen::Vector2d(u_eff, friction + non_friction);
+        const Eigen::Vector3d x = Ad * Eigen::Vector3d(i, w, theta) +
+                                  Bd * Eigen::Vector2d(u_eff, friction + non_friction);
         i = x(0);
         w = x(1);
         theta = x(2);

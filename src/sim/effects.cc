@@ -117,7 +117,8 @@ ShaftEffects ShaftEffects::From(const ParameterSet& values, const std::vector<st
   return shaft;
 }
 
-DriveEffects DriveEffects::From(const ParameterSet& values, const std::vector<std::string>& enabled) {
+DriveEffects DriveEffects::From(const ParameterSet& values,
+                                const std::vector<std::string>& enabled) {
   DriveEffects drive;
   auto on = [&](const char* name) {
     return std::find(enabled.begin(), enabled.end(), name) != enabled.end();

@@ -49,7 +49,8 @@ const Model& FindModel(std::string_view name) {
   for (const Model* model : ModelRegistry()) {
     valid += (valid.empty() ? "" : ", ") + std::string(model->name());
   }
-  throw InputError("unknown model '" + InputError::Excerpt(std::string(name)) + "' (valid: " + valid + ")");
+  throw InputError("unknown model '" + InputError::Excerpt(std::string(name)) +
+                   "' (valid: " + valid + ")");
 }
 
 }  // namespace blmd

@@ -85,7 +85,8 @@ SimStatus RigidLoadModel::Simulate(const SimulationRequest& request, Trace* out)
     const double friction = shaft.StepFriction(w, drive - non_friction, &stuck);
     const double w_old = w, theta_old = theta;
     if (!stuck) {
-      const Eigen::Vector2d x = Ad * Eigen::Vector2d(w, theta) + Bd * (drive - friction - non_friction);
+      const Eigen::Vector2d x =
+          Ad * Eigen::Vector2d(w, theta) + Bd * (drive - friction - non_friction);
       w = x(0);
       theta = x(1);
       if (shaft.StopsWithin(w_old, w)) {
@@ -96,15 +97,16 @@ SimStatus RigidLoadModel::Simulate(const SimulationRequest& request, Trace* out)
     }
     now = {input.At(t_next + 0.5 * dt), w, theta};
     if (!internal::AllFinite(now.data() + 1, 2, request.settings.divergence_limit)) {
-      return {SimStatus::Code::kDiverged, internal::DivergedMessage(request.settings.divergence_limit),
-              t_next};
+      return {SimStatus::Code::kDiverged,
+              internal::DivergedMessage(request.settings.divergence_limit), t_next};
     }
     sampler.Record(t, prev.data(), t_next, now.data());
     prev = now;
   }
   sampler.Finish(out);
   auto& u_column = out->Column("u");
-  for (std::size_t k = 0; k < times.size(); ++k) u_column[k] = experiment.input.At(times[k] + 0.5 * dt);
+  for (std::size_t k = 0; k < times.size(); ++k)
+    u_column[k] = experiment.input.At(times[k] + 0.5 * dt);
   return SimStatus::Ok();
 }
 

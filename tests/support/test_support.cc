@@ -44,8 +44,7 @@ CommandResult Run(const std::string& command_line) {
 }
 
 TempDir::TempDir() {
-  std::string pattern =
-      (std::filesystem::temp_directory_path() / "blmd-test-XXXXXX").string();
+  std::string pattern = (std::filesystem::temp_directory_path() / "blmd-test-XXXXXX").string();
   if (!mkdtemp(pattern.data())) throw std::runtime_error("mkdtemp failed");
   path_ = pattern;
 }

@@ -5,16 +5,15 @@
 #include <string>
 #include <vector>
 
-
 #include "blmd/ident/problem.h"
 
 namespace blmd {
 
 struct AnglePeak {
-  int order = 0;                  // periods per shaft revolution
+  int order = 0;                     // periods per shaft revolution
   double electrical_multiple = 0.0;  // order / p (blmd), else 0
-  double amplitude = 0.0;         // residual amplitude at that order, column units
-  double ratio = 0.0;             // amplitude / noise floor (median amplitude over orders)
+  double amplitude = 0.0;            // residual amplitude at that order, column units
+  double ratio = 0.0;                // amplitude / noise floor (median amplitude over orders)
 };
 
 struct SignDependence {
@@ -45,8 +44,8 @@ struct ResidualAnalysis {
   bool ok = false;
   std::string reason;
   std::vector<ColumnDiagnostics> columns;
-  double whiteness_p = 1.0;  // min over columns x number of columns (Bonferroni), <= 1
-  bool white = true;         // whiteness_p >= 0.05
+  double whiteness_p = 1.0;     // min over columns x number of columns (Bonferroni), <= 1
+  bool white = true;            // whiteness_p >= 0.05
   bool w_changes_sign = false;  // the simulated speed takes both signs
   double w_max = 0.0;           // max |simulated w|, rad/s
   double i_max = 0.0;           // max |simulated i|, A

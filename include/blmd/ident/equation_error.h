@@ -66,7 +66,7 @@ struct EquationTrace {
   std::vector<Biquad> motion_filter;   // the Butterworth low-pass of the motion and the input
   std::vector<Biquad> anti_alias;      // empty without decimation
   int decimate = 1;
-  double cutoff_hz = 0.0;              // the motion filter's cut-off in use
+  double cutoff_hz = 0.0;  // the motion filter's cut-off in use
   // At the kept samples: t, u (the recorded input, anti-alias filtered), and the filtered
   // w and theta, for reports and plots.
   Trace measured;

@@ -29,11 +29,11 @@ namespace blmd {
 
 // One measured experiment prepared for fitting.
 struct FitTrace {
-  std::string path;        // for reports
-  std::string sha256;      // of the file's bytes
-  Trace trace;             // t, u and the observed columns (after mapping and scaling)
-  InputSignal input;       // zero-order hold of the trace's u (and `open`, if present)
-  InitialState initial;    // state at the first sample
+  std::string path;      // for reports
+  std::string sha256;    // of the file's bytes
+  Trace trace;           // t, u and the observed columns (after mapping and scaling)
+  InputSignal input;     // zero-order hold of the trace's u (and `open`, if present)
+  InitialState initial;  // state at the first sample
 };
 
 struct FreeParameter {
@@ -46,9 +46,9 @@ struct FreeParameter {
 // The outcome of one cost evaluation.
 struct Evaluation {
   bool ok = false;
-  std::string reason;             // why not ok
-  double cost = 0.0;              // +inf when !ok
-  std::vector<double> mse;        // per observed column, pooled over traces
+  std::string reason;                              // why not ok
+  double cost = 0.0;                               // +inf when !ok
+  std::vector<double> mse;                         // per observed column, pooled over traces
   std::vector<std::vector<double>> mse_per_trace;  // [trace][column]
 };
 

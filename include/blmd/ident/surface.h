@@ -30,9 +30,9 @@ struct SurfacePoint {
 };
 
 struct SurfaceOptions {
-  int threads = 0;            // 0: all cores
-  int shard_index = 1;        // K of K/N, 1-based
-  int shard_count = 1;        // N
+  int threads = 0;      // 0: all cores
+  int shard_index = 1;  // K of K/N, 1-based
+  int shard_count = 1;  // N
   // Points a thread evaluates at once (FitProblem::EvaluateBatch; the blmd model runs 8 in
   // SIMD lanes); 1: one point at a time. The result does not depend on it.
   int batch = 8;
@@ -45,7 +45,8 @@ std::pair<std::size_t, std::size_t> ShardRange(std::size_t total, int index, int
 
 // Evaluates the problem at the grid points of the shard. The problem's free parameters
 // must be exactly the grid axes, in order.
-std::vector<SurfacePoint> ComputeSurface(const FitProblem& problem, const std::vector<GridAxis>& axes,
+std::vector<SurfacePoint> ComputeSurface(const FitProblem& problem,
+                                         const std::vector<GridAxis>& axes,
                                          const SurfaceOptions& options);
 
 // Grid indices of local minima: strictly lower than every existing neighbour (the 2 in

@@ -1,15 +1,13 @@
 // File helpers: whole-file reads with clear errors, atomic writes, content hashes.
 #pragma once
 
+#include <array>
 #include <cstddef>
+#include <cstdint>
 #include <limits>
 #include <string>
-#include <vector>
-
-#include <array>
-#include <cstdint>
-#include <string>
 #include <string_view>
+#include <vector>
 
 namespace blmd {
 

@@ -26,11 +26,10 @@
 #pragma once
 
 #include <cstddef>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "blmd/ident/discovery.h"
 #include "blmd/ident/optimizer.h"
@@ -66,19 +65,20 @@ struct HtmlReportInputs {
 // The cost along one free parameter with the others held at `values`.
 struct CostSlice {
   std::string parameter;
-  std::size_t index = 0;       // of the parameter in problem.free()
-  double estimate = 0.0;       // values[index]
-  std::vector<double> x;       // increasing, physical units
-  std::vector<double> cost;    // problem.Evaluate's cost; +inf where the simulation failed
-  std::size_t centre = 0;      // index of the estimate in x (when it lies in the bounds)
-  std::size_t argmin = 0;      // index of the lowest finite cost
+  std::size_t index = 0;     // of the parameter in problem.free()
+  double estimate = 0.0;     // values[index]
+  std::vector<double> x;     // increasing, physical units
+  std::vector<double> cost;  // problem.Evaluate's cost; +inf where the simulation failed
+  std::size_t centre = 0;    // index of the estimate in x (when it lies in the bounds)
+  std::size_t argmin = 0;    // index of the lowest finite cost
 };
 
 // One slice per free parameter of `problem` through `values` (see HtmlReportOptions for the
 // spacing). Evaluations run on `threads` threads (0: all cores); the result does not depend
 // on the thread count.
-std::vector<CostSlice> ComputeCostSlices(const FitProblem& problem, const std::vector<double>& values,
-                                         int points, double span, int threads);
+std::vector<CostSlice> ComputeCostSlices(const FitProblem& problem,
+                                         const std::vector<double>& values, int points, double span,
+                                         int threads);
 
 // The time window [t_begin, t_end] of the first transient of trace k of `problem`, judged on
 // `simulated` (its simulated trace). It starts where the input u first moves by more than

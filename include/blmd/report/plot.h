@@ -47,12 +47,12 @@ std::string SurfaceSvg(const std::vector<GridAxis>& axes, const std::vector<Surf
 
 // One line of a LinePlotSvg.
 struct Series {
-  std::string label;           // legend text; empty: not listed in the legend
-  std::vector<double> x, y;    // same length; a non-finite value breaks the line (a gap)
-  std::string colour;          // any SVG colour, e.g. "#0072b2"; empty: next palette colour
-  std::string dash;            // SVG stroke-dasharray, e.g. "6 3"; empty: solid
-  double line_width = 1.5;     // px; 0: no line (markers only)
-  double marker_radius = 0.0;  // px; > 0: a dot at every drawn sample
+  std::string label;            // legend text; empty: not listed in the legend
+  std::vector<double> x, y;     // same length; a non-finite value breaks the line (a gap)
+  std::string colour;           // any SVG colour, e.g. "#0072b2"; empty: next palette colour
+  std::string dash;             // SVG stroke-dasharray, e.g. "6 3"; empty: solid
+  double line_width = 1.5;      // px; 0: no line (markers only)
+  double marker_radius = 0.0;   // px; > 0: a dot at every drawn sample
   bool hollow_markers = false;  // markers as rings (white inside): tells series apart in grey
 };
 

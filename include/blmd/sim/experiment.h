@@ -50,9 +50,9 @@ class InputCursor {
 // through a first-order filter (tau_d); the integrator stops while the output saturates
 // in the direction of the error (clamping anti-windup).
 struct PidSettings {
-  double Kp = 0.0;     // V/rad
-  double Ki = 0.0;     // V/(rad·s)
-  double Kd = 0.0;     // V·s/rad
+  double Kp = 0.0;      // V/rad
+  double Ki = 0.0;      // V/(rad·s)
+  double Kd = 0.0;      // V·s/rad
   double tau_d = 1e-3;  // s, derivative filter time constant
   double u_max = 24.0;  // V, saturation (the supply)
 };

@@ -18,7 +18,7 @@ namespace blmd {
 struct SimStatus {
   enum class Code { kOk, kDiverged, kInvalidParameters };
   Code code = Code::kOk;
-  std::string message;  // empty when kOk
+  std::string message;   // empty when kOk
   double at_time = 0.0;  // s, where it went wrong
 
   bool ok() const { return code == Code::kOk; }
@@ -29,7 +29,7 @@ struct SimStatus {
 struct SimulationRequest {
   const ParameterSet* parameters = nullptr;
   const std::vector<std::string>* effects = nullptr;  // enabled effect names
-  const Experiment* experiment = nullptr;              // input, closed loop, initial state
+  const Experiment* experiment = nullptr;             // input, closed loop, initial state
   SimulationSettings settings;
   // Output instants (s), strictly increasing; the run starts at sample_times.front().
   const std::vector<double>* sample_times = nullptr;

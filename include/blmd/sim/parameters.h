@@ -11,14 +11,14 @@ namespace blmd {
 
 // Description of one parameter of a model or an effect.
 struct ParamInfo {
-  std::string name;     // symbol as in docs/ (R, L, Kt, J, B, Tc, ...)
-  std::string unit;     // SI unit, e.g. "kg·m²"
-  std::string meaning;  // one line
+  std::string name;            // symbol as in docs/ (R, L, Kt, J, B, Tc, ...)
+  std::string unit;            // SI unit, e.g. "kg·m²"
+  std::string meaning;         // one line
   bool positive = true;        // must be > 0 (searched on a log scale when free)
   bool non_negative = false;   // may be 0 but not < 0 (e.g. friction Tc)
   double default_lower = 0.0;  // default identification bounds
   double default_upper = 0.0;
-  bool optional = false;       // may be left out of a config; then default_value
+  bool optional = false;  // may be left out of a config; then default_value
   double default_value = 0.0;
 };
 
