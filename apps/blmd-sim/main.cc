@@ -38,7 +38,7 @@ int main(int argc, char** argv) {
       "white Gaussian noise on a column, NAME=SIGMA or NAME=P% of its peak (repeatable)");
   app.add_option("--seed", seed, "noise seed (default 1)")
       ->check(blmd::app::NonNegativeWholeNumber());
-  blmd::app::TraceFlags trace_flags;  // for --input
+  blmd::app::DialectFlags trace_flags;  // for --input
   trace_flags.Add(app);
   app.add_option("--input", input_path, "drive the model with the u column of this trace");
   app.add_flag("--quiet", quiet, "print nothing on success");

@@ -130,8 +130,7 @@ int main(int argc, char** argv) {
   CLI::App app{"blmd-surface: sweep the MSE cost over a grid of parameters"};
   blmd::app::AddVersionFlag(app, "blmd-surface");
   std::string config_path, trace_path, out_path, observe_text, svg_path, shard_text;
-  std::vector<std::string> grids, columns, scales, derives, selects;
-  std::string split, initial_state = "config";
+  std::vector<std::string> grids;
   int threads = 0;
   bool force = false;
   bool json = false, quiet = false;
@@ -144,15 +143,6 @@ int main(int argc, char** argv) {
   app.add_option("--observe", observe_text, "trace columns in the cost, e.g. i,w");
   error_flags.Add(app, "the cost of blmd-ident --error");
   trace_flags.Add(app);
-  app.add_option("--column", columns, "map a standard column to a header, NAME=HEADER");
-  app.add_option("--scale", scales, "multiply a column, NAME=FACTOR");
-  app.add_option("--derive", derives, "derive a velocity from a position, w=theta");
-  app.add_option("--select", selects,
-                 "keep the rows with NAME in VALUE[,VALUE...] or LO:HI (repeatable)");
-  app.add_option("--split", split,
-                 "cut the trace into one experiment per block of equal COLUMN values");
-  app.add_option("--initial-state", initial_state, "config|trace: initial w, theta, i")
-      ->check(CLI::IsMember({"config", "trace"}));
   app.add_option("--threads", threads, "worker threads (0: all cores)")
       ->check(blmd::app::NonNegativeWholeNumber());
   app.add_option("--shard", shard_text, "compute only slice K of N, K/N (1-based)");
@@ -269,34 +259,9 @@ int main(int argc, char** argv) {
                                    ")");
           }
         }
-        blmd::TraceInputOptions input_options;
-        input_options.delimiter = trace_flags.Delimiter();
-        input_options.duplicate_time = trace_flags.Duplicates();
-        for (const auto& text : columns) {
-          const auto [name, header] = blmd::ParseTextAssignment(text, "--column");
-          input_options.columns[name] = header;
-        }
-        for (const auto& text : scales) {
-          const auto [name, factor] = blmd::ParseAssignment(text, "--scale");
-          input_options.scales[name] = factor;
-        }
-        for (const auto& text : derives) {
-          const auto [target, source] = blmd::ParseTextAssignment(text, "--derive");
-          if (target != "w" || source != "theta")
-            throw blmd::InputError("--derive '" + text + "': supported: w=theta");
-          input_options.derive.emplace_back(target, source);
-        }
-        if (!equation_error) input_options.required = observe;
-        input_options.initial_from_trace = initial_state == "trace";
-        std::string
-            rows_line;  // the row selection, recorded in the CSV so merge tells sweeps apart
-        for (const auto& text : selects) {
-          input_options.select.push_back(blmd::ParseRowSelection(text));
-          rows_line += " --select " + text;
-        }
-        input_options.split = split;
-        if (!split.empty()) rows_line += " --split " + split;
-        if (initial_state == "trace") rows_line += " --initial-state trace";
+        const blmd::TraceInputOptions input_options = trace_flags.Options(observe, equation_error);
+        // The row selection, recorded in the CSV so that merge tells sweeps apart.
+        const std::string rows_line = trace_flags.RowsLine();
         std::vector<blmd::FitTrace> traces =
             blmd::LoadFitTraces(trace_path, input_options, config.experiment.initial);
         const std::size_t experiments = traces.size();

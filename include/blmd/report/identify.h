@@ -1,0 +1,48 @@
+// One identification as blmd-ident runs it (docs/architecture.md, "One identification"):
+// the fit, the spread between traces in its intervals, discovery, the final model as the
+// report's headline, ambiguity and warnings. The commands and the Python package call this;
+// they parse their flags into an IdentRequest and write what comes back.
+#pragma once
+
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "blmd/ident/discovery.h"
+#include "blmd/ident/optimizer.h"
+#include "blmd/ident/problem.h"
+#include "blmd/io/config.h"
+
+namespace blmd {
+
+struct IdentRequest {
+  Config config;            // the model and its set-up (flags such as --initial applied)
+  std::string config_path;  // named in the report
+  std::vector<FitTrace> traces;
+  std::vector<FitTrace> validation;  // held-out traces (--validate), may be empty
+  std::vector<std::string> observe;  // the cost's columns
+  std::vector<FreeParameter> free;
+  std::string method = "ceres";  // an optimiser of OptimizerRegistry()
+  // seed, threads (0: every core), evaluation budget, method options, verbose. The trace
+  // jackknife's refits and discovery's use the same, without the method options.
+  OptimizerOptions options;
+  bool discover = false;
+  // bic_margin, max_effects, candidates; Identify sets the refit options and the held-out
+  // traces (from `validation`).
+  DiscoveryOptions discovery;
+};
+
+struct IdentOutcome {
+  nlohmann::json report;                // the --report JSON (docs/report.md), final model first
+  std::unique_ptr<FitProblem> problem;  // the first fit's problem
+  FitResult first_fit;                  // as the optimiser returned it
+  std::unique_ptr<DiscoveryResult> discovery;  // when request.discover
+  bool converged() const { return first_fit.summary.converged; }
+};
+
+// Throws InputError for bad input (as the commands' exit 2); a fit that fails or does not
+// converge is reported in the outcome, not thrown.
+IdentOutcome Identify(IdentRequest request);
+
+}  // namespace blmd

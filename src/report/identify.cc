@@ -1,0 +1,109 @@
+#include "blmd/report/identify.h"
+
+#include <algorithm>
+#include <thread>
+#include <utility>
+
+#include "blmd/ident/trace_jackknife.h"
+#include "blmd/report/report.h"
+
+namespace blmd {
+namespace {
+
+// The spread between traces in the intervals (trace_jackknife.h): K refits, K >= 3.
+FitResult WidenedByTraces(const FitProblem& problem, const FitResult& fit,
+                          const OptimizerOptions& options) {
+  FitResult copy = fit;
+  if (fit.evaluation.ok && fit.summary.converged && problem.traces().size() >= 3) {
+    WidenByTraceJackknife(problem, LeaveOneTraceOut(problem, fit.values, options), &copy);
+  }
+  return copy;
+}
+
+// The report's "discovery" block with, for the equation error, the final model's error as
+// a simulation too.
+nlohmann::json DiscoveryBlock(const FitProblem& problem, const FitResult& first,
+                              const DiscoveryResult& discovery, const FitProblem* validation,
+                              const FitProblem* validation_after) {
+  nlohmann::json block = DiscoveryJson(problem, first, discovery, validation, validation_after);
+  if (problem.equation_error()) {
+    const auto& values = discovery.final_fit.values;
+    block["simulated_after"] =
+        SimulatedErrors(problem, discovery.final_config, discovery.final_free, values);
+    if (validation_after && block.contains("validation")) {
+      block["validation"]["simulated_after"] =
+          SimulatedErrors(*validation_after, discovery.final_config, discovery.final_free, values);
+    }
+    SanitizeJson(&block);
+  }
+  return block;
+}
+
+}  // namespace
+
+IdentOutcome Identify(IdentRequest request) {
+  IdentOutcome outcome;
+  const Optimizer& optimizer = FindOptimizer(request.method);
+  outcome.problem = std::make_unique<FitProblem>(request.config, std::move(request.traces),
+                                                 request.observe, request.free);
+  const FitProblem& problem = *outcome.problem;
+  std::unique_ptr<FitProblem> validation;
+  if (!request.validation.empty()) {
+    validation = std::make_unique<FitProblem>(request.config, std::move(request.validation),
+                                              request.observe, request.free);
+  }
+  const OptimizerOptions& options = request.options;
+  outcome.first_fit = optimizer.Minimize(problem, options);
+  OptimizerOptions refit_options = options;
+  refit_options.method_options = nlohmann::json::object();
+  const FitResult first_result = WidenedByTraces(problem, outcome.first_fit, refit_options);
+
+  ReportInputs inputs;
+  inputs.config_path = request.config_path;
+  inputs.problem = &problem;
+  inputs.result = &first_result;
+  inputs.validation = validation.get();
+  inputs.seed = options.seed;
+  inputs.threads = options.threads > 0
+                       ? options.threads
+                       : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  nlohmann::json report = MakeReport(inputs);
+  if (request.discover) {
+    DiscoveryOptions discovery_options = request.discovery;
+    discovery_options.refit.threads = options.threads;
+    discovery_options.refit.seed = options.seed;
+    discovery_options.refit.verbose = options.verbose;
+    if (validation) discovery_options.held_out = &validation->traces();
+    outcome.discovery =
+        std::make_unique<DiscoveryResult>(Discover(problem, outcome.first_fit, discovery_options));
+    const DiscoveryResult& discovery = *outcome.discovery;
+    std::unique_ptr<FitProblem> validation_after;
+    if (validation) {
+      validation_after =
+          std::make_unique<FitProblem>(discovery.final_config, validation->traces(),
+                                       request.observe, NamedFreeParameters(discovery.final_free));
+    }
+    nlohmann::json block = DiscoveryBlock(problem, outcome.first_fit, discovery, validation.get(),
+                                          validation_after.get());
+    // The final model is the answer (issue 19): its parameters, fit, residual and
+    // validation head the report; the first fit moves to discovery.before.
+    const std::unique_ptr<FitProblem> final_problem = FinalProblem(problem, discovery);
+    nlohmann::json headline = report;
+    if (final_problem) {
+      const FitResult final_result =
+          WidenedByTraces(*final_problem, discovery.final_fit, refit_options);
+      ReportInputs final_inputs = inputs;
+      final_inputs.problem = final_problem.get();
+      final_inputs.result = &final_result;
+      final_inputs.validation = validation_after.get();
+      headline = MakeReport(final_inputs);
+    }
+    report = FinalModelReport(std::move(headline), report, std::move(block));
+  }
+  WidenForAmbiguity(&report);
+  AddWarnings(&report);
+  outcome.report = std::move(report);
+  return outcome;
+}
+
+}  // namespace blmd
