@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <memory>
 #include <mutex>
 
 #include "../common/app_main.h"
@@ -18,14 +19,15 @@
 #include "blmd/io/flags.h"
 #include "blmd/report/plot.h"
 #include "blmd/report/surface_file.h"
+#include "blmd/report/sweep.h"
 #include "blmd/sim/effects.h"
 #include "blmd/sim/model.h"
+
+namespace {
 
 // The largest sweep blmd-surface runs without --force (docs/cli.md §3).
 constexpr std::size_t kMaxSurfacePoints = 1000000;
 constexpr double kMaxSurfaceBytes = 1e9;
-
-namespace {
 
 std::string G(double v, int digits = 5) {
   if (!std::isfinite(v)) return "inf";
@@ -124,32 +126,303 @@ int PlotSurfaceFile(const std::string& csv_path, const std::string& svg_path,
   return blmd::kExitOk;
 }
 
+// Every flag of blmd-surface's sweep (docs/cli.md §3); merge and plot are subcommands.
+struct SurfaceFlags {
+  std::string config_path, trace_path, out_path, observe_text, svg_path, shard_text;
+  std::vector<std::string> grids;
+  int threads = 0;
+  bool force = false, json = false, quiet = false;
+  blmd::app::ErrorFlags error_flags;
+  blmd::app::TraceFlags trace_flags;
+
+  void Add(CLI::App& app) {
+    app.add_option("--config", config_path, "model (JSON)");
+    app.add_option("--trace", trace_path, "measured trace CSV");
+    app.add_option("--grid", grids, "axis P=LO:HI:N or P=log:LO:HI:N (one or two)");
+    app.add_option("--out", out_path, "surface CSV to write");
+    app.add_option("--observe", observe_text, "trace columns in the cost, e.g. i,w");
+    error_flags.Add(app, "the cost of blmd-ident --error");
+    trace_flags.Add(app);
+    app.add_option("--threads", threads, "worker threads (0: all cores)")
+        ->check(blmd::app::NonNegativeWholeNumber());
+    app.add_option("--shard", shard_text, "compute only slice K of N, K/N (1-based)");
+    app.add_option("--svg", svg_path, "write a heat map (2-D) or curve (1-D) SVG");
+    app.add_flag("--json", json, "print the surface as JSON on stdout instead of the summary");
+    app.add_flag("--quiet", quiet, "no progress bar, no summary");
+    app.add_flag("--force", force, "sweep a grid beyond the size cap (1e6 points or 1 GB)");
+  }
+};
+
+// One or two --grid axes (checked before the config is read).
+void CheckGridCount(const std::vector<std::string>& grids) {
+  if (grids.empty() || grids.size() > 2) {
+    throw blmd::InputError("--grid: give one or two axes, P=LO:HI:N (got " +
+                           std::to_string(grids.size()) + ")");
+  }
+}
+
+// The --grid axes, each a parameter of the config, positive where the parameter must be.
+std::vector<blmd::GridAxis> ParseGridAxes(const blmd::Config& config,
+                                          const std::vector<std::string>& grids) {
+  std::vector<blmd::GridAxis> axes;
+  for (const auto& text : grids) {
+    blmd::GridAxis axis = blmd::ParseGridAxis(text);
+    if (!config.parameters.Has(axis.name)) {
+      std::vector<std::string> known;
+      for (const auto& [name, value] : config.parameters.entries()) known.push_back(name);
+      const std::string near = blmd::NearestName(axis.name, known);
+      throw blmd::InputError("--grid: unknown parameter '" + axis.name + "'" +
+                             (near.empty() ? "" : " (did you mean '" + near + "'?)") +
+                             "; valid: " + blmd::Join(known));
+    }
+    const blmd::ParamInfo* info = config.FindParameterInfo(axis.name);
+    if (info && info->positive && !(axis.low > 0.0)) {
+      throw blmd::InputError("--grid " + axis.name + ": the parameter must be > 0 (LO = " +
+                             blmd::FormatNumber(axis.low) + ")");
+    }
+    for (const auto& other : axes) {
+      if (other.name == axis.name)
+        throw blmd::InputError("--grid: '" + axis.name + "' given twice");
+    }
+    axes.push_back(axis);
+  }
+  return axes;
+}
+
+// --shard K/N (1-based; empty: 1/1).
+std::pair<int, int> ParseShard(const std::string& text) {
+  if (text.empty()) return {1, 1};
+  const auto slash = text.find('/');
+  // Digits, '/', digits: std::stoi alone would take " 1" and "+1".
+  if (text.find_first_not_of("0123456789/") != std::string::npos) {
+    throw blmd::InputError("--shard '" + text + "': expected K/N, e.g. 3/8");
+  }
+  int index = 0, count = 0;
+  try {
+    std::size_t used = 0;
+    index = std::stoi(text.substr(0, slash), &used);
+    if (used != slash) throw std::invalid_argument("K");
+    const std::string count_text = text.substr(slash + 1);
+    count = std::stoi(count_text, &used);
+    if (used != count_text.size()) throw std::invalid_argument("N");  // "1/3abc"
+  } catch (const std::exception&) {
+    throw blmd::InputError("--shard '" + text + "': expected K/N, e.g. 3/8");
+  }
+  if (slash == std::string::npos || count < 1 || index < 1 || index > count) {
+    throw blmd::InputError("--shard '" + text + "': expected K/N with 1 <= K <= N");
+  }
+  return {index, count};
+}
+
+// The observed columns (outputs of the model with the output error), --observe '' refused.
+std::vector<std::string> CheckedObserve(const CLI::App& app, SurfaceFlags& f,
+                                        blmd::Config* config) {
+  const std::vector<std::string> outputs = config->model->outputs();
+  const std::string valid_outputs = blmd::Join(outputs);
+  if (app.count("--observe") > 0 && f.observe_text.empty()) {
+    throw blmd::InputError("--observe: empty (valid: " + valid_outputs + ")");
+  }
+  const std::vector<std::string> observe = f.error_flags.Apply(config, f.observe_text);
+  if (config->identification.error == "equation") return observe;
+  for (const auto& name : observe) {
+    if (std::find(outputs.begin(), outputs.end(), name) == outputs.end()) {
+      throw blmd::InputError("--observe: '" + name + "' is not an output of model " +
+                             std::string(config->model->name()) + " (valid: " + valid_outputs +
+                             ")");
+    }
+  }
+  return observe;
+}
+
+// A progress bar on stderr, redrawn at most every 200 ms: points, rate, time left.
+std::function<void(std::size_t, std::size_t)> ProgressBar() {
+  struct State {
+    std::mutex mutex;
+    std::chrono::steady_clock::time_point started = std::chrono::steady_clock::now();
+    std::chrono::steady_clock::time_point last_draw = started;
+  };
+  auto state = std::make_shared<State>();
+  return [state](std::size_t done, std::size_t total) {
+    std::lock_guard<std::mutex> lock(state->mutex);
+    const auto now = std::chrono::steady_clock::now();
+    if (done != total && now - state->last_draw < std::chrono::milliseconds(200)) return;
+    state->last_draw = now;
+    const double elapsed = std::chrono::duration<double>(now - state->started).count();
+    const double rate = elapsed > 0 ? static_cast<double>(done) / elapsed : 0.0;
+    const double left = rate > 0 ? static_cast<double>(total - done) / rate : -1.0;
+    const int width = 30;
+    const int filled = static_cast<int>(width * done / std::max<std::size_t>(1, total));
+    std::fprintf(stderr, "\r[%s%s] %zu/%zu points, %.1f pt/s, %s left ",
+                 std::string(filled, '#').c_str(), std::string(width - filled, ' ').c_str(), done,
+                 total, rate, Clock(left).c_str());
+    if (done == total) std::fprintf(stderr, "\n");
+  };
+}
+
+// The surface as JSON on stdout (--json, docs/cli.md §3).
+void PrintJson(const SurfaceFlags& f, const blmd::SweepRequest& request,
+               const blmd::SweepOutcome& outcome, int shard_index, int shard_count) {
+  const auto& points = outcome.points;
+  const auto& axes = request.axes;
+  auto point_json = [&](std::size_t k) {
+    nlohmann::json p = nlohmann::json::object();
+    for (std::size_t a = 0; a < axes.size(); ++a) p[axes[a].name] = points[k].coordinates[a];
+    p["cost"] = points[k].evaluation.ok ? nlohmann::json(points[k].evaluation.cost)
+                                        : nlohmann::json(nullptr);
+    return p;
+  };
+  nlohmann::json out;
+  out["tool"] = "blmd-surface";
+  out["version"] = blmd::kVersion;
+  out["config"] = {{"path", f.config_path}, {"sha256", request.config_sha256}};
+  out["trace"] = {{"path", f.trace_path}, {"sha256", outcome.trace_sha256}};
+  out["observe"] = request.observe;
+  out["grid"] = nlohmann::json::array();
+  for (const auto& axis : axes) {
+    out["grid"].push_back({{"name", axis.name},
+                           {"low", axis.low},
+                           {"high", axis.high},
+                           {"count", axis.count},
+                           {"log", axis.log_scale}});
+  }
+  out["shard"] = {shard_index, shard_count};
+  out["minimum"] =
+      outcome.best < points.size() ? point_json(outcome.best) : nlohmann::json(nullptr);
+  out["local_minima"] = nlohmann::json::array();
+  for (std::size_t k : outcome.minima) out["local_minima"].push_back(point_json(k));
+  out["failed_points"] = outcome.failed;
+  out["failure_reasons"] = outcome.failure_reasons;
+  out["points"] = nlohmann::json::array();
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    nlohmann::json p = point_json(k);
+    if (points[k].evaluation.ok) {
+      for (std::size_t c = 0; c < request.observe.size(); ++c)
+        p["mse_" + request.observe[c]] = points[k].evaluation.mse[c];
+    }
+    out["points"].push_back(p);
+  }
+  out["wall_time_s"] = outcome.wall_time_s;
+  std::cout << out.dump(2) << "\n";
+}
+
+// The human summary: points, rate, grid minimum, local minima, failures.
+void PrintSummary(const SurfaceFlags& f, const std::vector<blmd::GridAxis>& axes,
+                  const blmd::SweepOutcome& outcome, int shard_index, int shard_count) {
+  const auto& points = outcome.points;
+  const double elapsed = outcome.wall_time_s;
+  std::cout << "blmd-surface: " << points.size() << " points";
+  if (shard_count > 1) std::cout << " (shard " << shard_index << "/" << shard_count << ")";
+  std::cout << " in " << G(elapsed, 3) << " s (" << G(points.size() / std::max(elapsed, 1e-9), 3)
+            << " points/s) -> " << f.out_path << "\n";
+  if (outcome.best < points.size()) {
+    std::cout << "  grid minimum:";
+    for (std::size_t a = 0; a < axes.size(); ++a)
+      std::cout << " " << axes[a].name << " = " << G(points[outcome.best].coordinates[a], 6);
+    std::cout << ", cost " << G(points[outcome.best].evaluation.cost) << "\n";
+  }
+  if (shard_count == 1) {
+    std::cout << "  local minima: " << outcome.minima.size() << "\n";
+    for (std::size_t k : outcome.minima) {
+      std::cout << "   ";
+      for (std::size_t a = 0; a < axes.size(); ++a)
+        std::cout << " " << axes[a].name << " = " << G(points[k].coordinates[a], 6);
+      std::cout << ", cost " << G(points[k].evaluation.cost)
+                << (k == outcome.best ? "  (global)" : "") << "\n";
+    }
+  }
+  if (outcome.failed) {
+    std::cout << "  failed points: " << outcome.failed << " (cost inf)";
+    for (const auto& [reason, n] : outcome.failure_reasons)
+      std::cout << "; " << n << " x " << reason;
+    std::cout << "\n";
+  }
+  if (!f.svg_path.empty()) std::cout << "  svg: " << f.svg_path << "\n";
+}
+
+// The sweep itself: flags -> SweepRequest -> blmd::Sweep -> CSV, SVG, JSON or summary.
+int RunSweep(const CLI::App& app, SurfaceFlags& f) {
+  for (const auto& [flag, value] :
+       {std::pair<const char*, const std::string*>{"--config", &f.config_path},
+        {"--trace", &f.trace_path},
+        {"--out", &f.out_path}}) {
+    if (value->empty())
+      throw blmd::InputError(std::string(flag) + " is required (see blmd-surface --help)");
+  }
+  f.threads = blmd::app::CapThreads(f.threads);
+  // Every output checked before any work: writable, not an input, not the other output.
+  blmd::CheckOutputs({{"--out", f.out_path}, {"--svg", f.svg_path}},
+                     {{"--config", f.config_path}, {"--trace", f.trace_path}});
+  CheckGridCount(f.grids);
+  blmd::SweepRequest request;
+  request.config = blmd::LoadConfig(f.config_path);
+  request.axes = ParseGridAxes(request.config, f.grids);
+  const auto [shard_index, shard_count] = ParseShard(f.shard_text);
+  request.observe = CheckedObserve(app, f, &request.config);
+  const bool equation_error = request.config.identification.error == "equation";
+  request.rows_line = f.trace_flags.RowsLine();
+  request.traces =
+      blmd::LoadFitTraces(f.trace_path, f.trace_flags.Options(request.observe, equation_error),
+                          request.config.experiment.initial);
+  {
+    // The sweep's size before it starts: a typo in N must not ask for gigabytes.
+    std::size_t points = 1;
+    for (const auto& axis : request.axes) points *= static_cast<std::size_t>(axis.count);
+    points = (points + static_cast<std::size_t>(shard_count) - 1) /
+             static_cast<std::size_t>(shard_count);
+    const double bytes = blmd::SweepBytes(points, request.axes.size(), request.observe.size(),
+                                          request.traces.size());
+    if (!f.force && (points > kMaxSurfacePoints || bytes > kMaxSurfaceBytes)) {
+      throw blmd::InputError("--grid: " + std::to_string(points) + " points" +
+                             (shard_count > 1 ? " in this shard" : "") + " (about " +
+                             blmd::FormatSignificant(bytes / 1e9, 3) +
+                             " GB) is more than the cap of 1000000 points or 1 GB; narrow the "
+                             "grid, shard it (--shard K/N), or add --force");
+    }
+  }
+  blmd::InstallCleanupOnSignal();
+  request.config_sha256 = blmd::Sha256Hex(blmd::ReadFileText(f.config_path));
+  request.threads = f.threads;
+  request.shard_index = shard_index;
+  request.shard_count = shard_count;
+  if (!f.quiet && isatty(STDERR_FILENO)) request.progress = ProgressBar();
+  const blmd::Config config = request.config;
+  const std::vector<blmd::GridAxis> axes = request.axes;
+  const blmd::SweepOutcome outcome = blmd::Sweep(request);
+
+  std::string svg;
+  if (!f.svg_path.empty()) {
+    if (shard_count > 1)
+      throw blmd::InputError(
+          "--svg needs the whole grid: draw it from the merged surface, not a shard");
+    blmd::SurfacePlotOptions plot;
+    plot.title = config.name + ": cost over ";
+    for (std::size_t a = 0; a < axes.size(); ++a) {
+      plot.title += (a ? ", " : "") + axes[a].name;
+      const blmd::ParamInfo* info = config.FindParameterInfo(axes[a].name);
+      plot.units.push_back(info ? info->unit : "");
+    }
+    std::string observed;
+    for (const auto& column : request.observe) observed += (observed.empty() ? "" : ",") + column;
+    plot.title += " (observe " + observed + ")";
+    svg = blmd::SurfaceSvg(axes, outcome.points, outcome.minima, plot);
+  }
+  blmd::WriteFileAtomically(f.out_path, outcome.csv);
+  if (!svg.empty()) blmd::WriteFileAtomically(f.svg_path, svg);
+  if (f.json) {
+    PrintJson(f, request, outcome, shard_index, shard_count);
+  } else if (!f.quiet) {
+    PrintSummary(f, axes, outcome, shard_index, shard_count);
+  }
+  return blmd::kExitOk;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"blmd-surface: sweep the MSE cost over a grid of parameters"};
   blmd::app::AddVersionFlag(app, "blmd-surface");
-  std::string config_path, trace_path, out_path, observe_text, svg_path, shard_text;
-  std::vector<std::string> grids;
-  int threads = 0;
-  bool force = false;
-  bool json = false, quiet = false;
-  blmd::app::ErrorFlags error_flags;
-  blmd::app::TraceFlags trace_flags;
-  app.add_option("--config", config_path, "model (JSON)");
-  app.add_option("--trace", trace_path, "measured trace CSV");
-  app.add_option("--grid", grids, "axis P=LO:HI:N or P=log:LO:HI:N (one or two)");
-  app.add_option("--out", out_path, "surface CSV to write");
-  app.add_option("--observe", observe_text, "trace columns in the cost, e.g. i,w");
-  error_flags.Add(app, "the cost of blmd-ident --error");
-  trace_flags.Add(app);
-  app.add_option("--threads", threads, "worker threads (0: all cores)")
-      ->check(blmd::app::NonNegativeWholeNumber());
-  app.add_option("--shard", shard_text, "compute only slice K of N, K/N (1-based)");
-  app.add_option("--svg", svg_path, "write a heat map (2-D) or curve (1-D) SVG");
-  app.add_flag("--json", json, "print the surface as JSON on stdout instead of the summary");
-  app.add_flag("--quiet", quiet, "no progress bar, no summary");
-  app.add_flag("--force", force, "sweep a grid beyond the size cap (1e6 points or 1 GB)");
+  SurfaceFlags flags;
+  flags.Add(app);
   CLI::App* merge = app.add_subcommand("merge", "join shard files into the unsharded surface CSV");
   std::vector<std::string> parts;
   std::string merge_out;
@@ -162,303 +435,25 @@ int main(int argc, char** argv) {
   plot->add_option("--svg", plot_svg, "SVG to write")->required();
   plot->add_option("--title", plot_title,
                    "title (default: \"FILE: cost over P[, Q] (observe COLS)\")");
-  plot->add_flag("--quiet", quiet, "no summary");
-
-  return blmd::app::Main(
-      app, argc, argv,
-      [&]() -> int {
-        if (plot->parsed()) {
-          blmd::CheckOutputs({{"--svg", plot_svg}}, {{"surface", plot_csv}});
-          return PlotSurfaceFile(plot_csv, plot_svg, plot_title, quiet);
-        }
-        if (merge->parsed()) {
-          std::vector<blmd::NamedPath> part_files;
-          for (const auto& part : parts) part_files.push_back({"part", part});
-          blmd::CheckOutputs({{"--out", merge_out}}, part_files);
-          const std::string merged = blmd::MergeSurfaceParts(parts);
-          blmd::WriteFileAtomically(merge_out, merged);
-          if (!quiet)
-            std::cout << "blmd-surface: merged " << parts.size() << " shards -> " << merge_out
-                      << "\n";
-          return blmd::kExitOk;
-        }
-        for (const auto& [flag, value] :
-             {std::pair<const char*, const std::string*>{"--config", &config_path},
-              {"--trace", &trace_path},
-              {"--out", &out_path}}) {
-          if (value->empty())
-            throw blmd::InputError(std::string(flag) + " is required (see blmd-surface --help)");
-        }
-        threads = blmd::app::CapThreads(threads);
-        // Every output checked before any work: writable, not an input, not the other output.
-        blmd::CheckOutputs({{"--out", out_path}, {"--svg", svg_path}},
-                           {{"--config", config_path}, {"--trace", trace_path}});
-        if (grids.empty() || grids.size() > 2) {
-          throw blmd::InputError("--grid: give one or two axes, P=LO:HI:N (got " +
-                                 std::to_string(grids.size()) + ")");
-        }
-        blmd::Config config = blmd::LoadConfig(config_path);
-        std::vector<blmd::GridAxis> axes;
-        for (const auto& text : grids) {
-          blmd::GridAxis axis = blmd::ParseGridAxis(text);
-          if (!config.parameters.Has(axis.name)) {
-            std::vector<std::string> known;
-            for (const auto& [name, value] : config.parameters.entries()) known.push_back(name);
-            const std::string near = blmd::NearestName(axis.name, known);
-            throw blmd::InputError("--grid: unknown parameter '" + axis.name + "'" +
-                                   (near.empty() ? "" : " (did you mean '" + near + "'?)") +
-                                   "; valid: " + blmd::Join(known));
-          }
-          const blmd::ParamInfo* info = config.FindParameterInfo(axis.name);
-          if (info && info->positive && !(axis.low > 0.0)) {
-            throw blmd::InputError("--grid " + axis.name + ": the parameter must be > 0 (LO = " +
-                                   blmd::FormatNumber(axis.low) + ")");
-          }
-          for (const auto& other : axes) {
-            if (other.name == axis.name)
-              throw blmd::InputError("--grid: '" + axis.name + "' given twice");
-          }
-          axes.push_back(axis);
-        }
-        int shard_index = 1, shard_count = 1;
-        if (!shard_text.empty()) {
-          const auto slash = shard_text.find('/');
-          // Digits, '/', digits: std::stoi alone would take " 1" and "+1".
-          if (shard_text.find_first_not_of("0123456789/") != std::string::npos) {
-            throw blmd::InputError("--shard '" + shard_text + "': expected K/N, e.g. 3/8");
-          }
-          try {
-            std::size_t used = 0;
-            shard_index = std::stoi(shard_text.substr(0, slash), &used);
-            if (used != slash) throw std::invalid_argument("K");
-            const std::string count = shard_text.substr(slash + 1);
-            shard_count = std::stoi(count, &used);
-            if (used != count.size()) throw std::invalid_argument("N");  // "1/3abc"
-          } catch (const std::exception&) {
-            throw blmd::InputError("--shard '" + shard_text + "': expected K/N, e.g. 3/8");
-          }
-          if (slash == std::string::npos || shard_count < 1 || shard_index < 1 ||
-              shard_index > shard_count) {
-            throw blmd::InputError("--shard '" + shard_text + "': expected K/N with 1 <= K <= N");
-          }
-        }
-        const std::vector<std::string> outputs = config.model->outputs();
-        std::string valid_outputs;
-        for (const auto& name : outputs)
-          valid_outputs += (valid_outputs.empty() ? "" : ", ") + name;
-        if (app.count("--observe") > 0 && observe_text.empty()) {
-          throw blmd::InputError("--observe: empty (valid: " + valid_outputs + ")");
-        }
-        const std::vector<std::string> observe = error_flags.Apply(&config, observe_text);
-        const bool equation_error = config.identification.error == "equation";
-        for (const auto& name : observe) {
-          if (equation_error) break;
-          if (std::find(outputs.begin(), outputs.end(), name) == outputs.end()) {
-            throw blmd::InputError("--observe: '" + name + "' is not an output of model " +
-                                   std::string(config.model->name()) + " (valid: " + valid_outputs +
-                                   ")");
-          }
-        }
-        const blmd::TraceInputOptions input_options = trace_flags.Options(observe, equation_error);
-        // The row selection, recorded in the CSV so that merge tells sweeps apart.
-        const std::string rows_line = trace_flags.RowsLine();
-        std::vector<blmd::FitTrace> traces =
-            blmd::LoadFitTraces(trace_path, input_options, config.experiment.initial);
-        const std::size_t experiments = traces.size();
-        const std::string trace_sha = traces.front().sha256;
-
-        // The grid axes are the free parameters; bounds are the grid's (the cost does not clip).
-        std::vector<blmd::FreeParameter> free;
-        for (const auto& axis : axes) {
-          blmd::FreeParameter p;
-          p.name = axis.name;
-          p.lower = axis.low;
-          p.upper = axis.high;
-          p.log_scale = axis.log_scale;
-          p.initial = config.parameters.Get(axis.name);
-          free.push_back(p);
-        }
-        {
-          // The sweep's size before it starts: a typo in N must not ask for gigabytes.
-          std::size_t points = 1;
-          for (const auto& axis : axes) points *= static_cast<std::size_t>(axis.count);
-          points = (points + static_cast<std::size_t>(shard_count) - 1) /
-                   static_cast<std::size_t>(shard_count);
-          const std::size_t columns = observe.size(), trace_count = traces.size();
-          // Per point: the result (coordinates, cost, MSE per column and per trace) and its CSV
-          // row.
-          const double bytes =
-              static_cast<double>(points) *
-              (160.0 + 8.0 * static_cast<double>(axes.size()) +
-               16.0 * static_cast<double>(columns) +
-               static_cast<double>(trace_count) * (24.0 + 8.0 * static_cast<double>(columns)) +
-               24.0 * static_cast<double>(axes.size() + columns + 1));
-          if (!force && (points > kMaxSurfacePoints || bytes > kMaxSurfaceBytes)) {
-            throw blmd::InputError(
-                "--grid: " + std::to_string(points) + " points" +
-                (shard_count > 1 ? " in this shard" : "") + " (about " +
-                blmd::FormatSignificant(bytes / 1e9, 3) +
-                " GB) is more than the cap of 1000000 points or 1 GB; narrow the "
-                "grid, shard it (--shard K/N), or add --force");
-          }
-        }
-        blmd::InstallCleanupOnSignal();
-        const std::string config_sha = blmd::Sha256Hex(blmd::ReadFileText(config_path));
-        const blmd::FitProblem problem(config, std::move(traces), observe, free);
-
-        blmd::SurfaceOptions options;
-        options.threads = threads;
-        options.shard_index = shard_index;
-        options.shard_count = shard_count;
-        const bool show_progress = !quiet && isatty(STDERR_FILENO);
-        const auto started = std::chrono::steady_clock::now();
-        std::mutex progress_mutex;
-        auto last_draw = started;
-        if (show_progress) {
-          options.progress = [&](std::size_t done, std::size_t total) {
-            std::lock_guard<std::mutex> lock(progress_mutex);
-            const auto now = std::chrono::steady_clock::now();
-            if (done != total && now - last_draw < std::chrono::milliseconds(200)) return;
-            last_draw = now;
-            const double elapsed = std::chrono::duration<double>(now - started).count();
-            const double rate = elapsed > 0 ? static_cast<double>(done) / elapsed : 0.0;
-            const double left = rate > 0 ? static_cast<double>(total - done) / rate : -1.0;
-            const int width = 30;
-            const int filled = static_cast<int>(width * done / std::max<std::size_t>(1, total));
-            std::fprintf(stderr, "\r[%s%s] %zu/%zu points, %.1f pt/s, %s left ",
-                         std::string(filled, '#').c_str(), std::string(width - filled, ' ').c_str(),
-                         done, total, rate, Clock(left).c_str());
-            if (done == total) std::fprintf(stderr, "\n");
-          };
-        }
-        const std::vector<blmd::SurfacePoint> points = blmd::ComputeSurface(problem, axes, options);
-        const double elapsed =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-
-        blmd::SurfaceMetadata metadata;
-        metadata.lines = {"blmd-surface " + std::string(blmd::kVersion),
-                          "model: " + std::string(config.model->name()),
-                          "config_sha256: " + config_sha, "trace_sha256: " + trace_sha};
-        std::string observe_line = "observe: ";
-        for (std::size_t c = 0; c < observe.size(); ++c)
-          observe_line += (c ? "," : "") + observe[c];
-        metadata.lines.push_back(observe_line);
-        if (problem.equation_error()) {
-          const blmd::EquationTrace& first = problem.equation_traces().front();
-          metadata.lines.push_back("error: equation, filter_hz " + G(first.cutoff_hz, 6) +
-                                   ", decimate " + std::to_string(first.decimate));
-        }
-        if (!rows_line.empty()) {
-          metadata.lines.push_back("rows:" + rows_line + " (" + std::to_string(experiments) +
-                                   " experiment" + (experiments == 1 ? "" : "s") + ")");
-        }
-        for (const auto& axis : axes) metadata.lines.push_back("grid: " + axis.Spec());
-        metadata.shard_index = shard_index;
-        metadata.shard_count = shard_count;
-        const std::string csv = blmd::FormatSurfaceCsv(metadata, axes, observe, points);
-
-        // Summary figures (on a shard: of that shard only).
-        std::vector<std::size_t> minima;
-        std::size_t best = points.size();
-        std::size_t failed = 0;
-        std::map<std::string, long> reasons;
-        for (std::size_t k = 0; k < points.size(); ++k) {
-          if (!points[k].evaluation.ok) {
-            ++failed;
-            ++reasons[points[k].evaluation.reason];
-            continue;
-          }
-          if (best == points.size() || points[k].evaluation.cost < points[best].evaluation.cost)
-            best = k;
-        }
-        if (shard_count == 1) minima = blmd::LocalMinima(axes, points);
-        std::string svg;
-        if (!svg_path.empty()) {
-          if (shard_count > 1)
-            throw blmd::InputError(
-                "--svg needs the whole grid: draw it from the merged surface, not a shard");
-          blmd::SurfacePlotOptions plot;
-          plot.title = config.name + ": cost over ";
-          for (std::size_t a = 0; a < axes.size(); ++a) {
-            plot.title += (a ? ", " : "") + axes[a].name;
-            const blmd::ParamInfo* info = config.FindParameterInfo(axes[a].name);
-            plot.units.push_back(info ? info->unit : "");
-          }
-          plot.title += " (observe " + observe_line.substr(9) + ")";
-          svg = blmd::SurfaceSvg(axes, points, minima, plot);
-        }
-        blmd::WriteFileAtomically(out_path, csv);
-        if (!svg.empty()) blmd::WriteFileAtomically(svg_path, svg);
-
-        auto point_json = [&](std::size_t k) {
-          nlohmann::json p = nlohmann::json::object();
-          for (std::size_t a = 0; a < axes.size(); ++a) p[axes[a].name] = points[k].coordinates[a];
-          p["cost"] = points[k].evaluation.ok ? nlohmann::json(points[k].evaluation.cost)
-                                              : nlohmann::json(nullptr);
-          return p;
-        };
-        if (json) {
-          nlohmann::json out;
-          out["tool"] = "blmd-surface";
-          out["version"] = blmd::kVersion;
-          out["config"] = {{"path", config_path}, {"sha256", config_sha}};
-          out["trace"] = {{"path", trace_path}, {"sha256", trace_sha}};
-          out["observe"] = observe;
-          out["grid"] = nlohmann::json::array();
-          for (const auto& axis : axes) {
-            out["grid"].push_back({{"name", axis.name},
-                                   {"low", axis.low},
-                                   {"high", axis.high},
-                                   {"count", axis.count},
-                                   {"log", axis.log_scale}});
-          }
-          out["shard"] = {shard_index, shard_count};
-          out["minimum"] = best < points.size() ? point_json(best) : nlohmann::json(nullptr);
-          out["local_minima"] = nlohmann::json::array();
-          for (std::size_t k : minima) out["local_minima"].push_back(point_json(k));
-          out["failed_points"] = failed;
-          out["failure_reasons"] = reasons;
-          out["points"] = nlohmann::json::array();
-          for (std::size_t k = 0; k < points.size(); ++k) {
-            nlohmann::json p = point_json(k);
-            if (points[k].evaluation.ok) {
-              for (std::size_t c = 0; c < observe.size(); ++c)
-                p["mse_" + observe[c]] = points[k].evaluation.mse[c];
-            }
-            out["points"].push_back(p);
-          }
-          out["wall_time_s"] = elapsed;
-          std::cout << out.dump(2) << "\n";
-        } else if (!quiet) {
-          std::cout << "blmd-surface: " << points.size() << " points";
-          if (shard_count > 1) std::cout << " (shard " << shard_index << "/" << shard_count << ")";
-          std::cout << " in " << G(elapsed, 3) << " s ("
-                    << G(points.size() / std::max(elapsed, 1e-9), 3) << " points/s) -> " << out_path
-                    << "\n";
-          if (best < points.size()) {
-            std::cout << "  grid minimum:";
-            for (std::size_t a = 0; a < axes.size(); ++a)
-              std::cout << " " << axes[a].name << " = " << G(points[best].coordinates[a], 6);
-            std::cout << ", cost " << G(points[best].evaluation.cost) << "\n";
-          }
-          if (shard_count == 1) {
-            std::cout << "  local minima: " << minima.size() << "\n";
-            for (std::size_t k : minima) {
-              std::cout << "   ";
-              for (std::size_t a = 0; a < axes.size(); ++a)
-                std::cout << " " << axes[a].name << " = " << G(points[k].coordinates[a], 6);
-              std::cout << ", cost " << G(points[k].evaluation.cost)
-                        << (k == best ? "  (global)" : "") << "\n";
-            }
-          }
-          if (failed) {
-            std::cout << "  failed points: " << failed << " (cost inf)";
-            for (const auto& [reason, n] : reasons) std::cout << "; " << n << " x " << reason;
-            std::cout << "\n";
-          }
-          if (!svg_path.empty()) std::cout << "  svg: " << svg_path << "\n";
-        }
-        return blmd::kExitOk;
-      },
-      {"--observe"});
+  plot->add_flag("--quiet", flags.quiet, "no summary");
+  return blmd::app::Main(app, argc, argv,
+                         [&]() -> int {
+                           if (plot->parsed()) {
+                             blmd::CheckOutputs({{"--svg", plot_svg}}, {{"surface", plot_csv}});
+                             return PlotSurfaceFile(plot_csv, plot_svg, plot_title, flags.quiet);
+                           }
+                           if (merge->parsed()) {
+                             std::vector<blmd::NamedPath> part_files;
+                             part_files.reserve(parts.size());
+                             for (const auto& part : parts) part_files.push_back({"part", part});
+                             blmd::CheckOutputs({{"--out", merge_out}}, part_files);
+                             blmd::WriteFileAtomically(merge_out, blmd::MergeSurfaceParts(parts));
+                             if (!flags.quiet)
+                               std::cout << "blmd-surface: merged " << parts.size() << " shards -> "
+                                         << merge_out << "\n";
+                             return blmd::kExitOk;
+                           }
+                           return RunSweep(app, flags);
+                         },
+                         {"--observe"});
 }

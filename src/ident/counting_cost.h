@@ -29,6 +29,7 @@ class CountingCost {
   // model simulates them in SIMD lanes); each equals ScaledCost's.
   std::vector<double> ScaledCosts(const std::vector<std::vector<double>>& scaled) {
     std::vector<std::vector<double>> values;
+    values.reserve(scaled.size());
     for (const auto& x : scaled) values.push_back(problem_.FromScaled(x));
     std::vector<double> costs;
     for (const Evaluation& evaluation : EvaluateBatch(values)) costs.push_back(evaluation.cost);

@@ -10,66 +10,17 @@
 #include "blmd/io/csv.h"
 #include "blmd/sim/effects.h"
 #include "ident/counting_cost.h"
+#include "ident/effect_search.h"
 #include "parallel.h"
 
 namespace blmd {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using internal::CandidatePlan;
+using internal::PlanCandidate;
+using internal::PointingDiagnostic;
 
 std::string G(double v, int digits = 4) { return FormatSignificant(v, digits); }
-
-// A candidate's search set-up: free effect parameters with bounds, fixed ones, start points.
-struct CandidatePlan {
-  std::string effect;
-  bool applicable = true;
-  std::string not_applicable;
-  std::vector<FreeParameter> free;                                // the effect's free parameters
-  std::map<std::string, double> fixed;                            // the effect's fixed parameters
-  std::vector<std::vector<double>> starts;                        // start values for `free`
-  std::vector<std::map<std::string, double>> fixed_alternatives;  // cogging: one per period
-  std::vector<std::vector<std::vector<double>>> alternative_starts;  // extra starts per alternative
-  std::string amplitude;  // parameter that must differ from zero
-  // Physical constraint on the refit's values (all parameters, model and effects): empty
-  // when valid, else why not.
-  std::function<std::string(const ParameterSet&)> constraint;
-  std::string evidence;  // what chose the plan's set-up (cogging: the order), for the report
-};
-
-FreeParameter Free(const std::string& name, double lower, double upper, bool log_scale = false) {
-  FreeParameter p;
-  p.name = name;
-  p.lower = lower;
-  p.upper = upper;
-  p.log_scale = log_scale;
-  p.initial = log_scale ? std::sqrt(lower * upper) : 0.5 * (lower + upper);
-  return p;
-}
-
-// The torque scale T that sizes the candidates' search boxes (docs/discovery.md §2): the
-// largest torque the record shows. dc_servo and blmd: the motor torque at the largest
-// simulated current. rigid_load: the drive torque Kt max|u|, or the current model's damping
-// torque B max|w| at its fitted values (w simulated) if that is larger. The second matters
-// when the shaft moves without a drive: on a coast-down (u = 0) it is the torque that
-// decelerates the shaft at its top speed (J |dw/dt| of the J, B model), where Kt max|u| is
-// 0 and every search box would collapse to [0, 1e-12]. The measured acceleration is not
-// used: differentiated twice from a logged speed, its maximum is noise (12 N m against
-// B max|w| = 0.42 N m on the flywheel coast-down of docs/real-data.md). Driven from rest,
-// B |w| of the J, B model stays below Kt max|u| (its steady state is B w = Kt u), so the
-// scale changes only for records that start faster than the drive holds.
-double TorqueScale(const FitProblem& problem, const ResidualAnalysis& analysis,
-                   const std::vector<double>& values) {
-  const std::string model(problem.config().model->name());
-  if (model == "rigid_load") {
-    const ParameterSet p = problem.Parameters(values);
-    return std::max({p.Get("Kt") * analysis.u_max, p.Get("B") * analysis.w_max, 1e-12});
-  }
-  const ParameterSet& p = problem.config().parameters;
-  double per_amp = 1.0;
-  if (model == "dc_servo") per_amp = p.Get("Kt");
-  if (model == "blmd") per_amp = 1.5 * p.Get("Ke");
-  return std::max(per_amp * analysis.i_max, 1e-12);
-}
 
 // Cogging is fitted with the measured angle (docs/discovery.md, "Cogging: the measured
 // angle"): a cogging torque large enough to matter captures the simulated shaft in detents
@@ -96,305 +47,6 @@ Evaluation FreeRunEvaluation(const FitProblem& problem, const std::vector<double
   if (!problem.effect_angle_forced()) return evaluation;
   const FitProblem free_run(problem.config(), problem.traces(), problem.observe(), problem.free());
   return free_run.Evaluate(values);
-}
-
-// Start values for a cogging torque Tcog sin(m theta + phase) from the speed residual in
-// steady motion, where the response is linear: with J dw/dt = -Tcog sin(m theta + phase)
-// and dtheta/dt = w nearly constant, w ripples by Tcog / (J m w) cos(m theta + phase), so
-// the residual times w, regressed on cos(m theta) and sin(m theta), has coefficients
-// a = (Tcog / (J m)) cos(phase) and b = -(Tcog / (J m)) sin(phase). The residual is
-// detrended over one revolution around each sample first (as the angle spectrum is).
-bool CoggingStart(const FitProblem& problem, const std::vector<double>& values, int order,
-                  double w_max, double* tcog, double* phase) {
-  const auto& observe = problem.observe();
-  const auto column = std::find(observe.begin(), observe.end(), "w");
-  if (column == observe.end()) return false;
-  double J = problem.config().parameters.Get("J");
-  for (std::size_t k = 0; k < problem.num_free(); ++k) {
-    if (problem.free()[k].name == "J") J = values[k];
-  }
-  double a = 0.0, b = 0.0, cc = 0.0, ss = 0.0, cs = 0.0;
-  for (std::size_t k = 0; k < problem.traces().size(); ++k) {
-    Trace simulated;
-    if (!problem.Simulate(k, values, &simulated).ok()) return false;
-    const auto& w = simulated.Column("w");
-    const auto& theta = simulated.Column("theta");
-    const auto& time = simulated.Column("t");
-    const auto& measured = problem.traces()[k].trace.Column("w");
-    const std::size_t n = w.size();
-    std::vector<double> prefix(n + 1, 0.0);
-    for (std::size_t r = 0; r < n; ++r) prefix[r + 1] = prefix[r] + (measured[r] - w[r]);
-    const double rate = static_cast<double>(n - 1) / std::max(time.back() - time.front(), 1e-300);
-    for (std::size_t r = 0; r < n; ++r) {
-      if (std::abs(w[r]) <= 0.25 * w_max) continue;
-      const std::size_t h = std::min(n / 4, static_cast<std::size_t>(kPi / std::abs(w[r]) * rate));
-      const std::size_t lo = r >= h ? r - h : 0, hi = std::min(n, r + h + 1);
-      const double detrended =
-          (measured[r] - w[r]) - (prefix[hi] - prefix[lo]) / static_cast<double>(hi - lo);
-      const double y = detrended * w[r];
-      const double c = std::cos(order * theta[r]), s = std::sin(order * theta[r]);
-      a += y * c;
-      b += y * s;
-      cc += c * c;
-      ss += s * s;
-      cs += c * s;
-    }
-  }
-  const double det = cc * ss - cs * cs;
-  if (!(det > 0.0)) return false;
-  const double ca = (ss * a - cs * b) / det, cb = (cc * b - cs * a) / det;
-  *tcog = J * order * std::hypot(ca, cb);
-  *phase = std::atan2(-cb, ca);
-  return std::isfinite(*tcog) && std::isfinite(*phase);
-}
-
-// Cogging orders of a rigid_load, ranked by the torque balance along the measured motion
-// (an equation-error regression, as the inverse-dynamics identification of the EMPS
-// benchmark): where the shaft turns steadily (measured |w| above a quarter of its maximum),
-//   e = Kt u - J a - B w - T_effects(w)     (a: the measured acceleration)
-// is regressed on [a, w, sign w, 1, sin(m theta), cos(m theta)] for every order m; the first
-// four columns take up what J, B, Coulomb friction and a load torque still miss, and the fall
-// of the sum of squares that the last two add ranks the orders. The residual of the output-
-// error fit is a poor guide here: the speed ripple of a cogging torque falls as 1/m, a
-// friction or stick misfit leaves strong low orders in it, and at the measured angle a
-// cogging torque of any order can hold a shaft at rest (ODrive spin-ups, docs/real-data.md).
-// The torque balance uses the recorded input directly, which only rigid_load allows (the
-// drive torque of dc_servo and blmd is a state of the model): others keep the angle
-// spectrum's orders. Returns the orders best first, with their (Tcog, phase) estimates.
-struct OrderScreen {
-  int order = 0;
-  double reduction = 0.0;       // fall of the torque balance's sum of squares, (N·m)^2
-  double share = 0.0;           // reduction / the sum of squares left by [a, w, sign w, 1]
-  int lowest = 0, highest = 0;  // the range of orders screened
-  double tcog = 0.0, phase = 0.0;
-};
-
-std::vector<OrderScreen> ScreenCoggingOrders(const FitProblem& problem,
-                                             const std::vector<double>& values, int max_order) {
-  std::vector<OrderScreen> ranked;
-  if (problem.config().model->name() != "rigid_load") return ranked;
-  const ParameterSet parameters = problem.Parameters(values);
-  const double J = parameters.Get("J"), B = parameters.Get("B"), Kt = parameters.Get("Kt");
-  const ShaftEffects shaft = ShaftEffects::From(parameters, problem.config().effects, 0.0);
-  // Measured angle, speed, acceleration and drive torque at every sample (central
-  // differences over two samples each side: irregular time stamps are fine).
-  struct Sample {
-    double theta, w, a, torque;
-    double half_window;  // s, half the acceleration's difference window
-  };
-  std::vector<Sample> samples;
-  double path = 0.0, w_max = 0.0;
-  constexpr std::size_t h = 2;
-  for (const auto& trace : problem.traces()) {
-    const std::vector<double> theta = MeasuredAngle(trace);
-    const auto& t = trace.trace.Column("t");
-    const auto& u = trace.trace.Column("u");
-    const std::size_t n = theta.size();
-    if (n < 4 * h + 1) continue;
-    for (std::size_t k = 1; k < n; ++k) path += std::abs(theta[k] - theta[k - 1]);
-    std::vector<double> w(n, 0.0);
-    if (trace.trace.Has("w")) {
-      w = trace.trace.Column("w");
-    } else {
-      for (std::size_t k = h; k + h < n; ++k)
-        w[k] = (theta[k + h] - theta[k - h]) / (t[k + h] - t[k - h]);
-    }
-    for (std::size_t k = 2 * h; k + 2 * h < n; ++k) {
-      const double a = (w[k + h] - w[k - h]) / (t[k + h] - t[k - h]);
-      samples.push_back({theta[k], w[k], a, Kt * u[k], 0.5 * (t[k + h] - t[k - h])});
-      w_max = std::max(w_max, std::abs(w[k]));
-    }
-  }
-  if (!(path > kPi) || samples.empty()) return ranked;
-  const int min_order = std::max(1, static_cast<int>(std::ceil(3.0 * 2.0 * kPi / path)));
-  std::vector<const Sample*> moving;
-  for (const auto& sample : samples) {
-    if (std::abs(sample.w) > 0.25 * w_max) moving.push_back(&sample);
-  }
-  const auto n = static_cast<Eigen::Index>(moving.size());
-  if (n < 20) return ranked;
-  // Orders the measured acceleration resolves: the central difference over +-T passes a
-  // ripple of angular frequency m |w| with the gain sin(m |w| T) / (m |w| T), so orders with
-  // m |w| T above pi/2 (gain below 0.64, null at pi) at the typical (median) sample are
-  // left out rather than ranked on what the differences make of them.
-  std::vector<double> resolved;
-  for (const Sample* s : moving) resolved.push_back(0.5 * kPi / (std::abs(s->w) * s->half_window));
-  std::nth_element(resolved.begin(), resolved.begin() + static_cast<long>(resolved.size() / 2),
-                   resolved.end());
-  max_order = std::min(max_order, static_cast<int>(resolved[resolved.size() / 2]));
-  if (max_order < min_order) return ranked;
-  Eigen::MatrixXd design(n, 6);
-  Eigen::VectorXd error(n);
-  for (Eigen::Index r = 0; r < n; ++r) {
-    const Sample& s = *moving[static_cast<std::size_t>(r)];
-    const double sign = s.w > 0.0 ? 1.0 : -1.0;
-    error(r) = s.torque - J * s.a - B * s.w - shaft.NonFrictionTorque(s.theta) -
-               shaft.DragTorque(s.w) - sign * shaft.FrictionMagnitude(s.w);
-    design(r, 0) = s.a;
-    design(r, 1) = s.w;
-    design(r, 2) = sign;
-    design(r, 3) = 1.0;
-  }
-  const Eigen::VectorXd base_fit =
-      design.leftCols(4) * design.leftCols(4).colPivHouseholderQr().solve(error);
-  const double base_sse = (error - base_fit).squaredNorm();
-  for (int order = min_order; order <= max_order; ++order) {
-    for (Eigen::Index r = 0; r < n; ++r) {
-      const double angle = order * moving[static_cast<std::size_t>(r)]->theta;
-      design(r, 4) = std::sin(angle);
-      design(r, 5) = std::cos(angle);
-    }
-    const Eigen::VectorXd x = design.colPivHouseholderQr().solve(error);
-    if (!x.allFinite()) continue;
-    // T_effects = Tcog sin(m theta + phase) = a sin + b cos, and e = T_cog + ...: a = x4, b = x5.
-    OrderScreen screen;
-    screen.order = order;
-    screen.reduction = base_sse - (error - design * x).squaredNorm();
-    screen.share = base_sse > 0.0 ? screen.reduction / base_sse : 0.0;
-    screen.lowest = min_order;
-    screen.highest = max_order;
-    screen.tcog = std::hypot(x(4), x(5));
-    screen.phase = std::atan2(x(5), x(4));
-    ranked.push_back(screen);
-  }
-  std::stable_sort(ranked.begin(), ranked.end(), [](const OrderScreen& l, const OrderScreen& r) {
-    return l.reduction > r.reduction;
-  });
-  return ranked;
-}
-
-CandidatePlan Plan(const std::string& effect, const FitProblem& problem,
-                   const ResidualAnalysis& analysis, const std::vector<double>& values) {
-  CandidatePlan plan;
-  plan.effect = effect;
-  const double T = TorqueScale(problem, analysis, values);
-  const double w_max = std::max(analysis.w_max, 1e-9);
-  const auto& observe = problem.observe();
-  const bool observes_i = std::find(observe.begin(), observe.end(), "i") != observe.end();
-  if (effect == "coulomb_friction") {
-    plan.free = {Free("Tc", 0.0, T)};
-    for (double f : {0.003, 0.01, 0.03, 0.1, 0.3}) plan.starts.push_back({f * T});
-    plan.amplitude = "Tc";
-  } else if (effect == "load_torque") {
-    plan.free = {Free("TL", -T, T)};
-    for (double f : {0.01, 0.03, 0.1, 0.3}) {
-      plan.starts.push_back({f * T});
-      plan.starts.push_back({-f * T});
-    }
-    plan.amplitude = "TL";
-  } else if (effect == "quadratic_drag") {
-    const double scale = T / (w_max * w_max);
-    plan.free = {Free("Cd", 0.0, scale)};
-    for (double f : {0.01, 0.03, 0.1, 0.3}) plan.starts.push_back({f * scale});
-    plan.amplitude = "Cd";
-  } else if (effect == "asymmetric_viscous") {
-    // dB |w|: the damping B + dB forwards, B - dB backwards. Searched over the damping that
-    // would take the whole torque scale at the top speed, either sign; valid while both
-    // directions keep a positive damping (|dB| < B).
-    const double scale = T / w_max;
-    plan.free = {Free("dB", -scale, scale)};
-    for (double f : {0.01, 0.03, 0.1, 0.3}) {
-      plan.starts.push_back({f * scale});
-      plan.starts.push_back({-f * scale});
-    }
-    plan.amplitude = "dB";
-    plan.constraint = [](const ParameterSet& p) -> std::string {
-      const double dB = p.Get("dB"), B = p.Get("B");
-      if (std::abs(dB) < B) return "";
-      return "|dB| = " + G(std::abs(dB)) + " is not below B = " + G(B) +
-             " (the damping of one direction would be negative)";
-    };
-  } else if (effect == "stribeck") {
-    plan.free = {Free("Ts", 0.0, T), Free("ws", 1e-3 * w_max, w_max, true)};
-    for (double f : {0.01, 0.03, 0.1, 0.3}) {
-      for (double g : {0.003, 0.01, 0.03, 0.1}) plan.starts.push_back({f * T, g * w_max});
-    }
-    plan.amplitude = "Ts";
-  } else if (effect == "cogging") {
-    // Periods per revolution. rigid_load: the one order that the torque balance along the
-    // measured motion explains best (ScreenCoggingOrders), with its estimate as a start.
-    // Other models: the four strongest orders of the residual's angle spectrum
-    // (diagnostics.cc: detrended, steady motion only), velocity first, then current.
-    bool turned = false;
-    for (const auto& d : analysis.columns) turned = turned || !d.angle_peaks.empty();
-    if (!turned) {
-      plan.applicable = false;
-      plan.not_applicable = "the shaft turns too little for an angle spectrum";
-      return plan;
-    }
-    std::vector<int> orders;
-    std::vector<std::vector<double>> linear_starts;
-    const std::vector<OrderScreen> screened =
-        ScreenCoggingOrders(problem, values, DiagnosticsOptions().max_order);
-    if (!screened.empty()) {
-      orders.push_back(screened.front().order);
-      linear_starts.push_back(
-          {std::clamp(screened.front().tcog, 1e-6 * T, 0.9 * T), screened.front().phase});
-      plan.evidence = "torque balance along the measured motion (orders " +
-                      std::to_string(screened.front().lowest) + "-" +
-                      std::to_string(screened.front().highest) + "): order " +
-                      std::to_string(screened.front().order) + " explains " +
-                      G(100.0 * screened.front().share, 3) + " % of its residual";
-      if (screened.size() > 1) {
-        plan.evidence += " (next: order " + std::to_string(screened[1].order) + ", " +
-                         G(100.0 * screened[1].share, 3) + " %)";
-      }
-    }
-    if (orders.empty()) {
-      for (const char* column : {"w", "theta", "i"}) {
-        for (const auto& d : analysis.columns) {
-          if (d.column != column) continue;
-          for (const auto& peak : d.angle_peaks) {
-            if (orders.size() < 4 &&
-                std::find(orders.begin(), orders.end(), peak.order) == orders.end()) {
-              orders.push_back(peak.order);
-            }
-          }
-        }
-      }
-    }
-    plan.free = {Free("Tcog", 0.0, T), Free("phase", -2.0 * kPi, 2.0 * kPi)};
-    for (int order : orders) {
-      plan.fixed_alternatives.push_back({{"periods", static_cast<double>(order)}});
-      // The linear-response estimate of this order's amplitude and phase is a start point
-      // (per alternative), besides the generic grid.
-      std::vector<std::vector<double>> starts;
-      const std::size_t index = plan.fixed_alternatives.size() - 1;
-      if (index < linear_starts.size()) starts.push_back(linear_starts[index]);
-      double tcog = 0.0, phase = 0.0;
-      if (CoggingStart(problem, values, order, analysis.w_max, &tcog, &phase)) {
-        starts.push_back({std::clamp(tcog, 1e-6 * T, 0.9 * T), phase});
-      }
-      plan.alternative_starts.push_back(starts);
-    }
-    for (double f : {0.01, 0.03, 0.1, 0.3}) {
-      for (int k = 0; k < 8; ++k) plan.starts.push_back({f * T, -kPi + 0.25 * kPi * k});
-    }
-    plan.amplitude = "Tcog";
-  } else if (effect == "dead_time") {
-    const double u_max = std::max(analysis.u_max, 1e-9);
-    plan.free = {Free("Vdt", 0.0, 0.5 * u_max)};
-    for (double f : {0.003, 0.01, 0.03, 0.1}) plan.starts.push_back({f * u_max});
-    plan.amplitude = "Vdt";
-  } else if (effect == "current_offset") {
-    if (!observes_i) {
-      plan.applicable = false;
-      plan.not_applicable = "needs the current i among the observed columns";
-      return plan;
-    }
-    const double i_max = std::max(analysis.i_max, 1e-9);
-    plan.free = {Free("i0", -i_max, i_max)};
-    double mean = 0.0;
-    for (const auto& d : analysis.columns) {
-      if (d.column == "i") mean = d.mean;
-    }
-    plan.starts.push_back({std::clamp(mean, -0.9 * i_max, 0.9 * i_max)});
-    plan.amplitude = "i0";
-  } else {
-    plan.applicable = false;
-    plan.not_applicable = "no discovery plan for this effect";
-  }
-  return plan;
 }
 
 struct CandidateRun {
@@ -514,7 +166,7 @@ CandidateRun ScreenCandidate(const FitProblem& base, const std::vector<double>& 
     return run;
   }
   std::vector<std::map<std::string, double>> alternatives = plan.fixed_alternatives;
-  if (alternatives.empty()) alternatives.push_back({});
+  if (alternatives.empty()) alternatives.emplace_back();
   // Scan: every start point of every alternative, the other parameters held.
   struct Scanned {
     double cost;
@@ -797,44 +449,7 @@ std::string Evidence(const std::string& effect, const ResidualAnalysis& analysis
       (outcome.has_held_out
            ? ", held-out NRMSE " + G(outcome.held_out_before) + " -> " + G(outcome.held_out_after)
            : std::string());
-  // The diagnostic that points at this effect, from the column where it is strongest.
-  const ColumnDiagnostics* strongest = nullptr;
-  auto pick = [&](auto score) {
-    for (const auto& d : analysis.columns) {
-      if (score(d) > 0.0 && (!strongest || score(d) > score(*strongest))) strongest = &d;
-    }
-  };
-  if (effect == "coulomb_friction" || effect == "stribeck" || effect == "asymmetric_viscous") {
-    pick([](const ColumnDiagnostics& d) {
-      return d.sign_w.available ? std::abs(d.sign_w.t_statistic) : 0.0;
-    });
-    if (strongest)
-      text += "; " + strongest->column +
-              " residual mean differs by sign of w (t = " + G(strongest->sign_w.t_statistic, 3) +
-              ")";
-  } else if (effect == "dead_time") {
-    pick([](const ColumnDiagnostics& d) {
-      return d.sign_i.available ? std::abs(d.sign_i.t_statistic) : 0.0;
-    });
-    if (strongest)
-      text += "; " + strongest->column +
-              " residual mean differs by sign of i (t = " + G(strongest->sign_i.t_statistic, 3) +
-              ")";
-  } else if (effect == "cogging") {
-    pick([](const ColumnDiagnostics& d) {
-      return d.angle_peaks.empty() ? 0.0 : d.angle_peaks.front().ratio;
-    });
-    if (strongest) {
-      text += "; " + strongest->column + " residual peaks at " +
-              std::to_string(strongest->angle_peaks.front().order) + " periods/rev (" +
-              G(strongest->angle_peaks.front().ratio, 3) + " x the spectrum's median)";
-    }
-  } else {
-    pick([](const ColumnDiagnostics& d) { return d.rms > 0.0 ? std::abs(d.mean) / d.rms : 0.0; });
-    if (strongest)
-      text += "; " + strongest->column + " residual mean " + G(strongest->mean) + " (rms " +
-              G(strongest->rms) + ")";
-  }
+  text += PointingDiagnostic(effect, analysis);
   return text;
 }
 
@@ -886,7 +501,7 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     for (const auto& effect : candidates) {
       const auto& declared = current_problem->config().effects;
       if (std::find(declared.begin(), declared.end(), effect) != declared.end()) continue;
-      plans.push_back(Plan(effect, *current_problem, analysis, current_fit.values));
+      plans.push_back(PlanCandidate(effect, *current_problem, analysis, current_fit.values));
     }
     if (plans.empty()) break;
     std::vector<CandidateRun> runs(plans.size());
@@ -939,6 +554,7 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
       return a.effect < b.effect;
     });
     std::vector<CandidateOutcome> outcomes;
+    outcomes.reserve(order.size());
     for (std::size_t k : order) outcomes.push_back(runs[k].outcome);
     std::vector<std::size_t> qualifying;
     for (std::size_t k : order) {

@@ -611,7 +611,7 @@ std::string FormatNumber(double value) {
 }
 
 std::string DisplayNumber(double value) {
-  const std::string shortest = FormatNumber(value);
+  std::string shortest = FormatNumber(value);
   char buffer[400];
   const auto result =
       std::to_chars(buffer, buffer + sizeof buffer, value, std::chars_format::fixed);

@@ -279,4 +279,9 @@ SimStatus BlmdDriveModel::SimulateReference(const SimulationRequest& request, Tr
   return SimStatus::Ok();
 }
 
+double BlmdDriveModel::DriveTorqueScale(const ParameterSet& values, double i_max, double /*u_max*/,
+                                        double /*w_max*/) const {
+  return 1.5 * values.Get("Ke") * i_max;
+}
+
 }  // namespace blmd

@@ -183,4 +183,9 @@ SimStatus DcServoModel::SimulateReference(const SimulationRequest& request, Trac
   return SimStatus::Ok();
 }
 
+double DcServoModel::DriveTorqueScale(const ParameterSet& values, double i_max, double /*u_max*/,
+                                      double /*w_max*/) const {
+  return values.Get("Kt") * i_max;
+}
+
 }  // namespace blmd

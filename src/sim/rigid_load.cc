@@ -1,5 +1,6 @@
 #include "blmd/sim/rigid_load.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 
@@ -108,6 +109,11 @@ SimStatus RigidLoadModel::Simulate(const SimulationRequest& request, Trace* out)
   for (std::size_t k = 0; k < times.size(); ++k)
     u_column[k] = experiment.input.At(times[k] + 0.5 * dt);
   return SimStatus::Ok();
+}
+
+double RigidLoadModel::DriveTorqueScale(const ParameterSet& values, double /*i_max*/, double u_max,
+                                        double w_max) const {
+  return std::max(values.Get("Kt") * u_max, values.Get("B") * w_max);
 }
 
 }  // namespace blmd

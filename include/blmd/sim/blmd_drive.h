@@ -50,6 +50,10 @@ class BlmdDriveModel final : public Model {
   // settled stretches handled in closed form, the electrical angle's sine and cosine
   // advanced by rotation, and outputs written only at the sample steps.
   SimStatus Simulate(const SimulationRequest& request, Trace* out) const override;
+  // 1.5 Ke i_max: the motor torque at the largest phase current (the q-axis torque of
+  // docs/model-blmd.md with the peak phase current as i_q).
+  double DriveTorqueScale(const ParameterSet& values, double i_max, double u_max,
+                          double w_max) const override;
   // The batched path (src/sim/blmd_drive_batch.cc): points of one experiment with a plain
   // shaft (no friction, drag or cogging) and one carrier period run 8 at a time in SIMD
   // lanes, each lane's outputs bit for bit Simulate()'s; other points run through Simulate().

@@ -31,6 +31,9 @@ class DcServoModel final : public Model {
   // The fast path (src/sim/dc_servo_fast.cc): the same exact discretisation unrolled into
   // scalar arithmetic, outputs written only at the sample steps.
   SimStatus Simulate(const SimulationRequest& request, Trace* out) const override;
+  // Kt i_max: the motor torque at the largest current.
+  double DriveTorqueScale(const ParameterSet& values, double i_max, double u_max,
+                          double w_max) const override;
   // The reference path (src/sim/dc_servo.cc): the straightforward step loop with Eigen's
   // matrices, kept as the truth the fast path is tested against (tests/fast_path_test.cc).
   SimStatus SimulateReference(const SimulationRequest& request, Trace* out) const;

@@ -55,6 +55,11 @@ class Model {
   // together. The default simulates them one after the other.
   virtual void SimulateBatch(const SimulationRequest* requests, std::size_t count, Trace* outs,
                              SimStatus* statuses) const;
+  // The largest drive torque a record shows, N·m, from the peaks of its current i_max (A),
+  // input u_max and speed w_max (rad/s) at the parameters `values`: the scale of discovery's
+  // search boxes (docs/discovery.md §2).
+  virtual double DriveTorqueScale(const ParameterSet& values, double i_max, double u_max,
+                                  double w_max) const = 0;
 
   const ParamInfo* FindParameter(std::string_view name) const;
 };

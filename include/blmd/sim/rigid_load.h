@@ -24,6 +24,10 @@ class RigidLoadModel final : public Model {
   std::vector<std::string> outputs() const override { return {"w", "theta"}; }
   SimulationSettings default_settings() const override;
   SimStatus Simulate(const SimulationRequest& request, Trace* out) const override;
+  // max(Kt u_max, B w_max): the drive torque, or the damping torque at the top speed when
+  // the shaft moves without a drive (a coast-down, u = 0).
+  double DriveTorqueScale(const ParameterSet& values, double i_max, double u_max,
+                          double w_max) const override;
 };
 
 }  // namespace blmd
