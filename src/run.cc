@@ -16,7 +16,7 @@ SimStatus RunExperiment(const Config& config, Trace* out, const InputSignal* inp
   request.experiment = &experiment;
   request.settings = config.simulation;
   request.sample_times = &times;
-  const SimStatus status = config.model->Simulate(request, out);
+  SimStatus status = config.model->Simulate(request, out);
   if (status.ok() && experiment.coast_off_time >= 0.0) {
     // Mark the open armature so that the trace replays correctly as a recorded input.
     std::vector<double> open(times.size());

@@ -222,7 +222,7 @@ std::vector<std::string> CheckedObserve(const CLI::App& app, SurfaceFlags& f,
   if (app.count("--observe") > 0 && f.observe_text.empty()) {
     throw blmd::InputError("--observe: empty (valid: " + valid_outputs + ")");
   }
-  const std::vector<std::string> observe = f.error_flags.Apply(config, f.observe_text);
+  std::vector<std::string> observe = f.error_flags.Apply(config, f.observe_text);
   if (config->identification.error == "equation") return observe;
   for (const auto& name : observe) {
     if (std::find(outputs.begin(), outputs.end(), name) == outputs.end()) {

@@ -325,6 +325,7 @@ std::vector<Evaluation> FitProblem::EvaluateBatch(
 
 std::vector<FreeParameter> NamedFreeParameters(const std::vector<std::string>& names) {
   std::vector<FreeParameter> free;
+  free.reserve(names.size());
   for (const auto& name : names) free.push_back({name, 0.0, 0.0, false, 0.0});
   return free;
 }

@@ -250,7 +250,8 @@ std::vector<FitTrace> LoadFitTraces(const std::string& path, const TraceInputOpt
     }
     Trace part;
     if (!by_rows) {
-      part = std::move(trace);
+      // Without --select or --split there is exactly one block: the trace moves once.
+      part = std::move(trace);  // NOLINT(bugprone-use-after-move)
     } else {
       part.comments = trace.comments;
       for (std::size_t c = 0; c < trace.num_columns(); ++c) {

@@ -389,8 +389,8 @@ void WriteParameters(Page& page, const json& report, const FitProblem& problem) 
   std::vector<std::string> head = {"parameter", "unit",          "initial", "estimate",
                                    "std",       "95 % interval", "bounds"};
   if (after) {
-    head.push_back("before discovery");
-    head.push_back("95 % interval before");
+    head.emplace_back("before discovery");
+    head.emplace_back("95 % interval before");
   }
   h += "<table class=\"parameters\">\n" + HeaderRow(head);
   // The free parameters in the problem's order (J before B), then the others.

@@ -331,10 +331,10 @@ std::string FitText(const std::string& text, double width, double font) {
       static_cast<std::size_t>(std::max(0.0, width / (kGlyphWidth * font) - 3));
   std::string out;
   std::size_t chars = 0;
-  for (std::size_t i = 0; i < text.size(); ++i) {
-    const unsigned char c = static_cast<unsigned char>(text[i]);
+  for (const char byte : text) {
+    const auto c = static_cast<unsigned char>(byte);
     if ((c & 0xC0) != 0x80 && chars++ == keep) break;
-    out += text[i];
+    out += byte;
   }
   return out + "...";
 }
@@ -474,8 +474,8 @@ void DropCrowdedLabels(std::vector<Tick>& ticks, const std::vector<double>& cent
 
 // Tick marks and labels along one side of the plot rectangle at pixel `at` (y for the
 // bottom side, x for the others). Grid lines from `grid_from` to `grid_to` when they differ.
-void DrawAxis(std::string& out, Side side, const Scale& scale, std::vector<Tick> ticks, double at,
-              double grid_from = 0.0, double grid_to = 0.0) {
+void DrawAxis(std::string& out, Side side, const Scale& scale, const std::vector<Tick>& ticks,
+              double at, double grid_from = 0.0, double grid_to = 0.0) {
   const double lo = std::min(scale.p0, scale.p1) - 0.5, hi = std::max(scale.p0, scale.p1) + 0.5;
   std::vector<Tick> visible;
   std::vector<double> centre, half;
@@ -907,6 +907,7 @@ std::vector<std::vector<std::pair<double, double>>> ContourLines(const std::vect
       std::reverse(keys.begin(), keys.end());
     }
     std::vector<std::pair<double, double>> line;
+    line.reserve(keys.size());
     for (std::size_t key : keys) line.push_back(point_on(key));
     lines.push_back(std::move(line));
   }

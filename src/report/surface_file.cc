@@ -289,7 +289,7 @@ std::string MergeSurfaceParts(const std::vector<std::string>& paths) {
         } catch (const std::exception&) {
           throw InputError(path, line_number, 1, "bad shard line '" + line + "'");
         }
-      } else if (!header_seen && line.rfind("#", 0) == 0) {
+      } else if (!header_seen && line.rfind('#', 0) == 0) {
         part.metadata += line + "\n";
       } else if (!header_seen) {
         part.header = line;

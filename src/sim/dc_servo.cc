@@ -86,7 +86,7 @@ SimStatus DcServoModel::SimulateReference(const SimulationRequest& request, Trac
   const bool has_coast = experiment.coast_off_time >= 0.0;
 
   std::vector<std::string> names = {"u", "i", "w", "theta"};
-  if (closed_loop) names.push_back("r");
+  if (closed_loop) names.emplace_back("r");
   internal::OutputSampler sampler(times, names);
 
   InputCursor input(experiment.input);

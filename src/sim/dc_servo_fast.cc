@@ -133,7 +133,7 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
   const bool has_coast = experiment.coast_off_time >= 0.0;
 
   std::vector<std::string> names = {"u", "i", "w", "theta"};
-  if (closed_loop) names.push_back("r");
+  if (closed_loop) names.emplace_back("r");
   internal::OutputSampler sampler(times, names);
 
   InputCursor input(experiment.input);

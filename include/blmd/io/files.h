@@ -9,6 +9,8 @@
 #include <string_view>
 #include <vector>
 
+struct evp_md_ctx_st;  // OpenSSL (openssl/types.h): EVP_MD_CTX
+
 namespace blmd {
 
 // Throws InputError("<path>: cannot read: <reason>"), also for a folder. At most
@@ -52,24 +54,20 @@ void InstallCleanupOnSignal();
 // Lower-case hex SHA-256 of a byte string.
 std::string Sha256Hex(const std::string& bytes);
 
-// SHA-256 (FIPS 180-4) fed in pieces, for files read in chunks.
+// SHA-256 (FIPS 180-4) fed in pieces, for files read in chunks; OpenSSL's libcrypto computes
+// it (a Debian package; it uses the x86 SHA extensions where the CPU has them).
 class Sha256 {
  public:
   Sha256();
+  ~Sha256();
+  Sha256(const Sha256&) = delete;
+  Sha256& operator=(const Sha256&) = delete;
   void Update(std::string_view bytes);
   // Lower-case hex digest of everything fed; the object is spent afterwards.
   std::string HexDigest();
-  // Whether the x86 SHA extensions may be used where the CPU has them (the default: yes;
-  // the digest is the same either way, tests/io_test.cc). Returns whether they are used now.
-  static bool UseHardware(bool allowed);
 
  private:
-  void Blocks(const unsigned char* blocks, std::size_t count);  // with the SHA extensions if any
-  void Block(const unsigned char* block);                       // portable
-  std::array<std::uint32_t, 8> state_;
-  std::array<unsigned char, 64> buffer_{};
-  std::size_t buffered_ = 0;
-  std::uint64_t length_ = 0;  // bytes fed
+  evp_md_ctx_st* context_;  // OpenSSL's EVP_MD_CTX
 };
 
 }  // namespace blmd
