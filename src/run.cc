@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
+
+#include "blmd/error.h"
 
 namespace blmd {
 
@@ -26,6 +29,24 @@ SimStatus RunExperiment(const Config& config, Trace* out, const InputSignal* inp
     out->Set("open", std::move(open));
   }
   return status;
+}
+
+SimStatus RunRecordedInput(const Config& config, const InputSignal& recorded, Trace* out) {
+  Experiment experiment = config.experiment;
+  experiment.input = recorded;
+  // The run covers the recorded span at the recorded instants.
+  experiment.duration = recorded.times.back() - recorded.times.front();
+  if (const std::string error = RunLengthError(experiment.duration, config.simulation.dt, 0.0);
+      !error.empty()) {
+    throw InputError(error);
+  }
+  SimulationRequest request;
+  request.parameters = &config.parameters;
+  request.effects = &config.effects;
+  request.experiment = &experiment;
+  request.settings = config.simulation;
+  request.sample_times = &recorded.times;
+  return config.model->Simulate(request, out);
 }
 
 StepMetrics ComputeStepMetrics(const std::vector<double>& t, const std::vector<double>& y,

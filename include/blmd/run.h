@@ -14,6 +14,12 @@ namespace blmd {
 // experiment's input signal.
 SimStatus RunExperiment(const Config& config, Trace* out, const InputSignal* input = nullptr);
 
+// Simulates the config's model driven by a recorded input (`recorded.kind` kRecorded: its
+// times, its u held between them, its open-armature switch if any), sampled at the recorded
+// instants (blmd-sim --input). The config's experiment gives the rest (initial state, PID).
+// InputError when the recorded span is too long for the step (RunLengthError).
+SimStatus RunRecordedInput(const Config& config, const InputSignal& recorded, Trace* out);
+
 // Step-response figures of y(t) towards its final value (the mean of the last 2 % of the
 // samples), from y(t[0]).
 struct StepMetrics {

@@ -561,7 +561,11 @@ Config LoadConfig(const std::string& path) {
                      path);
 }
 
-Config ParseConfig(const std::string& text, const std::string& path) {
+namespace {
+
+// The config's text as JSON, refused with line and column when it is not JSON, is nested
+// absurdly deep, or holds a number beyond the double range.
+json ParseJsonText(const std::string& text, const std::string& path) {
   if (const std::size_t at = TooDeep(text); at != std::string::npos) {
     const Position p = PositionOf(text, at);
     throw InputError(
@@ -592,40 +596,14 @@ Config ParseConfig(const std::string& text, const std::string& path) {
     throw InputError(path, p.line, p.column,
                      "invalid JSON: " + Printable(what) + " (beyond the double range)");
   }
-  const PositionIndex index(text);
-  const Reader reader(path, index);
-  if (!index.duplicate().empty()) {
-    const std::string& pointer = index.duplicate();
-    const auto slash = pointer.rfind('/');
-    const Position first = index.Find(pointer);
-    throw InputError(path, index.duplicate_at().line, index.duplicate_at().column,
-                     "duplicate key '" + InputError::Excerpt(Printable(pointer.substr(slash + 1))) +
-                         "' in '" + InputError::Excerpt(Reader::Label(pointer.substr(0, slash))) +
-                         "' (first at line " + std::to_string(first.line) +
-                         "): JSON keeps only one of them; remove the other");
-  }
-  reader.RequireObject(root, "");
-  reader.CheckKeys(root, "",
-                   {"name", "description", "notes", "model", "parameters", "effects", "simulation",
-                    "experiment", "identification"});
+  return root;
+}
 
-  Config config;
-  config.path = path;
-  if (root.contains("name")) config.name = reader.String(root["name"], "/name");
-  if (root.contains("description")) reader.String(root["description"], "/description");
-  if (root.contains("notes")) config.notes = root["notes"];
-  if (!root.contains("model")) {
-    reader.Fail("", "missing \"model\" (one of: blmd, dc_servo, rigid_load)");
-  }
-  const std::string model_name = reader.String(root["model"], "/model");
-  try {
-    config.model = &FindModel(model_name);
-  } catch (const InputError& error) {
-    reader.Fail("/model", error.what());
-  }
+// The model's parameters: every one present (or optional), each a number in its range.
+void ReadParameters(const Reader& reader, const json& root, Config* out) {
+  Config& config = *out;
   const Model& model = *config.model;
-
-  // Parameters.
+  const std::string model_name(model.name());
   if (!root.contains("parameters")) reader.Fail("", "missing \"parameters\"");
   const json& parameters = root["parameters"];
   reader.RequireObject(parameters, "/parameters");
@@ -653,8 +631,12 @@ Config ParseConfig(const std::string& text, const std::string& path) {
     }
     config.parameters.Set(info.name, v);
   }
+}
 
-  // Effects.
+// The declared effects: known, applying to the model, with every parameter in its range.
+void ReadEffects(const Reader& reader, const json& root, Config* out) {
+  Config& config = *out;
+  const std::string model_name(config.model->name());
   if (root.contains("effects")) {
     const json& effects = root["effects"];
     reader.RequireObject(effects, "/effects");
@@ -693,8 +675,12 @@ Config ParseConfig(const std::string& text, const std::string& path) {
       config.effects.push_back(effect_name);
     }
   }
+}
 
-  // Simulation.
+// The simulation settings over the model's defaults, and the model's own check of them.
+void ReadSimulation(const Reader& reader, const json& root, Config* out) {
+  Config& config = *out;
+  const Model& model = *config.model;
   config.simulation = model.default_settings();
   if (root.contains("simulation")) {
     const json& sim = root["simulation"];
@@ -721,8 +707,13 @@ Config ParseConfig(const std::string& text, const std::string& path) {
   if (std::string error = model.Validate(config.parameters, config.simulation); !error.empty()) {
     reader.Fail("/parameters", error);
   }
+}
 
-  // Experiment.
+// The experiment (input, duration, sample rate, coast-down, PID, initial state), and whether
+// it can be run at this step.
+void ReadExperiment(const Reader& reader, const json& root, const std::string& path, Config* out) {
+  Config& config = *out;
+  const std::string model_name(config.model->name());
   Experiment& experiment = config.experiment;
   if (model_name == "blmd") {
     experiment.duration = 0.16;
@@ -809,8 +800,13 @@ Config ParseConfig(const std::string& text, const std::string& path) {
             .Error(has_duration ? "/experiment/duration" : "/simulation/dt", "experiment: " + error)
             .what();
   }
+}
 
-  // Identification.
+// The identification set-up (free parameters, start values, bounds, observed columns,
+// method, error), each name a parameter of this config, each start inside its bounds.
+void ReadIdentification(const Reader& reader, const json& root, Config* out) {
+  Config& config = *out;
+  const std::string model_name(config.model->name());
   IdentificationSettings& ident = config.identification;
   ident.free = {"J", "B"};
   ident.observe = model_name == "blmd"         ? std::vector<std::string>{"i"}
@@ -937,6 +933,48 @@ Config ParseConfig(const std::string& text, const std::string& path) {
                                FormatNumber(upper) + "]");
     }
   }
+}
+
+}  // namespace
+
+Config ParseConfig(const std::string& text, const std::string& path) {
+  const json root = ParseJsonText(text, path);
+  const PositionIndex index(text);
+  const Reader reader(path, index);
+  if (!index.duplicate().empty()) {
+    const std::string& pointer = index.duplicate();
+    const auto slash = pointer.rfind('/');
+    const Position first = index.Find(pointer);
+    throw InputError(path, index.duplicate_at().line, index.duplicate_at().column,
+                     "duplicate key '" + InputError::Excerpt(Printable(pointer.substr(slash + 1))) +
+                         "' in '" + InputError::Excerpt(Reader::Label(pointer.substr(0, slash))) +
+                         "' (first at line " + std::to_string(first.line) +
+                         "): JSON keeps only one of them; remove the other");
+  }
+  reader.RequireObject(root, "");
+  reader.CheckKeys(root, "",
+                   {"name", "description", "notes", "model", "parameters", "effects", "simulation",
+                    "experiment", "identification"});
+
+  Config config;
+  config.path = path;
+  if (root.contains("name")) config.name = reader.String(root["name"], "/name");
+  if (root.contains("description")) reader.String(root["description"], "/description");
+  if (root.contains("notes")) config.notes = root["notes"];
+  if (!root.contains("model")) {
+    reader.Fail("", "missing \"model\" (one of: blmd, dc_servo, rigid_load)");
+  }
+  const std::string model_name = reader.String(root["model"], "/model");
+  try {
+    config.model = &FindModel(model_name);
+  } catch (const InputError& error) {
+    reader.Fail("/model", error.what());
+  }
+  ReadParameters(reader, root, &config);
+  ReadEffects(reader, root, &config);
+  ReadSimulation(reader, root, &config);
+  ReadExperiment(reader, root, path, &config);
+  ReadIdentification(reader, root, &config);
   return config;
 }
 
