@@ -7,26 +7,11 @@
 
 #include "blmd/error.h"
 #include "blmd/io/csv.h"
+#include "blmd/io/flags.h"
 #include "ident/counting_cost.h"
 #include "parallel.h"
 
 namespace blmd {
-namespace {
-
-double ParseNumber(const std::string& text, const std::string& context) {
-  double value = 0.0;
-  const char* first = text.data();
-  if (!text.empty() && *first == '+') ++first;
-  const auto result = std::from_chars(first, text.data() + text.size(), value);
-  if (text.empty() || result.ec != std::errc() || result.ptr != text.data() + text.size() ||
-      !std::isfinite(value)) {
-    throw InputError(context + ": '" + text + "' is not a finite number");
-  }
-  return value;
-}
-
-}  // namespace
-
 double GridAxis::Value(int k) const {
   if (count == 1) return low;
   if (k == 0) return low;

@@ -6,8 +6,6 @@
 #include "blmd/error.h"
 
 namespace blmd {
-namespace {
-
 double ParseNumber(const std::string& text, const std::string& context) {
   double value = 0.0;
   const char* first = text.data();
@@ -19,8 +17,6 @@ double ParseNumber(const std::string& text, const std::string& context) {
   }
   return value;
 }
-
-}  // namespace
 
 std::pair<std::string, std::string> ParseTextAssignment(const std::string& text,
                                                         const std::string& flag) {

@@ -14,6 +14,7 @@
 #include "blmd/report/plot.h"
 #include "blmd/version.h"
 #include "parallel.h"
+#include "report/markup.h"
 
 namespace blmd {
 namespace {
@@ -34,32 +35,7 @@ constexpr const char* kBandColour = "#7f7f7f";
 
 // ---- text ------------------------------------------------------------------------------
 
-std::string Escape(const std::string& text) {
-  std::string out;
-  out.reserve(text.size());
-  for (char c : text) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\'':
-        out += "&#39;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
+using internal::Escape;  // report/markup.h
 
 // `digits` significant digits: plain from 1e-3 to 1e6, else with a compact exponent
 // ("2.2613e-5"); "n/a" when not finite.

@@ -14,6 +14,7 @@
 #include <utility>
 
 #include "blmd/io/csv.h"
+#include "report/markup.h"
 #include "report/plot_ticks.h"
 
 namespace blmd {
@@ -287,32 +288,7 @@ std::string Num(double v, int decimals = 2) {
 // Exact round-trip value for data attributes; non-finite values never reach here.
 std::string Exact(double v) { return std::isfinite(v) ? FormatNumber(v) : "0"; }
 
-std::string Escape(const std::string& text) {
-  std::string out;
-  out.reserve(text.size());
-  for (char c : text) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\'':
-        out += "&#39;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
+using internal::Escape;  // report/markup.h
 
 std::size_t Utf8Length(const std::string& text) {
   std::size_t n = 0;

@@ -9,6 +9,10 @@
 
 namespace blmd {
 
+// A finite number written as text ("1e-3", "+2"; not "", "1x", "inf"): InputError
+// "<context>: '<text>' is not a finite number" otherwise.
+double ParseNumber(const std::string& text, const std::string& context);
+
 // "NAME=VALUE" with a finite number; throws InputError naming the flag.
 std::pair<std::string, double> ParseAssignment(const std::string& text, const std::string& flag);
 // "NAME=TEXT"; throws InputError naming the flag.
