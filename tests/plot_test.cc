@@ -1,4 +1,4 @@
-// SVG plots (src/io/plot.cc): structure of the output (well-formed, one element per grid
+// SVG plots (src/report/plot.cc): structure of the output (well-formed, one element per grid
 // cell, markers where the data says), tick generation and decimation against hand-computed
 // answers, and that non-finite data never leaks into the text.
 #include "blmd/report/plot.h"

@@ -1,4 +1,4 @@
-// Internal helpers of the SVG plots (src/io/plot.cc): "nice" axis ticks, compact number
+// Internal helpers of the SVG plots (src/report/plot.cc): "nice" axis ticks, compact number
 // labels and min/max decimation. Exposed for tests only.
 #pragma once
 
