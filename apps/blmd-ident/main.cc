@@ -74,26 +74,20 @@ struct IdentFlags {
   }
 };
 
-std::string Join(const std::vector<std::string>& names, const char* separator = ", ") {
-  std::string out;
-  for (const auto& n : names) out += (out.empty() ? "" : separator) + n;
-  return out;
-}
-
 // Selecting flags given empty select nothing: exit 2 with the valid choices.
 void RefuseEmptySelections(const CLI::App& app, const IdentFlags& f, const blmd::Config& config) {
   if (app.count("--observe") > 0 && f.observe_text.empty()) {
-    throw blmd::InputError("--observe: empty (valid: " + Join(config.model->outputs()) + ")");
+    throw blmd::InputError("--observe: empty (valid: " + blmd::Join(config.model->outputs()) + ")");
   }
   if (app.count("--free") > 0 && f.free_text.empty()) {
     std::vector<std::string> names;
     for (const auto& [name, value] : config.parameters.entries()) names.push_back(name);
-    throw blmd::InputError("--free: empty (valid: " + Join(names) + ")");
+    throw blmd::InputError("--free: empty (valid: " + blmd::Join(names) + ")");
   }
   if (app.count("--candidates") > 0 && f.candidates_text.empty()) {
     std::vector<std::string> effects;
     for (const auto& effect : blmd::EffectRegistry()) effects.push_back(effect.name);
-    throw blmd::InputError("--candidates: empty (valid: " + Join(effects) + ")");
+    throw blmd::InputError("--candidates: empty (valid: " + blmd::Join(effects) + ")");
   }
 }
 
@@ -119,8 +113,8 @@ blmd::IdentRequest MakeRequest(const CLI::App& app, IdentFlags& f) {
     if (equation_error) break;
     if (std::find(outputs.begin(), outputs.end(), name) == outputs.end()) {
       throw blmd::InputError("--observe: '" + name + "' is not an output of model " +
-                             std::string(config.model->name()) + " (valid: " + Join(outputs, ",") +
-                             ")");
+                             std::string(config.model->name()) +
+                             " (valid: " + blmd::Join(outputs, ",") + ")");
     }
   }
   const std::vector<std::string> free_names =
@@ -130,7 +124,7 @@ blmd::IdentRequest MakeRequest(const CLI::App& app, IdentFlags& f) {
     if (std::find(free_names.begin(), free_names.end(), name) == free_names.end()) {
       throw blmd::InputError("--initial " + name + ": '" + name +
                              "' is not a free parameter, so it has no start value (free: " +
-                             Join(free_names) + "; free it with --free)");
+                             blmd::Join(free_names) + "; free it with --free)");
     }
   }
   request.free = blmd::MakeFreeParameters(config, free_names);
@@ -209,7 +203,7 @@ int ExitCode(const IdentFlags& f, const blmd::IdentOutcome& outcome) {
     std::vector<std::string> codes;
     for (const auto& w : report["warnings"]) codes.push_back(w["code"].get<std::string>());
     std::cerr << "error: " << codes.size() << " warning" << (codes.size() > 1 ? "s" : "") << " ("
-              << Join(codes) << ") and --fail-on-warning\n";
+              << blmd::Join(codes) << ") and --fail-on-warning\n";
     return blmd::kExitGate;
   }
   return blmd::kExitOk;

@@ -101,9 +101,8 @@ blmd::InputSignal ReadRecordedInput(const SimFlags& f, const blmd::Config& confi
 void AddNoise(std::vector<NoiseSpec>* noise, std::uint64_t seed, blmd::Trace* trace) {
   for (auto& [column, sigma, relative] : *noise) {
     if (!trace->Has(column)) {
-      std::string have;
-      for (const auto& name : trace->names()) have += (have.empty() ? "" : ",") + name;
-      throw blmd::InputError("--noise: no output column '" + column + "' (have: " + have + ")");
+      throw blmd::InputError("--noise: no output column '" + column +
+                             "' (have: " + blmd::Join(trace->names(), ",") + ")");
     }
     if (relative) {
       double peak = 0.0;

@@ -385,8 +385,8 @@ int RunSweep(const CLI::App& app, SurfaceFlags& f) {
   request.shard_index = shard_index;
   request.shard_count = shard_count;
   if (!f.quiet && isatty(STDERR_FILENO)) request.progress = ProgressBar();
-  const blmd::Config config = request.config;
-  const std::vector<blmd::GridAxis> axes = request.axes;
+  const blmd::Config& config = request.config;
+  const std::vector<blmd::GridAxis>& axes = request.axes;
   const blmd::SweepOutcome outcome = blmd::Sweep(request);
 
   std::string svg;
@@ -401,9 +401,7 @@ int RunSweep(const CLI::App& app, SurfaceFlags& f) {
       const blmd::ParamInfo* info = config.FindParameterInfo(axes[a].name);
       plot.units.push_back(info ? info->unit : "");
     }
-    std::string observed;
-    for (const auto& column : request.observe) observed += (observed.empty() ? "" : ",") + column;
-    plot.title += " (observe " + observed + ")";
+    plot.title += " (observe " + blmd::Join(request.observe, ",") + ")";
     svg = blmd::SurfaceSvg(axes, outcome.points, outcome.minima, plot);
   }
   blmd::WriteFileAtomically(f.out_path, outcome.csv);

@@ -520,9 +520,9 @@ std::string RunLengthError(double span, double dt, double samples) {
   return {};
 }
 
-std::string Join(const std::vector<std::string>& names) {
+std::string Join(const std::vector<std::string>& names, const char* separator) {
   std::string out;
-  for (const auto& name : names) out += (out.empty() ? "" : ", ") + name;
+  for (const auto& name : names) out += (out.empty() ? "" : separator) + name;
   return out;
 }
 
@@ -711,7 +711,7 @@ void ReadSimulation(const Reader& reader, const json& root, Config* out) {
 
 // The experiment (input, duration, sample rate, coast-down, PID, initial state), and whether
 // it can be run at this step.
-void ReadExperiment(const Reader& reader, const json& root, const std::string& path, Config* out) {
+void ReadExperiment(const Reader& reader, const json& root, Config* out) {
   Config& config = *out;
   const std::string model_name(config.model->name());
   Experiment& experiment = config.experiment;
@@ -725,7 +725,7 @@ void ReadExperiment(const Reader& reader, const json& root, const std::string& p
     reader.CheckKeys(exp, "/experiment",
                      {"input", "duration", "sample_rate", "coast_off_time", "pid", "initial"});
     if (exp.contains("input")) {
-      experiment.input = ReadInput(reader, exp["input"], "/experiment/input", path);
+      experiment.input = ReadInput(reader, exp["input"], "/experiment/input", config.path);
     }
     if (exp.contains("duration")) {
       experiment.duration = reader.Positive(exp["duration"], "/experiment/duration");
@@ -973,7 +973,7 @@ Config ParseConfig(const std::string& text, const std::string& path) {
   ReadParameters(reader, root, &config);
   ReadEffects(reader, root, &config);
   ReadSimulation(reader, root, &config);
-  ReadExperiment(reader, root, path, &config);
+  ReadExperiment(reader, root, &config);
   ReadIdentification(reader, root, &config);
   return config;
 }

@@ -1,23 +1,12 @@
 #include "blmd/report/sweep.h"
 
 #include <chrono>
-#include <cmath>
-#include <cstdio>
 
+#include "blmd/io/csv.h"
 #include "blmd/report/surface_file.h"
 #include "blmd/version.h"
 
 namespace blmd {
-namespace {
-
-std::string G(double v, int digits) {
-  if (!std::isfinite(v)) return "inf";
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%.*g", digits, v);
-  return buffer;
-}
-
-}  // namespace
 
 double SweepBytes(std::size_t points, std::size_t axes, std::size_t columns, std::size_t traces) {
   // Per point: the result (coordinates, cost, MSE per column and per trace) and its CSV row.
@@ -27,7 +16,7 @@ double SweepBytes(std::size_t points, std::size_t axes, std::size_t columns, std
           24.0 * (a + c + 1.0));
 }
 
-SweepOutcome Sweep(SweepRequest request) {
+SweepOutcome Sweep(const SweepRequest& request) {
   SweepOutcome outcome;
   const std::size_t experiments = request.traces.size();
   outcome.trace_sha256 = request.traces.front().sha256;
@@ -42,7 +31,7 @@ SweepOutcome Sweep(SweepRequest request) {
     p.initial = request.config.parameters.Get(axis.name);
     free.push_back(p);
   }
-  const FitProblem problem(request.config, std::move(request.traces), request.observe, free);
+  const FitProblem problem(request.config, request.traces, request.observe, free);
   SurfaceOptions options;
   options.threads = request.threads;
   options.shard_index = request.shard_index;
@@ -64,8 +53,8 @@ SweepOutcome Sweep(SweepRequest request) {
   metadata.lines.push_back(observe_line);
   if (problem.equation_error()) {
     const EquationTrace& first = problem.equation_traces().front();
-    metadata.lines.push_back("error: equation, filter_hz " + G(first.cutoff_hz, 6) + ", decimate " +
-                             std::to_string(first.decimate));
+    metadata.lines.push_back("error: equation, filter_hz " + FormatSignificant(first.cutoff_hz, 6) +
+                             ", decimate " + std::to_string(first.decimate));
   }
   if (!request.rows_line.empty()) {
     metadata.lines.push_back("rows:" + request.rows_line + " (" + std::to_string(experiments) +

@@ -58,7 +58,7 @@ Config ParseConfig(const std::string& text, const std::string& path);
 std::string RunLengthError(double span, double dt, double samples);
 
 // The names separated by ", " (for "valid: ..." in messages).
-std::string Join(const std::vector<std::string>& names);
+std::string Join(const std::vector<std::string>& names, const char* separator = ", ");
 
 // Closest of `candidates` to `word` by edit distance, "" when none is close.
 std::string NearestName(const std::string& word, const std::vector<std::string>& candidates);

@@ -43,6 +43,7 @@ struct SweepOutcome {
 // ask for gigabytes (blmd-surface refuses more than 1e6 points or 1 GB without --force).
 double SweepBytes(std::size_t points, std::size_t axes, std::size_t columns, std::size_t traces);
 
-SweepOutcome Sweep(SweepRequest request);
+// The request is only read: its traces are copied once, into the fit problem.
+SweepOutcome Sweep(const SweepRequest& request);
 
 }  // namespace blmd
