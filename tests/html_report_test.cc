@@ -20,6 +20,7 @@
 #include "blmd/io/config.h"
 #include "blmd/report/plot.h"
 #include "blmd/report/report.h"
+#include "blmd/version.h"
 #include "support/test_support.h"
 
 namespace blmd::testing {
@@ -70,7 +71,7 @@ void ExpectSelfContained(const std::string& html) {
 struct Fitted {
   std::unique_ptr<FitProblem> problem;
   FitResult result;
-  nlohmann::json report;
+  IdentReport report;
 };
 
 Fitted Fit(const std::string& config_name, const std::string& trace_name) {
@@ -227,7 +228,7 @@ TEST(HtmlReport, HasEveryPartOfAFitWithoutDiscovery) {
   EXPECT_EQ(Count(html, "<code>dc_servo</code>"), 1u);
   EXPECT_EQ(Count(html, "<code>ceres</code>"), 1u);
   EXPECT_GE(Count(html, "ganesh-noload-step.csv</code>, 10001 samples"), 1u);
-  EXPECT_EQ(Count(html, std::string("blmd-ident ") + f.report["version"].get<std::string>()), 3u);
+  EXPECT_EQ(Count(html, std::string("blmd-ident ") + std::string(kVersion)), 3u);
   // Parameter table: J and B, with initial values and intervals.
   EXPECT_EQ(Count(html, "<tr class=\"parameter\""), 2u);
   EXPECT_EQ(Count(html, "data-name=\"J\""), 1u);
@@ -295,9 +296,9 @@ TEST(HtmlReport, ShowsTheModelBeforeAndAfterDiscovery) {
   final_inputs.config_path = "configs/ganesh-square.json";
   final_inputs.problem = final_problem.get();
   final_inputs.result = &discovery.final_fit;
-  nlohmann::json report =
+  IdentReport report =
       FinalModelReport(MakeReport(final_inputs), f.report,
-                       DiscoveryJson(*f.problem, f.result, discovery, nullptr, nullptr));
+                       MakeDiscoveryReport(*f.problem, f.result, discovery, nullptr, nullptr));
   AddWarnings(&report);
   HtmlReportOptions html_options;
   html_options.threads = 2;

@@ -14,62 +14,134 @@ namespace blmd::testing {
 namespace {
 
 // A report whose every figure is fine: no warning.
-nlohmann::json CleanReport() {
-  return nlohmann::json::parse(R"({
-    "method_summary": {"converged": true, "termination": "CONVERGENCE", "details": {}},
-    "fit": {"nrmse": 0.05},
-    "residual": {"white": true, "whiteness_p": 0.4},
-    "parameters": {
-      "J": {"value": 2e-5, "free": true, "at_bound": false, "ci95": [1.9e-5, 2.1e-5],
-            "bounds": [1e-7, 1e-3]},
-      "Kb": {"value": 0.05, "free": false, "ci95": null}
-    }
-  })");
+IdentReport CleanReport() {
+  IdentReport report;
+  ModelReport& model = report.final_model;
+  model.summary.converged = true;
+  model.summary.termination = "CONVERGENCE";
+  model.fit.errors.ok = true;
+  model.fit.errors.nrmse = 0.05;
+  ResidualAnalysis residual;
+  residual.ok = true;
+  residual.white = true;
+  residual.whiteness_p = 0.4;
+  model.residual.analysis = residual;
+  ParameterReport J;
+  J.estimate.name = "J";
+  J.estimate.value = 2e-5;
+  J.estimate.has_interval = true;
+  J.estimate.ci95_low = 1.9e-5;
+  J.estimate.ci95_high = 2.1e-5;
+  J.has_bounds = true;
+  J.lower = 1e-7;
+  J.upper = 1e-3;
+  model.parameters["J"] = J;
+  ParameterReport Kb;  // a classic estimate: no interval, no warning for it
+  Kb.estimate.name = "Kb";
+  Kb.estimate.value = 0.05;
+  Kb.free = false;
+  model.parameters["Kb"] = Kb;
+  return report;
 }
 
-std::vector<std::string> Codes(nlohmann::json report) {
+std::vector<std::string> Codes(IdentReport report) {
   AddWarnings(&report);
   std::vector<std::string> codes;
-  for (const auto& w : report["warnings"]) codes.push_back(w["code"]);
+  for (const auto& w : report.warnings) codes.push_back(w.code);
   return codes;
+}
+
+ErrorFigures Nrmse(double nrmse) {
+  ErrorFigures errors;
+  errors.ok = true;
+  errors.nrmse = nrmse;
+  return errors;
 }
 
 TEST(Warnings, NoneWhenEveryFigureIsFine) { EXPECT_TRUE(Codes(CleanReport()).empty()); }
 
 TEST(Warnings, EachCodeFromItsFigure) {
   using Codes_ = std::vector<std::string>;
-  nlohmann::json r = CleanReport();
-  r["method_summary"]["converged"] = false;
+  IdentReport r = CleanReport();
+  r.final_model.summary.converged = false;
   EXPECT_EQ(Codes(r), Codes_{"not_converged"});
   r = CleanReport();
-  r["fit"]["nrmse"] = 1.0;
+  r.final_model.fit.errors.nrmse = 1.0;
   EXPECT_EQ(Codes(r), Codes_{"nrmse_at_least_one"});
   r = CleanReport();
-  r["validation"] = {{"nrmse", 1.3}};
+  r.final_model.validation = ValidationReport{};
+  r.final_model.validation->errors = Nrmse(1.3);
   EXPECT_EQ(Codes(r), Codes_{"nrmse_at_least_one"});
   r = CleanReport();
-  r["residual"] = {{"white", false}, {"whiteness_p", 1e-9}};
+  r.final_model.residual.analysis->white = false;
+  r.final_model.residual.analysis->whiteness_p = 1e-9;
   EXPECT_EQ(Codes(r), Codes_{"residual_not_white"});
   r = CleanReport();
-  r["parameters"]["J"]["at_bound"] = true;
+  r.final_model.parameters["J"].at_bound = true;
   EXPECT_EQ(Codes(r), Codes_{"parameter_at_bound"});
   r = CleanReport();
-  r["parameters"]["J"]["ci95"] = {-1e-5, 5e-5};  // +-150 %
+  r.final_model.parameters["J"].estimate.ci95_low = -1e-5;  // +-150 %
+  r.final_model.parameters["J"].estimate.ci95_high = 5e-5;
   EXPECT_EQ(Codes(r), Codes_{"parameter_poorly_determined"});
   r = CleanReport();
-  r["parameters"]["J"]["ci95"] = nullptr;
-  r["method_summary"]["details"]["interval"] = {{"unavailable", "the Jacobian is rank deficient"}};
-  nlohmann::json with = r;
+  r.final_model.parameters["J"].estimate.has_interval = false;
+  r.final_model.summary.details["interval"] = {{"unavailable", "the Jacobian is rank deficient"}};
+  IdentReport with = r;
   AddWarnings(&with);
-  ASSERT_EQ(with["warnings"].size(), 1u);
-  EXPECT_EQ(with["warnings"][0]["code"], "interval_unavailable");
-  EXPECT_EQ(with["warnings"][0]["message"], "no interval for J: the Jacobian is rank deficient");
+  ASSERT_EQ(with.warnings.size(), 1u);
+  EXPECT_EQ(with.warnings[0].code, "interval_unavailable");
+  EXPECT_EQ(with.warnings[0].message, "no interval for J: the Jacobian is rank deficient");
   r = CleanReport();
-  r["discovery"] = {{"ambiguous",
-                     {{{"effects", {"coulomb_friction", "load_torque"}},
-                       {"reason", "they explain the residual equally well"}}}},
-                    {"validation", {{"before", {{"nrmse", 0.1}}}, {"after", {{"nrmse", 0.12}}}}}};
+  r.discovery = DiscoveryReport{};
+  r.discovery->ambiguous.push_back(
+      {{"coulomb_friction", "load_torque"}, "they explain the residual equally well", {}});
+  r.discovery->has_validation = true;
+  r.discovery->validation_before = Nrmse(0.1);
+  r.discovery->validation_after = Nrmse(0.12);
   EXPECT_EQ(Codes(r), (Codes_{"discovery_ambiguous", "validation_worse_after_discovery"}));
+}
+
+// Widening for ambiguity: the headline's interval becomes the hull of the competing
+// models' values, the interval before is kept, and the method says so.
+TEST(Warnings, AmbiguityWidensTheIntervalToTheCompetingModels) {
+  IdentReport r = CleanReport();
+  r.discovery = DiscoveryReport{};
+  r.discovery->ambiguous.push_back({{"coulomb_friction", "load_torque"},
+                                    "close",
+                                    {{"coulomb_friction", 0.1, -20.0, {{"J", 2.3e-5}}},
+                                     {"load_torque", 0.1, -19.0, {{"J", 2e-5}}}}});
+  r.final_model.parameters["J"].estimate.interval_method = "hac_prewhitened";
+  WidenForAmbiguity(&r);
+  const ParameterReport& J = r.final_model.parameters["J"];
+  EXPECT_TRUE(J.widened_by_ambiguity);
+  EXPECT_EQ(J.estimate.ci95_low, 1.9e-5);
+  EXPECT_EQ(J.estimate.ci95_high, 2.3e-5);
+  EXPECT_EQ(J.ci95_before_ambiguity_high, 2.1e-5);
+  EXPECT_EQ(J.estimate.interval_method, "hac_prewhitened+ambiguity");
+  const nlohmann::json json = r;
+  EXPECT_EQ(json["parameters"]["J"]["ci95_before_ambiguity"], nlohmann::json({1.9e-5, 2.1e-5}));
+  EXPECT_EQ(json["parameters"]["J"]["ci95"], nlohmann::json({1.9e-5, 2.3e-5}));
+}
+
+// The summary's line for an equation-error discovery compares the first fit (as a
+// simulation) with the final model. Before the typed report it printed the final model's
+// figure on both sides ("0.04958 -> 0.04958" on EMPS), as the headline had become the final
+// model while the summary still read the headline for "before".
+TEST(Warnings, SummaryComparesTheFirstFitWithTheFinalModelAsSimulations) {
+  IdentReport r = CleanReport();
+  r.final_model.fit.equation_error = true;
+  r.final_model.fit.simulated = SimulatedFit{"w", Nrmse(0.0496)};
+  r.discovery = DiscoveryReport{};
+  r.discovery->before = r.final_model;
+  r.discovery->before.fit.simulated = SimulatedFit{"w", Nrmse(0.1973)};
+  r.discovery->equation_error = true;
+  r.discovery->simulated_after = SimulatedFit{"w", Nrmse(0.0496)};
+  r.discovery->error_before = Nrmse(0.181);
+  r.discovery->error_after = Nrmse(0.0434);
+  const std::string summary = HumanSummary(r);
+  EXPECT_NE(summary.find("  simulated w NRMSE before -> after: 0.1973 -> 0.0496\n"),
+            std::string::npos)
+      << summary;
 }
 
 // The gate: the bundled Coulomb trace fitted without its friction leaves a residual that is

@@ -1,6 +1,7 @@
 // blmd-ident: identify the free parameters of a config's model from measured traces.
 // Flags -> IdentRequest -> blmd::Identify (report/identify.h) -> the report, summary, HTML
 // and exit code (docs/cli.md).
+#include <cmath>
 #include <iostream>
 
 #include "../common/app_main.h"
@@ -164,8 +165,9 @@ blmd::IdentRequest MakeRequest(const CLI::App& app, IdentFlags& f) {
 }
 
 void WriteOutputs(const IdentFlags& f, const blmd::IdentOutcome& outcome) {
-  const nlohmann::json& report = outcome.report;
-  if (!f.report_path.empty()) blmd::WriteFileAtomically(f.report_path, report.dump(2) + "\n");
+  const blmd::IdentReport& report = outcome.report;
+  const nlohmann::json report_json = report;
+  if (!f.report_path.empty()) blmd::WriteFileAtomically(f.report_path, report_json.dump(2) + "\n");
   if (!f.html_path.empty()) {
     blmd::HtmlReportOptions html_options;
     html_options.threads = f.threads;
@@ -174,7 +176,7 @@ void WriteOutputs(const IdentFlags& f, const blmd::IdentOutcome& outcome) {
         html_options);
   }
   if (f.json) {
-    std::cout << report.dump(2) << "\n";
+    std::cout << report_json.dump(2) << "\n";
   } else if (!f.quiet) {
     std::cout << blmd::HumanSummary(report);
     if (!f.report_path.empty()) std::cout << "report: " << f.report_path << "\n";
@@ -184,7 +186,7 @@ void WriteOutputs(const IdentFlags& f, const blmd::IdentOutcome& outcome) {
 
 // The exit code (interface.md): 1 when the fit did not converge, 3 when a gate fails.
 int ExitCode(const IdentFlags& f, const blmd::IdentOutcome& outcome) {
-  const nlohmann::json& report = outcome.report;
+  const blmd::IdentReport& report = outcome.report;
   if (!outcome.converged()) {
     std::cerr << "error: the fit did not converge: " << outcome.first_fit.summary.termination
               << "\n";
@@ -192,16 +194,17 @@ int ExitCode(const IdentFlags& f, const blmd::IdentOutcome& outcome) {
   }
   if (f.fail_above >= 0.0) {
     // The final model's NRMSE (after discovery when it ran: its model is the answer).
-    const auto& nrmse = report["fit"]["nrmse"];
-    if (nrmse.is_null() || nrmse.get<double>() > f.fail_above) {
-      std::cerr << "error: final NRMSE " << (nrmse.is_null() ? std::string("n/a") : nrmse.dump())
+    const blmd::ErrorFigures& fit = report.final_model.fit.errors;
+    const bool known = fit.ok && std::isfinite(fit.nrmse);
+    if (!known || fit.nrmse > f.fail_above) {
+      std::cerr << "error: final NRMSE " << (known ? nlohmann::json(fit.nrmse).dump() : "n/a")
                 << " is above --fail-above-nrmse " << f.fail_above << "\n";
       return blmd::kExitGate;
     }
   }
-  if (f.fail_on_warning && !report["warnings"].empty()) {
+  if (f.fail_on_warning && !report.warnings.empty()) {
     std::vector<std::string> codes;
-    for (const auto& w : report["warnings"]) codes.push_back(w["code"].get<std::string>());
+    for (const auto& w : report.warnings) codes.push_back(w.code);
     std::cerr << "error: " << codes.size() << " warning" << (codes.size() > 1 ? "s" : "") << " ("
               << blmd::Join(codes) << ") and --fail-on-warning\n";
     return blmd::kExitGate;

@@ -57,10 +57,7 @@ std::string G(double v, int digits = 5) {
   return mantissa + "e" + std::to_string(std::atoi(text.c_str() + e + 1));
 }
 
-std::string G(const json& v, int digits = 5) {
-  return v.is_number() ? G(v.get<double>(), digits) : std::string("n/a");
-}
-
+// The free-form values of the method's details (OptimizerSummary::details).
 std::string Text(const json& v) {
   if (v.is_string()) return v.get<std::string>();
   if (v.is_number_float()) return G(v.get<double>(), 6);
@@ -74,9 +71,19 @@ std::string Text(const json& v) {
   return v.dump();
 }
 
-const json& Member(const json& object, const char* key) {
-  static const json kNull;
-  return object.is_object() && object.contains(key) ? object.at(key) : kNull;
+// The error's NRMSE, "n/a" when it could not be computed.
+std::string Nrmse(const ErrorFigures& errors) { return errors.ok ? G(errors.nrmse, 4) : "n/a"; }
+
+// The RMSE per column, by column name.
+std::map<std::string, double> Rmse(const ErrorFigures& errors) {
+  std::map<std::string, double> rmse;
+  for (std::size_t c = 0; c < errors.observe.size() && c < errors.rmse.size(); ++c)
+    rmse[errors.observe[c]] = errors.rmse[c];
+  return rmse;
+}
+
+std::string Interval(double low, double high, int digits) {
+  return "[" + G(low, digits) + ", " + G(high, digits) + "]";
 }
 
 std::string NowUtc() {
@@ -267,30 +274,26 @@ std::vector<double> Difference(const std::vector<double>& a, const std::vector<d
 
 // ---- sections --------------------------------------------------------------------------
 
-void WriteHeader(Page& page, const json& report, const FitProblem& problem,
+void WriteHeader(Page& page, const IdentReport& report, const FitProblem& problem,
                  const std::string& date) {
   std::string& h = page.html();
-  const std::string name = Text(Member(Member(report, "config"), "name"));
+  const std::string& name = report.config_name;
   h += "<header>\n<h1>blmd-ident report: " + Escape(name) + "</h1>\n<table class=\"meta\">\n";
   auto meta = [&](const std::string& key, const std::string& value_html) {
     h += "<tr><th>" + Escape(key) + "</th><td>" + value_html + "</td></tr>\n";
   };
-  meta("model", "<code>" + Escape(Text(Member(report, "model"))) + "</code>");
-  const json& config = Member(report, "config");
-  meta("config",
-       "<code>" + Escape(Text(Member(config, "path"))) + "</code> (" + Escape(name) + ")");
-  const json& summary = Member(report, "method_summary");
-  meta("method", "<code>" + Escape(Text(Member(report, "method"))) + "</code> — " +
-                     Escape(Text(Member(summary, "algorithm"))));
+  meta("model", "<code>" + Escape(report.model) + "</code>");
+  meta("config", "<code>" + Escape(report.config_path) + "</code> (" + Escape(name) + ")");
+  const ModelReport& model = report.final_model;
+  meta("method", "<code>" + Escape(model.method) + "</code> — " + Escape(model.summary.algorithm));
   std::string traces_html;
-  const json& traces = Member(report, "traces");
+  const std::vector<TraceReport>& traces = report.traces;
   for (std::size_t k = 0; k < traces.size(); ++k) {
-    const json& t = traces[k];
-    const std::string sha = Text(Member(t, "sha256"));
-    traces_html += (k ? "<br>" : "") + std::string("<code>") + Escape(Text(Member(t, "path"))) +
-                   "</code>, " + Escape(Text(Member(t, "samples"))) +
-                   " samples, sha256 <code title=\"" + Escape(sha) + "\">" +
-                   Escape(sha.substr(0, 12)) + "…</code>";
+    const TraceReport& t = traces[k];
+    const std::string& sha = t.sha256;
+    traces_html += (k ? "<br>" : "") + std::string("<code>") + Escape(t.path) + "</code>, " +
+                   std::to_string(t.samples) + " samples, sha256 <code title=\"" + Escape(sha) +
+                   "\">" + Escape(sha.substr(0, 12)) + "…</code>";
   }
   meta(traces.size() > 1 ? "traces" : "trace", traces_html);
   std::string observed, free;
@@ -299,69 +302,57 @@ void WriteHeader(Page& page, const json& report, const FitProblem& problem,
   meta("observed", Escape(observed));
   meta("free", Escape(free));
   meta("date", Escape(date));
-  meta("tool", "blmd-ident " + Escape(Text(Member(report, "version"))));
+  meta("tool", "blmd-ident " + Escape(kVersion));
   h += "</table>\n</header>\n";
 }
 
-// The first fit's block `key` (parameters, fit, residual): under discovery.before when
-// discovery ran (the report's headline is the final model, schema 2), else the report's own.
-const json& FirstFit(const json& report, const char* key) {
-  const json& before = Member(Member(report, "discovery"), "before");
-  return before.is_object() ? Member(before, key) : Member(report, key);
-}
-
-void WriteKeyFigures(Page& page, const json& report) {
+void WriteKeyFigures(Page& page, const IdentReport& report) {
   std::string& h = page.html();
-  const json& fit = Member(report, "fit");
-  const json& residual = Member(report, "residual");
-  const json& summary = Member(report, "method_summary");
-  const json& discovery = Member(report, "discovery");
-  const bool discovered = discovery.is_object() && !Member(discovery, "added").empty();
+  const ModelReport& model = report.final_model;
+  const ErrorFigures& fit = model.fit.errors;
+  const ResidualAnalysis* residual = model.residual.analysis ? &*model.residual.analysis : nullptr;
+  const OptimizerSummary& summary = model.summary;
   h += "<div class=\"cards\">\n";
-  h +=
-      Card(discovered ? "NRMSE of the final model" : "NRMSE of the fit", G(Member(fit, "nrmse"), 4),
-           "fit " + G(Member(fit, "fit_percent"), 4) + " % (100 % = perfect)");
-  const bool white = Member(residual, "white").is_boolean() && residual["white"].get<bool>();
+  h += Card(report.discovered() ? "NRMSE of the final model" : "NRMSE of the fit", Nrmse(fit),
+            "fit " + (fit.ok ? G(100.0 * (1.0 - fit.nrmse), 4) : std::string("n/a")) +
+                " % (100 % = perfect)");
+  const bool white = residual && residual->ok && residual->white;
   h += Card("residual", white ? "white" : "NOT white",
-            "Ljung-Box p = " + G(Member(residual, "whiteness_p"), 3), !white);
-  const bool converged =
-      Member(summary, "converged").is_boolean() && summary["converged"].get<bool>();
-  h += Card("method", converged ? "converged" : "NOT converged",
-            Text(Member(summary, "termination")) + ", " + Text(Member(summary, "evaluations")) +
-                " evaluations, " + G(Member(summary, "wall_time_s"), 3) + " s",
-            !converged);
-  if (discovery.is_object()) {
-    h += Card("before discovery",
-              "NRMSE " + G(Member(Member(discovery, "error_before"), "nrmse"), 4),
-              Text(Member(discovery, "conclusion")));
+            "Ljung-Box p = " +
+                (residual && residual->ok ? G(residual->whiteness_p, 3) : std::string("n/a")),
+            !white);
+  h += Card("method", summary.converged ? "converged" : "NOT converged",
+            summary.termination + ", " + std::to_string(summary.evaluations) + " evaluations, " +
+                G(summary.wall_time_s, 3) + " s",
+            !summary.converged);
+  if (report.discovery) {
+    h += Card("before discovery", "NRMSE " + Nrmse(report.discovery->error_before),
+              report.discovery->conclusion);
   }
-  if (Member(report, "validation").is_object()) {
-    h += Card("validation", "NRMSE " + G(Member(report["validation"], "nrmse"), 4),
-              std::to_string(Member(report["validation"], "traces").size()) + " held-out trace(s)");
+  if (model.validation) {
+    h += Card("validation", "NRMSE " + Nrmse(model.validation->errors),
+              std::to_string(model.validation->traces.size()) + " held-out trace(s)");
   }
   h += "</div>\n";
-  if (residual.contains("note"))
-    h += "<p class=\"note warn\">" + Escape(Text(residual["note"])) + "</p>\n";
-  const json& warnings = Member(report, "warnings");
-  if (warnings.is_array() && !warnings.empty()) {
+  if (!model.residual.note.empty())
+    h += "<p class=\"note warn\">" + Escape(model.residual.note) + "</p>\n";
+  if (!report.warnings.empty()) {
     h += "<ul class=\"warnings\">\n";
-    for (const auto& w : warnings) {
-      h += "<li class=\"warning\" data-code=\"" + Escape(Text(Member(w, "code"))) + "\"><b>" +
-           Escape(Text(Member(w, "code"))) + "</b>: " + Escape(Text(Member(w, "message"))) +
-           "</li>\n";
+    for (const auto& w : report.warnings) {
+      h += "<li class=\"warning\" data-code=\"" + Escape(w.code) + "\"><b>" + Escape(w.code) +
+           "</b>: " + Escape(w.message) + "</li>\n";
     }
     h += "</ul>\n";
   }
 }
 
-void WriteParameters(Page& page, const json& report, const FitProblem& problem) {
+void WriteParameters(Page& page, const IdentReport& report, const FitProblem& problem) {
   std::string& h = page.html();
   page.Section("parameters", "Parameters");
-  const json& parameters = Member(report, "parameters");
-  const json& discovery = Member(report, "discovery");
-  const bool after = discovery.is_object() && !Member(discovery, "added").empty();
+  const std::map<std::string, ParameterReport>& parameters = report.final_model.parameters;
+  const bool after = report.discovered();
   // The headline is the final model; the first fit beside it when discovery added effects.
-  const json& before = FirstFit(report, "parameters");
+  const std::map<std::string, ParameterReport>& before = report.first_fit().parameters;
   std::vector<std::string> head = {"parameter", "unit",          "initial", "estimate",
                                    "std",       "95 % interval", "bounds"};
   if (after) {
@@ -372,45 +363,41 @@ void WriteParameters(Page& page, const json& report, const FitProblem& problem) 
   // The free parameters in the problem's order (J before B), then the others.
   std::vector<std::string> names;
   for (const auto& fp : problem.free()) {
-    if (parameters.contains(fp.name)) names.push_back(fp.name);
+    if (parameters.count(fp.name) != 0) names.push_back(fp.name);
   }
-  for (const auto& [name, p] : parameters.items()) {
+  for (const auto& [name, p] : parameters) {
     if (std::find(names.begin(), names.end(), name) == names.end()) names.push_back(name);
   }
   for (const auto& name : names) {
-    const json& p = Member(parameters, name.c_str());
-    std::string interval = "—", bounds = "—", note;
-    if (Member(p, "ci95").is_array()) {
-      interval = "[" + G(p["ci95"][0], 5) + ", " + G(p["ci95"][1], 5) + "]";
-    }
-    if (Member(p, "bounds").is_array())
-      bounds = G(p["bounds"][0], 3) + " … " + G(p["bounds"][1], 3);
-    if (Member(p, "at_bound").is_boolean() && p["at_bound"].get<bool>())
-      note = " <b>at its bound</b>";
-    if (Member(p, "free").is_boolean() && !p["free"].get<bool>()) note = " (classic estimate)";
-    std::string unit = Text(Member(p, "unit"));
-    if (unit == "n/a") unit.clear();
+    const ParameterReport& p = parameters.at(name);
+    const ParameterEstimate& e = p.estimate;
+    const bool interval = p.free && e.has_interval;
+    std::string bounds = "—", note;
+    if (p.has_bounds) bounds = G(p.lower, 3) + " … " + G(p.upper, 3);
+    if (p.has_bounds && p.at_bound) note = " <b>at its bound</b>";
+    if (!p.free) note = " (classic estimate)";
     std::vector<std::string> cells = {"<b>" + Escape(name) + "</b>",
-                                      Escape(unit),
-                                      p.is_null() ? "—" : G(Member(p, "initial"), 4),
-                                      p.is_null() ? "—" : G(Member(p, "value"), 6) + note,
-                                      p.is_null() ? "—" : G(Member(p, "std"), 3),
-                                      interval,
+                                      Escape(p.unit),
+                                      p.free ? G(e.initial, 4) : "n/a",
+                                      G(e.value, 6) + note,
+                                      interval ? G(e.std, 3) : "n/a",
+                                      interval ? Interval(e.ci95_low, e.ci95_high, 5) : "—",
                                       bounds};
     std::vector<bool> numeric = {false, false, true, true, true, true, true};
     if (after) {
-      const json& value = Member(Member(before, name.c_str()), "value");
-      const json& ci = Member(Member(before, name.c_str()), "ci95");
-      cells.push_back(value.is_null() ? "— (added by discovery)" : G(value, 6));
-      cells.push_back(ci.is_array() ? "[" + G(ci[0], 5) + ", " + G(ci[1], 5) + "]" : "—");
+      const auto found = before.find(name);
+      const ParameterReport* b = found == before.end() ? nullptr : &found->second;
+      const bool value = b && std::isfinite(b->estimate.value);
+      const bool ci = b && b->free && b->estimate.has_interval;
+      cells.push_back(value ? G(b->estimate.value, 6) : "— (added by discovery)");
+      cells.push_back(ci ? Interval(b->estimate.ci95_low, b->estimate.ci95_high, 5) : "—");
       numeric.push_back(true);
       numeric.push_back(true);
     }
     h += Row(cells, " class=\"parameter\" data-name=\"" + Escape(name) + "\"", numeric);
   }
   h += "</table>\n";
-  if (Member(report, "intervals_optimistic").is_boolean() &&
-      report["intervals_optimistic"].get<bool>()) {
+  if (report.final_model.intervals_optimistic) {
     h += "<p class=\"note warn\">The intervals assume white residuals; the residual is not white, "
          "so "
          "they are optimistic.</p>\n";
@@ -424,10 +411,10 @@ std::string AfterLabel(const DiscoveryResult& discovery) {
   return "after discovery (+" + names + ")";
 }
 
-void WriteTraces(Page& page, const json& report, const FitProblem& problem, const Simulation& fit,
-                 const Simulation* after, const std::string& after_label) {
+void WriteTraces(Page& page, const IdentReport& report, const FitProblem& problem,
+                 const Simulation& fit, const Simulation* after, const std::string& after_label) {
   const HtmlReportOptions& o = page.options();
-  const std::string model = Text(Member(report, "model"));
+  const std::string& model = report.model;
   const std::size_t traces = problem.traces().size();
   page.Section("traces", "Measured and simulated");
   std::string& h = page.html();
@@ -505,13 +492,13 @@ void WriteTraces(Page& page, const json& report, const FitProblem& problem, cons
 }
 
 // Stems from zero with a marker at each value, offset along x by `shift` lags.
-void AddStems(std::vector<Series>& series, const json& acf, double shift, const std::string& label,
-              const char* colour, bool hollow) {
+void AddStems(std::vector<Series>& series, const std::vector<double>& acf, double shift,
+              const std::string& label, const char* colour, bool hollow) {
   Series stems = Line("", {}, {}, colour, "", 1.6);
   Series dots = Dots(label, colour, 3.0, hollow);
   for (std::size_t lag = 1; lag <= acf.size(); ++lag) {
     const double x = static_cast<double>(lag) + shift;
-    const double y = acf[lag - 1].is_number() ? acf[lag - 1].get<double>() : kNaN;
+    const double y = std::isfinite(acf[lag - 1]) ? acf[lag - 1] : kNaN;
     stems.x.insert(stems.x.end(), {x, x, x});
     stems.y.insert(stems.y.end(), {0.0, y, kNaN});
     dots.x.push_back(x);
@@ -529,10 +516,19 @@ void Range(const std::vector<double>& v, double* lo, double* hi) {
   }
 }
 
-void WriteResidual(Page& page, const json& report, const FitProblem& problem, const Simulation& fit,
-                   const Simulation* after, const std::string& after_label) {
+// The diagnostics of `column` in `analysis`, null when there are none.
+const ColumnDiagnostics* FindColumn(const ResidualAnalysis* analysis, const std::string& column) {
+  if (!analysis || !analysis->ok) return nullptr;
+  for (const auto& c : analysis->columns) {
+    if (c.column == column) return &c;
+  }
+  return nullptr;
+}
+
+void WriteResidual(Page& page, const IdentReport& report, const FitProblem& problem,
+                   const Simulation& fit, const Simulation* after, const std::string& after_label) {
   const HtmlReportOptions& o = page.options();
-  const std::string model = Text(Member(report, "model"));
+  const std::string& model = report.model;
   const std::size_t traces = problem.traces().size();
   const bool show_after = after && after->ok;
   page.Section("residual", "Residual");
@@ -596,21 +592,23 @@ void WriteResidual(Page& page, const json& report, const FitProblem& problem, co
       }
     }
   }
-  const json& columns = Member(FirstFit(report, "residual"), "columns");
-  const json& after_columns =
-      Member(Member(Member(report, "discovery"), "residual_after"), "columns");
-  const bool show_after_acf = show_after && after_columns.is_object();
+  const ResidualReport& first_residual = report.first_fit().residual;
+  const ResidualAnalysis* columns = first_residual.analysis ? &*first_residual.analysis : nullptr;
+  const ResidualAnalysis* after_columns = report.discovery && report.discovery->residual_after.ok
+                                              ? &report.discovery->residual_after
+                                              : nullptr;
+  const bool show_after_acf = show_after && after_columns;
   h += "<div class=\"grid\">\n";
   for (const auto& column : problem.observe()) {
-    const json& c = Member(columns, column.c_str());
-    const json& acf = Member(c, "acf");
-    if (!acf.is_array() || acf.empty()) continue;
+    const ColumnDiagnostics* c = FindColumn(columns, column);
+    if (!c || c->acf.empty()) continue;
+    const std::vector<double>& acf = c->acf;
     const ColumnInfo info = DescribeColumn(column, model);
     std::vector<Series> series;
     AddStems(series, acf, show_after_acf ? -0.17 : 0.0, "fit", kFitColour, false);
-    const json& after_acf = Member(Member(after_columns, column.c_str()), "acf");
-    if (show_after_acf && after_acf.is_array()) {
-      AddStems(series, after_acf, 0.17, after_label, kAfterColour, true);
+    const ColumnDiagnostics* c_after = FindColumn(after_columns, column);
+    if (show_after_acf && c_after) {
+      AddStems(series, c_after->acf, 0.17, after_label, kAfterColour, true);
     }
     LinePlotOptions plot;
     plot.title = info.quantity + ": autocorrelation of the residual";
@@ -622,15 +620,14 @@ void WriteResidual(Page& page, const json& report, const FitProblem& problem, co
     plot.width = o.plot_width;
     plot.height = o.plot_height;
     plot.id_prefix = page.NextPrefix();
-    const double band = Member(c, "acf_band95").is_number() ? c["acf_band95"].get<double>() : kNaN;
+    const double band = std::isfinite(c->acf_band95) ? c->acf_band95 : kNaN;
     plot.bands.push_back({"95 % band of white noise", false, -band, band, kBandColour, 0.22, ""});
     plot.bands.push_back({"", false, 0.0, 0.0, "#444444", 1.0, ""});
     std::string caption = "Autocorrelation of the " + Escape(info.quantity) +
                           " residual at lags 1…" + std::to_string(acf.size()) + "; band ±" +
-                          G(band, 3) + ". Ljung-Box p = " + G(Member(c, "whiteness_p"), 3);
+                          G(band, 3) + ". Ljung-Box p = " + G(c->whiteness_p, 3);
     if (show_after_acf)
-      caption += ", after discovery p = " +
-                 G(Member(Member(after_columns, column.c_str()), "whiteness_p"), 3);
+      caption += ", after discovery p = " + (c_after ? G(c_after->whiteness_p, 3) : "n/a");
     page.Figure("acf", " data-column=\"" + Escape(column) + "\"", LinePlotSvg(plot, series),
                 caption + ".");
   }
@@ -639,8 +636,8 @@ void WriteResidual(Page& page, const json& report, const FitProblem& problem, co
 }
 
 void WriteSlices(Page& page, const FitProblem& problem, const std::vector<double>& values,
-                 const json& intervals, const std::string& model_tag,
-                 const std::string& model_label, const char* colour) {
+                 const std::map<std::string, std::pair<double, double>>& intervals,
+                 const std::string& model_tag, const std::string& model_label, const char* colour) {
   const HtmlReportOptions& o = page.options();
   if (o.slice_points <= 0 || problem.num_free() == 0) return;
   const std::vector<CostSlice> slices =
@@ -665,10 +662,11 @@ void WriteSlices(Page& page, const FitProblem& problem, const std::vector<double
     plot.width = o.plot_width;
     plot.height = o.plot_height;
     plot.id_prefix = page.NextPrefix();
-    const json& ci = Member(Member(intervals, slice.parameter.c_str()), "ci95");
-    if (ci.is_array() && ci[0].is_number() && ci[1].is_number()) {
+    const auto ci = intervals.find(slice.parameter);
+    if (ci != intervals.end() && std::isfinite(ci->second.first) &&
+        std::isfinite(ci->second.second)) {
       plot.bands.push_back(
-          {"95 % interval", true, ci[0].get<double>(), ci[1].get<double>(), kBandColour, 0.3, ""});
+          {"95 % interval", true, ci->second.first, ci->second.second, kBandColour, 0.3, ""});
     }
     plot.bands.push_back({"estimate", true, slice.estimate, slice.estimate, "#222222", 1.0, "5 3"});
     std::string caption = "Cost along " + Escape(slice.parameter) +
@@ -691,103 +689,120 @@ void WriteSlices(Page& page, const FitProblem& problem, const std::vector<double
   h += "</div>\n";
 }
 
-void WriteDiscovery(Page& page, const json& discovery) {
+void WriteDiscovery(Page& page, const DiscoveryReport& discovery) {
   std::string& h = page.html();
   page.Section("discovery", "Discovery");
-  h += "<p><b>Conclusion:</b> " + Escape(Text(Member(discovery, "conclusion"))) + "</p>\n";
-  const json& before = Member(discovery, "error_before");
-  const json& after = Member(discovery, "error_after");
+  h += "<p><b>Conclusion:</b> " + Escape(discovery.conclusion) + "</p>\n";
+  const ErrorFigures& before = discovery.error_before;
+  const ErrorFigures& after = discovery.error_after;
   h += "<table class=\"errors\">\n" + HeaderRow({"error", "before", "after"});
-  h += Row({"NRMSE", G(Member(before, "nrmse"), 4), G(Member(after, "nrmse"), 4)}, "",
-           {false, true, true});
-  for (const auto& [column, value] : Member(before, "rmse").items()) {
-    h += Row({"RMSE " + Escape(column), G(value, 4),
-              G(Member(Member(after, "rmse"), column.c_str()), 4)},
-             "", {false, true, true});
+  h += Row({"NRMSE", Nrmse(before), Nrmse(after)}, "", {false, true, true});
+  if (before.ok) {
+    const std::map<std::string, double> after_rmse = Rmse(after);
+    for (const auto& [column, value] : Rmse(before)) {
+      const auto found = after_rmse.find(column);
+      h += Row({"RMSE " + Escape(column), G(value, 4),
+                found == after_rmse.end() ? std::string("n/a") : G(found->second, 4)},
+               "", {false, true, true});
+    }
   }
   h += "</table>\n";
-  const json& steps = Member(discovery, "steps");
-  if (steps.is_array() && !steps.empty()) {
+  const std::vector<DiscoveryStep>& steps = discovery.steps;
+  if (!steps.empty()) {
     h += "<table class=\"steps\">\n" +
          HeaderRow({"step", "effect added", "parameters (95 % interval)", "NRMSE before → after",
                     "ΔBIC", "evidence"});
     for (std::size_t k = 0; k < steps.size(); ++k) {
-      const json& step = steps[k];
+      const DiscoveryStep& step = steps[k];
+      // The effect's fitted and fixed parameters, by name.
+      std::map<std::string, const ParameterEstimate*> fitted;
+      std::map<std::string, double> values;
+      for (const auto& e : step.effect_parameters) {
+        fitted[e.name] = &e;
+        values[e.name] = e.value;
+      }
+      for (const auto& [name, value] : step.fixed_parameters) values[name] = value;
       std::string parameters;
-      for (const auto& [name, value] : Member(step, "parameters").items()) {
+      for (const auto& [name, value] : values) {
         if (!parameters.empty()) parameters += "<br>";
         parameters += Escape(name) + " = " + G(value, 5);
-        const json& ci = Member(Member(Member(step, "intervals"), name.c_str()), "ci95");
-        if (ci.is_array()) parameters += " [" + G(ci[0], 4) + ", " + G(ci[1], 4) + "]";
+        const auto found = fitted.find(name);
+        if (found != fitted.end() && found->second->has_interval)
+          parameters += " " + Interval(found->second->ci95_low, found->second->ci95_high, 4);
       }
-      h += Row(
-          {std::to_string(k + 1), "<b>" + Escape(Text(Member(step, "effect"))) + "</b>", parameters,
-           G(Member(step, "nrmse_before"), 4) + " → " + G(Member(step, "nrmse_after"), 4),
-           G(Member(step, "delta_bic"), 4), Escape(Text(Member(step, "evidence")))},
-          " class=\"discovery-step\"", {true, false, false, true, true, false});
+      h += Row({std::to_string(k + 1), "<b>" + Escape(step.effect) + "</b>", parameters,
+                G(step.nrmse_before, 4) + " → " + G(step.nrmse_after, 4),
+                G(step.bic_after - step.bic_before, 4), Escape(step.evidence)},
+               " class=\"discovery-step\"", {true, false, false, true, true, false});
     }
     h += "</table>\n";
   }
-  auto candidates_table = [&](const json& candidates, const std::string& title) {
-    if (!candidates.is_array() || candidates.empty()) return;
+  auto candidates_table = [&](const std::vector<CandidateOutcome>& candidates,
+                              const std::string& title) {
+    if (candidates.empty()) return;
     h += "<details><summary>" + Escape(title) + "</summary>\n<table class=\"candidates\">\n" +
          HeaderRow({"candidate", "fitted", "valid", "ΔBIC", "NRMSE", "parameters", "reason"});
     for (const auto& c : candidates) {
       std::string parameters;
-      for (const auto& [name, value] : Member(c, "parameters").items()) {
-        parameters += (parameters.empty() ? "" : ", ") + Escape(name) + " = " + G(value, 4);
+      if (c.fitted) {
+        for (const auto& [name, value] : c.parameters) {
+          parameters += (parameters.empty() ? "" : ", ") + Escape(name) + " = " + G(value, 4);
+        }
       }
-      const bool fitted = Member(c, "fitted").is_boolean() && c["fitted"].get<bool>();
-      const bool valid = Member(c, "valid").is_boolean() && c["valid"].get<bool>();
-      h += Row({Escape(Text(Member(c, "effect"))), fitted ? "yes" : "no", valid ? "yes" : "no",
-                fitted ? G(Member(c, "delta_bic"), 4) : "—",
-                fitted ? G(Member(c, "nrmse"), 4) : "—", parameters,
-                Escape(Member(c, "reason").is_string() ? c["reason"].get<std::string>() : "")},
+      h += Row({Escape(c.effect), c.fitted ? "yes" : "no", c.valid ? "yes" : "no",
+                c.fitted ? G(c.delta_bic, 4) : "—", c.fitted ? G(c.nrmse, 4) : "—", parameters,
+                Escape(c.reason)},
                "", {false, false, false, true, true, false, false});
     }
     h += "</table>\n</details>\n";
   };
   for (std::size_t k = 0; k < steps.size(); ++k) {
-    candidates_table(Member(steps[k], "candidates"), "Candidates of step " + std::to_string(k + 1));
+    candidates_table(steps[k].candidates, "Candidates of step " + std::to_string(k + 1));
   }
-  candidates_table(Member(discovery, "last_round"), "Candidates of the last round (nothing added)");
+  candidates_table(discovery.last_round, "Candidates of the last round (nothing added)");
   page.EndSection();
 }
 
-void WriteMethod(Page& page, const json& report) {
+void WriteMethod(Page& page, const ModelReport& model) {
   std::string& h = page.html();
   page.Section("method", "Method summary");
-  const json& s = Member(report, "method_summary");
+  const OptimizerSummary& s = model.summary;
   h += "<table class=\"meta method\">\n";
-  for (const char* key :
-       {"method", "algorithm", "converged", "termination", "message", "raw_code", "evaluations",
-        "failed_evaluations", "iterations", "wall_time_s", "seed", "threads"}) {
-    if (!s.contains(key)) continue;
-    std::string value = Text(s[key]);
-    if (std::string(key) == "wall_time_s") value = G(s[key], 4) + " s";
-    h += "<tr><th>" + std::string(key) + "</th><td>" + Escape(value) + "</td></tr>\n";
-  }
-  if (Member(s, "failure_reasons").is_object() && !s["failure_reasons"].empty()) {
-    h += "<tr><th>failure_reasons</th><td>" + Escape(s["failure_reasons"].dump()) + "</td></tr>\n";
-  }
-  for (const auto& [key, value] : Member(s, "details").items()) {
-    h += "<tr><th>details." + Escape(key) + "</th><td>" + Escape(Text(value)) + "</td></tr>\n";
+  auto row = [&](const std::string& key, const std::string& value) {
+    h += "<tr><th>" + key + "</th><td>" + Escape(value) + "</td></tr>\n";
+  };
+  row("method", s.method);
+  row("algorithm", s.algorithm);
+  row("converged", s.converged ? "true" : "false");
+  row("termination", s.termination);
+  row("message", s.message);
+  row("raw_code", std::to_string(s.raw_code));
+  row("evaluations", std::to_string(s.evaluations));
+  row("failed_evaluations", std::to_string(s.failed_evaluations));
+  row("iterations", std::to_string(s.iterations));
+  row("wall_time_s", G(s.wall_time_s, 4) + " s");
+  row("seed", std::to_string(model.seed));
+  row("threads", std::to_string(model.threads));
+  if (!s.failure_reasons.empty()) row("failure_reasons", json(s.failure_reasons).dump());
+  if (s.details.is_object()) {
+    for (const auto& [key, value] : s.details.items()) row("details." + Escape(key), Text(value));
   }
   h += "</table>\n";
   page.EndSection();
 }
 
-void WriteValidation(Page& page, const json& validation) {
+void WriteValidation(Page& page, const ValidationReport& validation) {
   std::string& h = page.html();
   page.Section("validation", "Validation on held-out traces");
   h += "<table>\n" + HeaderRow({"held-out trace(s)", "NRMSE", "RMSE"});
   std::string paths, rmse;
-  for (const auto& p : Member(validation, "traces"))
-    paths += (paths.empty() ? "" : "<br>") + Escape(Text(p));
-  for (const auto& [column, value] : Member(validation, "rmse").items()) {
-    rmse += (rmse.empty() ? "" : ", ") + Escape(column) + " " + G(value, 4);
+  for (const auto& p : validation.traces) paths += (paths.empty() ? "" : "<br>") + Escape(p);
+  if (validation.errors.ok) {
+    for (const auto& [column, value] : Rmse(validation.errors)) {
+      rmse += (rmse.empty() ? "" : ", ") + Escape(column) + " " + G(value, 4);
+    }
   }
-  h += Row({paths, G(Member(validation, "nrmse"), 4), rmse}, "", {false, true, false});
+  h += Row({paths, Nrmse(validation.errors), rmse}, "", {false, true, false});
   h += "</table>\n";
   page.EndSection();
 }
@@ -944,7 +959,7 @@ std::string MakeHtmlReport(const HtmlReportInputs& inputs, const HtmlReportOptio
   if (!inputs.report || !inputs.problem || !inputs.result) {
     throw std::invalid_argument("MakeHtmlReport: report, problem and result are required");
   }
-  const json& report = *inputs.report;
+  const IdentReport& report = *inputs.report;
   const FitProblem& problem = *inputs.problem;
   const FitResult& result = *inputs.result;
   const std::string date = options.date.empty() ? NowUtc() : options.date;
@@ -962,7 +977,7 @@ std::string MakeHtmlReport(const HtmlReportInputs& inputs, const HtmlReportOptio
 
   Page page(options);
   std::string& h = page.html();
-  const std::string name = Text(Member(Member(report, "config"), "name"));
+  const std::string& name = report.config_name;
   h += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
        "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n"
        "<meta name=\"generator\" content=\"blmd-ident " +
@@ -981,20 +996,27 @@ std::string MakeHtmlReport(const HtmlReportInputs& inputs, const HtmlReportOptio
        " % around the estimate (dashed line). A sharp, centred "
        "valley means a well-determined parameter; a flat one, a poorly determined one. The shaded "
        "band is the 95 % interval.</p>\n";
-  json fit_intervals = json::object();
-  for (const auto& [pname, p] : FirstFit(report, "parameters").items()) fit_intervals[pname] = p;
+  std::map<std::string, std::pair<double, double>> fit_intervals, after_intervals;
+  for (const auto& [pname, p] : report.first_fit().parameters) {
+    if (p.free && p.estimate.has_interval)
+      fit_intervals[pname] = {p.estimate.ci95_low, p.estimate.ci95_high};
+  }
+  if (report.discovery) {
+    for (const auto& e : report.discovery->parameters_after) {
+      if (e.has_interval) after_intervals[e.name] = {e.ci95_low, e.ci95_high};
+    }
+  }
   WriteSlices(page, problem, result.values, fit_intervals, "fit",
               after_problem ? "Fit (the config's model)" : "Fit", kFitColour);
   if (after_problem) {
-    WriteSlices(page, *after_problem, inputs.discovery->final_fit.values,
-                Member(Member(report, "discovery"), "intervals_after"), "after",
+    WriteSlices(page, *after_problem, inputs.discovery->final_fit.values, after_intervals, "after",
                 "Model " + after_label, kAfterColour);
   }
   page.EndSection();
 
-  if (Member(report, "discovery").is_object()) WriteDiscovery(page, report["discovery"]);
-  if (Member(report, "validation").is_object()) WriteValidation(page, report["validation"]);
-  WriteMethod(page, report);
+  if (report.discovery) WriteDiscovery(page, *report.discovery);
+  if (report.final_model.validation) WriteValidation(page, *report.final_model.validation);
+  WriteMethod(page, report.final_model);
   h += "<footer>Written by blmd-ident " + Escape(kVersion) + " on " + Escape(date) +
        ". One self-contained file: inline SVG and CSS, no scripts, nothing fetched. "
        "The numbers come from the JSON report of the same run (<code>--report</code>).</footer>\n"

@@ -20,25 +20,6 @@ FitResult WidenedByTraces(const FitProblem& problem, const FitResult& fit,
   return copy;
 }
 
-// The report's "discovery" block with, for the equation error, the final model's error as
-// a simulation too.
-nlohmann::json DiscoveryBlock(const FitProblem& problem, const FitResult& first,
-                              const DiscoveryResult& discovery, const FitProblem* validation,
-                              const FitProblem* validation_after) {
-  nlohmann::json block = DiscoveryJson(problem, first, discovery, validation, validation_after);
-  if (problem.equation_error()) {
-    const auto& values = discovery.final_fit.values;
-    block["simulated_after"] =
-        SimulatedErrors(problem, discovery.final_config, discovery.final_free, values);
-    if (validation_after && block.contains("validation")) {
-      block["validation"]["simulated_after"] =
-          SimulatedErrors(*validation_after, discovery.final_config, discovery.final_free, values);
-    }
-    SanitizeJson(&block);
-  }
-  return block;
-}
-
 }  // namespace
 
 IdentOutcome Identify(IdentRequest request) {
@@ -67,7 +48,7 @@ IdentOutcome Identify(IdentRequest request) {
   inputs.threads = options.threads > 0
                        ? options.threads
                        : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  nlohmann::json report = MakeReport(inputs);
+  IdentReport report = MakeReport(inputs);
   if (request.discover) {
     DiscoveryOptions discovery_options = request.discovery;
     discovery_options.refit.threads = options.threads;
@@ -83,12 +64,12 @@ IdentOutcome Identify(IdentRequest request) {
           std::make_unique<FitProblem>(discovery.final_config, validation->traces(),
                                        request.observe, NamedFreeParameters(discovery.final_free));
     }
-    nlohmann::json block = DiscoveryBlock(problem, outcome.first_fit, discovery, validation.get(),
-                                          validation_after.get());
+    DiscoveryReport block = MakeDiscoveryReport(problem, outcome.first_fit, discovery,
+                                                validation.get(), validation_after.get());
     // The final model is the answer (issue 19): its parameters, fit, residual and
     // validation head the report; the first fit moves to discovery.before.
     const std::unique_ptr<FitProblem> final_problem = FinalProblem(problem, discovery);
-    nlohmann::json headline = report;
+    IdentReport headline = report;
     if (final_problem) {
       const FitResult final_result =
           WidenedByTraces(*final_problem, discovery.final_fit, refit_options);

@@ -26,7 +26,6 @@
 #pragma once
 
 #include <cstddef>
-#include <nlohmann/json.hpp>
 #include <string>
 #include <utility>
 #include <vector>
@@ -34,6 +33,7 @@
 #include "blmd/ident/discovery.h"
 #include "blmd/ident/optimizer.h"
 #include "blmd/ident/problem.h"
+#include "blmd/report/report.h"
 
 namespace blmd {
 
@@ -52,11 +52,11 @@ struct HtmlReportOptions {
   int plot_width = 600, plot_height = 340;
 };
 
-// What the page is built from. `report` is MakeReport's JSON, with its "discovery" block
-// when discovery ran; `problem` and `result` are the fit it describes; `discovery` is
+// What the page is built from. `report` is the typed report (with its discovery block when
+// discovery ran); `problem` and `result` are the first fit it describes; `discovery` is
 // optional (null: no discovery, or not to be shown).
 struct HtmlReportInputs {
-  const nlohmann::json* report = nullptr;
+  const IdentReport* report = nullptr;
   const FitProblem* problem = nullptr;
   const FitResult* result = nullptr;
   const DiscoveryResult* discovery = nullptr;

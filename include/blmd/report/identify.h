@@ -13,6 +13,7 @@
 #include "blmd/ident/optimizer.h"
 #include "blmd/ident/problem.h"
 #include "blmd/io/config.h"
+#include "blmd/report/report.h"
 
 namespace blmd {
 
@@ -34,9 +35,9 @@ struct IdentRequest {
 };
 
 struct IdentOutcome {
-  nlohmann::json report;                // the --report JSON (docs/report.md), final model first
-  std::unique_ptr<FitProblem> problem;  // the first fit's problem
-  FitResult first_fit;                  // as the optimiser returned it
+  IdentReport report;  // the final model first; nlohmann::json(report) is the --report JSON
+  std::unique_ptr<FitProblem> problem;         // the first fit's problem
+  FitResult first_fit;                         // as the optimiser returned it
   std::unique_ptr<DiscoveryResult> discovery;  // when request.discover
   bool converged() const { return first_fit.summary.converged; }
 };

@@ -1,9 +1,14 @@
-// The blmd-ident report (interface.md "Report JSON", docs/report.md) and its human summary:
-// the report layer renders what the identification layer computed (ident/errors.h,
-// ident/diagnostics.h, ident/discovery.h) as JSON and text.
+// The blmd-ident report (interface.md "Report JSON", docs/report.md) as one typed value,
+// IdentReport, from which the JSON (nlohmann to_json), the human summary and the HTML page
+// (html_report.h) are all rendered; nothing reads the JSON back. The report layer builds it
+// from what the identification layer computed (ident/errors.h, ident/diagnostics.h,
+// ident/discovery.h).
 #pragma once
 
+#include <cstdint>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -15,28 +20,147 @@
 
 namespace blmd {
 
-nlohmann::json ErrorsJson(const ErrorFigures& errors);
+// The report's schema version (docs/report.md): 2 since the headline is the final model
+// (parameters, fit, residual and validation after discovery; the first fit under
+// discovery.before) and `warnings` was added; 1 (no field) before.
+inline constexpr int kReportSchemaVersion = 2;
 
-// The residual diagnostics (ident/diagnostics.h) as the report's "residual" block.
-nlohmann::json ResidualJson(const ResidualAnalysis& analysis);
+// Numbers that are not finite are written as null: a report never holds NaN or Inf.
 
-// The report's "discovery" block (interface.md) from discovery's result.
-nlohmann::json DiscoveryJson(const FitProblem& problem, const FitResult& initial,
-                             const DiscoveryResult& result, const FitProblem* validation_before,
-                             const FitProblem* validation_after);
+// One parameter of the report's "parameters" block.
+struct ParameterReport {
+  // Value, initial value and intervals; `has_interval` false: "std" and "ci95" are null.
+  ParameterEstimate estimate;
+  // False for a classic estimate of a parameter that was not fitted (Kb, Kt): no initial
+  // value, no interval, no bounds.
+  bool free = true;
+  std::string unit;  // the model's unit ("" when it names none: no "unit" key)
+  bool has_bounds = false;
+  double lower = 0.0, upper = 0.0;
+  // The estimate lies on a bound (the bound, not the data, set it): see MakeModelReport.
+  bool at_bound = false;
+  // WidenForAmbiguity moved ci95 to the hull of the competing models; the interval before.
+  bool widened_by_ambiguity = false;
+  double ci95_before_ambiguity_low = 0.0, ci95_before_ambiguity_high = 0.0;
+};
 
-// With the equation error: the motion simulated from the recorded input with `config` (its
-// error set to "output") at the free parameters `values`, compared on the traces' w (else
-// theta) column: {"observe": [...], "nrmse": x} (or {"nrmse": null, "failed": reason}),
-// so an equation-error fit is also judged as a simulation. Null for the output error.
-nlohmann::json SimulatedErrors(const FitProblem& problem, const Config& config,
-                               const std::vector<std::string>& free,
-                               const std::vector<double>& values);
+// An equation-error fit judged as a simulation of the motion (the w, else theta, column):
+// `column` empty when that simulation could not be set up (errors.reason says why).
+struct SimulatedFit {
+  std::string column;
+  ErrorFigures errors;
+};
 
-// Residual diagnostics at `values`: per observed column the autocorrelation (first lags),
-// its 95 % band 1.96/sqrt(n), the Ljung-Box test; overall whiteness_p is the smallest
-// column p-value times the number of columns (Bonferroni), capped at 1.
-nlohmann::json ResidualDiagnostics(const FitProblem& problem, const std::vector<double>& values);
+// The report's "fit" block: the error of the model on the fit traces.
+struct FitReport {
+  ErrorFigures errors;
+  std::vector<std::string> observe;
+  bool equation_error = false;  // "error": {"type": "equation" | "output"}
+  double filter_hz = 0.0;       // equation error: the low-pass of the derivatives, Hz
+  int decimate = 1;
+  std::size_t samples = 0;  // equation error: the samples of the cost over every trace
+  // Equation error: the same model as a simulation (absent: the traces lack w and theta).
+  std::optional<SimulatedFit> simulated;
+};
+
+// One trace of the report's "traces" list with the model's error on it.
+struct TraceReport {
+  std::string path;
+  std::size_t samples = 0;
+  std::string sha256;
+  bool has_errors = false;  // false when the fit's evaluation failed
+  std::map<std::string, double> rmse;
+  double nrmse = 0.0;
+};
+
+// The report's "residual" block: the diagnostics at the estimate (absent when the fit's
+// error could not be computed: then only "whiteness_p": null).
+struct ResidualReport {
+  std::optional<ResidualAnalysis> analysis;
+  std::string note;  // set when the residual is not white and an interval assumes it is
+};
+
+// The report's "validation" block: the model's error on held-out traces.
+struct ValidationReport {
+  ErrorFigures errors;
+  std::vector<std::string> traces;  // paths
+  bool equation_error = false;
+  std::optional<SimulatedFit> simulated;  // equation error: as a simulation
+};
+
+// What describes one fitted model: the headline of a report, or discovery.before.
+struct ModelReport {
+  std::string method;                // the optimiser that fitted it
+  std::vector<std::string> effects;  // the model's (after discovery: with the added ones)
+  std::map<std::string, ParameterReport> parameters;
+  FitReport fit;
+  OptimizerSummary summary;  // "method_summary" (with the seed and threads of the run)
+  std::uint64_t seed = 1;
+  int threads = 1;
+  ResidualReport residual;
+  bool intervals_optimistic = false;
+  std::optional<ValidationReport> validation;
+};
+
+// A model that discovery could not tell apart from another (issue 19: reported, not hidden).
+struct CompetingModel {
+  std::string effect;
+  double nrmse = 0.0, delta_bic = 0.0;
+  std::map<std::string, double> parameters;
+};
+struct AmbiguousGroup {
+  std::vector<std::string> effects;
+  std::string reason;
+  std::vector<CompetingModel> models;
+};
+
+// The report's "discovery" block (interface.md, docs/discovery.md §4).
+struct DiscoveryReport {
+  std::vector<std::string> added;
+  std::vector<DiscoveryStep> steps;
+  std::vector<AmbiguousGroup> ambiguous;
+  std::vector<CandidateOutcome> last_round;
+  std::string conclusion;
+  ErrorFigures error_before, error_after;
+  std::vector<ParameterEstimate> parameters_after;  // the final fit's, with intervals
+  std::vector<std::string> effects_after;
+  ResidualAnalysis residual_after;
+  bool has_validation = false;  // held-out traces: their error before and after
+  ErrorFigures validation_before, validation_after;
+  // Equation error: the final model as a simulation, on the fit and the held-out traces.
+  bool equation_error = false;
+  std::optional<SimulatedFit> simulated_after, validation_simulated_after;
+  ModelReport before;  // the first fit (the headline is the final model)
+};
+
+struct Warning {
+  std::string code;  // stable (docs/report.md "Warnings")
+  std::string message;
+};
+
+struct IdentReport {
+  std::string model;  // the model's registry name
+  std::string config_path, config_name;
+  std::vector<std::string> config_effects;  // as the input config declared them
+  std::vector<TraceReport> traces;
+  ModelReport final_model;  // the headline: the final model (the first fit without discovery)
+  std::optional<DiscoveryReport> discovery;
+  std::vector<Warning> warnings;
+
+  // The first fit: discovery->before when discovery ran, else the headline.
+  const ModelReport& first_fit() const { return discovery ? discovery->before : final_model; }
+  // Discovery ran and added an effect.
+  bool discovered() const { return discovery && !discovery->added.empty(); }
+};
+
+// The report as JSON (docs/report.md): every key of interface.md, non-finite numbers null.
+void to_json(nlohmann::json& out, const IdentReport& report);
+void to_json(nlohmann::json& out, const ErrorFigures& errors);
+void to_json(nlohmann::json& out, const ResidualAnalysis& analysis);
+void to_json(nlohmann::json& out, const DiscoveryReport& discovery);
+
+// The human summary blmd-ident prints (docs/cli.md).
+std::string HumanSummary(const IdentReport& report);
 
 struct ReportInputs {
   std::string config_path;
@@ -47,31 +171,41 @@ struct ReportInputs {
   int threads = 1;
 };
 
-// The report's schema version (docs/report.md): 2 since the headline is the final model
-// (parameters, fit, residual and validation after discovery; the first fit under
-// discovery.before) and `warnings` was added; 1 (no field) before.
-inline constexpr int kReportSchemaVersion = 2;
+// The report of one fit (no discovery, no warnings yet).
+IdentReport MakeReport(const ReportInputs& inputs);
 
-nlohmann::json MakeReport(const ReportInputs& inputs);
-std::string HumanSummary(const nlohmann::json& report);
+// With the equation error: the motion simulated from the recorded input with `config` (its
+// error set to "output") at the free parameters `values`, compared on the traces' w (else
+// theta) column, so an equation-error fit is also judged as a simulation. Empty for the
+// output error, or when a trace lacks the column.
+std::optional<SimulatedFit> SimulatedErrors(const FitProblem& problem, const Config& config,
+                                            const std::vector<std::string>& free,
+                                            const std::vector<double>& values);
+
+// The discovery block from discovery's result: the errors before and after (fit and
+// held-out traces), the final residual, the competing models of an ambiguous round.
+// `before` is left empty (FinalModelReport fills it).
+DiscoveryReport MakeDiscoveryReport(const FitProblem& problem, const FitResult& initial,
+                                    const DiscoveryResult& result,
+                                    const FitProblem* validation_before,
+                                    const FitProblem* validation_after);
 
 // Makes the model after discovery the report's headline: `final_report` (MakeReport of the
-// final model) takes `discovery` as its "discovery" block, with the first fit's parameters,
-// fit, residual, validation and method summary under discovery.before, and the input
-// config's effects under config.effects (the final model's are in "effects").
-nlohmann::json FinalModelReport(nlohmann::json final_report, const nlohmann::json& first_report,
-                                nlohmann::json discovery);
+// final model) takes `discovery` with the first fit's model under discovery.before, and the
+// input config's effects (the final model's are in final_model.effects).
+IdentReport FinalModelReport(IdentReport final_report, const IdentReport& first_report,
+                             DiscoveryReport discovery);
 
 // When discovery stopped on an ambiguous round, the headline's intervals are widened to
 // cover every competing model's value of each parameter (discovery.ambiguous[].models):
 // ci95 becomes the hull, the unwidened one is kept in ci95_before_ambiguity and
 // interval_method gains "+ambiguity". The data cannot tell those models apart, so the
 // answer is no more precise than their disagreement.
-void WidenForAmbiguity(nlohmann::json* report);
+void WidenForAmbiguity(IdentReport* report);
 
-// The warnings about the final model (docs/report.md "Warnings"): [{code, message}] with
-// stable codes, from the report's own figures. Sets report["warnings"].
-void AddWarnings(nlohmann::json* report);
+// The warnings about the final model (docs/report.md "Warnings"): stable codes, from the
+// report's own figures. Sets report->warnings.
+void AddWarnings(IdentReport* report);
 
 // Replaces every non-finite number by null (a report never holds NaN or Inf).
 void SanitizeJson(nlohmann::json* value);

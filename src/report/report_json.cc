@@ -1,0 +1,332 @@
+// The report as JSON (interface.md "Report JSON", docs/report.md): to_json of IdentReport
+// and its parts. Rendering only: every figure was computed when the report was built.
+#include <cmath>
+
+#include "blmd/report/report.h"
+#include "blmd/version.h"
+
+namespace blmd {
+namespace {
+
+using nlohmann::json;
+
+json Number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+json Pair(double low, double high) { return json::array({Number(low), Number(high)}); }
+
+json NumberMap(const std::map<std::string, double>& values) {
+  json out = json::object();
+  for (const auto& [name, value] : values) out[name] = Number(value);
+  return out;
+}
+
+// {name: {"std", "ci95"}} of the estimates that have an interval.
+json Intervals(const std::vector<ParameterEstimate>& estimates) {
+  json out = json::object();
+  for (const auto& e : estimates) {
+    if (e.has_interval)
+      out[e.name] = {{"std", Number(e.std)}, {"ci95", Pair(e.ci95_low, e.ci95_high)}};
+  }
+  return out;
+}
+
+json ToJson(const ParameterReport& p) {
+  const ParameterEstimate& e = p.estimate;
+  json out;
+  out["value"] = Number(e.value);
+  out["free"] = p.free;
+  if (!p.unit.empty()) out["unit"] = p.unit;
+  if (!p.free) {
+    out["std"] = nullptr;
+    out["ci95"] = nullptr;
+    return out;
+  }
+  out["initial"] = Number(e.initial);
+  out["std"] = e.has_interval ? Number(e.std) : json(nullptr);
+  out["ci95"] = e.has_interval ? Pair(e.ci95_low, e.ci95_high) : json(nullptr);
+  if (e.has_interval) out["interval_method"] = e.interval_method;
+  if (e.has_hac_interval) {  // widened by the spread between traces
+    out["std_hac"] = Number(e.std_hac);
+    out["ci95_hac"] = Pair(e.ci95_hac_low, e.ci95_hac_high);
+  }
+  // The white-noise interval for comparison (docs/uncertainty.md).
+  if (e.has_white_interval) {
+    out["std_white"] = Number(e.std_white);
+    out["ci95_white"] = Pair(e.ci95_white_low, e.ci95_white_high);
+    out["white_interval_method"] = e.white_method;
+  }
+  if (p.has_bounds) {
+    out["bounds"] = {p.lower, p.upper};
+    out["at_bound"] = p.at_bound;
+  }
+  if (p.widened_by_ambiguity) {
+    out["ci95_before_ambiguity"] = Pair(p.ci95_before_ambiguity_low, p.ci95_before_ambiguity_high);
+  }
+  return out;
+}
+
+json ToJson(const SimulatedFit& simulated) {
+  json out = simulated.errors;
+  if (!simulated.column.empty()) out["observe"] = {simulated.column};
+  return out;
+}
+
+json ToJson(const std::optional<SimulatedFit>& simulated) {
+  return simulated ? ToJson(*simulated) : json(nullptr);
+}
+
+json ToJson(const FitReport& fit, const OptimizerSummary& s) {
+  json out = fit.errors;
+  out["observe"] = fit.observe;
+  out["fit_percent"] = fit.errors.ok ? Number(100.0 * (1.0 - fit.errors.nrmse)) : json(nullptr);
+  out["evaluations"] = s.evaluations;
+  out["failed_evaluations"] = s.failed_evaluations;
+  out["iterations"] = s.iterations;
+  out["converged"] = s.converged;
+  out["termination"] = s.termination;
+  out["wall_time_s"] = Number(s.wall_time_s);
+  if (fit.equation_error) {
+    out["error"] = {{"type", "equation"},
+                    {"filter_hz", Number(fit.filter_hz)},
+                    {"decimate", fit.decimate},
+                    {"samples", fit.samples}};
+    out["simulated"] = ToJson(fit.simulated);
+  } else {
+    out["error"] = {{"type", "output"}};
+  }
+  return out;
+}
+
+json ToJson(const ResidualReport& residual) {
+  json out = residual.analysis ? json(*residual.analysis) : json{{"whiteness_p", nullptr}};
+  if (!residual.note.empty()) out["note"] = residual.note;
+  return out;
+}
+
+json ToJson(const ValidationReport& validation) {
+  json out = validation.errors;
+  out["traces"] = validation.traces;
+  if (validation.equation_error) out["simulated"] = ToJson(validation.simulated);
+  return out;
+}
+
+// The parts of a model's report: the headline's keys, or discovery.before's.
+void ModelJson(const ModelReport& model, json* out) {
+  (*out)["method"] = model.method;
+  (*out)["effects"] = model.effects;
+  json parameters = json::object();
+  for (const auto& [name, p] : model.parameters) parameters[name] = ToJson(p);
+  (*out)["parameters"] = parameters;
+  (*out)["fit"] = ToJson(model.fit, model.summary);
+  const OptimizerSummary& s = model.summary;
+  (*out)["method_summary"] = {{"method", s.method},
+                              {"algorithm", s.algorithm},
+                              {"converged", s.converged},
+                              {"termination", s.termination},
+                              {"message", s.message},
+                              {"raw_code", s.raw_code},
+                              {"evaluations", s.evaluations},
+                              {"failed_evaluations", s.failed_evaluations},
+                              {"failure_reasons", s.failure_reasons},
+                              {"iterations", s.iterations},
+                              {"wall_time_s", Number(s.wall_time_s)},
+                              {"seed", model.seed},
+                              {"threads", model.threads},
+                              {"details", s.details}};
+  (*out)["residual"] = ToJson(model.residual);
+  (*out)["intervals_optimistic"] = model.intervals_optimistic;
+  if (model.validation) (*out)["validation"] = ToJson(*model.validation);
+}
+
+json CandidatesJson(const std::vector<CandidateOutcome>& outcomes) {
+  json list = json::array();
+  for (const auto& o : outcomes) {
+    json c = {{"effect", o.effect}, {"fitted", o.fitted}, {"valid", o.valid}};
+    if (o.fitted) {
+      c["delta_bic"] = Number(o.delta_bic);
+      c["delta_bic_white"] = Number(o.delta_bic_white);
+      c["evidence_rule"] = o.evidence_rule;
+      if (o.has_held_out) {
+        c["held_out_nrmse"] = {{"before", Number(o.held_out_before)},
+                               {"after", Number(o.held_out_after)}};
+      }
+      if (!o.noise_model.empty()) {
+        json noise = json::object();
+        for (const auto& [column, model] : o.noise_model) {
+          noise[column] = {{"ar_order", model.first}, {"innovation_ratio", Number(model.second)}};
+        }
+        c["noise_model"] = noise;
+      }
+      c["nrmse"] = Number(o.nrmse);
+      c["parameters"] = NumberMap(o.parameters);
+    }
+    if (!o.reason.empty()) c["reason"] = o.reason;
+    list.push_back(c);
+  }
+  return list;
+}
+
+json StepJson(const DiscoveryStep& step) {
+  json s;
+  s["effect"] = step.effect;
+  json parameters = json::object();
+  for (const auto& e : step.effect_parameters) parameters[e.name] = Number(e.value);
+  for (const auto& [name, value] : step.fixed_parameters) parameters[name] = Number(value);
+  s["parameters"] = parameters;
+  s["intervals"] = Intervals(step.effect_parameters);
+  s["nrmse_before"] = Number(step.nrmse_before);
+  s["nrmse_after"] = Number(step.nrmse_after);
+  s["evidence"] = step.evidence;
+  s["bic_before"] = Number(step.bic_before);
+  s["bic_after"] = Number(step.bic_after);
+  s["delta_bic"] = Number(step.bic_after - step.bic_before);
+  s["candidates"] = CandidatesJson(step.candidates);
+  return s;
+}
+
+}  // namespace
+
+void SanitizeJson(json* value) {
+  if (value->is_number_float() && !std::isfinite(value->get<double>())) {
+    *value = nullptr;
+  } else if (value->is_structured()) {
+    for (auto& item : *value) SanitizeJson(&item);
+  }
+}
+
+void to_json(json& out, const ErrorFigures& errors) {
+  out = json::object();
+  if (!errors.ok) {
+    out["nrmse"] = nullptr;
+    out["failed"] = errors.reason;
+    return;
+  }
+  out["nrmse"] = Number(errors.nrmse);
+  out["mse"] = Number(errors.mse);
+  json rmse = json::object();
+  for (std::size_t c = 0; c < errors.observe.size(); ++c)
+    rmse[errors.observe[c]] = Number(errors.rmse[c]);
+  out["rmse"] = rmse;
+}
+
+void to_json(json& out, const ResidualAnalysis& analysis) {
+  out = json::object();
+  if (!analysis.ok) {
+    out["whiteness_p"] = nullptr;
+    out["failed"] = analysis.reason;
+    return;
+  }
+  out["whiteness_p"] = Number(analysis.whiteness_p);
+  out["white"] = analysis.white;
+  out["w_changes_sign"] = analysis.w_changes_sign;
+  json columns = json::object();
+  for (const auto& d : analysis.columns) {
+    json c;
+    c["mean"] = Number(d.mean);
+    c["rms"] = Number(d.rms);
+    c["whiteness_p"] = Number(d.whiteness_p);
+    c["ljung_box_q"] = Number(d.ljung_box_q);
+    c["ljung_box_lags"] = d.ljung_box_lags;
+    c["acf"] = d.acf;
+    c["acf_band95"] = Number(d.acf_band95);
+    c["input_ccf"] = {{"lags", d.input_ccf.empty() ? 0 : static_cast<int>(d.input_ccf.size() / 2)},
+                      {"values", d.input_ccf},
+                      {"peak", Number(d.input_ccf_peak)},
+                      {"peak_lag", d.input_ccf_peak_lag},
+                      {"band95", Number(d.input_ccf_band95)}};
+    auto sign = [](const SignDependence& s) {
+      if (!s.available) return json(nullptr);
+      return json{{"mean_positive", Number(s.mean_positive)},
+                  {"mean_negative", Number(s.mean_negative)},
+                  {"count_positive", s.count_positive},
+                  {"count_negative", s.count_negative},
+                  {"t", Number(s.t_statistic)}};
+    };
+    c["by_sign_of_w"] = sign(d.sign_w);
+    c["by_sign_of_i"] = sign(d.sign_i);
+    json peaks = json::array();
+    for (const auto& p : d.angle_peaks) {
+      json peak = {{"order_per_rev", p.order},
+                   {"amplitude", Number(p.amplitude)},
+                   {"ratio_to_floor", Number(p.ratio)}};
+      if (p.electrical_multiple > 0.0) peak["electrical_multiple"] = Number(p.electrical_multiple);
+      peaks.push_back(peak);
+    }
+    c["angle_spectrum_peaks"] = d.shaft_turned ? peaks : json(nullptr);
+    columns[d.column] = c;
+  }
+  out["columns"] = columns;
+}
+
+void to_json(json& out, const DiscoveryReport& d) {
+  out = json::object();
+  out["added"] = d.added;
+  out["steps"] = json::array();
+  for (const auto& step : d.steps) out["steps"].push_back(StepJson(step));
+  out["ambiguous"] = json::array();
+  for (const auto& group : d.ambiguous) {
+    json models = json::array();
+    for (const auto& m : group.models) {
+      models.push_back({{"effect", m.effect},
+                        {"nrmse", Number(m.nrmse)},
+                        {"delta_bic", Number(m.delta_bic)},
+                        {"parameters", NumberMap(m.parameters)}});
+    }
+    out["ambiguous"].push_back(
+        {{"effects", group.effects}, {"reason", group.reason}, {"models", models}});
+  }
+  out["last_round"] = CandidatesJson(d.last_round);
+  out["conclusion"] = d.conclusion;
+  out["error_before"] = d.error_before;
+  out["error_after"] = d.error_after;
+  json after = json::object();
+  for (const auto& e : d.parameters_after) after[e.name] = Number(e.value);
+  out["parameters_after"] = after;
+  out["intervals_after"] = Intervals(d.parameters_after);
+  out["effects_after"] = d.effects_after;
+  out["residual_after"] = d.residual_after;
+  if (d.has_validation) {
+    out["validation"] = {{"before", d.validation_before}, {"after", d.validation_after}};
+    if (d.equation_error)
+      out["validation"]["simulated_after"] = ToJson(d.validation_simulated_after);
+  }
+  if (d.equation_error) out["simulated_after"] = ToJson(d.simulated_after);
+  json before = json::object();
+  ModelJson(d.before, &before);
+  out["before"] = before;
+  SanitizeJson(&out);
+}
+
+void to_json(json& out, const IdentReport& report) {
+  out = json::object();
+  out["tool"] = "blmd-ident";
+  out["version"] = kVersion;
+  out["schema_version"] = kReportSchemaVersion;
+  out["model"] = report.model;
+  out["config"] = {{"path", report.config_path},
+                   {"name", report.config_name},
+                   {"effects", report.config_effects}};
+  json traces = json::array();
+  for (const auto& t : report.traces) {
+    json entry = {{"path", t.path}, {"samples", t.samples}, {"sha256", t.sha256}};
+    if (t.has_errors) {
+      entry["rmse"] = NumberMap(t.rmse);
+      entry["nrmse"] = Number(t.nrmse);
+    }
+    traces.push_back(entry);
+  }
+  if (!report.traces.empty()) {
+    const TraceReport& first = report.traces.front();
+    out["trace"] = {{"path", first.path}, {"samples", first.samples}, {"sha256", first.sha256}};
+  }
+  out["traces"] = traces;
+  ModelJson(report.final_model, &out);
+  if (report.discovery) out["discovery"] = *report.discovery;
+  json warnings = json::array();
+  for (const auto& w : report.warnings)
+    warnings.push_back({{"code", w.code}, {"message", w.message}});
+  out["warnings"] = warnings;
+  SanitizeJson(&out);
+}
+
+}  // namespace blmd
