@@ -273,9 +273,7 @@ FitResult CeresOptimizer::Minimize(const FitProblem& problem,
   if (result.evaluation.ok && problem.num_residuals() > p) {
     SetIntervals(problem, &cost, fd_step, x, &result);
   }
-  cost.FillSummary(&summary);
-  summary.wall_time_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  CloseSummary(cost, started, &summary);
   return result;
 }
 

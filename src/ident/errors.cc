@@ -17,4 +17,12 @@ ErrorFigures ComputeErrors(const FitProblem& problem, const std::vector<double>&
   return errors;
 }
 
+std::map<std::string, double> RmseByColumn(const ErrorFigures& errors) {
+  std::map<std::string, double> rmse;
+  if (!errors.ok) return rmse;
+  for (std::size_t c = 0; c < errors.observe.size() && c < errors.rmse.size(); ++c)
+    rmse[errors.observe[c]] = errors.rmse[c];
+  return rmse;
+}
+
 }  // namespace blmd

@@ -355,10 +355,7 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
                      {"polish_evaluations", s.polish_evaluations},
                      {"polish_step", s.polish_step},
                      {"walker_results", walker_json}};
-  cost.FillSummary(&summary);
-  summary.wall_time_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-  if (result.evaluation.ok) EstimateUncertainty(problem, result.values, &result.estimates);
+  FinishFit(problem, cost, started, &result);
   return result;
 }
 

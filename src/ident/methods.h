@@ -1,7 +1,10 @@
 // Private: the optimiser classes, known only to the registry in optimizer.cc.
 #pragma once
 
+#include <chrono>
+
 #include "blmd/ident/optimizer.h"
+#include "ident/counting_cost.h"
 
 namespace blmd::internal {
 
@@ -40,5 +43,14 @@ void SetInterval(const FreeParameter& parameter, double std_search, const std::s
                  ParameterEstimate* estimate, double quantile = 1.959963984540054);
 std::vector<ParameterEstimate> MakeEstimates(const FitProblem& problem,
                                              const std::vector<double>& values);
+
+// The end every optimiser's run shares: the evaluation counts and the wall time since
+// `started` in the summary.
+void CloseSummary(const CountingCost& cost, std::chrono::steady_clock::time_point started,
+                  OptimizerSummary* summary);
+// CloseSummary, then the intervals at the result when its cost is finite (EstimateUncertainty:
+// Powell and FSD; Ceres sets its own from its Jacobian).
+void FinishFit(const FitProblem& problem, const CountingCost& cost,
+               std::chrono::steady_clock::time_point started, FitResult* result);
 
 }  // namespace blmd::internal

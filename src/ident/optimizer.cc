@@ -159,6 +159,19 @@ std::vector<ParameterEstimate> MakeEstimates(const FitProblem& problem,
   return estimates;
 }
 
+void CloseSummary(const CountingCost& cost, std::chrono::steady_clock::time_point started,
+                  OptimizerSummary* summary) {
+  cost.FillSummary(summary);
+  summary->wall_time_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+}
+
+void FinishFit(const FitProblem& problem, const CountingCost& cost,
+               std::chrono::steady_clock::time_point started, FitResult* result) {
+  CloseSummary(cost, started, &result->summary);
+  if (result->evaluation.ok) EstimateUncertainty(problem, result->values, &result->estimates);
+}
+
 void CheckProgress(const FitProblem& problem, FitResult* result) {
   OptimizerSummary& summary = result->summary;
   if (!summary.converged) return;

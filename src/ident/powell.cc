@@ -149,10 +149,7 @@ FitResult PowellOptimizer::Minimize(const FitProblem& problem,
                      {"ftol_rel", ftol},
                      {"max_evaluations", budget}};
   CheckProgress(problem, &result);
-  cost.FillSummary(&summary);
-  summary.wall_time_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-  if (result.evaluation.ok) EstimateUncertainty(problem, result.values, &result.estimates);
+  FinishFit(problem, cost, started, &result);
   return result;
 }
 

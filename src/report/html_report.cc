@@ -74,14 +74,6 @@ std::string Text(const json& v) {
 // The error's NRMSE, "n/a" when it could not be computed.
 std::string Nrmse(const ErrorFigures& errors) { return errors.ok ? G(errors.nrmse, 4) : "n/a"; }
 
-// The RMSE per column, by column name.
-std::map<std::string, double> Rmse(const ErrorFigures& errors) {
-  std::map<std::string, double> rmse;
-  for (std::size_t c = 0; c < errors.observe.size() && c < errors.rmse.size(); ++c)
-    rmse[errors.observe[c]] = errors.rmse[c];
-  return rmse;
-}
-
 std::string Interval(double low, double high, int digits) {
   return "[" + G(low, digits) + ", " + G(high, digits) + "]";
 }
@@ -698,8 +690,8 @@ void WriteDiscovery(Page& page, const DiscoveryReport& discovery) {
   h += "<table class=\"errors\">\n" + HeaderRow({"error", "before", "after"});
   h += Row({"NRMSE", Nrmse(before), Nrmse(after)}, "", {false, true, true});
   if (before.ok) {
-    const std::map<std::string, double> after_rmse = Rmse(after);
-    for (const auto& [column, value] : Rmse(before)) {
+    const std::map<std::string, double> after_rmse = RmseByColumn(after);
+    for (const auto& [column, value] : RmseByColumn(before)) {
       const auto found = after_rmse.find(column);
       h += Row({"RMSE " + Escape(column), G(value, 4),
                 found == after_rmse.end() ? std::string("n/a") : G(found->second, 4)},
@@ -714,21 +706,12 @@ void WriteDiscovery(Page& page, const DiscoveryReport& discovery) {
                     "ΔBIC", "evidence"});
     for (std::size_t k = 0; k < steps.size(); ++k) {
       const DiscoveryStep& step = steps[k];
-      // The effect's fitted and fixed parameters, by name.
-      std::map<std::string, const ParameterEstimate*> fitted;
-      std::map<std::string, double> values;
-      for (const auto& e : step.effect_parameters) {
-        fitted[e.name] = &e;
-        values[e.name] = e.value;
-      }
-      for (const auto& [name, value] : step.fixed_parameters) values[name] = value;
       std::string parameters;
-      for (const auto& [name, value] : values) {
+      for (const StepParameter& p : StepParameters(step)) {
         if (!parameters.empty()) parameters += "<br>";
-        parameters += Escape(name) + " = " + G(value, 5);
-        const auto found = fitted.find(name);
-        if (found != fitted.end() && found->second->has_interval)
-          parameters += " " + Interval(found->second->ci95_low, found->second->ci95_high, 4);
+        parameters += Escape(p.name) + " = " + G(p.value, 5);
+        if (p.fitted && p.fitted->has_interval)
+          parameters += " " + Interval(p.fitted->ci95_low, p.fitted->ci95_high, 4);
       }
       h += Row({std::to_string(k + 1), "<b>" + Escape(step.effect) + "</b>", parameters,
                 G(step.nrmse_before, 4) + " → " + G(step.nrmse_after, 4),
@@ -798,7 +781,7 @@ void WriteValidation(Page& page, const ValidationReport& validation) {
   std::string paths, rmse;
   for (const auto& p : validation.traces) paths += (paths.empty() ? "" : "<br>") + Escape(p);
   if (validation.errors.ok) {
-    for (const auto& [column, value] : Rmse(validation.errors)) {
+    for (const auto& [column, value] : RmseByColumn(validation.errors)) {
       rmse += (rmse.empty() ? "" : ", ") + Escape(column) + " " + G(value, 4);
     }
   }

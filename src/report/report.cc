@@ -7,16 +7,12 @@
 #include <cstdio>
 
 #include "blmd/error.h"
+#include "report/text.h"
 
 namespace blmd {
 namespace {
 
-std::string G(double v, int digits = 5) {
-  if (!std::isfinite(v)) return "n/a";
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%.*g", digits, v);
-  return buffer;
-}
+using internal::Figure;
 
 // An estimate on a bound is the bound's answer, not the data's: its interval means little,
 // and a wider bound (or another model) is needed. Within 1e-6 of the range, and (linear
@@ -243,6 +239,15 @@ IdentReport FinalModelReport(IdentReport final_report, const IdentReport& first_
   return final_report;
 }
 
+std::vector<StepParameter> StepParameters(const DiscoveryStep& step) {
+  std::map<std::string, StepParameter> by_name;
+  for (const auto& e : step.effect_parameters) by_name[e.name] = {e.name, e.value, &e};
+  for (const auto& [name, value] : step.fixed_parameters) by_name[name] = {name, value, nullptr};
+  std::vector<StepParameter> parameters;
+  for (auto& [name, parameter] : by_name) parameters.push_back(parameter);
+  return parameters;
+}
+
 void WidenForAmbiguity(IdentReport* report) {
   if (!report->discovery) return;
   auto& parameters = report->final_model.parameters;
@@ -284,21 +289,21 @@ void AddWarnings(IdentReport* report) {
   const ErrorFigures& fit = model.fit.errors;
   if (fit.ok && std::isfinite(fit.nrmse) && fit.nrmse >= 1.0) {
     add("nrmse_at_least_one",
-        "NRMSE " + G(fit.nrmse, 4) +
+        "NRMSE " + Figure(fit.nrmse, 4) +
             " >= 1: the model explains the measured columns no better than their means");
   }
   if (model.validation) {
     const ErrorFigures& v = model.validation->errors;
     if (v.ok && std::isfinite(v.nrmse) && v.nrmse >= 1.0) {
       add("nrmse_at_least_one",
-          "validation NRMSE " + G(v.nrmse, 4) +
+          "validation NRMSE " + Figure(v.nrmse, 4) +
               " >= 1: on the held-out traces the model is no better than the columns' means");
     }
   }
   const ResidualAnalysis* residual = model.residual.analysis ? &*model.residual.analysis : nullptr;
   if (residual && residual->ok && !residual->white) {
     add("residual_not_white",
-        "the residual is not white (Ljung-Box p = " + G(residual->whiteness_p, 3) +
+        "the residual is not white (Ljung-Box p = " + Figure(residual->whiteness_p, 3) +
             "): structure is left that the model does not explain; the intervals allow for "
             "correlated noise, not for a missing effect, which may bias the estimates");
   }
@@ -308,8 +313,8 @@ void AddWarnings(IdentReport* report) {
     const ParameterEstimate& e = p.estimate;
     if (p.has_bounds && p.at_bound) {
       add("parameter_at_bound",
-          name + " = " + G(e.value, 6) + " is at its bound [" + G(p.lower, 4) + ", " +
-              G(p.upper, 4) +
+          name + " = " + Figure(e.value, 6) + " is at its bound [" + Figure(p.lower, 4) + ", " +
+              Figure(p.upper, 4) +
               "]: the bound, not the data, set it; widen the bound or change the model");
     }
     if (!e.has_interval) {
@@ -318,8 +323,9 @@ void AddWarnings(IdentReport* report) {
       const double half = 0.5 * (e.ci95_high - e.ci95_low);
       if (!(half <= 0.5 * std::abs(e.value))) {
         add("parameter_poorly_determined",
-            name + " = " + G(e.value, 4) + " with a 95 % interval of [" + G(e.ci95_low, 4) + ", " +
-                G(e.ci95_high, 4) + "] (more than ±50 %): these traces hardly determine it");
+            name + " = " + Figure(e.value, 4) + " with a 95 % interval of [" +
+                Figure(e.ci95_low, 4) + ", " + Figure(e.ci95_high, 4) +
+                "] (more than ±50 %): these traces hardly determine it");
       }
     }
   }
@@ -346,9 +352,9 @@ void AddWarnings(IdentReport* report) {
       for (const char* name : {"J", "B"}) {
         const auto found = m.parameters.find(name);
         if (found != m.parameters.end())
-          models += std::string(" ") + name + " = " + G(found->second, 4);
+          models += std::string(" ") + name + " = " + Figure(found->second, 4);
       }
-      models += " (NRMSE " + G(m.nrmse, 4) + ")";
+      models += " (NRMSE " + Figure(m.nrmse, 4) + ")";
     }
     add("discovery_ambiguous",
         "discovery could not tell " + effects + " apart and added neither (" + group.reason +
@@ -360,7 +366,8 @@ void AddWarnings(IdentReport* report) {
   if (discovery.has_validation && before.ok && after.ok && std::isfinite(before.nrmse) &&
       std::isfinite(after.nrmse) && after.nrmse > before.nrmse) {
     add("validation_worse_after_discovery",
-        "the validation NRMSE rose from " + G(before.nrmse, 4) + " to " + G(after.nrmse, 4) +
+        "the validation NRMSE rose from " + Figure(before.nrmse, 4) + " to " +
+            Figure(after.nrmse, 4) +
             " when discovery added effects: they may fit the fit traces' noise, not the "
             "motor; compare with discovery.before");
   }

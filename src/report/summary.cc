@@ -6,30 +6,20 @@
 
 #include "blmd/report/report.h"
 #include "blmd/version.h"
+#include "report/text.h"
 
 namespace blmd {
 namespace {
 
-std::string G(double v, int digits = 5) {
-  if (!std::isfinite(v)) return "n/a";
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%.*g", digits, v);
-  return buffer;
-}
+using internal::Figure;
 
 // The error's NRMSE, "n/a" when it could not be computed.
-std::string Nrmse(const ErrorFigures& errors) { return errors.ok ? G(errors.nrmse, 4) : "n/a"; }
+std::string Nrmse(const ErrorFigures& errors) {
+  return errors.ok ? Figure(errors.nrmse, 4) : "n/a";
+}
 
 std::string Nrmse(const std::optional<SimulatedFit>& simulated) {
   return simulated ? Nrmse(simulated->errors) : "n/a";
-}
-
-// The RMSE per column, by column name.
-std::map<std::string, double> Rmse(const ErrorFigures& errors) {
-  std::map<std::string, double> rmse;
-  for (std::size_t c = 0; c < errors.observe.size() && c < errors.rmse.size(); ++c)
-    rmse[errors.observe[c]] = errors.rmse[c];
-  return rmse;
 }
 
 void Parameters(const ModelReport& model, std::ostringstream& out) {
@@ -37,15 +27,15 @@ void Parameters(const ModelReport& model, std::ostringstream& out) {
     const ParameterEstimate& e = p.estimate;
     const std::string unit = p.unit.empty() ? "" : " " + p.unit;
     char line[256];
-    std::snprintf(line, sizeof line, "  %-6s = %-12s%s", name.c_str(), G(e.value, 6).c_str(),
+    std::snprintf(line, sizeof line, "  %-6s = %-12s%s", name.c_str(), Figure(e.value, 6).c_str(),
                   unit.c_str());
     out << line;
     if (p.free && e.has_interval) {
-      out << "   ± " << G(e.std, 3) << " (95 %: [" << G(e.ci95_low, 5) << ", " << G(e.ci95_high, 5)
-          << "]" << (p.widened_by_ambiguity ? ", widened to cover the ambiguous models" : "")
-          << ")";
+      out << "   ± " << Figure(e.std, 3) << " (95 %: [" << Figure(e.ci95_low, 5) << ", "
+          << Figure(e.ci95_high, 5) << "]"
+          << (p.widened_by_ambiguity ? ", widened to cover the ambiguous models" : "") << ")";
     }
-    if (p.free && std::isfinite(e.initial)) out << "   initial " << G(e.initial, 4);
+    if (p.free && std::isfinite(e.initial)) out << "   initial " << Figure(e.initial, 4);
     if (!p.free) out << "   (classic estimate)";
     if (p.has_bounds && p.at_bound) out << "   AT ITS BOUND";
     out << "\n";
@@ -59,17 +49,18 @@ void Fit(const FitReport& fit, std::ostringstream& out) {
     out << "failed (" << (errors.ok ? "" : errors.reason) << ")\n";
     return;
   }
-  out << "NRMSE " << G(errors.nrmse, 4) << " (fit " << G(100.0 * (1.0 - errors.nrmse), 4)
+  out << "NRMSE " << Figure(errors.nrmse, 4) << " (fit " << Figure(100.0 * (1.0 - errors.nrmse), 4)
       << " %), RMSE";
-  for (const auto& [column, value] : Rmse(errors)) out << " " << column << " " << G(value, 4);
+  for (const auto& [column, value] : RmseByColumn(errors))
+    out << " " << column << " " << Figure(value, 4);
   out << "\n";
   if (fit.equation_error) {
     out << "  equation error (the input the model needs along the measured motion): low-pass "
-        << G(fit.filter_hz, 4) << " Hz, decimation " << fit.decimate << ", " << fit.samples
+        << Figure(fit.filter_hz, 4) << " Hz, decimation " << fit.decimate << ", " << fit.samples
         << " samples";
     if (fit.simulated && fit.simulated->errors.ok && std::isfinite(fit.simulated->errors.nrmse)) {
       out << "; simulated " << fit.simulated->column << ": NRMSE "
-          << G(fit.simulated->errors.nrmse, 4);
+          << Figure(fit.simulated->errors.nrmse, 4);
     }
     out << "\n";
   }
@@ -79,28 +70,19 @@ void Method(const OptimizerSummary& s, std::ostringstream& out) {
   out << "method: " << (s.converged ? "converged" : "NOT converged") << " (" << s.termination
       << "), " << s.evaluations << " evaluations";
   if (s.failed_evaluations > 0) out << " (" << s.failed_evaluations << " failed)";
-  out << ", " << s.iterations << " iterations, " << G(s.wall_time_s, 3) << " s\n";
+  out << ", " << s.iterations << " iterations, " << Figure(s.wall_time_s, 3) << " s\n";
 }
 
 void Discovery(const IdentReport& report, std::ostringstream& out) {
   const DiscoveryReport& d = *report.discovery;
   out << "discovery: " << d.conclusion << "\n";
   for (const auto& step : d.steps) {
-    // The effect's fitted and fixed parameters, by name.
-    std::map<std::string, const ParameterEstimate*> fitted;
-    std::map<std::string, double> values;
-    for (const auto& e : step.effect_parameters) {
-      fitted[e.name] = &e;
-      values[e.name] = e.value;
-    }
-    for (const auto& [name, value] : step.fixed_parameters) values[name] = value;
     out << "  + " << step.effect << ":";
-    for (const auto& [name, value] : values) {
-      out << " " << name << " = " << G(value, 5);
-      const auto found = fitted.find(name);
-      if (found != fitted.end() && found->second->has_interval) {
-        out << " (95 %: [" << G(found->second->ci95_low, 4) << ", "
-            << G(found->second->ci95_high, 4) << "])";
+    for (const StepParameter& p : StepParameters(step)) {
+      out << " " << p.name << " = " << Figure(p.value, 5);
+      if (p.fitted && p.fitted->has_interval) {
+        out << " (95 %: [" << Figure(p.fitted->ci95_low, 4) << ", "
+            << Figure(p.fitted->ci95_high, 4) << "])";
       }
     }
     out << "\n    evidence: " << step.evidence << "\n";
@@ -108,11 +90,11 @@ void Discovery(const IdentReport& report, std::ostringstream& out) {
   out << "  error before -> after: NRMSE " << Nrmse(d.error_before) << " -> "
       << Nrmse(d.error_after);
   if (d.error_before.ok && d.error_after.ok) {
-    const std::map<std::string, double> after = Rmse(d.error_after);
-    for (const auto& [column, value] : Rmse(d.error_before)) {
+    const std::map<std::string, double> after = RmseByColumn(d.error_after);
+    for (const auto& [column, value] : RmseByColumn(d.error_before)) {
       const auto found = after.find(column);
-      out << ", " << column << " " << G(value, 4) << " -> "
-          << (found == after.end() ? std::string("n/a") : G(found->second, 4));
+      out << ", " << column << " " << Figure(value, 4) << " -> "
+          << (found == after.end() ? std::string("n/a") : Figure(found->second, 4));
     }
   }
   out << "\n";
@@ -139,7 +121,7 @@ void Discovery(const IdentReport& report, std::ostringstream& out) {
   if (!d.added.empty()) {
     out << "  parameters before discovery:";
     for (const auto& [name, p] : before.parameters)
-      out << " " << name << " = " << G(p.estimate.value, 5);
+      out << " " << name << " = " << Figure(p.estimate.value, 5);
     out << "\n";
   }
 }
@@ -166,7 +148,7 @@ std::string HumanSummary(const IdentReport& report) {
   Method(model.summary, out);
   const ResidualAnalysis* residual = model.residual.analysis ? &*model.residual.analysis : nullptr;
   if (residual && residual->ok && std::isfinite(residual->whiteness_p)) {
-    out << "residual: Ljung-Box p = " << G(residual->whiteness_p, 3)
+    out << "residual: Ljung-Box p = " << Figure(residual->whiteness_p, 3)
         << (residual->white ? " (white)" : " (NOT white: structure left in the residual)") << "\n";
   }
   if (model.intervals_optimistic) {

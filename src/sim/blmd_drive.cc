@@ -86,10 +86,7 @@ SimStatus BlmdDriveModel::SimulateReference(const SimulationRequest& request, Tr
   const std::vector<double>& times = *request.sample_times;
   const SimulationSettings& settings = request.settings;
   const double dt = settings.dt;
-  if (std::string error = Validate(values, settings); !error.empty()) {
-    return {SimStatus::Code::kInvalidParameters, error, 0.0};
-  }
-  if (times.empty()) return {SimStatus::Code::kInvalidParameters, "no sample times", 0.0};
+  if (SimStatus status = CheckRequest(request); !status.ok()) return status;
 
   const double Ud = values.Get("Ud"), Rs = values.Get("Rs"), Ls = values.Get("Ls"),
                Ke = values.Get("Ke"), p = values.Get("p"), Kc = values.Get("Kc"),

@@ -70,10 +70,7 @@ SimulateFast(const BlmdDriveModel& model, const SimulationRequest& request, Trac
   const std::vector<double>& times = *request.sample_times;
   const SimulationSettings& settings = request.settings;
   const double dt = settings.dt;
-  if (std::string error = model.Validate(values, settings); !error.empty()) {
-    return {SimStatus::Code::kInvalidParameters, error, 0.0};
-  }
-  if (times.empty()) return {SimStatus::Code::kInvalidParameters, "no sample times", 0.0};
+  if (SimStatus status = model.CheckRequest(request); !status.ok()) return status;
 
   const internal::BlmdStepConstants k =
       internal::BlmdStepConstants::From(values, *request.effects, settings);

@@ -49,10 +49,7 @@ SimStatus DcServoModel::SimulateReference(const SimulationRequest& request, Trac
   const Experiment& experiment = *request.experiment;
   const std::vector<double>& times = *request.sample_times;
   const double dt = request.settings.dt;
-  if (std::string error = Validate(values, request.settings); !error.empty()) {
-    return {SimStatus::Code::kInvalidParameters, error, 0.0};
-  }
-  if (times.empty()) return {SimStatus::Code::kInvalidParameters, "no sample times", 0.0};
+  if (SimStatus status = CheckRequest(request); !status.ok()) return status;
 
   const double R = values.Get("R"), L = values.Get("L"), Kt = values.Get("Kt"),
                Kb = values.Get("Kb"), J = values.Get("J"), B = values.Get("B");

@@ -26,6 +26,16 @@ void Model::SimulateBatch(const SimulationRequest* requests, std::size_t count, 
   for (std::size_t k = 0; k < count; ++k) statuses[k] = Simulate(requests[k], &outs[k]);
 }
 
+SimStatus Model::CheckRequest(const SimulationRequest& request) const {
+  if (std::string error = Validate(*request.parameters, request.settings); !error.empty()) {
+    return {SimStatus::Code::kInvalidParameters, error, 0.0};
+  }
+  if (request.sample_times->empty()) {
+    return {SimStatus::Code::kInvalidParameters, "no sample times", 0.0};
+  }
+  return {};
+}
+
 const ParamInfo* Model::FindParameter(std::string_view name) const {
   for (const auto& info : parameters()) {
     if (info.name == name) return &info;

@@ -50,10 +50,7 @@ SimStatus RigidLoadModel::Simulate(const SimulationRequest& request, Trace* out)
   const Experiment& experiment = *request.experiment;
   const std::vector<double>& times = *request.sample_times;
   const double dt = request.settings.dt;
-  if (std::string error = Validate(values, request.settings); !error.empty()) {
-    return {SimStatus::Code::kInvalidParameters, error, 0.0};
-  }
-  if (times.empty()) return {SimStatus::Code::kInvalidParameters, "no sample times", 0.0};
+  if (SimStatus status = CheckRequest(request); !status.ok()) return status;
   const double J = values.Get("J"), B = values.Get("B"), Kt = values.Get("Kt");
   const ShaftEffects shaft =
       ShaftEffects::From(values, *request.effects, request.settings.friction_smoothing_w);

@@ -2,6 +2,7 @@
 // column and the NRMSE, the figures every report and discovery round quotes.
 #pragma once
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -19,5 +20,8 @@ struct ErrorFigures {
   double mse = 0.0;          // the cost, = nrmse^2 (dimensionless)
 };
 ErrorFigures ComputeErrors(const FitProblem& problem, const std::vector<double>& values);
+
+// The RMSE per observed column, by column name (empty when the error was not computed).
+std::map<std::string, double> RmseByColumn(const ErrorFigures& errors);
 
 }  // namespace blmd

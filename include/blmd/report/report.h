@@ -159,6 +159,16 @@ void to_json(nlohmann::json& out, const ErrorFigures& errors);
 void to_json(nlohmann::json& out, const ResidualAnalysis& analysis);
 void to_json(nlohmann::json& out, const DiscoveryReport& discovery);
 
+// A discovery step's parameters by name, as the summary and the page list them: the
+// effect's fitted ones (`fitted` points at the estimate, with its interval) and its fixed
+// ones (e.g. cogging periods; `fitted` null).
+struct StepParameter {
+  std::string name;
+  double value = 0.0;
+  const ParameterEstimate* fitted = nullptr;
+};
+std::vector<StepParameter> StepParameters(const DiscoveryStep& step);
+
 // The human summary blmd-ident prints (docs/cli.md).
 std::string HumanSummary(const IdentReport& report);
 

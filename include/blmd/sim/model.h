@@ -47,6 +47,9 @@ class Model {
   // Returns an error message for values the model cannot run with (empty: fine).
   virtual std::string Validate(const ParameterSet& values,
                                const SimulationSettings& settings) const;
+  // The checks every simulation starts with: the parameters valid for the settings
+  // (Validate) and sample times to fill. ok() when the request can run.
+  SimStatus CheckRequest(const SimulationRequest& request) const;
   // Fills *out with t, u and outputs() at the request's sample times.
   virtual SimStatus Simulate(const SimulationRequest& request, Trace* out) const = 0;
   // Simulates `count` parameter points at once: outs[k] and statuses[k] are what
