@@ -4,6 +4,9 @@ the same numbers (bit for bit where the command writes round-trip exact numbers;
 relative in the report), and bad input the same message."""
 
 import json
+import signal
+import subprocess
+import sys
 import threading
 import time
 
@@ -287,3 +290,51 @@ def test_gil_is_released_during_work():
     worker.join()
     assert elapsed[0] > 0.2, elapsed  # long enough to tell
     assert longest < elapsed[0] / 2, (longest, elapsed)
+
+
+# ---- Ctrl-C ----
+
+def test_ctrl_c_stops_a_surface(tmp_path):
+    # A sweep of minutes on one thread, interrupted after it started: KeyboardInterrupt within
+    # a fraction of a second (the progress callback checks Python's signals), not minutes.
+    script = tmp_path / "sweep.py"
+    script.write_text(
+        "import signal, blmd\n"
+        # Python's own handler, even when started with SIGINT ignored (a background job).
+        "signal.signal(signal.SIGINT, signal.default_int_handler)\n"
+        "print('started', flush=True)\n"
+        f"blmd.surface({NOLOAD!r}, {NOLOAD_STEP!r}, {{'J': ('log', 1e-5, 5e-5, 8000)}},\n"
+        "             threads=1)\n"
+        "print('finished', flush=True)\n")
+    process = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)
+    assert process.stdout.readline() == "started\n"
+    time.sleep(1.0)  # well inside the sweep: reading the trace takes milliseconds
+    interrupted = time.perf_counter()
+    process.send_signal(signal.SIGINT)
+    try:
+        stdout, stderr = process.communicate(timeout=60)
+    finally:
+        process.kill()
+    took = time.perf_counter() - interrupted
+    assert process.returncode != 0 and "KeyboardInterrupt" in stderr, stderr
+    assert "finished" not in stdout
+    assert took < 5.0, took
+
+
+def test_identifications_in_parallel_threads_equal_sequential():
+    sequential = [blmd.identify(NOLOAD, NOLOAD_STEP, threads=1),
+                  blmd.identify(SQUARE, HIDDEN_COULOMB, threads=1)]
+    results = [None, None]
+
+    def run(k, config, trace):
+        results[k] = blmd.identify(config, trace, threads=1)
+
+    workers = [threading.Thread(target=run, args=(0, NOLOAD, NOLOAD_STEP)),
+               threading.Thread(target=run, args=(1, SQUARE, HIDDEN_COULOMB))]
+    for worker in workers:
+        worker.start()
+    for worker in workers:
+        worker.join()
+    for result, expected in zip(results, sequential):
+        assert_same_report(result, expected, rel=0.0)
