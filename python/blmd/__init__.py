@@ -147,7 +147,14 @@ def _whole(value, flag, low=0, high=None):
     if not ok:
         if high is None:
             raise InputError(f"{flag}: must be a whole number >= {low}, not {value}")
-        raise InputError(f"{flag}: Value {value} not in range {low} - {high}")
+        raise InputError(f"{flag}: Value {value} not in range {low} to {high}")
+    return int(value)
+
+
+def _integer(value, flag):
+    """Any whole number, as the flags that take an int without a range check."""
+    if not isinstance(value, numbers.Integral) or isinstance(value, bool):
+        raise InputError(f"Could not convert: {flag} = {value}")
     return int(value)
 
 
@@ -258,7 +265,7 @@ def identify(config, traces, method=None, discover=False, candidates=None, obser
     settings.method_options = [f"{key}={_number_text(value)}" for key, value in options.items()]
     settings.seed = _whole(seed, "--seed")
     settings.threads = _threads(threads)
-    settings.max_evaluations = _whole(max_evaluations, "--max-evaluations")
+    settings.max_evaluations = _integer(max_evaluations, "--max-evaluations")
     settings.bic_margin = _positive(bic_margin, "--bic-margin")
     settings.max_effects = _whole(max_effects, "--max-effects", 1, 20)
     settings.verbose = bool(verbose)

@@ -213,6 +213,24 @@ def test_surface_equals_blmd_surface(tmp_path):
      ["--config", NOLOAD, "--trace", NOLOAD_STEP, "--select", "t=2:3"]),
     (lambda: blmd.identify(NOLOAD, NOLOAD_STEP, bic_margin=-1),
      ["--config", NOLOAD, "--trace", NOLOAD_STEP, "--bic-margin", "-1"]),
+    (lambda: blmd.identify(NOLOAD, NOLOAD_STEP, max_effects=25),
+     ["--config", NOLOAD, "--trace", NOLOAD_STEP, "--max-effects", "25"]),
+    (lambda: blmd.identify(NOLOAD, NOLOAD_STEP, max_evaluations=1.5),
+     ["--config", NOLOAD, "--trace", NOLOAD_STEP, "--max-evaluations", "1.5"]),
+    (lambda: blmd.identify(NOLOAD, NOLOAD_STEP, seed=-1),
+     ["--config", NOLOAD, "--trace", NOLOAD_STEP, "--seed", "-1"]),
+    (lambda: blmd.identify(NOLOAD, NOLOAD_STEP, threads=1.5),
+     ["--config", NOLOAD, "--trace", NOLOAD_STEP, "--threads", "1.5"]),
+    (lambda: blmd.identify(NOLOAD, NOLOAD_STEP, error="bogus"),
+     ["--config", NOLOAD, "--trace", NOLOAD_STEP, "--error", "bogus"]),
+    (lambda: blmd.identify(NOLOAD, NOLOAD_STEP, error="equation"),
+     ["--config", NOLOAD, "--trace", NOLOAD_STEP, "--error", "equation"]),
+    (lambda: blmd.identify(NOLOAD, NOLOAD_STEP, decimate=0),
+     ["--config", NOLOAD, "--trace", NOLOAD_STEP, "--decimate", "0"]),
+    (lambda: blmd.identify(NOLOAD, NOLOAD_STEP, initial_state="x"),
+     ["--config", NOLOAD, "--trace", NOLOAD_STEP, "--initial-state", "x"]),
+    (lambda: blmd.identify(NOLOAD, NOLOAD_STEP, candidates=["friction"], discover=True),
+     ["--config", NOLOAD, "--trace", NOLOAD_STEP, "--candidates", "friction", "--discover"]),
 ])
 def test_identify_bad_input_has_cli_message(call, flags):
     message = cli_error("blmd-ident", *flags)
@@ -275,7 +293,7 @@ def test_gil_is_released_during_work():
 
     def work():
         started = time.perf_counter()
-        blmd.surface(NOLOAD, NOLOAD_STEP, {"J": ("log", 1e-5, 5e-5, 80)}, threads=1)
+        blmd.surface(NOLOAD, NOLOAD_STEP, {"J": ("log", 1e-5, 5e-5, 400)}, threads=1)
         elapsed.append(time.perf_counter() - started)
         done.set()
 
