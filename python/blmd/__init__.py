@@ -211,13 +211,16 @@ def simulate(config, input=None, noise=None, seed=1, *, effects=None, delimiter=
     CSV path or a mapping with 't' and 'u' arrays (and 'open' for a dc_servo coast-down):
     the model is driven by u held between samples and sampled at t (blmd-sim --input).
     noise: {column: sigma} with sigma in column units, or "P%" of the column's peak |value|
-    (blmd-sim --noise), added in the dict's order from one generator seeded with `seed`.
+    (blmd-sim --noise; or the flag's texts, ["i=1%"]), added in order from one generator
+    seeded with `seed`.
     effects: {name: {parameter: value}} effects the config does not declare (--effect).
     Returns {column: numpy array} in the CSV's column order (t first).
     """
-    noise_specs = []
-    for column, sigma in (noise or {}).items():
-        noise_specs.append(f"{column}={sigma if isinstance(sigma, str) else _number_text(sigma)}")
+    if noise is None or _is_mapping(noise):
+        noise_specs = [f"{column}={sigma if isinstance(sigma, str) else _number_text(sigma)}"
+                       for column, sigma in (noise or {}).items()]
+    else:  # the flag's own texts, "i=1%"
+        noise_specs = [noise] if isinstance(noise, str) else [str(spec) for spec in noise]
     effect_specs = []
     if _is_mapping(effects):
         for name, values in effects.items():

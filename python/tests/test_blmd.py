@@ -64,7 +64,7 @@ def test_simulate_input_equals_blmd_sim_input(tmp_path):
 
 def test_simulate_config_dict_equals_path():
     by_path = blmd.simulate(NOLOAD, noise={"w": "2%"}, seed=3)
-    by_dict = blmd.simulate(load_json(NOLOAD), noise={"w": "2%"}, seed=3)
+    by_dict = blmd.simulate(load_json(NOLOAD), noise=["w=2%"], seed=3)
     assert list(by_path) == list(by_dict)
     for name in by_path:
         assert np.array_equal(by_path[name], by_dict[name]), name
