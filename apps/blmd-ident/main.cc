@@ -1,20 +1,19 @@
 // blmd-ident: identify the free parameters of a config's model from measured traces.
-// Flags -> IdentRequest -> blmd::Identify (report/identify.h) -> the report, summary, HTML
-// and exit code (docs/cli.md).
+// Flags -> IdentSettings -> blmd::MakeIdentRequest (report/request.h) -> blmd::Identify
+// (report/identify.h) -> the report, summary, HTML and exit code (docs/cli.md).
 #include <cmath>
 #include <iostream>
+#include <optional>
 
 #include "../common/app_main.h"
 #include "../common/error_flags.h"
 #include "../common/trace_flags.h"
-#include "blmd/ident/trace_input.h"
 #include "blmd/io/config.h"
 #include "blmd/io/files.h"
-#include "blmd/io/flags.h"
 #include "blmd/report/html_report.h"
 #include "blmd/report/identify.h"
 #include "blmd/report/report.h"
-#include "blmd/sim/effects.h"
+#include "blmd/report/request.h"
 
 namespace {
 
@@ -75,93 +74,28 @@ struct IdentFlags {
   }
 };
 
-// Selecting flags given empty select nothing: exit 2 with the valid choices.
-void RefuseEmptySelections(const CLI::App& app, const IdentFlags& f, const blmd::Config& config) {
-  if (app.count("--observe") > 0 && f.observe_text.empty()) {
-    throw blmd::InputError("--observe: empty (valid: " + blmd::Join(config.model->outputs()) + ")");
-  }
-  if (app.count("--free") > 0 && f.free_text.empty()) {
-    std::vector<std::string> names;
-    for (const auto& [name, value] : config.parameters.entries()) names.push_back(name);
-    throw blmd::InputError("--free: empty (valid: " + blmd::Join(names) + ")");
-  }
-  if (app.count("--candidates") > 0 && f.candidates_text.empty()) {
-    std::vector<std::string> effects;
-    for (const auto& effect : blmd::EffectRegistry()) effects.push_back(effect.name);
-    throw blmd::InputError("--candidates: empty (valid: " + blmd::Join(effects) + ")");
-  }
-}
-
-// Checks the flags against the config and loads the traces: the request blmd::Identify runs.
-blmd::IdentRequest MakeRequest(const CLI::App& app, IdentFlags& f) {
-  blmd::IdentRequest request;
-  request.config_path = f.config_path;
-  blmd::Config& config = request.config;
-  config = blmd::LoadConfig(f.config_path);
-  RefuseEmptySelections(app, f, config);
-  for (const auto& text : f.initials) {
-    const auto [name, value] = blmd::ParseAssignment(text, "--initial");
-    config.identification.initial.Set(name, value);
-  }
-  request.observe = f.error_flags.Apply(&config, f.observe_text);
-  const bool equation_error = config.identification.error == "equation";
-  request.method = !f.method.empty()                      ? f.method
-                   : config.identification.method.empty() ? "ceres"
-                                                          : config.identification.method;
-  blmd::FindOptimizer(request.method);  // an unknown method is refused before any trace is read
-  const std::vector<std::string> outputs = config.model->outputs();
-  for (const auto& name : request.observe) {
-    if (equation_error) break;
-    if (std::find(outputs.begin(), outputs.end(), name) == outputs.end()) {
-      throw blmd::InputError("--observe: '" + name + "' is not an output of model " +
-                             std::string(config.model->name()) +
-                             " (valid: " + blmd::Join(outputs, ",") + ")");
-    }
-  }
-  const std::vector<std::string> free_names =
-      f.free_text.empty() ? config.identification.free : blmd::ParseNameList(f.free_text, "--free");
-  for (const auto& text : f.initials) {
-    const std::string name = blmd::ParseAssignment(text, "--initial").first;
-    if (std::find(free_names.begin(), free_names.end(), name) == free_names.end()) {
-      throw blmd::InputError("--initial " + name + ": '" + name +
-                             "' is not a free parameter, so it has no start value (free: " +
-                             blmd::Join(free_names) + "; free it with --free)");
-    }
-  }
-  request.free = blmd::MakeFreeParameters(config, free_names);
-  const blmd::TraceInputOptions input_options =
-      f.trace_flags.Options(request.observe, equation_error);
-
-  blmd::OptimizerOptions& options = request.options;
-  options.method_options = config.identification.method == request.method
-                               ? config.identification.options
-                               : nlohmann::json::object();
-  for (const auto& text : f.method_options) {
-    const auto [key, value] = blmd::ParseTextAssignment(text, "--option");
-    options.method_options[key] = value;
-  }
-  if (!f.candidates_text.empty()) {
-    request.discovery.candidates = blmd::ParseNameList(f.candidates_text, "--candidates");
-    for (const auto& name : request.discovery.candidates) blmd::FindEffect(name);
-  }
-  for (const auto& path : f.traces) {
-    for (auto& part : blmd::LoadFitTraces(path, input_options, config.experiment.initial)) {
-      request.traces.push_back(std::move(part));
-    }
-  }
-  for (const auto& path : f.validates) {
-    for (auto& part : blmd::LoadFitTraces(path, input_options, config.experiment.initial)) {
-      request.validation.push_back(std::move(part));
-    }
-  }
-  options.seed = f.seed;
-  options.threads = f.threads;
-  options.max_evaluations = f.max_evaluations;
-  options.verbose = f.verbose;
-  request.discover = f.discover;
-  request.discovery.bic_margin = f.bic_margin;
-  request.discovery.max_effects = f.max_effects;
-  return request;
+// The flags as the library's settings (report/request.h): --observe, --free and --candidates
+// given empty are refused there, with the valid choices.
+blmd::IdentSettings Settings(const CLI::App& app, const IdentFlags& f) {
+  blmd::IdentSettings settings;
+  for (const auto& path : f.traces) settings.traces.push_back({path, std::nullopt});
+  for (const auto& path : f.validates) settings.validation.push_back({path, std::nullopt});
+  settings.method = f.method;
+  if (app.count("--observe") > 0) settings.observe = f.observe_text;
+  if (app.count("--free") > 0) settings.free = f.free_text;
+  if (app.count("--candidates") > 0) settings.candidates = f.candidates_text;
+  settings.initials = f.initials;
+  settings.method_options = f.method_options;
+  settings.seed = f.seed;
+  settings.threads = f.threads;
+  settings.max_evaluations = f.max_evaluations;
+  settings.verbose = f.verbose;
+  settings.discover = f.discover;
+  settings.bic_margin = f.bic_margin;
+  settings.max_effects = f.max_effects;
+  settings.error = f.error_flags;
+  settings.preparation = f.trace_flags;
+  return settings;
 }
 
 void WriteOutputs(const IdentFlags& f, const blmd::IdentOutcome& outcome) {
@@ -229,7 +163,8 @@ int main(int argc, char** argv) {
         for (const auto& path : flags.validates) input_files.push_back({"--validate", path});
         blmd::CheckOutputs({{"--report", flags.report_path}, {"--html", flags.html_path}},
                            input_files);
-        blmd::IdentRequest request = MakeRequest(app, flags);
+        blmd::IdentRequest request = blmd::MakeIdentRequest(
+            blmd::LoadConfig(flags.config_path), flags.config_path, Settings(app, flags));
         if (!flags.report_path.empty() || !flags.html_path.empty()) {
           blmd::InstallCleanupOnSignal();
         }

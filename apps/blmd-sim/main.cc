@@ -9,7 +9,7 @@
 #include "blmd/io/csv.h"
 #include "blmd/io/files.h"
 #include "blmd/io/flags.h"
-#include "blmd/random.h"
+#include "blmd/report/request.h"
 #include "blmd/run.h"
 
 namespace {
@@ -43,99 +43,6 @@ struct SimFlags {
     app.add_flag("--quiet", quiet, "print nothing on success");
   }
 };
-
-// --noise NAME=SIGMA (absolute, column units) or NAME=P% (P % of the column's peak |value|).
-struct NoiseSpec {
-  std::string column;
-  double sigma = 0.0;
-  bool relative = false;
-};
-
-std::vector<NoiseSpec> ParseNoise(const std::vector<std::string>& specs) {
-  std::vector<NoiseSpec> noise;
-  for (const auto& spec : specs) {
-    NoiseSpec n;
-    std::string text = spec;
-    if (!text.empty() && text.back() == '%') {
-      n.relative = true;
-      text.pop_back();
-    }
-    const auto assignment = blmd::ParseAssignment(text, "--noise");
-    if (assignment.second < 0.0) {
-      throw blmd::InputError("--noise " + assignment.first + ": sigma must be >= 0");
-    }
-    if (assignment.first == "t" || assignment.first == "open") {
-      // Noise on the time would make it go backwards; "open" is a switch, not a signal.
-      throw blmd::InputError("--noise " + assignment.first + ": '" + assignment.first +
-                             "' takes no noise (time must increase); noise an output column");
-    }
-    n.column = assignment.first;
-    n.sigma = n.relative ? assignment.second / 100.0 : assignment.second;
-    noise.push_back(n);
-  }
-  return noise;
-}
-
-// The --input trace as a recorded input signal (t, u, and the open-armature switch if any).
-blmd::InputSignal ReadRecordedInput(const SimFlags& f, const blmd::Config& config) {
-  blmd::CsvReadOptions options;
-  options.required = {"t", "u"};
-  options.strict_columns = {"t", "u", "open"};  // other columns may hold text
-  options.delimiter = f.trace_flags.Delimiter();
-  options.duplicate_time = f.trace_flags.Duplicates();
-  const blmd::Trace input = blmd::ReadTraceCsv(f.input_path, options);
-  blmd::InputSignal recorded;
-  recorded.kind = blmd::InputSignal::Kind::kRecorded;
-  recorded.times = input.Column("t");
-  recorded.values = input.Column("u");
-  if (input.Has("open")) recorded.open = input.Column("open");
-  if (const std::string error = blmd::RunLengthError(recorded.times.back() - recorded.times.front(),
-                                                     config.simulation.dt, 0.0);
-      !error.empty()) {
-    throw blmd::InputError(f.input_path + ": " + error);
-  }
-  return recorded;
-}
-
-// Adds the noise to the simulated columns (sigma of a relative spec scaled by the peak).
-void AddNoise(std::vector<NoiseSpec>* noise, std::uint64_t seed, blmd::Trace* trace) {
-  for (auto& [column, sigma, relative] : *noise) {
-    if (!trace->Has(column)) {
-      throw blmd::InputError("--noise: no output column '" + column +
-                             "' (have: " + blmd::Join(trace->names(), ",") + ")");
-    }
-    if (relative) {
-      double peak = 0.0;
-      for (double v : trace->Column(column)) peak = std::max(peak, std::abs(v));
-      sigma *= peak;
-    }
-  }
-  blmd::Random random(seed);
-  for (const auto& [column, sigma, relative] : *noise) {
-    for (double& value : trace->Column(column)) {
-      value += sigma * random.Normal();
-      if (!std::isfinite(value)) {  // sigma near the double range: never write inf
-        throw blmd::InputError("--noise " + column + "=" + blmd::FormatNumber(sigma) +
-                               ": the noisy '" + column +
-                               "' is not finite (sigma too large for a double)");
-      }
-    }
-  }
-}
-
-// A run the user asked for failed: exit 1, one line, nothing written.
-int ReportFailedRun(const std::string& config_path, const blmd::Config& config,
-                    const blmd::SimStatus& status) {
-  std::cerr << "error: " << config_path << ": " << status.message
-            << " at t = " << Fixed(status.at_time) << " s";
-  if (status.code == blmd::SimStatus::Code::kDiverged) {
-    std::cerr << "; the step simulation.dt = " << blmd::FormatNumber(config.simulation.dt)
-              << " s may be too large for the model's fastest dynamics, or a parameter is "
-                 "unphysical: reduce dt or check the parameters";
-  }
-  std::cerr << "\n";
-  return blmd::kExitFailed;
-}
 
 // The summary: samples, each column's range and final value, the closed loop's step figures.
 void PrintSummary(const SimFlags& f, const blmd::Config& config, const blmd::Trace& trace) {
@@ -175,17 +82,24 @@ int Run(SimFlags& f) {
     const auto [name, values] = blmd::ParseEffectSpec(spec);
     config.AddEffect(name, values);
   }
-  std::vector<NoiseSpec> noise = ParseNoise(f.noises);
+  std::vector<blmd::NoiseSpec> noise = blmd::ParseNoise(f.noises);
   blmd::InputSignal recorded;
-  if (!f.input_path.empty()) recorded = ReadRecordedInput(f, config);
+  if (!f.input_path.empty()) {
+    recorded = blmd::RecordedInput(blmd::ReadInputTrace(f.input_path, f.trace_flags), f.input_path,
+                                   config);
+  }
   if (f.input_path.empty()) config.experiment.CheckRunnable();  // the config's own time base
   blmd::CheckWritable(f.out_path);                              // before the run, not after it
   blmd::Trace trace;
   const blmd::SimStatus status = f.input_path.empty()
                                      ? blmd::RunExperiment(config, &trace)
                                      : blmd::RunRecordedInput(config, recorded, &trace);
-  if (!status.ok()) return ReportFailedRun(f.config_path, config, status);
-  AddNoise(&noise, f.seed, &trace);
+  if (!status.ok()) {
+    // A run the user asked for failed: exit 1, one line, nothing written.
+    std::cerr << "error: " << blmd::SimulationFailureMessage(f.config_path, config, status) << "\n";
+    return blmd::kExitFailed;
+  }
+  blmd::AddNoise(&noise, f.seed, &trace);
   trace.comments.push_back("blmd-sim " + std::string(blmd::kVersion) + " model=" +
                            std::string(config.model->name()) + " config=" + f.config_path);
   for (const auto& name : config.effects) trace.comments.push_back("effect " + name);

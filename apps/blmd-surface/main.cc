@@ -7,27 +7,23 @@
 #include <iostream>
 #include <memory>
 #include <mutex>
+#include <optional>
 
 #include "../common/app_main.h"
 #include "../common/error_flags.h"
 #include "../common/trace_flags.h"
 #include "blmd/ident/surface.h"
-#include "blmd/ident/trace_input.h"
 #include "blmd/io/config.h"
 #include "blmd/io/csv.h"
 #include "blmd/io/files.h"
-#include "blmd/io/flags.h"
 #include "blmd/report/plot.h"
+#include "blmd/report/request.h"
 #include "blmd/report/surface_file.h"
 #include "blmd/report/sweep.h"
 #include "blmd/sim/effects.h"
 #include "blmd/sim/model.h"
 
 namespace {
-
-// The largest sweep blmd-surface runs without --force (docs/cli.md §3).
-constexpr std::size_t kMaxSurfacePoints = 1000000;
-constexpr double kMaxSurfaceBytes = 1e9;
 
 std::string G(double v, int digits = 5) {
   if (!std::isfinite(v)) return "inf";
@@ -153,87 +149,6 @@ struct SurfaceFlags {
   }
 };
 
-// One or two --grid axes (checked before the config is read).
-void CheckGridCount(const std::vector<std::string>& grids) {
-  if (grids.empty() || grids.size() > 2) {
-    throw blmd::InputError("--grid: give one or two axes, P=LO:HI:N (got " +
-                           std::to_string(grids.size()) + ")");
-  }
-}
-
-// The --grid axes, each a parameter of the config, positive where the parameter must be.
-std::vector<blmd::GridAxis> ParseGridAxes(const blmd::Config& config,
-                                          const std::vector<std::string>& grids) {
-  std::vector<blmd::GridAxis> axes;
-  for (const auto& text : grids) {
-    blmd::GridAxis axis = blmd::ParseGridAxis(text);
-    if (!config.parameters.Has(axis.name)) {
-      std::vector<std::string> known;
-      for (const auto& [name, value] : config.parameters.entries()) known.push_back(name);
-      const std::string near = blmd::NearestName(axis.name, known);
-      throw blmd::InputError("--grid: unknown parameter '" + axis.name + "'" +
-                             (near.empty() ? "" : " (did you mean '" + near + "'?)") +
-                             "; valid: " + blmd::Join(known));
-    }
-    const blmd::ParamInfo* info = config.FindParameterInfo(axis.name);
-    if (info && info->positive && !(axis.low > 0.0)) {
-      throw blmd::InputError("--grid " + axis.name + ": the parameter must be > 0 (LO = " +
-                             blmd::FormatNumber(axis.low) + ")");
-    }
-    for (const auto& other : axes) {
-      if (other.name == axis.name)
-        throw blmd::InputError("--grid: '" + axis.name + "' given twice");
-    }
-    axes.push_back(axis);
-  }
-  return axes;
-}
-
-// --shard K/N (1-based; empty: 1/1).
-std::pair<int, int> ParseShard(const std::string& text) {
-  if (text.empty()) return {1, 1};
-  const auto slash = text.find('/');
-  // Digits, '/', digits: std::stoi alone would take " 1" and "+1".
-  if (text.find_first_not_of("0123456789/") != std::string::npos) {
-    throw blmd::InputError("--shard '" + text + "': expected K/N, e.g. 3/8");
-  }
-  int index = 0, count = 0;
-  try {
-    std::size_t used = 0;
-    index = std::stoi(text.substr(0, slash), &used);
-    if (used != slash) throw std::invalid_argument("K");
-    const std::string count_text = text.substr(slash + 1);
-    count = std::stoi(count_text, &used);
-    if (used != count_text.size()) throw std::invalid_argument("N");  // "1/3abc"
-  } catch (const std::exception&) {
-    throw blmd::InputError("--shard '" + text + "': expected K/N, e.g. 3/8");
-  }
-  if (slash == std::string::npos || count < 1 || index < 1 || index > count) {
-    throw blmd::InputError("--shard '" + text + "': expected K/N with 1 <= K <= N");
-  }
-  return {index, count};
-}
-
-// The observed columns (outputs of the model with the output error), --observe '' refused.
-std::vector<std::string> CheckedObserve(const CLI::App& app, SurfaceFlags& f,
-                                        blmd::Config* config) {
-  const std::vector<std::string> outputs = config->model->outputs();
-  const std::string valid_outputs = blmd::Join(outputs);
-  if (app.count("--observe") > 0 && f.observe_text.empty()) {
-    throw blmd::InputError("--observe: empty (valid: " + valid_outputs + ")");
-  }
-  std::vector<std::string> observe = f.error_flags.Apply(config, f.observe_text);
-  if (config->identification.error == "equation") return observe;
-  for (const auto& name : observe) {
-    if (std::find(outputs.begin(), outputs.end(), name) == outputs.end()) {
-      throw blmd::InputError("--observe: '" + name + "' is not an output of model " +
-                             std::string(config->model->name()) + " (valid: " + valid_outputs +
-                             ")");
-    }
-  }
-  return observe;
-}
-
 // A progress bar on stderr, redrawn at most every 200 ms: points, rate, time left.
 std::function<void(std::size_t, std::size_t)> ProgressBar() {
   struct State {
@@ -352,38 +267,20 @@ int RunSweep(const CLI::App& app, SurfaceFlags& f) {
   // Every output checked before any work: writable, not an input, not the other output.
   blmd::CheckOutputs({{"--out", f.out_path}, {"--svg", f.svg_path}},
                      {{"--config", f.config_path}, {"--trace", f.trace_path}});
-  CheckGridCount(f.grids);
-  blmd::SweepRequest request;
-  request.config = blmd::LoadConfig(f.config_path);
-  request.axes = ParseGridAxes(request.config, f.grids);
-  const auto [shard_index, shard_count] = ParseShard(f.shard_text);
-  request.observe = CheckedObserve(app, f, &request.config);
-  const bool equation_error = request.config.identification.error == "equation";
-  request.rows_line = f.trace_flags.RowsLine();
-  request.traces =
-      blmd::LoadFitTraces(f.trace_path, f.trace_flags.Options(request.observe, equation_error),
-                          request.config.experiment.initial);
-  {
-    // The sweep's size before it starts: a typo in N must not ask for gigabytes.
-    std::size_t points = 1;
-    for (const auto& axis : request.axes) points *= static_cast<std::size_t>(axis.count);
-    points = (points + static_cast<std::size_t>(shard_count) - 1) /
-             static_cast<std::size_t>(shard_count);
-    const double bytes = blmd::SweepBytes(points, request.axes.size(), request.observe.size(),
-                                          request.traces.size());
-    if (!f.force && (points > kMaxSurfacePoints || bytes > kMaxSurfaceBytes)) {
-      throw blmd::InputError("--grid: " + std::to_string(points) + " points" +
-                             (shard_count > 1 ? " in this shard" : "") + " (about " +
-                             blmd::FormatSignificant(bytes / 1e9, 3) +
-                             " GB) is more than the cap of 1000000 points or 1 GB; narrow the "
-                             "grid, shard it (--shard K/N), or add --force");
-    }
-  }
+  blmd::CheckGridCount(f.grids);  // before the config is read
+  blmd::SweepSettings settings;
+  settings.trace = {f.trace_path, std::nullopt};
+  settings.grids = f.grids;
+  if (app.count("--observe") > 0) settings.observe = f.observe_text;  // '' refused there
+  settings.shard = f.shard_text;
+  settings.force = f.force;
+  settings.threads = f.threads;
+  settings.error = f.error_flags;
+  settings.preparation = f.trace_flags;
+  blmd::SweepRequest request = blmd::MakeSweepRequest(blmd::LoadConfig(f.config_path), settings);
+  const int shard_index = request.shard_index, shard_count = request.shard_count;
   blmd::InstallCleanupOnSignal();
   request.config_sha256 = blmd::Sha256Hex(blmd::ReadFileText(f.config_path));
-  request.threads = f.threads;
-  request.shard_index = shard_index;
-  request.shard_count = shard_count;
   if (!f.quiet && isatty(STDERR_FILENO)) request.progress = ProgressBar();
   const blmd::Config& config = request.config;
   const std::vector<blmd::GridAxis>& axes = request.axes;

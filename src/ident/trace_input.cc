@@ -96,21 +96,10 @@ std::vector<double> Differentiate(const std::vector<double>& t, const std::vecto
   return d;
 }
 
-std::vector<FitTrace> LoadFitTraces(const std::string& path, const TraceInputOptions& options,
-                                    const InitialState& default_initial) {
-  const bool by_rows = !options.select.empty() || !options.split.empty();
-  CsvReadOptions csv;
-  // The reader checks the file's time column (the header mapped to t); scaling may still
-  // reverse it, so t is checked again below. With --select or --split the time need only
-  // increase within each experiment (a logger may restart its clock per run): the reader
-  // does not check it, each experiment is checked below.
-  const auto t_header = options.columns.find("t");
-  const std::string time_header = t_header == options.columns.end() ? "t" : t_header->second;
-  csv.time_column = by_rows ? "" : time_header;
-  csv.delimiter = options.delimiter;
-  csv.duplicate_time = options.duplicate_time;
-  // The columns this fit reads are read strictly; any other may hold text (a timestamp, a
-  // state name) or empty cells, and is then left out (docs/trace-format.md).
+namespace {
+
+// The header names of the columns a fit reads (the CSV reader reads them strictly).
+std::vector<std::string> UsedHeaders(const TraceInputOptions& options) {
   auto header_of = [&](const std::string& name) {
     const auto mapped = options.columns.find(name);
     return mapped == options.columns.end() ? name : mapped->second;
@@ -122,9 +111,54 @@ std::vector<FitTrace> LoadFitTraces(const std::string& path, const TraceInputOpt
   if (!options.split.empty()) used.push_back(options.split);
   for (const auto& [name, factor] : options.scales) used.push_back(name);
   if (options.initial_from_trace) used.insert(used.end(), {"i", "w", "theta"});
-  for (const auto& name : used) csv.strict_columns.push_back(header_of(name));
+  std::vector<std::string> headers;
+  headers.reserve(used.size());
+  for (const auto& name : used) headers.push_back(header_of(name));
+  return headers;
+}
+
+}  // namespace
+
+std::vector<FitTrace> LoadFitTraces(const std::string& path, const TraceInputOptions& options,
+                                    const InitialState& default_initial) {
+  const bool by_rows = !options.select.empty() || !options.split.empty();
+  CsvReadOptions csv;
+  // The reader checks the file's time column (the header mapped to t); scaling may still
+  // reverse it, so t is checked again by PrepareFitTraces. With --select or --split the time
+  // need only increase within each experiment (a logger may restart its clock per run): the
+  // reader does not check it, each experiment is checked by PrepareFitTraces.
+  const auto t_header = options.columns.find("t");
+  const std::string time_header = t_header == options.columns.end() ? "t" : t_header->second;
+  csv.time_column = by_rows ? "" : time_header;
+  csv.delimiter = options.delimiter;
+  csv.duplicate_time = options.duplicate_time;
+  // The columns this fit reads are read strictly; any other may hold text (a timestamp, a
+  // state name) or empty cells, and is then left out (docs/trace-format.md).
+  csv.strict_columns = UsedHeaders(options);
   std::string sha256;
   Trace trace = ReadTraceCsv(path, csv, &sha256);
+  return PrepareFitTraces(std::move(trace), path, sha256, options, default_initial);
+}
+
+std::vector<FitTrace> PrepareFitTraces(Trace trace, const std::string& path,
+                                       const std::string& sha256, const TraceInputOptions& options,
+                                       const InitialState& default_initial) {
+  const bool by_rows = !options.select.empty() || !options.split.empty();
+  // Line of row k: comments, the header, then k + 1.
+  const long first_line = static_cast<long>(trace.comments.size()) + 2;
+  // The columns a fit reads must hold finite numbers (the CSV reader has checked a file's).
+  for (const auto& header : UsedHeaders(options)) {
+    const int c = trace.Find(header);
+    if (c < 0) continue;
+    const auto& column = trace.Column(static_cast<std::size_t>(c));
+    for (std::size_t k = 0; k < column.size(); ++k) {
+      if (!std::isfinite(column[k])) {
+        throw InputError(
+            path, first_line + static_cast<long>(k), c + 1,
+            "column '" + header + "' is not a finite number (" + DisplayNumber(column[k]) + ")");
+      }
+    }
+  }
   // The file's field (1-based) holding a column, before mapping added columns at the end.
   std::map<std::string, long> file_field;
   for (std::size_t c = 0; c < trace.num_columns(); ++c) {
@@ -172,8 +206,7 @@ std::vector<FitTrace> LoadFitTraces(const std::string& path, const TraceInputOpt
   }
 
   // Rows kept by the selections; then the experiments: blocks of consecutive kept rows,
-  // cut where the split column changes. Line of row k: comments, the header, then k + 1.
-  const long first_line = static_cast<long>(trace.comments.size()) + 2;
+  // cut where the split column changes.
   const auto line_of = [&](std::size_t row) { return first_line + static_cast<long>(row); };
   std::vector<std::size_t> kept;
   kept.reserve(trace.rows());

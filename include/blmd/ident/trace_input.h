@@ -53,6 +53,14 @@ struct TraceInputOptions {
 std::vector<FitTrace> LoadFitTraces(const std::string& path, const TraceInputOptions& options,
                                     const InitialState& default_initial);
 
+// The same for a trace already in memory (read by the caller, or columns from Python): `path`
+// names it in messages and reports, `sha256` is recorded as its hash ("" when none). Its
+// rows are numbered in messages as lines after its comments and a header (the first row is
+// line 2 when it has no comments). The columns the fit reads must be finite.
+std::vector<FitTrace> PrepareFitTraces(Trace trace, const std::string& path,
+                                       const std::string& sha256, const TraceInputOptions& options,
+                                       const InitialState& default_initial);
+
 // The same for a file that must give exactly one experiment (no `split`).
 FitTrace LoadFitTrace(const std::string& path, const TraceInputOptions& options,
                       const InitialState& default_initial);
