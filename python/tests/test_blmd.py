@@ -4,6 +4,7 @@ the same numbers (bit for bit where the command writes round-trip exact numbers;
 relative in the report), and bad input the same message."""
 
 import json
+import re
 import signal
 import subprocess
 import sys
@@ -99,8 +100,16 @@ def test_identify_arrays_equals_cli_report(tmp_path):
     by_path = blmd.identify(NOLOAD, [NOLOAD_STEP])
     assert_same_report(by_path, expected)  # the same file: every field but the run time
     by_arrays = blmd.identify(NOLOAD, [arrays(NOLOAD_STEP)])
-    # Columns in memory have no file: their path is traces[0], their hash empty.
-    assert by_arrays["trace"]["path"] == "traces[0]" and by_arrays["trace"]["sha256"] == ""
+    # Columns in memory have no file: their path is traces[0], their hash that of the CSV
+    # text the tool would write for them (64 hex digits, the same for the same arrays, and
+    # another for other data).
+    digest = by_arrays["trace"]["sha256"]
+    assert by_arrays["trace"]["path"] == "traces[0]"
+    assert re.fullmatch("[0-9a-f]{64}", digest)
+    assert blmd.identify(NOLOAD, [arrays(NOLOAD_STEP)])["trace"]["sha256"] == digest
+    shifted = arrays(NOLOAD_STEP)
+    shifted["w"] = shifted["w"] * (1.0 + 1e-12)
+    assert blmd.identify(NOLOAD, [shifted])["trace"]["sha256"] != digest
     assert_same_report(by_arrays, expected, ignore={"path", "sha256"})
     assert by_arrays["parameters"]["J"]["value"] == expected["parameters"]["J"]["value"]
     assert set(by_arrays["parameters"]) == {"J", "B"}
@@ -356,3 +365,18 @@ def test_identifications_in_parallel_threads_equal_sequential():
         worker.join()
     for result, expected in zip(results, sequential):
         assert_same_report(result, expected, rel=0.0)
+
+
+def test_reports_from_arrays_follow_the_report_schema():
+    # The report of a fit on arrays, with discovery and a held-out trace, is a valid report
+    # (schema/report.schema.json, draft 2020-12).
+    jsonschema = pytest.importorskip("jsonschema")
+    schema = load_json(repo_path("schema/report.schema.json"))
+    report = blmd.identify(SQUARE, [arrays(HIDDEN_COULOMB)], discover=True,
+                           candidates=["coulomb_friction", "load_torque"],
+                           validate=[arrays(repo_path("testdata/ganesh-square.csv"))])
+    # The held-out trace has no friction, so the held-out error refuses the Coulomb term.
+    assert report["discovery"]["added"] == []
+    assert report["validation"]["traces"] == ["validate[0]"]
+    errors = list(jsonschema.Draft202012Validator(schema).iter_errors(report))
+    assert errors == []

@@ -1,6 +1,5 @@
 #include "blmd/report/request.h"
 
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
