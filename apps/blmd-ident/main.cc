@@ -10,6 +10,7 @@
 #include "../common/trace_flags.h"
 #include "blmd/io/config.h"
 #include "blmd/io/files.h"
+#include "blmd/report/export.h"
 #include "blmd/report/html_report.h"
 #include "blmd/report/identify.h"
 #include "blmd/report/report.h"
@@ -20,6 +21,7 @@ namespace {
 // Every flag of blmd-ident (docs/cli.md §2).
 struct IdentFlags {
   std::string config_path, method, observe_text, free_text, report_path, html_path;
+  std::string write_config_path, matlab_path, baseline_path;
   std::vector<std::string> traces, validates, method_options, initials;
   std::uint64_t seed = 1;
   int threads = 0, max_evaluations = 0;
@@ -58,6 +60,13 @@ struct IdentFlags {
     app.add_flag("--json", json, "print the JSON report on stdout instead of the summary");
     app.add_option("--html", html_path,
                    "write the visual report (one self-contained HTML file) here");
+    app.add_option("--write-config", write_config_path,
+                   "write the final model as a config blmd-sim and blmd-ident accept");
+    app.add_option("--export-matlab", matlab_path,
+                   "write the final model's linear part as MATLAB/Octave ss and tf objects (.m)");
+    app.add_option("--baseline", baseline_path,
+                   "a stored --report to guard against: exit 3 when a parameter moved beyond "
+                   "the combined 95 % intervals (docs/export.md)");
     app.add_option("--seed", seed, "random seed (fsd)")->check(blmd::app::NonNegativeWholeNumber());
     app.add_option("--threads", threads, "worker threads (0: all cores)")
         ->check(blmd::app::NonNegativeWholeNumber());
@@ -102,6 +111,12 @@ void WriteOutputs(const IdentFlags& f, const blmd::IdentOutcome& outcome) {
   const blmd::IdentReport& report = outcome.report;
   const nlohmann::json report_json = report;
   if (!f.report_path.empty()) blmd::WriteFileAtomically(f.report_path, report_json.dump(2) + "\n");
+  if (!f.write_config_path.empty()) {
+    const nlohmann::json config = blmd::ModelConfigJson(
+        outcome.final_config, outcome.final_parameters, outcome.final_free, report);
+    blmd::WriteFileAtomically(f.write_config_path, config.dump(2) + "\n");
+  }
+  if (!f.matlab_path.empty()) blmd::WriteFileAtomically(f.matlab_path, blmd::MatlabScript(report));
   if (!f.html_path.empty()) {
     blmd::HtmlReportOptions html_options;
     html_options.threads = f.threads;
@@ -115,6 +130,8 @@ void WriteOutputs(const IdentFlags& f, const blmd::IdentOutcome& outcome) {
     std::cout << blmd::HumanSummary(report);
     if (!f.report_path.empty()) std::cout << "report: " << f.report_path << "\n";
     if (!f.html_path.empty()) std::cout << "html report: " << f.html_path << "\n";
+    if (!f.write_config_path.empty()) std::cout << "config: " << f.write_config_path << "\n";
+    if (!f.matlab_path.empty()) std::cout << "matlab: " << f.matlab_path << "\n";
   }
 }
 
@@ -135,6 +152,12 @@ int ExitCode(const IdentFlags& f, const blmd::IdentOutcome& outcome) {
                 << " is above --fail-above-nrmse " << f.fail_above << "\n";
       return blmd::kExitGate;
     }
+  }
+  if (report.baseline && report.baseline->changed()) {
+    std::cerr << "error: the model moved from the baseline " << report.baseline->path << ": "
+              << blmd::Join(report.baseline->moved)
+              << " beyond the combined 95 % intervals (--baseline)\n";
+    return blmd::kExitGate;
   }
   if (f.fail_on_warning && !report.warnings.empty()) {
     std::vector<std::string> codes;
@@ -161,11 +184,18 @@ int main(int argc, char** argv) {
         std::vector<blmd::NamedPath> input_files = {{"--config", flags.config_path}};
         for (const auto& path : flags.traces) input_files.push_back({"--trace", path});
         for (const auto& path : flags.validates) input_files.push_back({"--validate", path});
-        blmd::CheckOutputs({{"--report", flags.report_path}, {"--html", flags.html_path}},
+        if (!flags.baseline_path.empty())
+          input_files.push_back({"--baseline", flags.baseline_path});
+        blmd::CheckOutputs({{"--report", flags.report_path},
+                            {"--html", flags.html_path},
+                            {"--write-config", flags.write_config_path},
+                            {"--export-matlab", flags.matlab_path}},
                            input_files);
         blmd::IdentRequest request = blmd::MakeIdentRequest(
             blmd::LoadConfig(flags.config_path), flags.config_path, Settings(app, flags));
-        if (!flags.report_path.empty() || !flags.html_path.empty()) {
+        request.baseline_path = flags.baseline_path;
+        if (!flags.report_path.empty() || !flags.html_path.empty() ||
+            !flags.write_config_path.empty() || !flags.matlab_path.empty()) {
           blmd::InstallCleanupOnSignal();
         }
         const blmd::IdentOutcome outcome = blmd::Identify(std::move(request));

@@ -952,7 +952,14 @@ Config ParseConfig(const std::string& text, const std::string& path) {
                          "): JSON keeps only one of them; remove the other");
   }
   reader.RequireObject(root, "");
-  reader.CheckKeys(root, "",
+  // "$schema" (an editor's pointer to schema/config.schema.json, docs/config.md "Schema") is
+  // accepted as a string and is not among the keys a misspelling is matched against.
+  json keys = root;
+  if (keys.is_object() && keys.contains("$schema")) {
+    reader.String(root["$schema"], "/$schema");
+    keys.erase("$schema");
+  }
+  reader.CheckKeys(keys, "",
                    {"name", "description", "notes", "model", "parameters", "effects", "simulation",
                     "experiment", "identification"});
 
@@ -961,6 +968,7 @@ Config ParseConfig(const std::string& text, const std::string& path) {
   if (root.contains("name")) config.name = reader.String(root["name"], "/name");
   if (root.contains("description")) reader.String(root["description"], "/description");
   if (root.contains("notes")) config.notes = root["notes"];
+  config.document = root;
   if (!root.contains("model")) {
     reader.Fail("", "missing \"model\" (one of: blmd, dc_servo, rigid_load)");
   }
@@ -976,6 +984,44 @@ Config ParseConfig(const std::string& text, const std::string& path) {
   ReadExperiment(reader, root, &config);
   ReadIdentification(reader, root, &config);
   return config;
+}
+
+JsonDocument JsonDocument::Load(const std::string& path, std::size_t max_bytes,
+                                const std::string& what) {
+  JsonDocument document;
+  document.path_ = path;
+  const std::string text = ReadFileText(path, max_bytes, what);
+  document.root_ = ParseJsonText(text, path);
+  const PositionIndex index(text);
+  document.positions_ = std::make_shared<std::map<std::string, std::pair<long, long>>>();
+  // Every pointer's position, for Fail (PositionIndex is private to this file).
+  std::vector<std::string> pointers = {""};
+  for (std::size_t k = 0; k < pointers.size(); ++k) {
+    const std::string pointer = pointers[k];
+    const Position p = index.Find(pointer);
+    (*document.positions_)[pointer] = {p.line, p.column};
+    const json& value = document.root_.at(json::json_pointer(pointer));
+    if (value.is_object()) {
+      for (const auto& [key, item] : value.items()) {
+        std::string escaped;
+        for (char c : key) escaped += c == '~' ? "~0" : c == '/' ? "~1" : std::string(1, c);
+        pointers.push_back(pointer + "/" + escaped);
+      }
+    } else if (value.is_array()) {
+      for (std::size_t i = 0; i < value.size(); ++i)
+        pointers.push_back(pointer + "/" + std::to_string(i));
+    }
+  }
+  return document;
+}
+
+void JsonDocument::Fail(const std::string& pointer, const std::string& message) const {
+  std::pair<long, long> at = {1, 1};
+  if (positions_) {
+    const auto found = positions_->find(pointer);
+    if (found != positions_->end() && found->second.first > 0) at = found->second;
+  }
+  throw InputError(path_, at.first, at.second, message);
 }
 
 const ParamInfo* Config::FindParameterInfo(const std::string& parameter) const {

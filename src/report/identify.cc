@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "blmd/ident/trace_jackknife.h"
+#include "blmd/report/export.h"
 #include "blmd/report/report.h"
 
 namespace blmd {
@@ -25,6 +26,11 @@ FitResult WidenedByTraces(const FitProblem& problem, const FitResult& fit,
 IdentOutcome Identify(IdentRequest request) {
   IdentOutcome outcome;
   const Optimizer& optimizer = FindOptimizer(request.method);
+  if (!request.baseline_path.empty()) {  // a bad baseline is refused before the work
+    IdentReport model_only;
+    model_only.model = std::string(request.config.model->name());
+    CompareWithBaseline(model_only, request.baseline_path);
+  }
   outcome.problem = std::make_unique<FitProblem>(request.config, std::move(request.traces),
                                                  request.observe, request.free);
   const FitProblem& problem = *outcome.problem;
@@ -49,6 +55,9 @@ IdentOutcome Identify(IdentRequest request) {
                        ? options.threads
                        : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   IdentReport report = MakeReport(inputs);
+  outcome.final_config = problem.config();
+  outcome.final_parameters = problem.Parameters(outcome.first_fit.values);
+  outcome.final_free = problem.free();
   if (request.discover) {
     DiscoveryOptions discovery_options = request.discovery;
     discovery_options.refit.threads = options.threads;
@@ -71,6 +80,9 @@ IdentOutcome Identify(IdentRequest request) {
     const std::unique_ptr<FitProblem> final_problem = FinalProblem(problem, discovery);
     IdentReport headline = report;
     if (final_problem) {
+      outcome.final_config = final_problem->config();
+      outcome.final_parameters = final_problem->Parameters(discovery.final_fit.values);
+      outcome.final_free = final_problem->free();
       const FitResult final_result =
           WidenedByTraces(*final_problem, discovery.final_fit, refit_options);
       ReportInputs final_inputs = inputs;
@@ -82,6 +94,10 @@ IdentOutcome Identify(IdentRequest request) {
     report = FinalModelReport(std::move(headline), report, std::move(block));
   }
   WidenForAmbiguity(&report);
+  report.linear_model = outcome.final_config.model->Linearise(outcome.final_parameters);
+  if (!request.baseline_path.empty()) {
+    report.baseline = CompareWithBaseline(report, request.baseline_path);
+  }
   AddWarnings(&report);
   outcome.report = std::move(report);
   return outcome;

@@ -339,6 +339,17 @@ void AddWarnings(IdentReport* report) {
     }
     add("interval_unavailable", "no interval for " + no_interval + reason);
   }
+  if (report->baseline) {
+    std::string names;
+    for (const auto& p : report->baseline->parameters) {
+      if (p.verdict == "not_compared")
+        names += (names.empty() ? "" : ", ") + p.name + " (" + p.reason + ")";
+    }
+    if (!names.empty()) {
+      add("baseline_not_compared",
+          "the drift guard could not judge " + names + ": a change there would go unnoticed");
+    }
+  }
   if (!report->discovery) {
     return;
   }

@@ -2,6 +2,7 @@
 // and its parts. Rendering only: every figure was computed when the report was built.
 #include <cmath>
 
+#include "blmd/report/export.h"
 #include "blmd/report/report.h"
 #include "blmd/version.h"
 
@@ -322,6 +323,31 @@ void to_json(json& out, const IdentReport& report) {
   out["traces"] = traces;
   ModelJson(report.final_model, &out);
   if (report.discovery) out["discovery"] = *report.discovery;
+  if (report.linear_model.available || !report.linear_model.reason.empty()) {
+    out["linear_model"] = LinearModelJson(report.linear_model);
+  }
+  if (report.baseline) {
+    const BaselineReport& b = *report.baseline;
+    json parameters = json::object();
+    for (const auto& p : b.parameters) {
+      json entry = {{"verdict", p.verdict}, {"baseline", Number(p.baseline)}};
+      if (!p.reason.empty()) entry["reason"] = p.reason;
+      if (p.verdict != "not_compared") {
+        entry["value"] = Number(p.value);
+        entry["shift"] = Number(p.shift);
+        entry["relative_shift"] = Number(p.baseline != 0.0 ? p.shift / p.baseline : NAN);
+        entry["combined_limit"] = Number(p.combined_limit);
+        entry["ci95"] = Pair(p.ci95_low, p.ci95_high);
+        entry["baseline_ci95"] = Pair(p.baseline_ci95_low, p.baseline_ci95_high);
+      }
+      parameters[p.name] = entry;
+    }
+    out["baseline"] = {{"path", b.path},
+                       {"sha256", b.sha256},
+                       {"verdict", b.changed() ? "changed" : "unchanged"},
+                       {"moved", b.moved},
+                       {"parameters", parameters}};
+  }
   json warnings = json::array();
   for (const auto& w : report.warnings)
     warnings.push_back({{"code", w.code}, {"message", w.message}});

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <sstream>
 
+#include "blmd/io/config.h"
 #include "blmd/report/report.h"
 #include "blmd/version.h"
 #include "report/text.h"
@@ -126,6 +127,36 @@ void Discovery(const IdentReport& report, std::ostringstream& out) {
   }
 }
 
+// "6.4e-06 s^2 + 0.000287 s + 0.00188", descending powers of s.
+std::string Polynomial(const std::vector<double>& coefficients) {
+  std::string text;
+  for (std::size_t k = 0; k < coefficients.size(); ++k) {
+    const double c = coefficients[k];
+    const std::size_t power = coefficients.size() - 1 - k;
+    if (c == 0.0 && coefficients.size() > 1) continue;
+    text += text.empty() ? (c < 0 ? "-" : "") : (c < 0 ? " - " : " + ");
+    text += Figure(std::abs(c), 4);
+    if (power >= 1) text += " s";
+    if (power >= 2) text += "^" + std::to_string(power);
+  }
+  return text.empty() ? "0" : text;
+}
+
+void Baseline(const BaselineReport& b, std::ostringstream& out) {
+  out << "baseline " << b.path << ": "
+      << (b.changed() ? "CHANGED (" + Join(b.moved) + " moved)" : std::string("unchanged")) << "\n";
+  for (const auto& p : b.parameters) {
+    out << "  " << p.name << ": " << Figure(p.baseline, 6);
+    if (p.verdict == "not_compared") {
+      out << "  not compared: " << p.reason << "\n";
+      continue;
+    }
+    out << " -> " << Figure(p.value, 6) << " (shift " << Figure(p.shift, 3) << ", "
+        << Figure(p.baseline != 0.0 ? 100.0 * p.shift / p.baseline : NAN, 3) << " %; limit ±"
+        << Figure(p.combined_limit, 3) << " from both 95 % intervals): " << p.verdict << "\n";
+  }
+}
+
 }  // namespace
 
 std::string HumanSummary(const IdentReport& report) {
@@ -159,6 +190,14 @@ std::string HumanSummary(const IdentReport& report) {
         << model.validation->traces.size() << " held-out trace(s)\n";
   }
   if (report.discovery) Discovery(report, out);
+  if (report.linear_model.available) {
+    for (const auto& tf : TransferFunctions(report.linear_model)) {
+      if (tf.output != "w") continue;
+      out << "linear part: u -> w = " << Polynomial(tf.numerator) << " / ("
+          << Polynomial(tf.denominator) << ")  (" << report.linear_model.assumption << ")\n";
+    }
+  }
+  if (report.baseline) Baseline(*report.baseline, out);
   for (const auto& w : report.warnings) out << "warning [" << w.code << "]: " << w.message << "\n";
   return out.str();
 }

@@ -281,4 +281,35 @@ double BlmdDriveModel::DriveTorqueScale(const ParameterSet& values, double i_max
   return 1.5 * values.Get("Ke") * i_max;
 }
 
+// The drive with ideal current loops (docs/model-blmd.md, "Linear part"): each phase
+// current follows its demand i_j = (Kc/Kf)·Td·cos(p·theta - 2(j-1)pi/3), so
+// Te = Ke·sum_j i_j·cos(...) = 1.5·Ke·Kc/Kf·Td, and J dw/dt = Te - B w. The phase current is
+// modulated by the rotor angle, so u -> i is not time-invariant and is not given.
+LinearModel BlmdDriveModel::Linearise(const ParameterSet& values) const {
+  LinearModel model;
+  const double Kf = values.Get("Kf");
+  if (!(Kf > 0.0)) {
+    model.reason =
+        "Kf = 0: the current loop is open (voltage mode), so the torque is not "
+        "proportional to the demand";
+    return model;
+  }
+  const double torque_per_volt = 1.5 * values.Get("Ke") * values.Get("Kc") / Kf;  // N·m/V
+  const double J = values.Get("J"), B = values.Get("B");
+  model.available = true;
+  model.input = "u = Td (V, the torque demand)";
+  model.assumption =
+      "ideal current loops (Te = 1.5·Ke·Kc/Kf·Td); PWM, dead time and the "
+      "effects left out";
+  model.states = {"w", "theta"};
+  model.outputs = model.states;
+  model.A.resize(2, 2);
+  model.A << -B / J, 0.0, 1.0, 0.0;
+  model.B.resize(2, 1);
+  model.B << torque_per_volt / J, 0.0;
+  model.C = Eigen::MatrixXd::Identity(2, 2);
+  model.D = Eigen::MatrixXd::Zero(2, 1);
+  return model;
+}
+
 }  // namespace blmd

@@ -185,4 +185,24 @@ double DcServoModel::DriveTorqueScale(const ParameterSet& values, double i_max, 
   return values.Get("Kt") * i_max;
 }
 
+// The armature and the shaft without effects (docs/model-dc-servo.md, "Linear part"):
+// L di/dt = u - R i - Kb w, J dw/dt = Kt i - B w, dtheta/dt = w.
+LinearModel DcServoModel::Linearise(const ParameterSet& values) const {
+  const double R = values.Get("R"), L = values.Get("L"), Kt = values.Get("Kt"),
+               Kb = values.Get("Kb"), J = values.Get("J"), B = values.Get("B");
+  LinearModel model;
+  model.available = true;
+  model.input = "u (V)";
+  model.assumption = "the effects (friction, load, cogging, dead time, ...) left out";
+  model.states = {"i", "w", "theta"};
+  model.outputs = model.states;
+  model.A.resize(3, 3);
+  model.A << -R / L, -Kb / L, 0.0, Kt / J, -B / J, 0.0, 0.0, 1.0, 0.0;
+  model.B.resize(3, 1);
+  model.B << 1.0 / L, 0.0, 0.0;
+  model.C = Eigen::MatrixXd::Identity(3, 3);
+  model.D = Eigen::MatrixXd::Zero(3, 1);
+  return model;
+}
+
 }  // namespace blmd

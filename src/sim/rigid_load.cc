@@ -113,4 +113,23 @@ double RigidLoadModel::DriveTorqueScale(const ParameterSet& values, double /*i_m
   return std::max(values.Get("Kt") * u_max, values.Get("B") * w_max);
 }
 
+// The shaft without effects (docs/model-rigid-load.md, "Linear part"):
+// J dw/dt = Kt u - B w, dtheta/dt = w.
+LinearModel RigidLoadModel::Linearise(const ParameterSet& values) const {
+  const double J = values.Get("J"), B = values.Get("B"), Kt = values.Get("Kt");
+  LinearModel model;
+  model.available = true;
+  model.input = "u (N·m, or N for a linear axis, per Kt)";
+  model.assumption = "the effects (friction, load, cogging, ...) left out";
+  model.states = {"w", "theta"};
+  model.outputs = model.states;
+  model.A.resize(2, 2);
+  model.A << -B / J, 0.0, 1.0, 0.0;
+  model.B.resize(2, 1);
+  model.B << Kt / J, 0.0;
+  model.C = Eigen::MatrixXd::Identity(2, 2);
+  model.D = Eigen::MatrixXd::Zero(2, 1);
+  return model;
+}
+
 }  // namespace blmd

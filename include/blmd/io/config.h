@@ -5,6 +5,7 @@
 #pragma once
 
 #include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <utility>
@@ -41,6 +42,9 @@ struct Config {
   Experiment experiment;
   IdentificationSettings identification;
   nlohmann::json notes;  // free-form provenance ("notes" key), carried into reports
+  // The JSON document as loaded (null when built in code): what blmd-ident --write-config
+  // starts from, so the written config keeps the experiment and settings as written.
+  nlohmann::json document;
 
   // Adds an effect that the config does not declare (blmd-sim --effect); throws InputError.
   void AddEffect(const std::string& effect, const ParameterSet& values);
@@ -51,6 +55,23 @@ struct Config {
 };
 
 Config LoadConfig(const std::string& path);
+
+// A JSON file other than a config (a stored report for blmd-ident --baseline), read as
+// strictly as a config (invalid JSON, absurd nesting, numbers beyond the double range are
+// InputErrors with line and column), with the position of every value: Fail(pointer,
+// message) throws an InputError naming the file, line and column of the value at `pointer`.
+class JsonDocument {
+ public:
+  static JsonDocument Load(const std::string& path, std::size_t max_bytes, const std::string& what);
+  const nlohmann::json& root() const { return root_; }
+  const std::string& path() const { return path_; }
+  [[noreturn]] void Fail(const std::string& pointer, const std::string& message) const;
+
+ private:
+  std::string path_;
+  nlohmann::json root_;
+  std::shared_ptr<std::map<std::string, std::pair<long, long>>> positions_;
+};
 Config ParseConfig(const std::string& text, const std::string& path);
 
 // Why a run of `span` seconds at step `dt` writing `samples` samples is refused (more

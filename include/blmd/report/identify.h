@@ -32,6 +32,8 @@ struct IdentRequest {
   // bic_margin, max_effects, candidates; Identify sets the refit options and the held-out
   // traces (from `validation`).
   DiscoveryOptions discovery;
+  // A stored report to guard against (--baseline, docs/export.md): empty for none.
+  std::string baseline_path;
 };
 
 struct IdentOutcome {
@@ -39,6 +41,11 @@ struct IdentOutcome {
   std::unique_ptr<FitProblem> problem;         // the first fit's problem
   FitResult first_fit;                         // as the optimiser returned it
   std::unique_ptr<DiscoveryResult> discovery;  // when request.discover
+  // The final model (after discovery, else the first fit): its config, its parameters at
+  // the fitted values and its free parameters with their bounds (--write-config).
+  Config final_config;
+  ParameterSet final_parameters;
+  std::vector<FreeParameter> final_free;
   bool converged() const { return first_fit.summary.converged; }
 };
 

@@ -17,6 +17,7 @@
 #include "blmd/ident/errors.h"
 #include "blmd/ident/optimizer.h"
 #include "blmd/ident/problem.h"
+#include "blmd/sim/linear_model.h"
 
 namespace blmd {
 
@@ -138,6 +139,26 @@ struct Warning {
   std::string message;
 };
 
+// One parameter against a stored report (blmd-ident --baseline, docs/export.md "Drift
+// guard"): moved when |value - baseline| exceeds the combined 95 % half-widths
+// sqrt(h^2 + h_baseline^2) (the difference of two independent estimates).
+struct BaselineParameter {
+  std::string name;
+  std::string verdict;  // "same", "moved", or "not_compared" (reason says why)
+  std::string reason;
+  double baseline = 0.0, value = 0.0;
+  double baseline_ci95_low = 0.0, baseline_ci95_high = 0.0;
+  double ci95_low = 0.0, ci95_high = 0.0;
+  double shift = 0.0;           // value - baseline
+  double combined_limit = 0.0;  // sqrt(h^2 + h_baseline^2)
+};
+struct BaselineReport {
+  std::string path, sha256;
+  std::vector<BaselineParameter> parameters;  // the baseline's free parameters, by name
+  std::vector<std::string> moved;             // names whose verdict is "moved"
+  bool changed() const { return !moved.empty(); }
+};
+
 struct IdentReport {
   std::string model;  // the model's registry name
   std::string config_path, config_name;
@@ -146,6 +167,9 @@ struct IdentReport {
   ModelReport final_model;  // the headline: the final model (the first fit without discovery)
   std::optional<DiscoveryReport> discovery;
   std::vector<Warning> warnings;
+  // The final model's linear part and its transfer functions (docs/export.md).
+  LinearModel linear_model;
+  std::optional<BaselineReport> baseline;  // --baseline
 
   // The first fit: discovery->before when discovery ran, else the headline.
   const ModelReport& first_fit() const { return discovery ? discovery->before : final_model; }

@@ -52,6 +52,7 @@ class BlmdDriveModel final : public Model {
   SimStatus Simulate(const SimulationRequest& request, Trace* out) const override;
   // 1.5 Ke i_max: the motor torque at the largest phase current (the q-axis torque of
   // docs/model-blmd.md with the peak phase current as i_q).
+  LinearModel Linearise(const ParameterSet& values) const override;
   double DriveTorqueScale(const ParameterSet& values, double i_max, double u_max,
                           double w_max) const override;
   // The batched path (src/sim/blmd_drive_batch.cc): points of one experiment with a plain

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "blmd/sim/experiment.h"
+#include "blmd/sim/linear_model.h"
 #include "blmd/sim/parameters.h"
 #include "blmd/sim/trace.h"
 
@@ -63,6 +64,10 @@ class Model {
   // search boxes (docs/discovery.md §2).
   virtual double DriveTorqueScale(const ParameterSet& values, double i_max, double u_max,
                                   double w_max) const = 0;
+
+  // The linear part of the model at `values` (linear_model.h, docs/export.md): the model
+  // without its effects, idealised where the page of the model says so.
+  virtual LinearModel Linearise(const ParameterSet& values) const = 0;
 
   const ParamInfo* FindParameter(std::string_view name) const;
 };

@@ -1,0 +1,34 @@
+// The linear part of a model (docs/export.md): dx/dt = A·x + B·u, y = C·x + D·u from the
+// input u, with every nonlinear or constant effect left out (friction, load, cogging, ...),
+// and its transfer functions u -> y for each output. For controller design and for taking the
+// identified model to MATLAB/Octave (blmd-ident --export-matlab).
+#pragma once
+
+#include <Eigen/Dense>
+#include <string>
+#include <vector>
+
+namespace blmd {
+
+struct LinearModel {
+  bool available = false;
+  std::string reason;                        // why there is none (available false)
+  std::string input;                         // the input's name and unit, e.g. "u (V)"
+  std::string assumption;                    // what is idealised or left out, one line
+  std::vector<std::string> states, outputs;  // names of x and y (SI units of the columns)
+  Eigen::MatrixXd A, B, C, D;
+};
+
+// G(s) = num(s)/den(s), coefficients in descending powers of s (MATLAB's tf order).
+struct TransferFunction {
+  std::string output;
+  std::vector<double> numerator, denominator;
+};
+
+// The transfer function u -> y_k of every output: den(s) = det(sI - A) and
+// num(s) = C_k·adj(sI - A)·B + D_k·den(s) by the Faddeev-LeVerrier recursion (exact for the
+// small systems here, n <= 3), with common factors of s cancelled (an integrator that the
+// output does not see) and the numerator's leading zeros dropped.
+std::vector<TransferFunction> TransferFunctions(const LinearModel& model);
+
+}  // namespace blmd

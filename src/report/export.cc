@@ -1,0 +1,243 @@
+#include "blmd/report/export.h"
+
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "blmd/error.h"
+#include "blmd/io/files.h"
+#include "blmd/sim/effects.h"
+#include "blmd/version.h"
+
+namespace blmd {
+namespace {
+
+using nlohmann::json;
+
+json Matrix(const Eigen::MatrixXd& m) {
+  json rows = json::array();
+  for (Eigen::Index r = 0; r < m.rows(); ++r) {
+    json row = json::array();
+    for (Eigen::Index c = 0; c < m.cols(); ++c) row.push_back(m(r, c));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+// Round-trip exact text of a double for a script (%.17g).
+std::string Exact(double v) {
+  char buffer[40];
+  std::snprintf(buffer, sizeof buffer, "%.17g", v);
+  return buffer;
+}
+
+std::string MatlabMatrix(const Eigen::MatrixXd& m) {
+  std::string out = "[";
+  for (Eigen::Index r = 0; r < m.rows(); ++r) {
+    if (r) out += "; ";
+    for (Eigen::Index c = 0; c < m.cols(); ++c) out += (c ? ", " : "") + Exact(m(r, c));
+  }
+  return out + "]";
+}
+
+std::string MatlabRow(const std::vector<double>& v) {
+  std::string out = "[";
+  for (std::size_t k = 0; k < v.size(); ++k) out += (k ? ", " : "") + Exact(v[k]);
+  return out + "]";
+}
+
+std::string MatlabNames(const std::vector<std::string>& names) {
+  std::string out = "{";
+  for (std::size_t k = 0; k < names.size(); ++k) out += (k ? ", '" : "'") + names[k] + "'";
+  return out + "}";
+}
+
+// The 95 % half-width of a reported interval, NaN when there is none.
+double HalfWidth(double low, double high) { return 0.5 * (high - low); }
+
+}  // namespace
+
+json LinearModelJson(const LinearModel& model) {
+  json out;
+  out["available"] = model.available;
+  if (!model.available) {
+    out["reason"] = model.reason;
+    return out;
+  }
+  out["input"] = model.input;
+  out["assumption"] = model.assumption;
+  out["states"] = model.states;
+  out["outputs"] = model.outputs;
+  out["state_space"] = {{"A", Matrix(model.A)},
+                        {"B", Matrix(model.B)},
+                        {"C", Matrix(model.C)},
+                        {"D", Matrix(model.D)}};
+  json functions = json::object();
+  for (const auto& tf : TransferFunctions(model)) {
+    functions[tf.output] = {{"numerator", tf.numerator}, {"denominator", tf.denominator}};
+  }
+  out["transfer_functions"] = functions;
+  return out;
+}
+
+json ModelConfigJson(const Config& config, const ParameterSet& values,
+                     const std::vector<FreeParameter>& free, const IdentReport& report) {
+  json doc = config.document.is_object() ? config.document : json::object();
+  doc["model"] = std::string(config.model->name());
+  if (!doc.contains("name")) doc["name"] = config.name;
+  json parameters = json::object();
+  for (const auto& info : config.model->parameters()) {
+    if (values.Has(info.name)) parameters[info.name] = values.Get(info.name);
+  }
+  doc["parameters"] = parameters;
+  json effects = json::object();
+  for (const auto& name : config.effects) {
+    json effect = json::object();
+    for (const auto& p : FindEffect(name).parameters) effect[p.name] = values.Get(p.name);
+    effects[name] = effect;
+  }
+  if (effects.empty()) {
+    doc.erase("effects");
+  } else {
+    doc["effects"] = effects;
+  }
+  json& ident = doc["identification"];
+  if (!ident.is_object()) ident = json::object();
+  ident.erase("initial");  // the fitted values are the start
+  json names = json::array(), bounds = json::object();
+  for (const auto& p : free) {
+    names.push_back(p.name);
+    bounds[p.name] = {p.lower, p.upper};
+  }
+  ident["free"] = names;
+  ident["bounds"] = bounds;
+  // Provenance and the intervals, as a comment.
+  json intervals = json::object();
+  for (const auto& [name, p] : report.final_model.parameters) {
+    json entry = {{"value", p.estimate.value}};
+    if (!p.unit.empty()) entry["unit"] = p.unit;
+    if (p.free && p.estimate.has_interval) {
+      entry["ci95"] = {p.estimate.ci95_low, p.estimate.ci95_high};
+      entry["interval_method"] = p.estimate.interval_method;
+    }
+    intervals[name] = entry;
+  }
+  json traces = json::array();
+  for (const auto& t : report.traces) traces.push_back({{"path", t.path}, {"sha256", t.sha256}});
+  json notes = {{"identified_by", std::string("blmd-ident ") + kVersion},
+                {"from_config", report.config_path},
+                {"traces", traces},
+                {"parameters", intervals}};
+  const ErrorFigures& fit = report.final_model.fit.errors;
+  if (fit.ok && std::isfinite(fit.nrmse)) notes["fit_nrmse"] = fit.nrmse;
+  if (report.discovery) notes["discovery_added"] = report.discovery->added;
+  if (!config.notes.is_null()) notes["config_notes"] = config.notes;
+  doc["notes"] = notes;
+  SanitizeJson(&doc);
+  return doc;
+}
+
+std::string MatlabScript(const IdentReport& report) {
+  const LinearModel& m = report.linear_model;
+  std::ostringstream out;
+  out << "% The linear part of the model identified by blmd-ident " << kVersion << "\n"
+      << "% config " << report.config_path << " ('" << report.config_name << "'), model "
+      << report.model << "\n";
+  for (const auto& t : report.traces)
+    out << "% trace " << t.path << " (sha256 " << t.sha256 << ")\n";
+  for (const auto& [name, p] : report.final_model.parameters) {
+    out << "%   " << name << " = " << Exact(p.estimate.value)
+        << (p.unit.empty() ? "" : " " + p.unit);
+    if (p.free && p.estimate.has_interval) {
+      out << "  (95 %: [" << Exact(p.estimate.ci95_low) << ", " << Exact(p.estimate.ci95_high)
+          << "], " << p.estimate.interval_method << ")";
+    }
+    out << "\n";
+  }
+  if (!m.available) {
+    out << "% No linear part: " << m.reason << "\n"
+        << "error('blmd:noLinearModel', '%s', '" << m.reason << "');\n";
+    return out.str();
+  }
+  out << "% Input " << m.input << "; " << m.assumption << ".\n"
+      << "% MATLAB: Control System Toolbox; Octave: pkg load control\n"
+      << "if exist('OCTAVE_VERSION', 'builtin'), pkg load control; end\n"
+      << "A = " << MatlabMatrix(m.A) << ";\n"
+      << "B = " << MatlabMatrix(m.B) << ";\n"
+      << "C = " << MatlabMatrix(m.C) << ";\n"
+      << "D = " << MatlabMatrix(m.D) << ";\n"
+      << "sys = ss(A, B, C, D, 'StateName', " << MatlabNames(m.states) << ", 'InputName', 'u', "
+      << "'OutputName', " << MatlabNames(m.outputs) << ");\n";
+  for (const auto& tf : TransferFunctions(m)) {
+    out << "G_" << tf.output << " = tf(" << MatlabRow(tf.numerator) << ", "
+        << MatlabRow(tf.denominator) << ");  % u -> " << tf.output << "\n";
+  }
+  return out.str();
+}
+
+BaselineReport CompareWithBaseline(const IdentReport& report, const std::string& baseline_path) {
+  const JsonDocument document =
+      JsonDocument::Load(baseline_path, 256u << 20, "baseline report (a blmd-ident --report JSON)");
+  const json& root = document.root();
+  if (!root.is_object() || root.value("tool", std::string()) != "blmd-ident") {
+    document.Fail("", "not a blmd-ident report (no \"tool\": \"blmd-ident\")");
+  }
+  if (!root.contains("parameters") || !root["parameters"].is_object()) {
+    document.Fail("", "the baseline report has no \"parameters\" object");
+  }
+  if (!root.contains("model") || !root["model"].is_string() || root["model"] != report.model) {
+    document.Fail(root.contains("model") ? "/model" : "",
+                  "the baseline is a report of model " +
+                      (root.contains("model") ? root["model"].dump() : std::string("(none)")) +
+                      ", this identification's model is " + report.model);
+  }
+  BaselineReport baseline;
+  baseline.path = baseline_path;
+  baseline.sha256 = Sha256Hex(ReadFileText(baseline_path, 256u << 20, "baseline report"));
+  for (const auto& [name, stored] : root["parameters"].items()) {
+    const std::string pointer = "/parameters/" + name;
+    if (!stored.is_object()) document.Fail(pointer, "parameter '" + name + "' is not an object");
+    if (!stored.value("free", false)) continue;  // classic estimates are not guarded
+    BaselineParameter p;
+    p.name = name;
+    const json& value = stored.contains("value") ? stored["value"] : json();
+    if (!value.is_number()) document.Fail(pointer, "parameter '" + name + "' has no numeric value");
+    p.baseline = value.get<double>();
+    const auto found = report.final_model.parameters.find(name);
+    const json& ci = stored.contains("ci95") ? stored["ci95"] : json();
+    const bool baseline_interval =
+        ci.is_array() && ci.size() == 2 && ci[0].is_number() && ci[1].is_number();
+    if (baseline_interval) {
+      p.baseline_ci95_low = ci[0].get<double>();
+      p.baseline_ci95_high = ci[1].get<double>();
+    }
+    if (found == report.final_model.parameters.end() || !found->second.free) {
+      p.verdict = "not_compared";
+      p.reason = "not a fitted parameter of this identification";
+    } else {
+      const ParameterEstimate& e = found->second.estimate;
+      p.value = e.value;
+      p.shift = e.value - p.baseline;
+      p.ci95_low = e.ci95_low;
+      p.ci95_high = e.ci95_high;
+      const bool interval =
+          e.has_interval && std::isfinite(e.ci95_low) && std::isfinite(e.ci95_high);
+      if (!interval || !baseline_interval) {
+        p.verdict = "not_compared";
+        p.reason = !interval ? "no 95 % interval in this identification"
+                             : "no 95 % interval in the baseline";
+      } else {
+        // The difference of two independent estimates has the half-width sqrt(h1^2 + h2^2)
+        // (Schenker & Gentleman 2001; docs/export.md).
+        p.combined_limit = std::hypot(HalfWidth(e.ci95_low, e.ci95_high),
+                                      HalfWidth(p.baseline_ci95_low, p.baseline_ci95_high));
+        p.verdict = std::abs(p.shift) > p.combined_limit ? "moved" : "same";
+        if (p.verdict == "moved") baseline.moved.push_back(name);
+      }
+    }
+    baseline.parameters.push_back(p);
+  }
+  return baseline;
+}
+
+}  // namespace blmd
