@@ -174,6 +174,7 @@ int ExitCode(const IdentFlags& f, const blmd::IdentOutcome& outcome) {
 int main(int argc, char** argv) {
   CLI::App app{"blmd-ident: identify J, B (and any other free parameter) from a recorded trace"};
   blmd::app::AddVersionFlag(app, "blmd-ident");
+  blmd::app::AddHelpFooter(app, "blmd-ident");
   IdentFlags flags;
   flags.Add(app);
   return blmd::app::Main(

@@ -9,6 +9,7 @@
 #include "blmd/io/csv.h"
 #include "blmd/io/files.h"
 #include "blmd/io/flags.h"
+#include "blmd/io/starting_config.h"
 #include "blmd/report/request.h"
 #include "blmd/run.h"
 
@@ -22,15 +23,16 @@ std::string Fixed(double value, int digits = 4) {
 
 // Every flag of blmd-sim (docs/cli.md §1).
 struct SimFlags {
-  std::string config_path, out_path, input_path;
+  std::string config_path, out_path, input_path, init_model;
   std::vector<std::string> effects, noises;
   std::uint64_t seed = 1;
   bool quiet = false;
   blmd::app::DialectFlags trace_flags;  // for --input
 
   void Add(CLI::App& app) {
-    app.add_option("--config", config_path, "model and experiment (JSON)")->required();
-    app.add_option("--out", out_path, "trace CSV to write")->required();
+    // Required unless --init-config (checked in Run, with CLI11's message).
+    app.add_option("--config", config_path, "model and experiment (JSON) (required)");
+    app.add_option("--out", out_path, "trace CSV to write (required)");
     app.add_option("--effect", effects,
                    "add an undeclared effect, NAME:KEY=VALUE[,KEY=VALUE...] (repeatable)");
     app.add_option(
@@ -41,8 +43,36 @@ struct SimFlags {
     trace_flags.Add(app);
     app.add_option("--input", input_path, "drive the model with the u column of this trace");
     app.add_flag("--quiet", quiet, "print nothing on success");
+    app.add_option("--init-config", init_model,
+                   "print a starting config for MODEL (" + ModelNames() +
+                       ") on stdout and exit; no other flag")
+        ->type_name("MODEL");
+  }
+
+  static std::string ModelNames() {
+    std::vector<std::string> names;
+    for (const blmd::Model* model : blmd::ModelRegistry()) names.emplace_back(model->name());
+    return blmd::Join(names, ", ");
   }
 };
+
+// --init-config MODEL: the starting config on stdout (docs/cli.md §1.1), alone.
+int PrintStartingConfig(const CLI::App& app, const SimFlags& f) {
+  for (const CLI::Option* option : app.get_options()) {
+    if (option->count() > 0 && option->get_name() != "--init-config") {
+      throw blmd::InputError("--init-config prints a config and takes no other flag (got " +
+                             option->get_name() + ")");
+    }
+  }
+  std::string text;
+  try {
+    text = blmd::StartingConfigText(f.init_model);
+  } catch (const blmd::InputError& error) {
+    throw blmd::InputError(std::string("--init-config: ") + error.what());
+  }
+  std::cout << text;
+  return blmd::kExitOk;
+}
 
 // The summary: samples, each column's range and final value, the closed loop's step figures.
 void PrintSummary(const SimFlags& f, const blmd::Config& config, const blmd::Trace& trace) {
@@ -74,7 +104,14 @@ void PrintSummary(const SimFlags& f, const blmd::Config& config, const blmd::Tra
   }
 }
 
-int Run(SimFlags& f) {
+int Run(const CLI::App& app, SimFlags& f) {
+  if (app.count("--init-config") > 0) return PrintStartingConfig(app, f);
+  for (const char* flag : {"--config", "--out"}) {
+    if (app.count(flag) == 0) {
+      throw blmd::InputError(std::string(flag) + " is required (see " + app.get_name() +
+                             " --help)");
+    }
+  }
   blmd::CheckOutputs({{"--out", f.out_path}},
                      {{"--config", f.config_path}, {"--input", f.input_path}});
   blmd::Config config = blmd::LoadConfig(f.config_path);
@@ -115,9 +152,10 @@ int Run(SimFlags& f) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"blmd-sim: simulate a dc_servo or blmd model and write a trace CSV"};
+  CLI::App app{"blmd-sim: simulate a model of a drive and write a trace CSV"};
   blmd::app::AddVersionFlag(app, "blmd-sim");
+  blmd::app::AddHelpFooter(app, "blmd-sim");
   SimFlags flags;
   flags.Add(app);
-  return blmd::app::Main(app, argc, argv, [&]() -> int { return Run(flags); });
+  return blmd::app::Main(app, argc, argv, [&]() -> int { return Run(app, flags); });
 }

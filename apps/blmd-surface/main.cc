@@ -316,6 +316,7 @@ int RunSweep(const CLI::App& app, SurfaceFlags& f) {
 int main(int argc, char** argv) {
   CLI::App app{"blmd-surface: sweep the MSE cost over a grid of parameters"};
   blmd::app::AddVersionFlag(app, "blmd-surface");
+  blmd::app::AddHelpFooter(app, "blmd-surface");
   SurfaceFlags flags;
   flags.Add(app);
   CLI::App* merge = app.add_subcommand("merge", "join shard files into the unsharded surface CSV");

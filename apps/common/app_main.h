@@ -1,5 +1,5 @@
 // What every command's main() shares: CLI11 parsing with one-line errors, the mapping of
-// error channels to exit codes (interface.md), and --version.
+// error channels to exit codes (interface.md), --version, and the --help footer (help.h).
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -16,6 +16,7 @@
 
 #include "blmd/error.h"
 #include "blmd/version.h"
+#include "help.h"
 
 namespace blmd::app {
 
@@ -87,15 +88,26 @@ inline CLI::Validator PositiveNumber() {
 // What went to standard output (the summary, --json, --help) must have arrived: a full disk
 // or a closed pipe is a failure, not a success (issue 18). Returns `code`, or kExitFailed
 // with one line on stderr.
-inline int FinishStandardOutput(int code) {
+// `earlier_errno`: the cause of a write that failed before this flush, when the caller knows it
+// (PrintAndFinish).
+inline int FinishStandardOutput(int code, int earlier_errno = 0) {
   errno = 0;
   std::cout.flush();
   if (std::cout && std::fflush(stdout) == 0 && !std::ferror(stdout)) return code;
   // errno names the cause when this flush failed; a write that failed earlier (a full
   // buffer) may have left it 0.
+  const int cause = errno ? errno : earlier_errno;
   std::cerr << "error: cannot write to standard output"
-            << (errno ? std::string(": ") + std::strerror(errno) : std::string()) << "\n";
+            << (cause ? std::string(": ") + std::strerror(cause) : std::string()) << "\n";
   return kExitFailed;
+}
+
+// Prints `text` (--help, --version) and finishes standard output: a text longer than stdout's
+// buffer is written before the final flush, so the cause of its failure is taken as it happens.
+inline int PrintAndFinish(const std::string& text) {
+  errno = 0;
+  std::cout << text;
+  return FinishStandardOutput(kExitOk, errno);
 }
 
 // A flag given an empty value ("--method ''", or "--report=" which CLI11 would read as
@@ -140,14 +152,11 @@ inline int Main(CLI::App& app, int argc, char** argv, const std::function<int()>
     RefuseEmptyValues(app, checked_in_body);
     for (const CLI::App* sub : app.get_subcommands()) RefuseEmptyValues(*sub, checked_in_body);
   } catch (const CLI::CallForHelp&) {
-    std::cout << app.help();
-    return FinishStandardOutput(kExitOk);
+    return PrintAndFinish(app.help());
   } catch (const CLI::CallForAllHelp&) {
-    std::cout << app.help("", CLI::AppFormatMode::All);
-    return FinishStandardOutput(kExitOk);
+    return PrintAndFinish(app.help("", CLI::AppFormatMode::All));
   } catch (const CLI::CallForVersion&) {
-    std::cout << app.version() << "\n";
-    return FinishStandardOutput(kExitOk);
+    return PrintAndFinish(app.version() + "\n");
   } catch (const CLI::ParseError& error) {
     std::cerr << "error: " << InputError::OneLine(error.what()) << " (see " << app.get_name()
               << " --help)\n";

@@ -12,7 +12,7 @@ namespace blmd {
 namespace {
 
 ParamInfo P(const char* name, const char* unit, const char* meaning, bool positive, double lo,
-            double hi) {
+            double hi, double typical) {
   ParamInfo info;
   info.name = name;
   info.unit = unit;
@@ -21,6 +21,7 @@ ParamInfo P(const char* name, const char* unit, const char* meaning, bool positi
   info.non_negative = !positive;
   info.default_lower = lo;
   info.default_upper = hi;
+  info.typical = typical;
   return info;
 }
 
@@ -37,27 +38,29 @@ struct Leg {
 
 }  // namespace
 
+// Typical values: the 1.5 kW D31x-class drive of configs/blmd-d31x.json (Guinee & Lyden 1999;
+// the values the paper does not give are plausible ones, noted there).
 const std::vector<ParamInfo>& BlmdDriveModel::parameters() const {
   static const std::vector<ParamInfo> params = {
-      P("Ud", "V", "DC bus voltage", true, 1.0, 2000.0),
-      P("Rs", "ohm", "phase resistance", true, 1e-3, 100.0),
-      P("Ls", "H", "phase inductance", true, 1e-6, 1.0),
+      P("Ud", "V", "DC bus voltage", true, 1.0, 2000.0, 310.0),
+      P("Rs", "ohm", "phase resistance", true, 1e-3, 100.0, 1.0),
+      P("Ls", "H", "phase inductance", true, 1e-6, 1.0, 0.004),
       P("Ke", "V·s/rad", "back-EMF and torque constant Ke = p lambda_m (phase peak)", true, 1e-3,
-        10.0),
-      P("p", "-", "pole pairs", true, 1.0, 50.0),
-      P("Kc", "V/V", "current demand per volt of torque demand", true, 1e-3, 100.0),
+        10.0, 0.3),
+      P("p", "-", "pole pairs", true, 1.0, 50.0, 3.0),
+      P("Kc", "V/V", "current demand per volt of torque demand", true, 1e-3, 100.0, 1.1),
       // Kf = 0 (with Ki = 0) opens the current loop: v_cj = Kp Kc Td cos(...), a fixed duty
       // for a fixed rotor angle (open-loop voltage mode, docs/model-blmd.md).
-      P("Kf", "V/A", "current feedback gain (0: current loop open)", false, 1e-3, 100.0),
-      P("Kp", "V/V", "compensator proportional gain", false, 0.0, 1e3),
-      P("Ki", "1/s", "compensator integral gain", false, 0.0, 1e7),
-      Optional(P("Tz", "s", "compensator lead zero time constant (0: PI)", false, 0.0, 1.0)),
-      Optional(P("Tp", "s", "compensator lag pole time constant (0: PI)", false, 0.0, 1.0)),
-      P("Vtri", "V", "carrier peak (control voltage for full duty)", true, 1e-3, 100.0),
-      P("Tpwm", "s", "carrier (switching) period, the paper's Ts", true, 1e-6, 1e-2),
-      P("delta", "s", "blanking (dead) time on every turn-on", false, 0.0, 1e-3),
-      P("J", "kg·m²", "inertia of rotor, shaft and load", true, 1e-7, 10.0),
-      P("B", "N·m·s/rad", "viscous damping", true, 1e-9, 10.0),
+      P("Kf", "V/A", "current feedback gain (0: current loop open)", false, 1e-3, 100.0, 0.5),
+      P("Kp", "V/V", "compensator proportional gain", false, 0.0, 1e3, 8.0),
+      P("Ki", "1/s", "compensator integral gain", false, 0.0, 1e7, 16000.0),
+      Optional(P("Tz", "s", "compensator lead zero time constant (0: PI)", false, 0.0, 1.0, 0.0)),
+      Optional(P("Tp", "s", "compensator lag pole time constant (0: PI)", false, 0.0, 1.0, 0.0)),
+      P("Vtri", "V", "carrier peak (control voltage for full duty)", true, 1e-3, 100.0, 10.0),
+      P("Tpwm", "s", "carrier (switching) period, the paper's Ts", true, 1e-6, 1e-2, 2e-4),
+      P("delta", "s", "blanking (dead) time on every turn-on", false, 0.0, 1e-3, 2e-5),
+      P("J", "kg·m²", "inertia of rotor, shaft and load", true, 1e-7, 10.0, 1.19e-3),
+      P("B", "N·m·s/rad", "viscous damping", true, 1e-9, 10.0, 5e-4),
   };
   return params;
 }

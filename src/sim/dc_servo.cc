@@ -11,7 +11,8 @@
 namespace blmd {
 namespace {
 
-ParamInfo P(const char* name, const char* unit, const char* meaning, double lo, double hi) {
+ParamInfo P(const char* name, const char* unit, const char* meaning, double lo, double hi,
+            double typical) {
   ParamInfo info;
   info.name = name;
   info.unit = unit;
@@ -19,6 +20,7 @@ ParamInfo P(const char* name, const char* unit, const char* meaning, double lo, 
   info.positive = true;
   info.default_lower = lo;
   info.default_upper = hi;
+  info.typical = typical;
   return info;
 }
 
@@ -26,14 +28,15 @@ double Sign(double x) { return x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : 0.0); }
 
 }  // namespace
 
+// Typical values: the no-load servo of Ganesh et al. (2012) (configs/ganesh-noload.json).
 const std::vector<ParamInfo>& DcServoModel::parameters() const {
   static const std::vector<ParamInfo> params = {
-      P("R", "ohm", "armature resistance", 1e-3, 1e3),
-      P("L", "H", "armature inductance", 1e-6, 10.0),
-      P("Kt", "N·m/A", "torque constant", 1e-4, 10.0),
-      P("Kb", "V·s/rad", "back-EMF constant", 1e-4, 10.0),
-      P("J", "kg·m²", "inertia of motor and load", 1e-9, 10.0),
-      P("B", "N·m·s/rad", "viscous damping of motor and load", 1e-10, 10.0),
+      P("R", "ohm", "armature resistance", 1e-3, 1e3, 12.6),
+      P("L", "H", "armature inductance", 1e-6, 10.0, 0.283),
+      P("Kt", "N·m/A", "torque constant", 1e-4, 10.0, 0.04),
+      P("Kb", "V·s/rad", "back-EMF constant", 1e-4, 10.0, 0.04),
+      P("J", "kg·m²", "inertia of motor and load", 1e-9, 10.0, 2.26e-5),
+      P("B", "N·m·s/rad", "viscous damping of motor and load", 1e-10, 10.0, 2.261e-5),
   };
   return params;
 }

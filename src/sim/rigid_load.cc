@@ -10,6 +10,8 @@
 
 namespace blmd {
 
+// Typical values: a shaft of 0.02 kg·m² with 0.05 N·m·s/rad of damping (time constant
+// J/B = 0.4 s) driven by its torque (Kt = 1), as tests/schema/rigid-truth.json.
 const std::vector<ParamInfo>& RigidLoadModel::parameters() const {
   static const std::vector<ParamInfo> params = [] {
     std::vector<ParamInfo> list;
@@ -19,12 +21,14 @@ const std::vector<ParamInfo>& RigidLoadModel::parameters() const {
     J.meaning = "inertia (a mass in kg for a linear axis)";
     J.default_lower = 1e-9;
     J.default_upper = 1e4;
+    J.typical = 0.02;
     ParamInfo B;
     B.name = "B";
     B.unit = "N·m·s/rad";
     B.meaning = "viscous damping (N·s/m for a linear axis)";
     B.default_lower = 1e-12;
     B.default_upper = 1e5;
+    B.typical = 0.05;
     ParamInfo Kt;
     Kt.name = "Kt";
     Kt.unit = "N·m per unit of u";
@@ -33,6 +37,7 @@ const std::vector<ParamInfo>& RigidLoadModel::parameters() const {
     Kt.default_upper = 1e6;
     Kt.optional = true;
     Kt.default_value = 1.0;
+    Kt.typical = 1.0;
     list = {J, B, Kt};
     return list;
   }();

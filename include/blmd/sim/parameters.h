@@ -20,6 +20,9 @@ struct ParamInfo {
   double default_upper = 0.0;
   bool optional = false;  // may be left out of a config; then default_value
   double default_value = 0.0;
+  // A plausible value, in `unit`, for a model's starting config (blmd-sim --init-config,
+  // io/starting_config.h); 0 for effects' parameters, which carry none.
+  double typical = 0.0;
 };
 
 // Ordered name -> value map. Small (tens of entries): linear look-up is fine,

@@ -1,0 +1,145 @@
+# Bash completion for blmd-ident, blmd-sim and blmd-surface (docs/cli.md, "Completion").
+# One file for the three commands; `cmake --install` puts a copy under each command's name
+# in share/bash-completion/completions, where bash-completion loads it on first use. Without
+# an install: source completions/blmd.bash. Needs bash only (not the bash-completion
+# package's helpers).
+#
+# Completes the flags of each command, file names after the flags that name files (configs:
+# *.json and folders), the optimisers after --method, the effects after --effect and
+# --candidates (a comma list), the models after --init-config, the trace columns after
+# --observe, --noise and --derive, the choices of --error, --initial-state, --delimiter and
+# --duplicate-time, and blmd-surface's subcommands merge and plot.
+#
+# The lists below are the commands' own: tests/completion_test.cc compares them with the
+# flags of each command's --help and with the model, effect and optimiser registries, so they
+# cannot drift apart.
+
+_blmd_models="blmd dc_servo rigid_load"
+_blmd_methods="ceres classic fsd powell"
+_blmd_effects="asymmetric_viscous cogging coulomb_friction current_offset dead_time load_torque quadratic_drag stribeck"
+_blmd_columns="i ib ic theta u w"
+
+_blmd_ident_flags="--bic-margin --candidates --column --config --decimate --delimiter --derive --discover --duplicate-time --error --fail-above-nrmse --fail-on-warning --filter-hz --free --help --html --initial --initial-state --json --max-effects --max-evaluations --method --observe --option --quiet --report --scale --seed --select --split --threads --trace --validate --verbose --version"
+_blmd_sim_flags="--config --delimiter --duplicate-time --effect --help --init-config --input --noise --out --quiet --seed --version"
+_blmd_surface_flags="--column --config --decimate --delimiter --derive --duplicate-time --error --filter-hz --force --grid --help --initial-state --json --observe --out --quiet --scale --select --shard --split --svg --threads --trace --version"
+_blmd_surface_merge_flags="--help --out"
+_blmd_surface_plot_flags="--help --quiet --svg --title"
+
+# COMPREPLY = the words of $1 that start with $2.
+_blmd_words() {
+  mapfile -t COMPREPLY < <(compgen -W "$1" -- "$2")
+}
+
+# COMPREPLY = files and folders that start with $1; with $2 (a glob such as *.json) only the
+# files that match it, and every folder.
+_blmd_files() {
+  compopt -o filenames 2>/dev/null
+  if [[ -n $2 ]]; then
+    mapfile -t COMPREPLY < <(compgen -f -X "!$2" -- "$1"; compgen -d -- "$1")
+  else
+    mapfile -t COMPREPLY < <(compgen -f -- "$1")
+  fi
+}
+
+# COMPREPLY for a comma list (--candidates, --observe): the words of $1 that start with the
+# part of $2 after its last comma, each after the part before it; names already in the list
+# are left out.
+_blmd_list() {
+  local head="" tail=$2 word
+  if [[ $2 == *,* ]]; then
+    head=${2%,*},
+    tail=${2##*,}
+  fi
+  COMPREPLY=()
+  for word in $1; do
+    [[ $word == "$tail"* && ,$head != *,"$word",* ]] && COMPREPLY+=("$head$word")
+  done
+}
+
+# COMPREPLY = NAME$3 for the words NAME of $1 that start with $2 (--effect NAME:, --noise
+# NAME=): the value follows without a space.
+_blmd_prefixes() {
+  local word
+  COMPREPLY=()
+  for word in $1; do
+    [[ $word == "$2"* ]] && COMPREPLY+=("$word$3")
+  done
+  compopt -o nospace 2>/dev/null
+}
+
+# Completes the word COMP_CWORD of COMP_WORDS for command $1 (ident, sim or surface).
+_blmd_complete() {
+  local command=$1 cur=${COMP_WORDS[COMP_CWORD]} prev=""
+  ((COMP_CWORD > 0)) && prev=${COMP_WORDS[COMP_CWORD - 1]}
+  # --flag=value: readline splits it at '=' (COMP_WORDBREAKS) into --flag, =, value.
+  if [[ $cur == "=" ]]; then
+    cur=""
+  elif [[ $prev == "=" ]] && ((COMP_CWORD > 1)); then
+    prev=${COMP_WORDS[COMP_CWORD - 2]}
+  fi
+  # A value given in one word, --flag=value, when '=' does not break words.
+  if [[ $cur == --*=* ]]; then
+    prev=${cur%%=*}
+    cur=${cur#*=}
+  fi
+  local flags subcommand="" k
+  case $command in
+    ident) flags=$_blmd_ident_flags ;;
+    sim) flags=$_blmd_sim_flags ;;
+    surface)
+      flags=$_blmd_surface_flags
+      for ((k = 1; k < COMP_CWORD; ++k)); do
+        case ${COMP_WORDS[k]} in
+          merge | plot)
+            subcommand=${COMP_WORDS[k]}
+            break
+            ;;
+        esac
+      done
+      [[ $subcommand == merge ]] && flags=$_blmd_surface_merge_flags
+      [[ $subcommand == plot ]] && flags=$_blmd_surface_plot_flags
+      ;;
+  esac
+
+  local value=1 # whether $prev takes the value being completed
+  case $prev in
+    --config | --report) _blmd_files "$cur" '*.json' ;;
+    --trace | --validate | --input | --out | --html | --svg) _blmd_files "$cur" ;;
+    --method) _blmd_words "$_blmd_methods" "$cur" ;;
+    --init-config) _blmd_words "$_blmd_models" "$cur" ;;
+    --candidates) _blmd_list "$_blmd_effects" "$cur" ;;
+    --observe) _blmd_list "$_blmd_columns" "$cur" ;;
+    --effect) _blmd_prefixes "$_blmd_effects" "$cur" ":" ;;
+    --noise) _blmd_prefixes "$_blmd_columns" "$cur" "=" ;;
+    --derive) _blmd_words "w=theta" "$cur" ;;
+    --error) _blmd_words "output equation" "$cur" ;;
+    --initial-state) _blmd_words "config trace" "$cur" ;;
+    --delimiter) _blmd_words ", ; tab" "$cur" ;;
+    --duplicate-time) _blmd_words "error first mean" "$cur" ;;
+    --bic-margin | --column | --decimate | --fail-above-nrmse | --filter-hz | --free | \
+      --grid | --initial | --max-effects | --max-evaluations | --option | --scale | --seed | \
+      --select | --shard | --split | --threads | --title)
+      COMPREPLY=() # a value of the user's own
+      ;;
+    *) value=0 ;;
+  esac
+  ((value)) && return
+
+  if [[ $cur == -* ]]; then
+    _blmd_words "$flags" "$cur"
+  elif [[ $command == surface && -z $subcommand ]] && ((COMP_CWORD == 1)); then
+    _blmd_words "merge plot $flags" "$cur"
+  elif [[ -n $subcommand ]]; then
+    _blmd_files "$cur" '*.csv' # merge's parts, plot's surface
+  else
+    _blmd_words "$flags" "$cur"
+  fi
+}
+
+_blmd_ident() { _blmd_complete ident; }
+_blmd_sim() { _blmd_complete sim; }
+_blmd_surface() { _blmd_complete surface; }
+
+complete -F _blmd_ident blmd-ident
+complete -F _blmd_sim blmd-sim
+complete -F _blmd_surface blmd-surface
