@@ -73,8 +73,9 @@ struct IdentFlags {
     app.add_flag("--quiet", quiet, "print nothing but errors");
     app.add_option("--fail-above-nrmse", fail_above, "exit 3 when the final NRMSE exceeds X")
         ->check(blmd::app::NonNegativeNumber());
-    app.add_flag("--fail-on-warning", fail_on_warning,
-                 "exit 3 when the report has a warning about the final model (docs/identification.md §5)");
+    app.add_flag(
+        "--fail-on-warning", fail_on_warning,
+        "exit 3 when the report has a warning about the final model (docs/identification.md §5)");
     app.add_flag("--verbose", verbose, "also print the solvers' own log (Ceres) on stderr");
     error_flags.Add(app,
                     "simulate and compare the motion, or compare the input the model needs along "
