@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "blmd/io/csv.h"
 #include "blmd/report/report.h"
 #include "support/test_support.h"
 
@@ -162,6 +163,46 @@ TEST(Warnings, FailOnWarningIsExitThreeAfterWritingTheReport) {
   run = blmd::testing::Run(
       base + " --discover --candidates coulomb_friction,load_torque --fail-on-warning");
   EXPECT_EQ(run.exit_code, 0) << run.err;
+}
+
+// Units hints (issue 21 §5): the bundled square-wave trace with its speed written in rpm is
+// named with the flag that converts it, exit 3 with --fail-on-warning; with that flag the fit
+// equals the one on the trace in rad/s (to 1e-6) and nothing is warned.
+TEST(Warnings, UnitsSuspectNamesTheScaleFlagThatFixesTheTrace) {
+  TempDir dir;
+  Trace trace = ReadTraceCsv(SourcePath("testdata/ganesh-square.csv"));
+  for (double& w : trace.Column("w")) w *= 60.0 / (2.0 * 3.14159265358979323846);
+  WriteTraceCsv(trace, dir.File("rpm.csv"));
+  const std::string base = BinPath("blmd-ident") + " --config " +
+                           SourcePath("configs/ganesh-square.json") + " --threads 2 --quiet";
+  CommandResult run = blmd::testing::Run(base + " --trace " + dir.File("rpm.csv") + " --report " +
+                                         dir.File("rpm.json") + " --fail-on-warning");
+  EXPECT_EQ(run.exit_code, 3);
+  EXPECT_EQ(run.err,
+            "error: 2 warnings (residual_not_white, units_suspect) and --fail-on-warning\n");
+  const nlohmann::json rpm = nlohmann::json::parse(Slurp(dir.File("rpm.json")));
+  const std::string message = rpm["warnings"][1]["message"];
+  EXPECT_EQ(rpm["warnings"][1]["code"], "units_suspect");
+  const std::string tail =
+      ": is 'w' in rpm? The model works in rad/s; if so, convert it with --scale "
+      "w=0.10471975511965977";
+  ASSERT_GE(message.size(), tail.size());
+  EXPECT_EQ(message.substr(message.size() - tail.size()), tail) << message;
+
+  run = blmd::testing::Run(base + " --trace " + dir.File("rpm.csv") +
+                           " --scale w=0.10471975511965977 --report " + dir.File("fixed.json") +
+                           " --fail-on-warning");
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  run = blmd::testing::Run(base + " --trace " + SourcePath("testdata/ganesh-square.csv") +
+                           " --report " + dir.File("rad.json"));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json fixed = nlohmann::json::parse(Slurp(dir.File("fixed.json")));
+  const nlohmann::json rad = nlohmann::json::parse(Slurp(dir.File("rad.json")));
+  EXPECT_TRUE(fixed["warnings"].empty()) << fixed["warnings"].dump();
+  for (const char* name : {"J", "B"}) {
+    const double a = fixed["parameters"][name]["value"], b = rad["parameters"][name]["value"];
+    EXPECT_NEAR(a / b, 1.0, 1e-6) << name;
+  }
 }
 
 // Issue 19: with load_torque and quadratic_drag both in the model the intervals of J and B

@@ -98,6 +98,7 @@ IdentOutcome Identify(IdentRequest request) {
   if (!request.baseline_path.empty()) {
     report.baseline = CompareWithBaseline(report, request.baseline_path);
   }
+  report.units_hints = CheckUnits(problem, outcome.first_fit.values);
   AddWarnings(&report);
   outcome.report = std::move(report);
   return outcome;

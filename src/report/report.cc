@@ -339,6 +339,11 @@ void AddWarnings(IdentReport* report) {
     }
     add("interval_unavailable", "no interval for " + no_interval + reason);
   }
+  for (const UnitsHint& hint : report->units_hints) {
+    add("units_suspect", hint.evidence + ": is '" + hint.column + "' in " + hint.unit +
+                             "? The model works in " + hint.model_unit +
+                             "; if so, convert it with " + hint.ScaleFlag());
+  }
   if (report->baseline) {
     std::string names;
     for (const auto& p : report->baseline->parameters) {

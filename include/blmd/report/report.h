@@ -17,6 +17,7 @@
 #include "blmd/ident/errors.h"
 #include "blmd/ident/optimizer.h"
 #include "blmd/ident/problem.h"
+#include "blmd/ident/units_check.h"
 #include "blmd/sim/linear_model.h"
 
 namespace blmd {
@@ -170,6 +171,9 @@ struct IdentReport {
   // The final model's linear part and its transfer functions (docs/export.md).
   LinearModel linear_model;
   std::optional<BaselineReport> baseline;  // --baseline
+  // Signs that a measured column is in other units than the model's (ident/units_check.h):
+  // each becomes a warning units_suspect.
+  std::vector<UnitsHint> units_hints;
 
   // The first fit: discovery->before when discovery ran, else the headline.
   const ModelReport& first_fit() const { return discovery ? discovery->before : final_model; }

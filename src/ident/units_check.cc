@@ -1,0 +1,118 @@
+#include "blmd/ident/units_check.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "blmd/io/csv.h"
+
+namespace blmd {
+namespace {
+
+// One model unit (rad/s, rad, A) expressed in a unit a recorder may have used.
+struct OtherUnit {
+  const char* column;
+  const char* unit;
+  const char* model_unit;
+  double factor;
+};
+constexpr double kPi = std::numbers::pi;
+constexpr OtherUnit kOtherUnits[] = {
+    {"w", "rpm", "rad/s", 60.0 / (2.0 * kPi)},  {"w", "deg/s", "rad/s", 180.0 / kPi},
+    {"w", "rev/s", "rad/s", 1.0 / (2.0 * kPi)}, {"theta", "deg", "rad", 180.0 / kPi},
+    {"theta", "rev", "rad", 1.0 / (2.0 * kPi)}, {"i", "mA", "A", 1000.0},
+};
+constexpr double kRatioTolerance = 0.2;  // |observed / factor - 1| at most this
+constexpr double kShapeAgreement = 0.9;  // uncentred R^2 of m ~ g s at least this
+
+const OtherUnit* Matching(const std::string& column, double ratio) {
+  if (!(std::isfinite(ratio) && ratio > 0.0)) return nullptr;
+  for (const OtherUnit& unit : kOtherUnits) {
+    if (column == unit.column && std::abs(ratio / unit.factor - 1.0) <= kRatioTolerance)
+      return &unit;
+  }
+  return nullptr;
+}
+
+// The least-squares gain of the measured column over the simulated one, pooled over every
+// trace, and how much of the measured power g s explains; false when a simulation fails.
+struct Gain {
+  double gain = 0.0;
+  double r2 = 0.0;
+};
+bool ColumnGain(const FitProblem& problem, const std::vector<double>& values,
+                const std::string& column, Gain* out) {
+  double ms = 0.0, ss = 0.0, mm = 0.0;
+  for (std::size_t k = 0; k < problem.traces().size(); ++k) {
+    Trace simulated;
+    if (!problem.Simulate(k, values, &simulated).ok() || !simulated.Has(column)) return false;
+    const std::vector<double>& s = simulated.Column(column);
+    const std::vector<double>& m = problem.measured(k).Column(column);
+    for (std::size_t n = 0; n < m.size() && n < s.size(); ++n) {
+      ms += m[n] * s[n];
+      ss += s[n] * s[n];
+      mm += m[n] * m[n];
+    }
+  }
+  if (!(ss > 0.0 && mm > 0.0 && std::isfinite(ms + ss + mm))) return false;
+  out->gain = ms / ss;
+  out->r2 = 1.0 - (mm - out->gain * ms) / mm;  // sum (m - g s)^2 = mm - g ms
+  return true;
+}
+
+}  // namespace
+
+std::string UnitsHint::ScaleFlag() const {
+  return "--scale " + column + "=" + FormatSignificant(1.0 / factor, 17);
+}
+
+std::vector<UnitsHint> CheckUnits(const FitProblem& problem, const std::vector<double>& fitted) {
+  std::vector<UnitsHint> hints;
+  if (problem.equation_error()) return hints;
+  auto hinted = [&](const std::string& column) {
+    for (const UnitsHint& hint : hints)
+      if (hint.column == column) return true;
+    return false;
+  };
+  const std::vector<double> start = problem.InitialValues();
+  for (const std::string& column : problem.observe()) {
+    for (const auto& [values, where] :
+         {std::pair{&start, "the config's values"}, std::pair{&fitted, "the fitted values"}}) {
+      Gain g;
+      if (hinted(column) || values->size() != problem.num_free() ||
+          !ColumnGain(problem, *values, column, &g) || g.r2 < kShapeAgreement)
+        continue;
+      if (const OtherUnit* unit = Matching(column, g.gain)) {
+        hints.push_back(
+            {column, unit->unit, unit->model_unit, unit->factor, g.gain,
+             "the measured '" + column + "' is " + FormatSignificant(g.gain, 4) +
+                 " times the one simulated at " + where + " (the shapes agree: R² " +
+                 (g.r2 >= 0.99995 ? std::string("> 0.9999") : FormatSignificant(g.r2, 4)) + ")"});
+      }
+    }
+  }
+  // A back-EMF constant (V·s/rad) fitted at config / factor: the speed it multiplies was in
+  // another unit.
+  const auto& observe = problem.observe();
+  if (fitted.size() != problem.num_free() || hinted("w") ||
+      std::find(observe.begin(), observe.end(), "w") == observe.end())
+    return hints;
+  const ParameterSet config_values = problem.Parameters(start);
+  for (std::size_t k = 0; k < problem.num_free(); ++k) {
+    const FreeParameter& p = problem.free()[k];
+    const ParamInfo* info = problem.config().model->FindParameter(p.name);
+    if (!info || info->unit != "V·s/rad" || !(fitted[k] > 0.0)) continue;
+    const double ratio = config_values.Get(p.name) / fitted[k];
+    if (const OtherUnit* unit = Matching("w", ratio)) {
+      hints.push_back({"w", unit->unit, unit->model_unit, unit->factor, ratio,
+                       "the fitted " + p.name + " = " + FormatSignificant(fitted[k], 4) +
+                           " is the start value " +
+                           FormatSignificant(config_values.Get(p.name), 4) + " divided by " +
+                           FormatSignificant(ratio, 4)});
+      break;
+    }
+  }
+  return hints;
+}
+
+}  // namespace blmd
