@@ -1,6 +1,8 @@
 #include "blmd/ident/stats.h"
 
+#include <boost/math/special_functions/gamma.hpp>
 #include <cmath>
+#include <limits>
 
 namespace blmd {
 
@@ -38,35 +40,14 @@ LjungBox LjungBoxTest(const std::vector<double>& x, int lags) {
   return result;
 }
 
-// Numerical Recipes style: series for x < a + 1, continued fraction otherwise.
+// Boost.Math's regularised incomplete gamma (issue 21 §5: a kept library instead of our own
+// series and continued fraction). Arguments outside its domain give the limits the callers
+// want: Q(a, x <= 0) = 1, Q(a, +inf) = 0; a <= 0 or NaN is no distribution (NaN).
 double GammaQ(double a, double x) {
+  if (!(a > 0.0) || std::isnan(x)) return std::numeric_limits<double>::quiet_NaN();
   if (x <= 0.0) return 1.0;
-  const double log_prefactor = -x + a * std::log(x) - std::lgamma(a);
-  if (x < a + 1.0) {
-    double sum = 1.0 / a, term = sum, ap = a;
-    for (int n = 0; n < 1000; ++n) {
-      ap += 1.0;
-      term *= x / ap;
-      sum += term;
-      if (std::abs(term) < std::abs(sum) * 1e-15) break;
-    }
-    return std::max(0.0, 1.0 - sum * std::exp(log_prefactor));
-  }
-  const double tiny = 1e-300;
-  double b = x + 1.0 - a, c = 1.0 / tiny, d = 1.0 / b, h = d;
-  for (int i = 1; i < 1000; ++i) {
-    const double an = -i * (i - a);
-    b += 2.0;
-    d = an * d + b;
-    if (std::abs(d) < tiny) d = tiny;
-    c = b + an / c;
-    if (std::abs(c) < tiny) c = tiny;
-    d = 1.0 / d;
-    const double delta = d * c;
-    h *= delta;
-    if (std::abs(delta - 1.0) < 1e-15) break;
-  }
-  return std::min(1.0, std::exp(log_prefactor) * h);
+  if (std::isinf(x)) return 0.0;
+  return boost::math::gamma_q(a, x);
 }
 
 double ChiSquareSurvival(double x, double dof) { return GammaQ(0.5 * dof, 0.5 * x); }
