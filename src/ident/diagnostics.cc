@@ -99,6 +99,11 @@ void SummariseMotion(const PooledSignals& pooled, ResidualAnalysis& analysis) {
   analysis.w_changes_sign = positive && negative;
 }
 
+// Lags of the autocorrelation and of the input cross-correlation: at most a fifth of the samples.
+int ResidualLags(const std::vector<double>& e, const DiagnosticsOptions& options) {
+  return std::min<int>(options.max_lag, static_cast<int>(e.size() / 5));
+}
+
 // Mean, RMS, autocorrelation and the Ljung-Box whiteness test of a residual.
 void DescribeResidual(const std::vector<double>& e, const DiagnosticsOptions& options,
                       ColumnDiagnostics& d) {
@@ -110,7 +115,7 @@ void DescribeResidual(const std::vector<double>& e, const DiagnosticsOptions& op
   }
   d.mean = sum / n;
   d.rms = std::sqrt(sq / n);
-  const int lags = std::min<int>(options.max_lag, static_cast<int>(e.size() / 5));
+  const int lags = ResidualLags(e, options);
   d.acf = Autocorrelation(e, lags);
   d.acf_band95 = 1.959963984540054 / std::sqrt(n);
   const LjungBox test = LjungBoxTest(e, lags);
@@ -289,8 +294,7 @@ ResidualAnalysis AnalyseResidual(const FitProblem& problem, const std::vector<do
     d.column = observe[c];
     DescribeResidual(e, options, d);
     min_p = std::min(min_p, d.whiteness_p);
-    const int lags = std::min<int>(options.max_lag, static_cast<int>(e.size() / 5));
-    CorrelateWithInput(e, pooled.u, lags, d);
+    CorrelateWithInput(e, pooled.u, ResidualLags(e, options), d);
     d.sign_w = SplitBySign(e, pooled.w, 0.01 * analysis.w_max);
     d.sign_i = SplitBySign(e, pooled.current, 0.01 * analysis.i_max);
     AngleSpectrum(e, pooled, theta_span, analysis.w_max, options, pole_pairs, d);
