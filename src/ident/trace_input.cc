@@ -4,6 +4,7 @@
 #include <charconv>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <set>
 
 #include "blmd/error.h"
@@ -140,31 +141,53 @@ std::vector<FitTrace> LoadFitTraces(const std::string& path, const TraceInputOpt
   return PrepareFitTraces(std::move(trace), path, sha256, options, default_initial);
 }
 
-std::vector<FitTrace> PrepareFitTraces(Trace trace, const std::string& path,
-                                       const std::string& sha256, const TraceInputOptions& options,
-                                       const InitialState& default_initial) {
-  const bool by_rows = !options.select.empty() || !options.split.empty();
+namespace {
+
+// Where the rows and columns of a trace are in its file, for error messages.
+struct TraceFile {
+  const std::string& path;
+  const TraceInputOptions& options;
+  long first_line = 0;  // line of row 0: after the comments and the header
+  // The file's field (1-based) holding a column, before mapping added columns at the end.
+  std::map<std::string, long> fields;
+
+  long LineOf(std::size_t row) const { return first_line + static_cast<long>(row); }
+  // The field of a standard column (through --column), 0 when the file has none.
+  long FieldOf(const std::string& name) const {
+    const auto mapped = options.columns.find(name);
+    const auto found = fields.find(mapped == options.columns.end() ? name : mapped->second);
+    return found == fields.end() ? 0 : found->second;
+  }
+};
+
+TraceFile LocateTrace(const Trace& trace, const std::string& path,
+                      const TraceInputOptions& options) {
   // Line of row k: comments, the header, then k + 1.
-  const long first_line = static_cast<long>(trace.comments.size()) + 2;
-  // The columns a fit reads must hold finite numbers (the CSV reader has checked a file's).
-  for (const auto& header : UsedHeaders(options)) {
+  TraceFile file{path, options, static_cast<long>(trace.comments.size()) + 2, {}};
+  for (std::size_t c = 0; c < trace.num_columns(); ++c) {
+    file.fields[trace.names()[c]] = static_cast<long>(c + 1);
+  }
+  return file;
+}
+
+// The columns a fit reads must hold finite numbers (the CSV reader has checked a file's).
+void CheckFinite(const Trace& trace, const TraceFile& file) {
+  for (const auto& header : UsedHeaders(file.options)) {
     const int c = trace.Find(header);
     if (c < 0) continue;
     const auto& column = trace.Column(static_cast<std::size_t>(c));
     for (std::size_t k = 0; k < column.size(); ++k) {
       if (!std::isfinite(column[k])) {
         throw InputError(
-            path, first_line + static_cast<long>(k), c + 1,
+            file.path, file.LineOf(k), c + 1,
             "column '" + header + "' is not a finite number (" + DisplayNumber(column[k]) + ")");
       }
     }
   }
-  // The file's field (1-based) holding a column, before mapping added columns at the end.
-  std::map<std::string, long> file_field;
-  for (std::size_t c = 0; c < trace.num_columns(); ++c) {
-    file_field[trace.names()[c]] = static_cast<long>(c + 1);
-  }
-  // Column mapping: header -> standard name.
+}
+
+// Column mapping (header -> standard name), then scaling.
+void MapAndScaleColumns(Trace& trace, const std::string& path, const TraceInputOptions& options) {
   for (const auto& [standard, header] : options.columns) {
     if (!trace.Has(header)) {
       throw InputError(path + ": --column " + standard + "=" + header + ": no column '" + header +
@@ -175,16 +198,16 @@ std::vector<FitTrace> PrepareFitTraces(Trace trace, const std::string& path,
     }
     if (standard != header) trace.Set(standard, trace.Column(header));
   }
-  const auto field_of = [&](const std::string& name) -> long {
-    const auto mapped = options.columns.find(name);
-    const auto found = file_field.find(mapped == options.columns.end() ? name : mapped->second);
-    return found == file_field.end() ? 0 : found->second;
-  };
   for (const auto& [name, factor] : options.scales) {
     if (!trace.Has(name))
       throw InputError(path + ": --scale " + name + ": no column '" + name + "'");
     for (double& v : trace.Column(name)) v *= factor;
   }
+}
+
+// t, u, the sources of --derive and the columns of --select and --split must exist.
+void CheckNamedColumns(const Trace& trace, const std::string& path,
+                       const TraceInputOptions& options) {
   std::vector<std::string> required = {"t", "u"};
   for (const auto& [target, source] : options.derive) required.push_back(source);
   for (const auto& name : required) {
@@ -204,10 +227,11 @@ std::vector<FitTrace> PrepareFitTraces(Trace trace, const std::string& path,
     throw InputError(path + ": --split " + options.split + ": no column '" + options.split +
                      "' (header has: " + HeaderSummary(trace.names()) + ")");
   }
+}
 
-  // Rows kept by the selections; then the experiments: blocks of consecutive kept rows,
-  // cut where the split column changes.
-  const auto line_of = [&](std::size_t row) { return first_line + static_cast<long>(row); };
+// The rows every --select keeps; none is an error.
+std::vector<std::size_t> SelectedRows(const Trace& trace, const std::string& path,
+                                      const TraceInputOptions& options) {
   std::vector<std::size_t> kept;
   kept.reserve(trace.rows());
   for (std::size_t k = 0; k < trace.rows(); ++k) {
@@ -227,10 +251,20 @@ std::vector<FitTrace> PrepareFitTraces(Trace trace, const std::string& path,
     for (const auto& selection : options.select) flags += " --select " + selection.text;
     throw InputError(path + ": no row matches" + flags + " (" + what + ")");
   }
-  struct Block {
-    std::size_t begin = 0, end = 0;  // rows [begin, end)
-    double value = 0.0;              // of the split column
-  };
+  return kept;
+}
+
+// One experiment: a block of consecutive rows.
+struct Block {
+  std::size_t begin = 0, end = 0;  // rows [begin, end)
+  double value = 0.0;              // of the split column
+};
+
+// The experiments: blocks of consecutive kept rows, cut where the split column changes. A block
+// the selection breaks, or a split value that comes back, is an error.
+std::vector<Block> CutIntoBlocks(const Trace& trace, const TraceFile& file,
+                                 const std::vector<std::size_t>& kept) {
+  const TraceInputOptions& options = file.options;
   std::vector<Block> blocks;
   const std::vector<double>* split_values =
       options.split.empty() ? nullptr : &trace.Column(options.split);
@@ -245,10 +279,10 @@ std::vector<FitTrace> PrepareFitTraces(Trace trace, const std::string& path,
       const std::string part = split_values
                                    ? "the rows with " + options.split + " = " + DisplayNumber(value)
                                    : "the rows kept";
-      throw InputError(path, line_of(row), 1,
+      throw InputError(file.path, file.LineOf(row), 1,
                        "--select keeps " + part + " in more than one block (line " +
-                           std::to_string(line_of(blocks.back().end - 1)) + ", then line " +
-                           std::to_string(line_of(row)) +
+                           std::to_string(file.LineOf(blocks.back().end - 1)) + ", then line " +
+                           std::to_string(file.LineOf(row)) +
                            "): one experiment must be an unbroken block of rows; narrow the "
                            "selection" +
                            (split_values ? "" : ", or cut the file with --split COLUMN"));
@@ -256,83 +290,127 @@ std::vector<FitTrace> PrepareFitTraces(Trace trace, const std::string& path,
     if (split_values) {
       for (const Block& earlier : blocks) {
         if (earlier.value == value) {
-          throw InputError(path, line_of(row), field_of(options.split),
+          throw InputError(file.path, file.LineOf(row), file.FieldOf(options.split),
                            "--split " + options.split + ": " + options.split + " = " +
                                DisplayNumber(value) + " appears again (its first block is lines " +
-                               std::to_string(line_of(earlier.begin)) + "-" +
-                               std::to_string(line_of(earlier.end - 1)) +
+                               std::to_string(file.LineOf(earlier.begin)) + "-" +
+                               std::to_string(file.LineOf(earlier.end - 1)) +
                                "); the rows of one experiment must be an unbroken block");
         }
       }
     }
     blocks.push_back({row, row + 1, value});
   }
+  return blocks;
+}
 
-  std::string selection_name;
-  for (const auto& selection : options.select) {
-    selection_name += (selection_name.empty() ? "" : ",") + selection.text;
+// The rows [begin, end) of every column.
+Trace BlockRows(const Trace& trace, const Block& block) {
+  Trace part;
+  part.comments = trace.comments;
+  for (std::size_t c = 0; c < trace.num_columns(); ++c) {
+    const auto& column = trace.Column(c);
+    part.Set(trace.names()[c], std::vector<double>(column.begin() + static_cast<long>(block.begin),
+                                                   column.begin() + static_cast<long>(block.end)));
   }
+  return part;
+}
+
+// t must strictly increase within the experiment.
+void CheckTimeIncreases(const Trace& part, const TraceFile& file, const Block& block) {
+  const std::string& split = file.options.split;
+  const auto& t = part.Column("t");
+  for (std::size_t k = 1; k < t.size(); ++k) {
+    if (!(t[k] > t[k - 1])) {
+      throw InputError(
+          file.path, file.LineOf(block.begin + k), file.FieldOf("t"),
+          "time 't' must strictly increase (" + DisplayNumber(t[k]) +
+              (t[k] == t[k - 1] ? " repeats " : " follows ") + DisplayNumber(t[k - 1]) + ")" +
+              (!split.empty() ? " within " + split + " = " + DisplayNumber(block.value) : ""));
+    }
+  }
+}
+
+// After --derive: the observed columns must exist and a fit needs at least 3 samples.
+void CheckFitColumns(const Trace& part, const TraceFile& file, const Block& block,
+                     const std::string& name, bool by_rows) {
+  const std::string& path = file.path;
+  for (const auto& required_name : file.options.required) {
+    if (!part.Has(required_name)) {
+      throw InputError(path + ": missing observed column '" + required_name +
+                       "' (header has: " + HeaderSummary(part.names()) +
+                       "; map another header with --column " + required_name + "=HEADER)");
+    }
+  }
+  if (part.rows() < 3) {
+    const std::string samples =
+        std::to_string(part.rows()) + " sample" + (part.rows() == 1 ? "" : "s");
+    if (!by_rows) throw InputError(path + ": " + samples + " only: a fit needs at least 3");
+    throw InputError(path, file.LineOf(block.begin), 0,
+                     name.substr(path.size()) + " has " + samples + " only (line" +
+                         (part.rows() == 1 ? " " + std::to_string(file.LineOf(block.begin))
+                                           : "s " + std::to_string(file.LineOf(block.begin)) + "-" +
+                                                 std::to_string(file.LineOf(block.end - 1))) +
+                         "): a fit needs at least 3 per experiment");
+  }
+}
+
+// FILE, FILE[COLUMN=VALUE] with --split, FILE[SELECTION] with --select alone.
+std::string ExperimentName(const std::string& path, const TraceInputOptions& options,
+                           const Block& block) {
+  std::string name = path;
+  if (!options.split.empty()) {
+    name += "[" + options.split + "=" + DisplayNumber(block.value) + "]";
+  } else if (!options.select.empty()) {
+    std::string selection_name;
+    for (const auto& selection : options.select) {
+      selection_name += (selection_name.empty() ? "" : ",") + selection.text;
+    }
+    name += "[" + selection_name + "]";
+  }
+  return name;
+}
+
+InitialState InitialStateOf(const Trace& part, const TraceInputOptions& options,
+                            const InitialState& default_initial) {
+  InitialState initial = default_initial;
+  if (options.initial_from_trace) {
+    if (part.Has("w")) initial.w = part.Column("w").front();
+    if (part.Has("theta")) initial.theta = part.Column("theta").front();
+    if (part.Has("i")) initial.i = part.Column("i").front();
+  }
+  return initial;
+}
+
+}  // namespace
+
+std::vector<FitTrace> PrepareFitTraces(Trace trace, const std::string& path,
+                                       const std::string& sha256, const TraceInputOptions& options,
+                                       const InitialState& default_initial) {
+  const bool by_rows = !options.select.empty() || !options.split.empty();
+  const TraceFile file = LocateTrace(trace, path, options);
+  CheckFinite(trace, file);
+  MapAndScaleColumns(trace, path, options);
+  CheckNamedColumns(trace, path, options);
+  const std::vector<Block> blocks = CutIntoBlocks(trace, file, SelectedRows(trace, path, options));
+
   std::vector<FitTrace> experiments;
   experiments.reserve(blocks.size());
   for (const Block& block : blocks) {
-    std::string name = path;
-    if (split_values) {
-      name += "[" + options.split + "=" + DisplayNumber(block.value) + "]";
-    } else if (by_rows) {
-      name += "[" + selection_name + "]";
-    }
+    const std::string name = ExperimentName(path, options, block);
     Trace part;
     if (!by_rows) {
       // Without --select or --split there is exactly one block: the trace moves once.
       part = std::move(trace);  // NOLINT(bugprone-use-after-move)
     } else {
-      part.comments = trace.comments;
-      for (std::size_t c = 0; c < trace.num_columns(); ++c) {
-        const auto& column = trace.Column(c);
-        part.Set(trace.names()[c],
-                 std::vector<double>(column.begin() + static_cast<long>(block.begin),
-                                     column.begin() + static_cast<long>(block.end)));
-      }
+      part = BlockRows(trace, block);
     }
-    const auto& t = part.Column("t");
-    for (std::size_t k = 1; k < t.size(); ++k) {
-      if (!(t[k] > t[k - 1])) {
-        throw InputError(
-            path, line_of(block.begin + k), field_of("t"),
-            "time 't' must strictly increase (" + DisplayNumber(t[k]) +
-                (t[k] == t[k - 1] ? " repeats " : " follows ") + DisplayNumber(t[k - 1]) + ")" +
-                (split_values ? " within " + options.split + " = " + DisplayNumber(block.value)
-                              : ""));
-      }
-    }
+    CheckTimeIncreases(part, file, block);
     for (const auto& [target, source] : options.derive) {
       part.Set(target, Differentiate(part.Column("t"), part.Column(source)));
     }
-    for (const auto& required_name : options.required) {
-      if (!part.Has(required_name)) {
-        throw InputError(path + ": missing observed column '" + required_name +
-                         "' (header has: " + HeaderSummary(part.names()) +
-                         "; map another header with --column " + required_name + "=HEADER)");
-      }
-    }
-    if (part.rows() < 3) {
-      const std::string samples =
-          std::to_string(part.rows()) + " sample" + (part.rows() == 1 ? "" : "s");
-      if (!by_rows) throw InputError(path + ": " + samples + " only: a fit needs at least 3");
-      throw InputError(path, line_of(block.begin), 0,
-                       name.substr(path.size()) + " has " + samples + " only (line" +
-                           (part.rows() == 1 ? " " + std::to_string(line_of(block.begin))
-                                             : "s " + std::to_string(line_of(block.begin)) + "-" +
-                                                   std::to_string(line_of(block.end - 1))) +
-                           "): a fit needs at least 3 per experiment");
-    }
-
-    InitialState initial = default_initial;
-    if (options.initial_from_trace) {
-      if (part.Has("w")) initial.w = part.Column("w").front();
-      if (part.Has("theta")) initial.theta = part.Column("theta").front();
-      if (part.Has("i")) initial.i = part.Column("i").front();
-    }
+    CheckFitColumns(part, file, block, name, by_rows);
+    const InitialState initial = InitialStateOf(part, options, default_initial);
     FitTrace fit = RecordedFitTrace(std::move(part), initial, name);
     fit.sha256 = sha256;
     experiments.push_back(std::move(fit));

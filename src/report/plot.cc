@@ -414,6 +414,19 @@ void Widen(double& low, double& high, bool log) {
   }
 }
 
+// Where the plot rectangle lies in the image, in pixels (y grows downwards).
+struct PlotFrame {
+  double left = 0.0, top = 0.0, right = 0.0, bottom = 0.0;
+};
+
+// Maps the scales' data ranges onto the frame: x from left to right, y from bottom to top.
+void PlaceScales(const PlotFrame& frame, Scale& xs, Scale& ys) {
+  xs.p0 = frame.left;
+  xs.p1 = frame.right;
+  ys.p0 = frame.bottom;
+  ys.p1 = frame.top;
+}
+
 std::vector<Tick> AxisTicks(double low, double high, bool log, double length_px,
                             double px_per_tick) {
   const int target = std::max(2, static_cast<int>(length_px / px_per_tick));
@@ -552,6 +565,26 @@ std::string FrameRect(double x0, double y0, double x1, double y1) {
          kFrameColour + "\" stroke-width=\"1\"/>\n";
 }
 
+TextStyle AxisTitleStyle() {
+  TextStyle style;
+  style.size = kLabelFont;
+  style.css_class = "axis-label";
+  return style;
+}
+
+// The x axis title, `gap` px below the x tick labels.
+void XAxisTitle(std::string& out, const PlotFrame& frame, double gap, const std::string& title) {
+  Text(out, (frame.left + frame.right) / 2, frame.bottom + 5 + 3 + kTickFont + gap + kLabelFont - 2,
+       title, AxisTitleStyle());
+}
+
+// The y axis title, turned, at the left edge of the image.
+void YAxisTitle(std::string& out, const PlotFrame& frame, const std::string& title) {
+  TextStyle style = AxisTitleStyle();
+  style.rotate = -90;
+  Text(out, 10 + kLabelFont - 2, (frame.top + frame.bottom) / 2, title, style);
+}
+
 // Five-pointed star of outer radius r around (x, y) as polygon points.
 std::string StarPoints(double x, double y, double r) {
   std::string points;
@@ -641,35 +674,31 @@ struct LegendItem {
 
 double LegendWidth(const LegendItem& item) { return 30 + TextWidth(item.text, kTickFont) + 18; }
 
-int LegendRows(const std::vector<LegendItem>& items, double width) {
-  if (items.empty()) return 0;
-  int rows = 1;
+// The legend's items in rows of at most `width` px (a wider item gets a row of its own).
+std::vector<std::vector<const LegendItem*>> LegendLayout(const std::vector<LegendItem>& items,
+                                                         double width) {
+  std::vector<std::vector<const LegendItem*>> rows;
   double used = 0;
   for (const auto& item : items) {
     const double w = LegendWidth(item);
-    if (used > 0 && used + w > width) {
-      ++rows;
-      used = 0;
-    }
-    used += w;
-  }
-  return rows;
-}
-
-void DrawLegend(std::string& out, const std::vector<LegendItem>& items, double centre_x, double y,
-                double width) {
-  if (items.empty()) return;
-  std::vector<std::vector<const LegendItem*>> rows(1);
-  double used = 0;
-  for (const auto& item : items) {
-    const double w = LegendWidth(item);
-    if (used > 0 && used + w > width) {
+    if (rows.empty() || (used > 0 && used + w > width)) {
       rows.emplace_back();
       used = 0;
     }
     rows.back().push_back(&item);
     used += w;
   }
+  return rows;
+}
+
+int LegendRows(const std::vector<LegendItem>& items, double width) {
+  return static_cast<int>(LegendLayout(items, width).size());
+}
+
+void DrawLegend(std::string& out, const std::vector<LegendItem>& items, double centre_x, double y,
+                double width) {
+  if (items.empty()) return;
+  const std::vector<std::vector<const LegendItem*>> rows = LegendLayout(items, width);
   out += "<g class=\"legend\" fill=\"" + std::string(kTextColour) + "\">\n";
   for (const auto& row : rows) {
     double total = -18;
@@ -911,72 +940,110 @@ bool AnyLocalMinimumBesidesBest(const std::vector<std::size_t>& minima, const Su
   return false;
 }
 
-std::string Surface2D(const std::vector<GridAxis>& axes, const std::vector<SurfacePoint>& points,
-                      const std::vector<std::size_t>& minima, const SurfacePlotOptions& options,
-                      const SurfaceGrid& grid, int W, int H) {
-  const GridAxis &ax = axes[0], &ay = axes[1];
-  const std::size_t nx = static_cast<std::size_t>(ax.count),
-                    ny = static_cast<std::size_t>(ay.count);
-  const std::string prefix = SurfacePrefix(axes, points, options);
-  const std::string hatch_id = prefix + "-hatch", bar_id = prefix + "-bar";
-  const std::vector<double> edges_x = CellEdges(ax), edges_y = CellEdges(ay);
+// The legend entries of the minima: the grid minimum's star and, when one shows beside it, the
+// local minima's ring (drawn for a dark background on the heat map).
+void AddMinimaLegend(std::vector<LegendItem>& legend, const std::vector<std::size_t>& minima,
+                     const SurfaceGrid& grid, bool on_dark) {
+  if (grid.best != kNone) legend.push_back({StarShape(0, 0, 7), "grid minimum"});
+  if (AnyLocalMinimumBesidesBest(minima, grid)) {
+    legend.push_back({RingShape(0, 0, 5, on_dark), "local minima"});
+  }
+}
 
-  Scale xs{Untransform(ax, edges_x.front()), Untransform(ax, edges_x.back()), ax.log_scale};
-  Scale ys{Untransform(ay, edges_y.front()), Untransform(ay, edges_y.back()), ay.log_scale};
-  Scale cs{std::pow(10.0, grid.log_low), std::pow(10.0, grid.log_high), true};
+void AddMissingCostLegend(std::vector<LegendItem>& legend, const SurfaceGrid& grid,
+                          const std::string& hatch_id) {
+  if (grid.any_missing)
+    legend.push_back({HatchSwatch(hatch_id), "no finite cost (simulation failed)"});
+}
 
-  // Contour levels: nice values of log10(cost) strictly inside the range.
+// A surface plot's frame and ticks. Top: below the title; bottom: above the x tick labels, the
+// x axis title and the legend rows; left: right of the y axis title and tick labels.
+struct SurfaceLayout {
+  PlotFrame frame;
+  std::vector<Tick> x_ticks, y_ticks, c_ticks;  // c_ticks: the colour bar's (2-D only)
+};
+
+double SurfaceTop(const SurfacePlotOptions& options) { return options.title.empty() ? 18 : 42; }
+
+double SurfaceBottom(int H, int legend_rows) {
+  return H - (5 + 3 + kTickFont + 10 + kLabelFont + 10 + 16.0 * legend_rows + 4);
+}
+
+double SurfaceLeft(const std::vector<Tick>& y_ticks) {
+  return 10 + kLabelFont + 8 + WidestLabel(y_ticks) + 8;
+}
+
+// ---- 2-D: heat map ---------------------------------------------------------------------
+
+constexpr double kColourBarGap = 18, kColourBarWidth = 14;  // px right of the frame; px wide
+
+// Contour levels: nice values of log10(cost) strictly inside the range; `step` their spacing
+// (0 when there are none to draw).
+std::vector<double> ContourLevels(const SurfaceGrid& grid, int contour_levels, std::size_t nx,
+                                  std::size_t ny, double* step) {
   std::vector<double> levels;
-  double level_step = 0.0;
-  if (options.contour_levels > 0 && grid.any_finite && nx > 1 && ny > 1) {
-    level_step = internal::NiceStep(grid.log_low, grid.log_high, options.contour_levels);
-    for (double level :
-         internal::NiceLinearTicks(grid.log_low, grid.log_high, options.contour_levels)) {
+  *step = 0.0;
+  if (contour_levels > 0 && grid.any_finite && nx > 1 && ny > 1) {
+    *step = internal::NiceStep(grid.log_low, grid.log_high, contour_levels);
+    for (double level : internal::NiceLinearTicks(grid.log_low, grid.log_high, contour_levels)) {
       const double margin = 1e-9 * (grid.log_high - grid.log_low);
       if (level > grid.log_low + margin && level < grid.log_high - margin) levels.push_back(level);
     }
   }
+  return levels;
+}
 
-  // Legend entries decide the bottom margin.
+std::vector<LegendItem> HeatMapLegend(const std::vector<std::size_t>& minima,
+                                      const SurfaceGrid& grid, const std::vector<double>& levels,
+                                      double level_step, const std::string& hatch_id) {
   std::vector<LegendItem> legend;
-  if (grid.best != kNone) legend.push_back({StarShape(0, 0, 7), "grid minimum"});
-  if (AnyLocalMinimumBesidesBest(minima, grid)) {
-    legend.push_back({RingShape(0, 0, 5, true), "local minima"});
-  }
+  AddMinimaLegend(legend, minima, grid, true);
   if (!levels.empty()) {
     legend.push_back(
         {"<line x1=\"-11\" y1=\"0\" x2=\"11\" y2=\"0\" stroke=\"#333333\" "
          "stroke-width=\"1.2\"/>",
          "contours every " + FormatValue(level_step) + " in log10(cost)"});
   }
-  if (grid.any_missing)
-    legend.push_back({HatchSwatch(hatch_id), "no finite cost (simulation failed)"});
-  const int legend_rows = LegendRows(legend, W - 20.0);
+  AddMissingCostLegend(legend, grid, hatch_id);
+  return legend;
+}
 
-  // Layout.
-  const double top = options.title.empty() ? 18 : 42;
-  const double bottom = H - (5 + 3 + kTickFont + 10 + kLabelFont + 10 + 16.0 * legend_rows + 4);
-  const std::vector<Tick> x_ticks = AxisTicks(xs.low, xs.high, xs.log, W * 0.6, 85);
-  const std::vector<Tick> y_ticks = AxisTicks(ys.low, ys.high, ys.log, bottom - top, 42);
-  const std::vector<Tick> c_ticks = AxisTicks(cs.low, cs.high, true, bottom - top, 42);
-  const double left = 10 + kLabelFont + 8 + WidestLabel(y_ticks) + 8;
-  const double bar_width = 14;
-  const double right = W - (18 + bar_width + 8 + WidestLabel(c_ticks) + 10 + kLabelFont + 10);
-  xs.p0 = left;
-  xs.p1 = right;
-  ys.p0 = bottom;
-  ys.p1 = top;
+// The frame leaves room on the right for the colour bar, its tick labels and its title.
+SurfaceLayout HeatMapLayout(const SurfacePlotOptions& options, const Scale& xs, const Scale& ys,
+                            const Scale& cs, int legend_rows, int W, int H) {
+  SurfaceLayout layout;
+  PlotFrame& frame = layout.frame;
+  frame.top = SurfaceTop(options);
+  frame.bottom = SurfaceBottom(H, legend_rows);
+  layout.x_ticks = AxisTicks(xs.low, xs.high, xs.log, W * 0.6, 85);
+  layout.y_ticks = AxisTicks(ys.low, ys.high, ys.log, frame.bottom - frame.top, 42);
+  layout.c_ticks = AxisTicks(cs.low, cs.high, true, frame.bottom - frame.top, 42);
+  frame.left = SurfaceLeft(layout.y_ticks);
+  frame.right = W - (kColourBarGap + kColourBarWidth + 8 + WidestLabel(layout.c_ticks) + 10 +
+                     kLabelFont + 10);
+  return layout;
+}
 
-  std::string out = Header(W, H);
-  out += "<defs>\n" + HatchPattern(hatch_id);
+// The hatch pattern of cells without a cost and the colour bar's viridis gradient.
+std::string HeatMapDefs(const std::string& hatch_id, const std::string& bar_id) {
+  std::string out = "<defs>\n" + HatchPattern(hatch_id);
   out += "<linearGradient id=\"" + bar_id + "\" x1=\"0\" y1=\"1\" x2=\"0\" y2=\"0\">";
   for (int k = 0; k < 16; ++k) {
     out += "<stop offset=\"" + Num(k / 15.0, 4) + "\" stop-color=\"" + Hex(kViridis[k]) + "\"/>";
   }
   out += "</linearGradient>\n</defs>\n";
-  Title(out, W, options.title);
+  return out;
+}
 
-  // Heat map.
+// One rectangle per grid point, coloured by log10(cost), with a tooltip on grids of at most
+// 2500 points.
+void DrawHeatMapCells(std::string& out, const std::vector<GridAxis>& axes,
+                      const SurfacePlotOptions& options, const SurfaceGrid& grid, const Scale& xs,
+                      const Scale& ys, const std::string& hatch_id) {
+  const GridAxis &ax = axes[0], &ay = axes[1];
+  const std::size_t nx = static_cast<std::size_t>(ax.count),
+                    ny = static_cast<std::size_t>(ay.count);
+  const std::vector<double> edges_x = CellEdges(ax), edges_y = CellEdges(ay);
   const bool tooltips = nx * ny <= 2500;
   std::vector<double> px(nx + 1), py(ny + 1);
   for (std::size_t i = 0; i <= nx; ++i) px[i] = xs.FromT(edges_x[i]);
@@ -1005,47 +1072,44 @@ std::string Surface2D(const std::vector<GridAxis>& axes, const std::vector<Surfa
     }
   }
   out += "</g>\n";
+}
 
-  // Contours.
-  std::vector<double> cx(nx), cy(ny);
-  for (std::size_t i = 0; i < nx; ++i) cx[i] = xs(ax.Value(static_cast<int>(i)));
-  for (std::size_t j = 0; j < ny; ++j) cy[j] = ys(ay.Value(static_cast<int>(j)));
-  if (!levels.empty()) {
-    out += "<g class=\"contours\" fill=\"none\" stroke-width=\"1\" stroke-linejoin=\"round\">\n";
-    for (double level : levels) {
-      const auto lines = ContourLines(grid.log_cost, cx, cy, level);
-      if (lines.empty()) continue;
-      // Light lines over the dark (low) part of viridis, dark lines over the light part.
-      const bool light = (level - grid.log_low) / span < 0.6;
-      std::string d;
-      for (const auto& line : lines) {
-        for (std::size_t p = 0; p < line.size(); ++p) {
-          d += (p == 0 ? (d.empty() ? "M" : " M") : " ") + Num(line[p].first, 1) + "," +
-               Num(line[p].second, 1);
-        }
+// The contour lines through the grid points' centres (cx, cy in pixels).
+void DrawContours(std::string& out, const SurfaceGrid& grid, const std::vector<double>& levels,
+                  const std::vector<double>& cx, const std::vector<double>& cy) {
+  if (levels.empty()) return;
+  const double span = grid.log_high - grid.log_low;
+  out += "<g class=\"contours\" fill=\"none\" stroke-width=\"1\" stroke-linejoin=\"round\">\n";
+  for (double level : levels) {
+    const auto lines = ContourLines(grid.log_cost, cx, cy, level);
+    if (lines.empty()) continue;
+    // Light lines over the dark (low) part of viridis, dark lines over the light part.
+    const bool light = (level - grid.log_low) / span < 0.6;
+    std::string d;
+    for (const auto& line : lines) {
+      for (std::size_t p = 0; p < line.size(); ++p) {
+        d += (p == 0 ? (d.empty() ? "M" : " M") : " ") + Num(line[p].first, 1) + "," +
+             Num(line[p].second, 1);
       }
-      out += "<path class=\"contour\" data-level=\"" + Exact(level) + "\" stroke=\"" +
-             (light ? "#ffffff\" stroke-opacity=\"0.7" : "#1a1a1a\" stroke-opacity=\"0.55") +
-             "\" d=\"" + d + "\"><title>cost " + Escape(FormatValue(std::pow(10.0, level))) +
-             "</title></path>\n";
     }
-    out += "</g>\n";
+    out += "<path class=\"contour\" data-level=\"" + Exact(level) + "\" stroke=\"" +
+           (light ? "#ffffff\" stroke-opacity=\"0.7" : "#1a1a1a\" stroke-opacity=\"0.55") +
+           "\" d=\"" + d + "\"><title>cost " + Escape(FormatValue(std::pow(10.0, level))) +
+           "</title></path>\n";
   }
+  out += "</g>\n";
+}
 
-  out += FrameRect(left, top, right, bottom);
-  DrawAxis(out, Side::kBottom, xs, x_ticks, bottom);
-  DrawAxis(out, Side::kLeft, ys, y_ticks, left);
-  TextStyle label_style;
-  label_style.size = kLabelFont;
-  label_style.css_class = "axis-label";
-  Text(out, (left + right) / 2, bottom + 5 + 3 + kTickFont + 10 + kLabelFont - 2,
-       AxisTitle(ax.name, Unit(options, 0)), label_style);
-  label_style.rotate = -90;
-  Text(out, 10 + kLabelFont - 2, (top + bottom) / 2, AxisTitle(ay.name, Unit(options, 1)),
-       label_style);
-
-  // Colour bar with its ticks (log scale) and the contour levels marked.
-  const double bar_x = right + 18;
+// The colour bar right of the frame, with its ticks (log scale), the contour levels marked and
+// its title.
+void DrawColourBar(std::string& out, const SurfacePlotOptions& options, const SurfaceGrid& grid,
+                   const std::vector<double>& levels, const SurfaceLayout& layout,
+                   const std::string& bar_id) {
+  const PlotFrame& frame = layout.frame;
+  const double top = frame.top, bottom = frame.bottom;
+  const double bar_x = frame.right + kColourBarGap, bar_width = kColourBarWidth;
+  const double span = grid.log_high - grid.log_low;
+  Scale cs{std::pow(10.0, grid.log_low), std::pow(10.0, grid.log_high), true};
   cs.p0 = bottom;
   cs.p1 = top;
   out += "<g class=\"colour-bar\">\n<rect x=\"" + Num(bar_x) + "\" y=\"" + Num(top) +
@@ -1058,13 +1122,23 @@ std::string Surface2D(const std::vector<GridAxis>& axes, const std::vector<Surfa
            "\" y2=\"" + Num(y) + "\" stroke=\"" + (light ? "#ffffff" : "#1a1a1a") +
            "\" stroke-opacity=\"0.8\"/>\n";
   }
-  DrawAxis(out, Side::kRight, cs, c_ticks, bar_x + bar_width);
-  label_style.rotate = -90;
-  Text(out, bar_x + bar_width + 8 + WidestLabel(c_ticks) + 10 + kLabelFont - 2, (top + bottom) / 2,
-       options.value_label + ", log scale", label_style);
+  DrawAxis(out, Side::kRight, cs, layout.c_ticks, bar_x + bar_width);
+  TextStyle style = AxisTitleStyle();
+  style.rotate = -90;
+  Text(out, bar_x + bar_width + 8 + WidestLabel(layout.c_ticks) + 10 + kLabelFont - 2,
+       (top + bottom) / 2, options.value_label + ", log scale", style);
   out += "</g>\n";
+}
 
-  // Local minima, then the global minimum with its label on top.
+// Local minima, then the global minimum with its label on top (cx, cy: the pixels of the grid
+// values).
+void DrawHeatMapMinima(std::string& out, const std::vector<GridAxis>& axes,
+                       const std::vector<SurfacePoint>& points,
+                       const std::vector<std::size_t>& minima, const SurfacePlotOptions& options,
+                       const SurfaceGrid& grid, const std::vector<double>& cx,
+                       const std::vector<double>& cy, const PlotFrame& frame) {
+  const GridAxis &ax = axes[0], &ay = axes[1];
+  const std::size_t ny = static_cast<std::size_t>(ay.count);
   std::vector<std::pair<double, double>> marker_positions;
   out += "<g class=\"minima\">\n";
   for (std::size_t m : minima) {
@@ -1086,85 +1160,107 @@ std::string Surface2D(const std::vector<GridAxis>& axes, const std::vector<Surfa
     std::vector<std::string> lines = {"grid minimum: cost " + FormatValue(grid.cost[grid.best], 4)};
     const std::string a = CoordinateText(ax, Unit(options, 0), vx);
     const std::string b = CoordinateText(ay, Unit(options, 1), vy);
-    if (TextWidth(a + ", " + b, kTickFont) < 0.5 * (right - left)) {
+    if (TextWidth(a + ", " + b, kTickFont) < 0.5 * (frame.right - frame.left)) {
       lines.push_back(a + ", " + b);
     } else {
       lines.push_back(a);
       lines.push_back(b);
     }
-    LabelBox(out, cx[i], cy[j], lines, left, top, right, bottom, marker_positions);
+    LabelBox(out, cx[i], cy[j], lines, frame.left, frame.top, frame.right, frame.bottom,
+             marker_positions);
   }
   out += "</g>\n";
+}
 
+std::string Surface2D(const std::vector<GridAxis>& axes, const std::vector<SurfacePoint>& points,
+                      const std::vector<std::size_t>& minima, const SurfacePlotOptions& options,
+                      const SurfaceGrid& grid, int W, int H) {
+  const GridAxis &ax = axes[0], &ay = axes[1];
+  const std::size_t nx = static_cast<std::size_t>(ax.count),
+                    ny = static_cast<std::size_t>(ay.count);
+  const std::string prefix = SurfacePrefix(axes, points, options);
+  const std::string hatch_id = prefix + "-hatch", bar_id = prefix + "-bar";
+  const std::vector<double> edges_x = CellEdges(ax), edges_y = CellEdges(ay);
+
+  Scale xs{Untransform(ax, edges_x.front()), Untransform(ax, edges_x.back()), ax.log_scale};
+  Scale ys{Untransform(ay, edges_y.front()), Untransform(ay, edges_y.back()), ay.log_scale};
+  const Scale cs{std::pow(10.0, grid.log_low), std::pow(10.0, grid.log_high), true};
+
+  double level_step = 0.0;
+  const std::vector<double> levels =
+      ContourLevels(grid, options.contour_levels, nx, ny, &level_step);
+  // Legend entries decide the bottom margin.
+  const std::vector<LegendItem> legend = HeatMapLegend(minima, grid, levels, level_step, hatch_id);
+  const int legend_rows = LegendRows(legend, W - 20.0);
+  const SurfaceLayout layout = HeatMapLayout(options, xs, ys, cs, legend_rows, W, H);
+  const PlotFrame& frame = layout.frame;
+  PlaceScales(frame, xs, ys);
+
+  std::string out = Header(W, H);
+  out += HeatMapDefs(hatch_id, bar_id);
+  Title(out, W, options.title);
+  DrawHeatMapCells(out, axes, options, grid, xs, ys, hatch_id);
+  std::vector<double> cx(nx), cy(ny);
+  for (std::size_t i = 0; i < nx; ++i) cx[i] = xs(ax.Value(static_cast<int>(i)));
+  for (std::size_t j = 0; j < ny; ++j) cy[j] = ys(ay.Value(static_cast<int>(j)));
+  DrawContours(out, grid, levels, cx, cy);
+
+  out += FrameRect(frame.left, frame.top, frame.right, frame.bottom);
+  DrawAxis(out, Side::kBottom, xs, layout.x_ticks, frame.bottom);
+  DrawAxis(out, Side::kLeft, ys, layout.y_ticks, frame.left);
+  XAxisTitle(out, frame, 10, AxisTitle(ax.name, Unit(options, 0)));
+  YAxisTitle(out, frame, AxisTitle(ay.name, Unit(options, 1)));
+  DrawColourBar(out, options, grid, levels, layout, bar_id);
+  DrawHeatMapMinima(out, axes, points, minima, options, grid, cx, cy, frame);
   DrawLegend(out, legend, W / 2.0, H - 16.0 * legend_rows + 6, W - 20.0);
   return out + "</svg>\n";
 }
 
-std::string Surface1D(const std::vector<GridAxis>& axes, const std::vector<SurfacePoint>& points,
-                      const std::vector<std::size_t>& minima, const SurfacePlotOptions& options,
-                      const SurfaceGrid& grid, int W, int H) {
-  const GridAxis& ax = axes[0];
-  const std::size_t n = static_cast<std::size_t>(ax.count);
-  const std::string prefix = SurfacePrefix(axes, points, options);
-  const std::string hatch_id = prefix + "-hatch";
-  const std::vector<double> edges = CellEdges(ax);
+// ---- 1-D: cost curve -------------------------------------------------------------------
 
-  // x: the grid range and 2 % more on each side (so end markers are whole).
-  double x_lo = AxisT(ax, ax.Value(0)), x_hi = AxisT(ax, ax.Value(ax.count - 1));
-  if (n == 1) {
-    x_lo = edges.front();
-    x_hi = edges.back();
-  }
-  const double x_pad = 0.02 * (x_hi - x_lo);
-  Scale xs{Untransform(ax, x_lo - x_pad), Untransform(ax, x_hi + x_pad), ax.log_scale};
-  const double y_pad = 0.06 * (grid.log_high - grid.log_low);
-  Scale ys{std::pow(10.0, grid.log_low - y_pad), std::pow(10.0, grid.log_high + y_pad), true};
-
+std::vector<LegendItem> CostCurveLegend(const SurfacePlotOptions& options,
+                                        const std::vector<std::size_t>& minima,
+                                        const SurfaceGrid& grid, const std::string& hatch_id) {
   std::vector<LegendItem> legend;
   legend.push_back({"<line x1=\"-11\" y1=\"0\" x2=\"11\" y2=\"0\" stroke=\"" +
                         std::string(kCurveColour) + "\" stroke-width=\"1.8\"/>",
                     options.value_label});
-  if (grid.best != kNone) legend.push_back({StarShape(0, 0, 7), "grid minimum"});
-  if (AnyLocalMinimumBesidesBest(minima, grid)) {
-    legend.push_back({RingShape(0, 0, 5, false), "local minima"});
-  }
-  if (grid.any_missing)
-    legend.push_back({HatchSwatch(hatch_id), "no finite cost (simulation failed)"});
-  const int legend_rows = LegendRows(legend, W - 20.0);
+  AddMinimaLegend(legend, minima, grid, false);
+  AddMissingCostLegend(legend, grid, hatch_id);
+  return legend;
+}
 
-  const double top = options.title.empty() ? 18 : 42;
-  const double bottom = H - (5 + 3 + kTickFont + 10 + kLabelFont + 10 + 16.0 * legend_rows + 4);
-  const std::vector<Tick> x_ticks = AxisTicks(xs.low, xs.high, xs.log, W * 0.7, 85);
-  const std::vector<Tick> y_ticks = AxisTicks(ys.low, ys.high, true, bottom - top, 40);
-  const double left = 10 + kLabelFont + 8 + WidestLabel(y_ticks) + 8;
-  const double right = W - 24.0;
-  xs.p0 = left;
-  xs.p1 = right;
-  ys.p0 = bottom;
-  ys.p1 = top;
+SurfaceLayout CostCurveLayout(const SurfacePlotOptions& options, const Scale& xs, const Scale& ys,
+                              int legend_rows, int W, int H) {
+  SurfaceLayout layout;
+  PlotFrame& frame = layout.frame;
+  frame.top = SurfaceTop(options);
+  frame.bottom = SurfaceBottom(H, legend_rows);
+  layout.x_ticks = AxisTicks(xs.low, xs.high, xs.log, W * 0.7, 85);
+  layout.y_ticks = AxisTicks(ys.low, ys.high, true, frame.bottom - frame.top, 40);
+  frame.left = SurfaceLeft(layout.y_ticks);
+  frame.right = W - 24.0;
+  return layout;
+}
 
-  std::string out = Header(W, H);
-  out += "<defs>\n" + HatchPattern(hatch_id) + "</defs>\n";
-  Title(out, W, options.title);
-  DrawAxis(out, Side::kBottom, xs, x_ticks, bottom, top, bottom);
-  DrawAxis(out, Side::kLeft, ys, y_ticks, left, left, right);
-
-  std::vector<double> cx(n), cy(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    cx[i] = xs(ax.Value(static_cast<int>(i)));
-    cy[i] = std::isfinite(grid.log_cost[i]) ? ys.FromT(grid.log_cost[i]) : 0.0;
-  }
-  // Gaps: hatched bands over the cells of non-finite points.
+// Gaps: hatched bands over the cells of non-finite points.
+void DrawCostGaps(std::string& out, const SurfaceGrid& grid, const std::vector<double>& edges,
+                  const Scale& xs, const PlotFrame& frame, const std::string& hatch_id) {
   out += "<g class=\"gaps\" fill=\"url(#" + hatch_id + ")\" fill-opacity=\"0.6\">\n";
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::size_t i = 0; i + 1 < edges.size(); ++i) {
     if (std::isfinite(grid.log_cost[i])) continue;
-    const double a = std::max(left, xs.FromT(edges[i])),
-                 b = std::min(right, xs.FromT(edges[i + 1]));
-    out += "<rect class=\"gap\" x=\"" + Num(a) + "\" y=\"" + Num(top) + "\" width=\"" +
-           Num(std::max(0.5, b - a)) + "\" height=\"" + Num(bottom - top) + "\"/>\n";
+    const double a = std::max(frame.left, xs.FromT(edges[i])),
+                 b = std::min(frame.right, xs.FromT(edges[i + 1]));
+    out += "<rect class=\"gap\" x=\"" + Num(a) + "\" y=\"" + Num(frame.top) + "\" width=\"" +
+           Num(std::max(0.5, b - a)) + "\" height=\"" + Num(frame.bottom - frame.top) + "\"/>\n";
   }
   out += "</g>\n";
+}
 
+// The curve through the finite points (cx, cy in pixels), broken at the others, and dots.
+void DrawCostCurve(std::string& out, const SurfaceGrid& grid, const std::vector<double>& cx,
+                   const std::vector<double>& cy) {
+  const std::size_t n = cx.size();
   std::string d;
   bool pen_down = false;
   for (std::size_t i = 0; i < n; ++i) {
@@ -1191,17 +1287,14 @@ std::string Surface1D(const std::vector<GridAxis>& axes, const std::vector<Surfa
     }
   }
   out += "</g>\n";
-  out += FrameRect(left, top, right, bottom);
+}
 
-  TextStyle label_style;
-  label_style.size = kLabelFont;
-  label_style.css_class = "axis-label";
-  Text(out, (left + right) / 2, bottom + 5 + 3 + kTickFont + 10 + kLabelFont - 2,
-       AxisTitle(ax.name, Unit(options, 0)), label_style);
-  label_style.rotate = -90;
-  Text(out, 10 + kLabelFont - 2, (top + bottom) / 2, options.value_label + ", log scale",
-       label_style);
-
+// Local minima, then the global minimum with its label.
+void DrawCostCurveMinima(std::string& out, const GridAxis& ax,
+                         const std::vector<SurfacePoint>& points,
+                         const std::vector<std::size_t>& minima, const SurfacePlotOptions& options,
+                         const SurfaceGrid& grid, const std::vector<double>& cx,
+                         const std::vector<double>& cy, const PlotFrame& frame) {
   std::vector<std::pair<double, double>> marker_positions;
   out += "<g class=\"minima\">\n";
   for (std::size_t m : minima) {
@@ -1222,9 +1315,54 @@ std::string Surface1D(const std::vector<GridAxis>& axes, const std::vector<Surfa
     LabelBox(out, cx[i], cy[i],
              {"grid minimum: cost " + FormatValue(grid.cost[i], 4),
               CoordinateText(ax, Unit(options, 0), vx)},
-             left, top, right, bottom, marker_positions);
+             frame.left, frame.top, frame.right, frame.bottom, marker_positions);
   }
   out += "</g>\n";
+}
+
+std::string Surface1D(const std::vector<GridAxis>& axes, const std::vector<SurfacePoint>& points,
+                      const std::vector<std::size_t>& minima, const SurfacePlotOptions& options,
+                      const SurfaceGrid& grid, int W, int H) {
+  const GridAxis& ax = axes[0];
+  const std::size_t n = static_cast<std::size_t>(ax.count);
+  const std::string prefix = SurfacePrefix(axes, points, options);
+  const std::string hatch_id = prefix + "-hatch";
+  const std::vector<double> edges = CellEdges(ax);
+
+  // x: the grid range and 2 % more on each side (so end markers are whole).
+  double x_lo = AxisT(ax, ax.Value(0)), x_hi = AxisT(ax, ax.Value(ax.count - 1));
+  if (n == 1) {
+    x_lo = edges.front();
+    x_hi = edges.back();
+  }
+  const double x_pad = 0.02 * (x_hi - x_lo);
+  Scale xs{Untransform(ax, x_lo - x_pad), Untransform(ax, x_hi + x_pad), ax.log_scale};
+  const double y_pad = 0.06 * (grid.log_high - grid.log_low);
+  Scale ys{std::pow(10.0, grid.log_low - y_pad), std::pow(10.0, grid.log_high + y_pad), true};
+
+  const std::vector<LegendItem> legend = CostCurveLegend(options, minima, grid, hatch_id);
+  const int legend_rows = LegendRows(legend, W - 20.0);
+  const SurfaceLayout layout = CostCurveLayout(options, xs, ys, legend_rows, W, H);
+  const PlotFrame& frame = layout.frame;
+  PlaceScales(frame, xs, ys);
+
+  std::string out = Header(W, H);
+  out += "<defs>\n" + HatchPattern(hatch_id) + "</defs>\n";
+  Title(out, W, options.title);
+  DrawAxis(out, Side::kBottom, xs, layout.x_ticks, frame.bottom, frame.top, frame.bottom);
+  DrawAxis(out, Side::kLeft, ys, layout.y_ticks, frame.left, frame.left, frame.right);
+
+  std::vector<double> cx(n), cy(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    cx[i] = xs(ax.Value(static_cast<int>(i)));
+    cy[i] = std::isfinite(grid.log_cost[i]) ? ys.FromT(grid.log_cost[i]) : 0.0;
+  }
+  DrawCostGaps(out, grid, edges, xs, frame, hatch_id);
+  DrawCostCurve(out, grid, cx, cy);
+  out += FrameRect(frame.left, frame.top, frame.right, frame.bottom);
+  XAxisTitle(out, frame, 10, AxisTitle(ax.name, Unit(options, 0)));
+  YAxisTitle(out, frame, options.value_label + ", log scale");
+  DrawCostCurveMinima(out, ax, points, minima, options, grid, cx, cy, frame);
   DrawLegend(out, legend, W / 2.0, H - 16.0 * legend_rows + 6, W - 20.0);
   return out + "</svg>\n";
 }
@@ -1252,6 +1390,8 @@ std::string SurfaceSvg(const std::vector<GridAxis>& axes, const std::vector<Surf
 }
 
 // ---- line plots ------------------------------------------------------------------------
+
+namespace {
 
 // The samples [*begin, *end) of a series worth drawing on the x range [low, high]: all of
 // them, or for a series whose finite x never decreases, those inside the range and one
@@ -1281,234 +1421,303 @@ bool FiniteBand(const Band& band, bool log) {
          (!log || band.low > 0);
 }
 
-std::string LinePlotSvg(const LinePlotOptions& options, const std::vector<Series>& series) {
-  const int W = std::max(240, options.width), H = std::max(160, options.height);
-  auto usable_x = [&](double v) { return std::isfinite(v) && (!options.x_log || v > 0); };
-  auto usable_y = [&](double v) { return std::isfinite(v) && (!options.y_log || v > 0); };
+// A value that can be drawn on a linear axis, or on a log axis.
+bool Usable(double v, bool log) { return std::isfinite(v) && (!log || v > 0); }
 
-  // Data ranges.
+// The data ranges of a line plot, in data units.
+struct PlotRanges {
   double x_lo = std::numeric_limits<double>::infinity(), x_hi = -x_lo, y_lo = x_lo, y_hi = -x_lo;
-  Fingerprint fingerprint;
+  bool has_data = false;
+};
+
+// The ranges of the series' usable samples and of the bands; `fingerprint` takes in what the
+// plot is drawn from.
+PlotRanges DataRanges(const LinePlotOptions& options, const std::vector<Series>& series,
+                      Fingerprint& fingerprint) {
+  PlotRanges r;
   fingerprint.Add(options.title);
   for (const auto& s : series) {
     fingerprint.Add(s.label);
     const std::size_t n = std::min(s.x.size(), s.y.size());
     fingerprint.Add(static_cast<double>(n));
     for (std::size_t i = 0; i < n; ++i) {
-      if (!usable_x(s.x[i]) || !usable_y(s.y[i])) continue;
-      x_lo = std::min(x_lo, s.x[i]);
-      x_hi = std::max(x_hi, s.x[i]);
-      y_lo = std::min(y_lo, s.y[i]);
-      y_hi = std::max(y_hi, s.y[i]);
+      if (!Usable(s.x[i], options.x_log) || !Usable(s.y[i], options.y_log)) continue;
+      r.x_lo = std::min(r.x_lo, s.x[i]);
+      r.x_hi = std::max(r.x_hi, s.x[i]);
+      r.y_lo = std::min(r.y_lo, s.y[i]);
+      r.y_hi = std::max(r.y_hi, s.y[i]);
       fingerprint.Add(s.y[i]);
     }
   }
-  const bool has_data = x_lo <= x_hi;
+  r.has_data = r.x_lo <= r.x_hi;
   for (const auto& band : options.bands) {
-    if (!has_data || !FiniteBand(band, band.vertical ? options.x_log : options.y_log)) continue;
-    double& lo = band.vertical ? x_lo : y_lo;
-    double& hi = band.vertical ? x_hi : y_hi;
+    if (!r.has_data || !FiniteBand(band, band.vertical ? options.x_log : options.y_log)) continue;
+    double& lo = band.vertical ? r.x_lo : r.y_lo;
+    double& hi = band.vertical ? r.x_hi : r.y_hi;
     lo = std::min(lo, band.low);
     hi = std::max(hi, band.high);
     fingerprint.Add(band.low);
     fingerprint.Add(band.high);
   }
-  if (!has_data) {
-    x_lo = options.x_log ? 1.0 : 0.0;
-    x_hi = options.x_log ? 10.0 : 1.0;
-    y_lo = x_lo;
-    y_hi = x_hi;
+  return r;
+}
+
+// The ranges drawn: the data's (a default without data), widened when empty, 5 % headroom on
+// y, then any fixed limits of the options.
+void SetDrawnRanges(const LinePlotOptions& options, PlotRanges& r) {
+  if (!r.has_data) {
+    r.x_lo = options.x_log ? 1.0 : 0.0;
+    r.x_hi = options.x_log ? 10.0 : 1.0;
+    r.y_lo = r.x_lo;
+    r.y_hi = r.x_hi;
   }
-  Widen(x_lo, x_hi, options.x_log);
-  Widen(y_lo, y_hi, options.y_log);
+  Widen(r.x_lo, r.x_hi, options.x_log);
+  Widen(r.y_lo, r.y_hi, options.y_log);
   {  // 5 % headroom on y, in the axis' own scale
-    const double a = options.y_log ? std::log10(y_lo) : y_lo,
-                 b = options.y_log ? std::log10(y_hi) : y_hi;
+    const double a = options.y_log ? std::log10(r.y_lo) : r.y_lo,
+                 b = options.y_log ? std::log10(r.y_hi) : r.y_hi;
     const double pad = 0.05 * (b - a);
-    y_lo = options.y_log ? std::pow(10.0, a - pad) : a - pad;
-    y_hi = options.y_log ? std::pow(10.0, b + pad) : b + pad;
+    r.y_lo = options.y_log ? std::pow(10.0, a - pad) : a - pad;
+    r.y_hi = options.y_log ? std::pow(10.0, b + pad) : b + pad;
   }
   auto fixed = [](double low, double high, bool log) {
     return std::isfinite(low) && std::isfinite(high) && low < high && (!log || low > 0);
   };
-  const double ox_lo = std::isfinite(options.x_min) ? options.x_min : x_lo;
-  const double ox_hi = std::isfinite(options.x_max) ? options.x_max : x_hi;
+  const double ox_lo = std::isfinite(options.x_min) ? options.x_min : r.x_lo;
+  const double ox_hi = std::isfinite(options.x_max) ? options.x_max : r.x_hi;
   if (fixed(ox_lo, ox_hi, options.x_log)) {
-    x_lo = ox_lo;
-    x_hi = ox_hi;
+    r.x_lo = ox_lo;
+    r.x_hi = ox_hi;
   }
-  const double oy_lo = std::isfinite(options.y_min) ? options.y_min : y_lo;
-  const double oy_hi = std::isfinite(options.y_max) ? options.y_max : y_hi;
+  const double oy_lo = std::isfinite(options.y_min) ? options.y_min : r.y_lo;
+  const double oy_hi = std::isfinite(options.y_max) ? options.y_max : r.y_hi;
   if (fixed(oy_lo, oy_hi, options.y_log)) {
-    y_lo = oy_lo;
-    y_hi = oy_hi;
+    r.y_lo = oy_lo;
+    r.y_hi = oy_hi;
   }
-  const std::string prefix = options.id_prefix.empty() ? fingerprint.Id() : options.id_prefix;
+}
 
-  // Legend above the plot.
-  std::vector<LegendItem> legend;
+// Each series' colour: its own, or the next of the palette.
+std::vector<std::string> SeriesColours(const std::vector<Series>& series) {
   std::vector<std::string> colours;
   std::size_t next_colour = 0;
   for (const auto& s : series) {
     colours.push_back(s.colour.empty() ? kPalette[next_colour++ % std::size(kPalette)] : s.colour);
-    if (s.label.empty()) continue;
-    std::string symbol;
-    if (s.line_width > 0) {
-      symbol = "<line x1=\"-11\" y1=\"0\" x2=\"11\" y2=\"0\" stroke=\"" + Escape(colours.back()) +
-               "\" stroke-width=\"" + Num(std::max(1.5, s.line_width)) + "\"" +
-               (s.dash.empty() ? "" : " stroke-dasharray=\"" + Escape(s.dash) + "\"") + "/>";
-    }
-    if (s.marker_radius > 0 || s.line_width <= 0) {
-      symbol += "<circle r=\"" + Num(std::max(2.5, s.marker_radius)) + "\" " +
-                (s.hollow_markers ? "fill=\"#ffffff\" stroke=\"" + Escape(colours.back()) +
-                                        "\" stroke-width=\"1.5\""
-                                  : "fill=\"" + Escape(colours.back()) + "\"") +
-                "/>";
-    }
-    legend.push_back({symbol, s.label});
+  }
+  return colours;
+}
+
+// A series' legend symbol: its line, its marker, or both.
+std::string SeriesSymbol(const Series& s, const std::string& colour) {
+  std::string symbol;
+  if (s.line_width > 0) {
+    symbol = "<line x1=\"-11\" y1=\"0\" x2=\"11\" y2=\"0\" stroke=\"" + Escape(colour) +
+             "\" stroke-width=\"" + Num(std::max(1.5, s.line_width)) + "\"" +
+             (s.dash.empty() ? "" : " stroke-dasharray=\"" + Escape(s.dash) + "\"") + "/>";
+  }
+  if (s.marker_radius > 0 || s.line_width <= 0) {
+    symbol += "<circle r=\"" + Num(std::max(2.5, s.marker_radius)) + "\" " +
+              (s.hollow_markers
+                   ? "fill=\"#ffffff\" stroke=\"" + Escape(colour) + "\" stroke-width=\"1.5\""
+                   : "fill=\"" + Escape(colour) + "\"") +
+              "/>";
+  }
+  return symbol;
+}
+
+// A band's legend symbol: a line for a reference value, a swatch for a range.
+std::string BandSymbol(const Band& band) {
+  const std::string colour = Escape(band.colour);
+  if (band.low == band.high) {
+    return "<line x1=\"-11\" y1=\"0\" x2=\"11\" y2=\"0\" stroke=\"" + colour +
+           "\" stroke-width=\"1.5\"" +
+           (band.dash.empty() ? "" : " stroke-dasharray=\"" + Escape(band.dash) + "\"") + "/>";
+  }
+  return "<rect x=\"-10\" y=\"-6\" width=\"20\" height=\"12\" fill=\"" + colour +
+         "\" fill-opacity=\"" + Num(std::clamp(band.opacity, 0.05, 1.0), 3) + "\" stroke=\"" +
+         colour + "\" stroke-width=\"0.6\"/>";
+}
+
+// The labelled series, then the labelled bands.
+std::vector<LegendItem> LinePlotLegend(const LinePlotOptions& options,
+                                       const std::vector<Series>& series,
+                                       const std::vector<std::string>& colours) {
+  std::vector<LegendItem> legend;
+  for (std::size_t k = 0; k < series.size(); ++k) {
+    if (series[k].label.empty()) continue;
+    legend.push_back({SeriesSymbol(series[k], colours[k]), series[k].label});
   }
   for (const auto& band : options.bands) {
     if (band.label.empty()) continue;
-    const std::string colour = Escape(band.colour);
-    if (band.low == band.high) {
-      legend.push_back(
-          {"<line x1=\"-11\" y1=\"0\" x2=\"11\" y2=\"0\" stroke=\"" + colour +
-               "\" stroke-width=\"1.5\"" +
-               (band.dash.empty() ? "" : " stroke-dasharray=\"" + Escape(band.dash) + "\"") + "/>",
-           band.label});
-    } else {
-      legend.push_back({"<rect x=\"-10\" y=\"-6\" width=\"20\" height=\"12\" fill=\"" + colour +
-                            "\" fill-opacity=\"" + Num(std::clamp(band.opacity, 0.05, 1.0), 3) +
-                            "\" stroke=\"" + colour + "\" stroke-width=\"0.6\"/>",
-                        band.label});
-    }
+    legend.push_back({BandSymbol(band), band.label});
   }
-  const int legend_rows = LegendRows(legend, W - 20.0);
+  return legend;
+}
 
-  const double top = (options.title.empty() ? 14 : 40) + 16.0 * legend_rows + (legend_rows ? 6 : 0);
-  const bool x_label = !options.x_label.empty() || !options.x_unit.empty();
-  const double bottom = H - (5 + 3 + kTickFont + 8 + (x_label ? kLabelFont + 10 : 0));
-  Scale xs{x_lo, x_hi, options.x_log};
-  Scale ys{y_lo, y_hi, options.y_log};
-  const std::vector<Tick> x_ticks = AxisTicks(x_lo, x_hi, options.x_log, W * 0.75, 85);
-  const std::vector<Tick> y_ticks = AxisTicks(y_lo, y_hi, options.y_log, bottom - top, 42);
-  const bool y_label = !options.y_label.empty() || !options.y_unit.empty();
-  const double left = 10 + (y_label ? kLabelFont + 8 : 0) + WidestLabel(y_ticks) + 8;
-  const double right = W - 20.0;
-  xs.p0 = left;
-  xs.p1 = right;
-  ys.p0 = bottom;
-  ys.p1 = top;
+// Where the legend's first row is drawn: under the title, above the frame.
+double LinePlotLegendTop(const LinePlotOptions& options) { return options.title.empty() ? 14 : 40; }
 
-  std::string out = Header(W, H);
-  out += "<defs><clipPath id=\"" + prefix + "-clip\"><rect x=\"" + Num(left) + "\" y=\"" +
-         Num(top) + "\" width=\"" + Num(right - left) + "\" height=\"" + Num(bottom - top) +
-         "\"/></clipPath></defs>\n";
-  Title(out, W, options.title);
-  DrawLegend(out, legend, W / 2.0, (options.title.empty() ? 14 : 40) + 12, W - 20.0);
-  DrawAxis(out, Side::kBottom, xs, x_ticks, bottom, top, bottom);
-  DrawAxis(out, Side::kLeft, ys, y_ticks, left, left, right);
+struct LinePlotLayout {
+  PlotFrame frame;
+  std::vector<Tick> x_ticks, y_ticks;
+  bool x_label = false, y_label = false;  // whether the axis has a title
+};
 
-  out += "<g clip-path=\"url(#" + prefix + "-clip)\">\n";
-  for (const auto& band : options.bands) {
-    const bool log = band.vertical ? options.x_log : options.y_log;
-    if (!FiniteBand(band, log)) continue;
-    const Scale& scale = band.vertical ? xs : ys;
-    const double a = std::clamp(scale(band.low), -1e5, 1e5),
-                 b = std::clamp(scale(band.high), -1e5, 1e5);
-    const std::string colour = Escape(band.colour);
-    if (band.low == band.high) {
-      out += "<line class=\"reference-line\" " +
-             (band.vertical ? "x1=\"" + Num(a) + "\" y1=\"" + Num(top) + "\" x2=\"" + Num(a) +
-                                  "\" y2=\"" + Num(bottom) + "\""
-                            : "x1=\"" + Num(left) + "\" y1=\"" + Num(a) + "\" x2=\"" + Num(right) +
-                                  "\" y2=\"" + Num(a) + "\"") +
-             " stroke=\"" + colour + "\" stroke-width=\"1.5\"" +
-             (band.dash.empty() ? "" : " stroke-dasharray=\"" + Escape(band.dash) + "\"") + "/>\n";
+// Top: under the title and the legend rows; bottom: above the x tick labels and title; left:
+// right of the y title and tick labels.
+LinePlotLayout MakeLinePlotLayout(const LinePlotOptions& options, const PlotRanges& r,
+                                  int legend_rows, int W, int H) {
+  LinePlotLayout layout;
+  PlotFrame& frame = layout.frame;
+  frame.top = LinePlotLegendTop(options) + 16.0 * legend_rows + (legend_rows ? 6 : 0);
+  layout.x_label = !options.x_label.empty() || !options.x_unit.empty();
+  frame.bottom = H - (5 + 3 + kTickFont + 8 + (layout.x_label ? kLabelFont + 10 : 0));
+  layout.x_ticks = AxisTicks(r.x_lo, r.x_hi, options.x_log, W * 0.75, 85);
+  layout.y_ticks = AxisTicks(r.y_lo, r.y_hi, options.y_log, frame.bottom - frame.top, 42);
+  layout.y_label = !options.y_label.empty() || !options.y_unit.empty();
+  frame.left = 10 + (layout.y_label ? kLabelFont + 8 : 0) + WidestLabel(layout.y_ticks) + 8;
+  frame.right = W - 20.0;
+  return layout;
+}
+
+// A band across the frame (vertical: an x range) or, when it is a single value, a line.
+void DrawBand(std::string& out, const Band& band, const LinePlotOptions& options, const Scale& xs,
+              const Scale& ys, const PlotFrame& frame) {
+  const bool log = band.vertical ? options.x_log : options.y_log;
+  if (!FiniteBand(band, log)) return;
+  const double left = frame.left, right = frame.right, top = frame.top, bottom = frame.bottom;
+  const Scale& scale = band.vertical ? xs : ys;
+  const double a = std::clamp(scale(band.low), -1e5, 1e5),
+               b = std::clamp(scale(band.high), -1e5, 1e5);
+  const std::string colour = Escape(band.colour);
+  if (band.low == band.high) {
+    out += "<line class=\"reference-line\" " +
+           (band.vertical ? "x1=\"" + Num(a) + "\" y1=\"" + Num(top) + "\" x2=\"" + Num(a) +
+                                "\" y2=\"" + Num(bottom) + "\""
+                          : "x1=\"" + Num(left) + "\" y1=\"" + Num(a) + "\" x2=\"" + Num(right) +
+                                "\" y2=\"" + Num(a) + "\"") +
+           " stroke=\"" + colour + "\" stroke-width=\"1.5\"" +
+           (band.dash.empty() ? "" : " stroke-dasharray=\"" + Escape(band.dash) + "\"") + "/>\n";
+    return;
+  }
+  double lo = std::min(a, b), extent = std::abs(b - a);
+  if (extent < 1.0) {  // at least one pixel, centred
+    lo -= (1.0 - extent) / 2;
+    extent = 1.0;
+  }
+  out += "<rect class=\"band\" " +
+         (band.vertical ? "x=\"" + Num(lo) + "\" y=\"" + Num(top) + "\" width=\"" + Num(extent) +
+                              "\" height=\"" + Num(bottom - top) + "\""
+                        : "x=\"" + Num(left) + "\" y=\"" + Num(lo) + "\" width=\"" +
+                              Num(right - left) + "\" height=\"" + Num(extent) + "\"") +
+         " fill=\"" + colour + "\" fill-opacity=\"" + Num(std::clamp(band.opacity, 0.05, 1.0), 3) +
+         "\"/>\n";
+}
+
+// The indices of the samples of `s` to draw: those in the x range, thinned to the extremes of
+// each pixel column when there are more than 4 per column.
+std::vector<std::size_t> SamplesToDraw(const Series& s, const LinePlotOptions& options,
+                                       const Scale& xs, const PlotRanges& r,
+                                       const PlotFrame& frame) {
+  const double columns = frame.right - frame.left, left = frame.left;
+  const std::size_t n = std::min(s.x.size(), s.y.size());
+  std::size_t begin = 0, end = n;
+  SamplesInRange(s.x, n, r.x_lo, r.x_hi, &begin, &end);
+  std::vector<std::size_t> kept;
+  if (static_cast<double>(end - begin) > 4 * columns) {
+    const std::vector<double> x(s.x.begin() + static_cast<std::ptrdiff_t>(begin),
+                                s.x.begin() + static_cast<std::ptrdiff_t>(end));
+    const std::vector<double> y(s.y.begin() + static_cast<std::ptrdiff_t>(begin),
+                                s.y.begin() + static_cast<std::ptrdiff_t>(end));
+    kept = internal::DecimateMinMax(x, y, [&](double v) {
+      return options.x_log && !(v > 0) ? std::numeric_limits<double>::quiet_NaN() : xs(v) - left;
+    });
+    for (std::size_t& i : kept) i += begin;
+  } else {
+    kept.resize(end - begin);
+    for (std::size_t i = begin; i < end; ++i) kept[i - begin] = i;
+  }
+  return kept;
+}
+
+// Series k: its line through the samples to draw (broken at unusable ones) and its markers.
+void DrawSeries(std::string& out, const Series& s, std::size_t k, const std::string& colour_text,
+                const LinePlotOptions& options, const Scale& xs, const Scale& ys,
+                const PlotRanges& r, const PlotFrame& frame) {
+  const std::size_t n = std::min(s.x.size(), s.y.size());
+  std::string d;
+  bool pen_down = false;
+  std::vector<std::pair<double, double>> dots;
+  for (std::size_t i : SamplesToDraw(s, options, xs, r, frame)) {
+    if (i >= n || !Usable(s.x[i], options.x_log) || !Usable(s.y[i], options.y_log)) {
+      pen_down = false;
       continue;
     }
-    double lo = std::min(a, b), extent = std::abs(b - a);
-    if (extent < 1.0) {  // at least one pixel, centred
-      lo -= (1.0 - extent) / 2;
-      extent = 1.0;
-    }
-    out += "<rect class=\"band\" " +
-           (band.vertical ? "x=\"" + Num(lo) + "\" y=\"" + Num(top) + "\" width=\"" + Num(extent) +
-                                "\" height=\"" + Num(bottom - top) + "\""
-                          : "x=\"" + Num(left) + "\" y=\"" + Num(lo) + "\" width=\"" +
-                                Num(right - left) + "\" height=\"" + Num(extent) + "\"") +
-           " fill=\"" + colour + "\" fill-opacity=\"" +
-           Num(std::clamp(band.opacity, 0.05, 1.0), 3) + "\"/>\n";
+    const double x = std::clamp(xs(s.x[i]), -1e5, 1e5), y = std::clamp(ys(s.y[i]), -1e5, 1e5);
+    d += (pen_down ? " " : (d.empty() ? "M" : " M")) + Num(x, 1) + "," + Num(y, 1);
+    pen_down = true;
+    if (s.marker_radius > 0 || s.line_width <= 0) dots.emplace_back(x, y);
   }
-  const double columns = right - left;
-  for (std::size_t k = 0; k < series.size(); ++k) {
-    const Series& s = series[k];
-    const std::size_t n = std::min(s.x.size(), s.y.size());
-    std::size_t begin = 0, end = n;
-    SamplesInRange(s.x, n, x_lo, x_hi, &begin, &end);
-    std::vector<std::size_t> kept;
-    if (static_cast<double>(end - begin) > 4 * columns) {
-      const std::vector<double> x(s.x.begin() + static_cast<std::ptrdiff_t>(begin),
-                                  s.x.begin() + static_cast<std::ptrdiff_t>(end));
-      const std::vector<double> y(s.y.begin() + static_cast<std::ptrdiff_t>(begin),
-                                  s.y.begin() + static_cast<std::ptrdiff_t>(end));
-      kept = internal::DecimateMinMax(x, y, [&](double v) {
-        return options.x_log && !(v > 0) ? std::numeric_limits<double>::quiet_NaN() : xs(v) - left;
-      });
-      for (std::size_t& i : kept) i += begin;
-    } else {
-      kept.resize(end - begin);
-      for (std::size_t i = begin; i < end; ++i) kept[i - begin] = i;
-    }
-    std::string d;
-    bool pen_down = false;
-    std::vector<std::pair<double, double>> dots;
-    for (std::size_t i : kept) {
-      if (i >= n || !usable_x(s.x[i]) || !usable_y(s.y[i])) {
-        pen_down = false;
-        continue;
-      }
-      const double x = std::clamp(xs(s.x[i]), -1e5, 1e5), y = std::clamp(ys(s.y[i]), -1e5, 1e5);
-      d += (pen_down ? " " : (d.empty() ? "M" : " M")) + Num(x, 1) + "," + Num(y, 1);
-      pen_down = true;
-      if (s.marker_radius > 0 || s.line_width <= 0) dots.emplace_back(x, y);
-    }
-    const std::string colour = Escape(colours[k]);
-    out += "<g class=\"series\" data-series=\"" + std::to_string(k) + "\">\n";
-    if (!d.empty() && s.line_width > 0) {
-      out += "<path class=\"curve\" d=\"" + d + "\" fill=\"none\" stroke=\"" + colour +
-             "\" stroke-width=\"" + Num(s.line_width) + "\" stroke-linejoin=\"round\"" +
-             (s.dash.empty() ? "" : " stroke-dasharray=\"" + Escape(s.dash) + "\"") + "/>\n";
-    }
-    const double r = s.marker_radius > 0 ? s.marker_radius : 2.0;
-    const std::string paint =
-        s.hollow_markers ? "fill=\"#ffffff\" stroke=\"" + colour + "\" stroke-width=\"1.5\""
-                         : "fill=\"" + colour + "\"";
-    for (const auto& [x, y] : dots) {
-      out += "<circle cx=\"" + Num(x, 1) + "\" cy=\"" + Num(y, 1) + "\" r=\"" + Num(r) + "\" " +
-             paint + "/>\n";
-    }
-    out += "</g>\n";
+  const std::string colour = Escape(colour_text);
+  out += "<g class=\"series\" data-series=\"" + std::to_string(k) + "\">\n";
+  if (!d.empty() && s.line_width > 0) {
+    out += "<path class=\"curve\" d=\"" + d + "\" fill=\"none\" stroke=\"" + colour +
+           "\" stroke-width=\"" + Num(s.line_width) + "\" stroke-linejoin=\"round\"" +
+           (s.dash.empty() ? "" : " stroke-dasharray=\"" + Escape(s.dash) + "\"") + "/>\n";
+  }
+  const double radius = s.marker_radius > 0 ? s.marker_radius : 2.0;
+  const std::string paint = s.hollow_markers
+                                ? "fill=\"#ffffff\" stroke=\"" + colour + "\" stroke-width=\"1.5\""
+                                : "fill=\"" + colour + "\"";
+  for (const auto& [x, y] : dots) {
+    out += "<circle cx=\"" + Num(x, 1) + "\" cy=\"" + Num(y, 1) + "\" r=\"" + Num(radius) + "\" " +
+           paint + "/>\n";
   }
   out += "</g>\n";
-  out += FrameRect(left, top, right, bottom);
-  if (!has_data) {
+}
+
+}  // namespace
+
+std::string LinePlotSvg(const LinePlotOptions& options, const std::vector<Series>& series) {
+  const int W = std::max(240, options.width), H = std::max(160, options.height);
+  Fingerprint fingerprint;
+  PlotRanges r = DataRanges(options, series, fingerprint);
+  SetDrawnRanges(options, r);
+  const std::string prefix = options.id_prefix.empty() ? fingerprint.Id() : options.id_prefix;
+
+  // Legend above the plot.
+  const std::vector<std::string> colours = SeriesColours(series);
+  const std::vector<LegendItem> legend = LinePlotLegend(options, series, colours);
+  const int legend_rows = LegendRows(legend, W - 20.0);
+  const LinePlotLayout layout = MakeLinePlotLayout(options, r, legend_rows, W, H);
+  const PlotFrame& frame = layout.frame;
+  Scale xs{r.x_lo, r.x_hi, options.x_log};
+  Scale ys{r.y_lo, r.y_hi, options.y_log};
+  PlaceScales(frame, xs, ys);
+
+  std::string out = Header(W, H);
+  out += "<defs><clipPath id=\"" + prefix + "-clip\"><rect x=\"" + Num(frame.left) + "\" y=\"" +
+         Num(frame.top) + "\" width=\"" + Num(frame.right - frame.left) + "\" height=\"" +
+         Num(frame.bottom - frame.top) + "\"/></clipPath></defs>\n";
+  Title(out, W, options.title);
+  DrawLegend(out, legend, W / 2.0, LinePlotLegendTop(options) + 12, W - 20.0);
+  DrawAxis(out, Side::kBottom, xs, layout.x_ticks, frame.bottom, frame.top, frame.bottom);
+  DrawAxis(out, Side::kLeft, ys, layout.y_ticks, frame.left, frame.left, frame.right);
+
+  out += "<g clip-path=\"url(#" + prefix + "-clip)\">\n";
+  for (const auto& band : options.bands) DrawBand(out, band, options, xs, ys, frame);
+  for (std::size_t k = 0; k < series.size(); ++k) {
+    DrawSeries(out, series[k], k, colours[k], options, xs, ys, r, frame);
+  }
+  out += "</g>\n";
+  out += FrameRect(frame.left, frame.top, frame.right, frame.bottom);
+  if (!r.has_data) {
     TextStyle style;
     style.size = kLabelFont;
-    Text(out, (left + right) / 2, (top + bottom) / 2, "no data", style);
+    Text(out, (frame.left + frame.right) / 2, (frame.top + frame.bottom) / 2, "no data", style);
   }
-  TextStyle label_style;
-  label_style.size = kLabelFont;
-  label_style.css_class = "axis-label";
-  if (x_label) {
-    Text(out, (left + right) / 2, bottom + 5 + 3 + kTickFont + 8 + kLabelFont - 2,
-         AxisTitle(options.x_label, options.x_unit), label_style);
-  }
-  if (y_label) {
-    label_style.rotate = -90;
-    Text(out, 10 + kLabelFont - 2, (top + bottom) / 2, AxisTitle(options.y_label, options.y_unit),
-         label_style);
-  }
+  if (layout.x_label) XAxisTitle(out, frame, 8, AxisTitle(options.x_label, options.x_unit));
+  if (layout.y_label) YAxisTitle(out, frame, AxisTitle(options.y_label, options.y_unit));
   return out + "</svg>\n";
 }
 
