@@ -9,6 +9,7 @@
 
 #include "blmd/error.h"
 #include "ident/counting_cost.h"
+#include "ident/jacobian.h"
 #include "ident/methods.h"
 
 namespace blmd::internal {
@@ -22,7 +23,8 @@ namespace {
 // (2p + 1) for the intervals, whose accuracy depends on them. Ceres' own numeric
 // differentiation steps relative to |x| (1e-6 |log J| ~ 1e-5), too fine for a simulator whose
 // stick-slip and PWM events shift by whole steps: the cost has micro-jumps at that scale, and a
-// Jacobian taken across one is wrong (and so would be the covariance).
+// Jacobian taken across one is wrong (and so would be the covariance). The differences are
+// the one FiniteDifferenceJacobian (ident/jacobian.h) every user of a Jacobian shares.
 class SimulationCost final : public ceres::CostFunction {
  public:
   enum class Differences { kForward, kCentral };
@@ -58,86 +60,30 @@ class SimulationCost final : public ceres::CostFunction {
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override {
     const FitProblem& problem = cost_->problem();
-    const std::size_t p = problem.num_free(), n = problem.num_residuals();
+    const std::size_t p = problem.num_free();
     const std::vector<double> x(parameters[0], parameters[0] + p);
-    const bool jacobian = jacobians && jacobians[0];
-    const bool central = differences_ == Differences::kCentral;
-    // The point and, for a Jacobian, its forward (and, central, backward) neighbours,
-    // simulated together (FitProblem::EvaluateBatch: SIMD lanes for the blmd model).
-    std::vector<std::vector<double>> points = {x};
-    std::vector<double> h(p);
-    for (std::size_t k = 0; jacobian && k < p; ++k) {
-      const FreeParameter& fp = problem.free()[k];
-      h[k] = fp.log_scale ? fd_step_
-                          : fd_step_ * std::max(std::abs(x[k]), 1e-3 * (fp.upper - fp.lower));
-      points.push_back(x);
-      points.back()[k] += h[k];
+    if (!(jacobians && jacobians[0])) {
+      std::vector<std::vector<double>> one;
+      const std::vector<Evaluation> evaluation =
+          cost_->EvaluateBatch({FromSearchCoordinates(problem, x)}, &one);
+      if (!evaluation[0].ok) return false;
+      std::copy(one[0].begin(), one[0].end(), residuals);
+      return true;
     }
-    for (std::size_t k = 0; jacobian && central && k < p; ++k) {
-      points.push_back(x);
-      points.back()[k] -= h[k];
-    }
-    std::vector<std::vector<double>> r;
-    const std::vector<bool> ok = Residuals(points, &r);
-    if (!ok[0]) return false;
-    std::copy(r[0].begin(), r[0].end(), residuals);
-    if (!jacobian) return true;
-    for (std::size_t k = 0; k < p; ++k) {
-      const bool ok_plus = ok[1 + k];
-      const std::vector<double>& plus = r[1 + k];
-      // Forward differences take the backward side only when the forward side failed.
-      std::vector<std::vector<double>> backward;
-      bool ok_minus = false;
-      if (central) {
-        ok_minus = ok[1 + p + k];
-      } else if (!ok_plus) {
-        points = {x};
-        points[0][k] -= h[k];
-        ok_minus = Residuals(points, &backward)[0];
-      }
-      const std::vector<double>& minus = central ? r[1 + p + k] : (ok_minus ? backward[0] : r[0]);
-      for (std::size_t r_index = 0; r_index < n; ++r_index) {
-        double derivative = 0.0;
-        if (ok_plus && ok_minus) {
-          derivative = (plus[r_index] - minus[r_index]) / (2.0 * h[k]);
-        } else if (ok_plus) {
-          derivative = (plus[r_index] - r[0][r_index]) / h[k];
-        } else if (ok_minus) {
-          derivative = (r[0][r_index] - minus[r_index]) / h[k];
-        } else {
-          return false;
-        }
-        // A non-finite derivative (a step so large that the parameter overflows, a
-        // simulation that returned inf) is an evaluation failure: Ceres must never see it
-        // (its solver, or an SVD of a NaN matrix, may crash on one).
-        if (!std::isfinite(derivative)) return false;
-        jacobians[0][r_index * p + k] = derivative;
-      }
-    }
+    DifferenceRule rule;
+    rule.step = fd_step_;
+    rule.central = differences_ == Differences::kCentral;
+    std::vector<double> r;
+    Eigen::MatrixXd jacobian;
+    if (!FiniteDifferenceJacobian(problem, x, rule, cost_, &r, &jacobian)) return false;
+    std::copy(r.begin(), r.end(), residuals);
+    // Ceres's layout: row-major n x p.
+    Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+        jacobians[0], jacobian.rows(), jacobian.cols()) = jacobian;
     return true;
   }
 
  private:
-  // Weighted (and scaled) residuals at points in search coordinates; false where the
-  // evaluation failed (Ceres treats such a step as infeasible).
-  std::vector<bool> Residuals(const std::vector<std::vector<double>>& points,
-                              std::vector<std::vector<double>>* r) const {
-    const FitProblem& problem = cost_->problem();
-    std::vector<std::vector<double>> values;
-    for (const auto& x : points) {
-      values.emplace_back(x.size());
-      for (std::size_t k = 0; k < x.size(); ++k) {
-        values.back()[k] = problem.free()[k].log_scale ? std::exp(x[k]) : x[k];
-      }
-    }
-    const std::vector<Evaluation> evaluations = cost_->EvaluateBatch(values, r);
-    std::vector<bool> ok(points.size());
-    for (std::size_t m = 0; m < points.size(); ++m) {
-      ok[m] = evaluations[m].ok;
-    }
-    return ok;
-  }
-
   CountingCost* cost_;
   double fd_step_;
   Differences differences_;

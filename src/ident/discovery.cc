@@ -11,26 +11,33 @@
 #include "blmd/sim/effects.h"
 #include "ident/counting_cost.h"
 #include "ident/effect_search.h"
+#include "ident/jacobian.h"
 #include "parallel.h"
 
 namespace blmd {
 namespace {
 
 using internal::CandidatePlan;
+using internal::DifferenceRule;
+using internal::FiniteDifferenceJacobian;
+using internal::FromSearchCoordinates;
 using internal::PlanCandidate;
 using internal::PointingDiagnostic;
+using internal::ToSearchCoordinates;
 
 std::string G(double v, int digits = 4) { return FormatSignificant(v, digits); }
 
-// Cogging is fitted with the measured angle (docs/discovery.md, "Cogging: the measured
-// angle"): a cogging torque large enough to matter captures the simulated shaft in detents
-// at low speed, so with the simulated angle the cost over (Tcog, phase, J, B) is rugged and
-// a local fit stays wherever it starts (measured: a start 12 % off in Tcog and 0.4 rad in
-// phase does not move). Evaluated at the measured angle, the cogging torque is a known
-// function of time for given (Tcog, phase): the response is nearly linear in it and the cost
-// smooth. Fits use it; scores (BIC, NRMSE, the report's errors) use the free-running model.
+// A position-dependent effect (cogging) is fitted with the measured angle (docs/discovery.md,
+// "Cogging: the measured angle"): a cogging torque large enough to matter captures the simulated
+// shaft in detents at low speed, so with the simulated angle the cost over (Tcog, phase, J, B) is
+// rugged and a local fit stays wherever it starts (measured: a start 12 % off in Tcog and 0.4 rad
+// in phase does not move). Evaluated at the measured angle, the cogging torque is a known function
+// of time for given (Tcog, phase): the response is nearly linear in it and the cost smooth. Fits
+// use it; scores (BIC, NRMSE, the report's errors) use the free-running model.
 bool UsesMeasuredAngle(const Config& config) {
-  return std::find(config.effects.begin(), config.effects.end(), "cogging") != config.effects.end();
+  return std::any_of(config.effects.begin(), config.effects.end(), [](const std::string& effect) {
+    return FindEffect(effect).position_dependent;
+  });
 }
 
 FitProblem MakeProblem(const Config& config, const std::vector<FitTrace>& traces,
@@ -86,52 +93,24 @@ FitProblem CandidateProblem(const FitProblem& base, const std::vector<double>& b
   return MakeProblem(config, base.traces(), base.observe(), free);
 }
 
-// Cost of a candidate problem at values given in physical units, in search coordinates
-// (log for log-scale parameters).
-std::vector<double> ToSearch(const FitProblem& problem, const std::vector<double>& values) {
-  std::vector<double> x(values.size());
-  for (std::size_t k = 0; k < values.size(); ++k) {
-    x[k] = problem.free()[k].log_scale ? std::log(values[k]) : values[k];
-  }
-  return x;
-}
-std::vector<double> FromSearch(const FitProblem& problem, const std::vector<double>& x) {
-  std::vector<double> values(x.size());
-  for (std::size_t k = 0; k < x.size(); ++k) {
-    const FreeParameter& p = problem.free()[k];
-    values[k] = std::clamp(p.log_scale ? std::exp(x[k]) : x[k], p.lower, p.upper);
-  }
-  return values;
-}
-
 // One damped Gauss-Newton step on all free parameters from `values` (the issue's "one-step
 // Gauss-Newton fit"): cheap, and it lets J and B move with the new effect, which a scan with
-// J and B held cannot. Returns the better of the start and the step.
+// J and B held cannot. Returns the better of the start and the step. The Jacobian is the
+// shared one (ident/jacobian.h) with a coarser floor for linear parameters (1 % of the
+// range: an effect's amplitude starts at 0) and the neighbours held within the bounds.
 std::pair<std::vector<double>, Evaluation> OneStepGaussNewton(const FitProblem& problem,
                                                               const std::vector<double>& values,
                                                               const Evaluation& start) {
   const std::size_t p = problem.num_free();
+  const std::vector<double> x0 = ToSearchCoordinates(problem, values);
+  DifferenceRule rule;
+  rule.linear_floor = 1e-2;
+  rule.clamp_to_bounds = true;
+  rule.one_sided_fallback = false;
   std::vector<double> r0;
-  if (!problem.Evaluate(values, &r0).ok) return {values, start};
+  Eigen::MatrixXd jacobian;
+  if (!FiniteDifferenceJacobian(problem, x0, rule, nullptr, &r0, &jacobian)) return {values, start};
   const std::size_t n = r0.size();
-  const std::vector<double> x0 = ToSearch(problem, values);
-  Eigen::MatrixXd jacobian(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(p));
-  for (std::size_t k = 0; k < p; ++k) {
-    const FreeParameter& fp = problem.free()[k];
-    const double h =
-        fp.log_scale ? 1e-3 : 1e-3 * std::max(std::abs(x0[k]), 1e-2 * (fp.upper - fp.lower));
-    std::vector<double> xp = x0, xm = x0, rp, rm;
-    xp[k] += h;
-    xm[k] -= h;
-    if (!problem.Evaluate(FromSearch(problem, xp), &rp).ok ||
-        !problem.Evaluate(FromSearch(problem, xm), &rm).ok) {
-      return {values, start};
-    }
-    for (std::size_t i = 0; i < n; ++i) {
-      jacobian(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(k)) =
-          (rp[i] - rm[i]) / (2.0 * h);
-    }
-  }
   const Eigen::Map<const Eigen::VectorXd> residual(r0.data(), static_cast<Eigen::Index>(n));
   Eigen::MatrixXd normal = jacobian.transpose() * jacobian;
   const Eigen::VectorXd gradient = jacobian.transpose() * residual;
@@ -144,7 +123,7 @@ std::pair<std::vector<double>, Evaluation> OneStepGaussNewton(const FitProblem& 
     if (!step.allFinite()) continue;
     std::vector<double> x = x0;
     for (std::size_t k = 0; k < p; ++k) x[k] += step(static_cast<Eigen::Index>(k));
-    const std::vector<double> trial = FromSearch(problem, x);
+    const std::vector<double> trial = FromSearchCoordinates(problem, x, /*clamp=*/true);
     const Evaluation evaluation = problem.Evaluate(trial);
     if (evaluation.ok && evaluation.cost < best.cost) {
       best = evaluation;
@@ -255,8 +234,8 @@ CandidateRun ScreenCandidate(const FitProblem& base, const std::vector<double>& 
   const Evaluation at_start = problem.Evaluate(problem.InitialValues());
   auto [values, fitted] = OneStepGaussNewton(problem, problem.InitialValues(), at_start);
   Evaluation evaluation = FreeRunEvaluation(problem, values, fitted);
-  if (plan.effect == "cogging" && problem.effect_angle_forced() && evaluation.ok &&
-      !(Bic(problem, evaluation, problem.num_free()) < bic_before)) {
+  if (FindEffect(plan.effect).position_dependent && problem.effect_angle_forced() &&
+      evaluation.ok && !(Bic(problem, evaluation, problem.num_free()) < bic_before)) {
     // Fitted at the measured angle, the point may sit just outside the free-running model's
     // narrow basin (a cogging torque captures the simulated shaft in other detents): a short
     // free-running search from there decides, as the refit's polish does.

@@ -10,6 +10,7 @@
 #include "blmd/ident/uncertainty.h"
 #include "blmd/io/csv.h"
 #include "ident/counting_cost.h"
+#include "ident/jacobian.h"
 #include "ident/methods.h"
 
 namespace blmd {
@@ -51,39 +52,15 @@ namespace internal {
 
 bool NormalisedResidualJacobian(const FitProblem& problem, const std::vector<double>& values,
                                 Eigen::MatrixXd* jacobian, Eigen::VectorXd* residuals) {
-  const std::size_t p = problem.num_free();
-  std::vector<double> r0;
-  const Evaluation base = problem.Evaluate(values, &r0);
-  if (!base.ok) return false;
-  const std::size_t n = r0.size();
   // The cost's own weighted residuals (FitProblem::Evaluate): the sandwich must describe the
   // estimator the fit computes, which weights each column by 1/its variance, not by 1/its
-  // noise level (uncertainty.h).
-  residuals->resize(static_cast<Eigen::Index>(n));
-  for (std::size_t r = 0; r < n; ++r) (*residuals)(static_cast<Eigen::Index>(r)) = r0[r];
-  jacobian->resize(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(p));
-  for (std::size_t k = 0; k < p; ++k) {
-    const FreeParameter& fp = problem.free()[k];
-    // The same step as the ceres method (see ceres_fit.cc): coarse enough to step over the
-    // simulator's whole-step event jitter.
-    const double h =
-        fp.log_scale ? 1e-3 : 1e-3 * std::max(std::abs(values[k]), 1e-3 * (fp.upper - fp.lower));
-    std::vector<double> plus = values, minus = values;
-    if (fp.log_scale) {
-      plus[k] = values[k] * std::exp(h);
-      minus[k] = values[k] * std::exp(-h);
-    } else {
-      plus[k] = values[k] + h;
-      minus[k] = values[k] - h;
-    }
-    std::vector<double> rp, rm;
-    if (!problem.Evaluate(plus, &rp).ok || !problem.Evaluate(minus, &rm).ok) return false;
-    for (std::size_t r = 0; r < n; ++r) {
-      (*jacobian)(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(k)) =
-          (rp[r] - rm[r]) / (2.0 * h);
-    }
-  }
-  return jacobian->allFinite() && residuals->allFinite();
+  // noise level (uncertainty.h). The same central differences as the ceres method.
+  std::vector<double> r;
+  if (!FiniteDifferenceJacobian(problem, ToSearchCoordinates(problem, values), DifferenceRule{},
+                                nullptr, &r, jacobian))
+    return false;
+  *residuals = Eigen::Map<const Eigen::VectorXd>(r.data(), static_cast<Eigen::Index>(r.size()));
+  return residuals->allFinite();
 }
 
 void SetSandwichIntervals(const FitProblem& problem, const Eigen::MatrixXd& jacobian,
