@@ -67,7 +67,7 @@ FitResult ClassicOptimizer::Minimize(const FitProblem& problem,
       OptionNumber("classic", options.method_options, "tail", 0.1, {0.0, 1.0, true});
   const auto started = std::chrono::steady_clock::now();
   const Config& config = problem.config();
-  if (config.model->name() != "dc_servo") {
+  if (!config.model->traits().classic_estimators) {
     throw InputError("method classic applies to dc_servo traces (steady state and coast-down)");
   }
   const double R = config.parameters.Get("R");

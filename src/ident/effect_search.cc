@@ -118,7 +118,7 @@ struct OrderScreen {
 std::vector<OrderScreen> ScreenCoggingOrders(const FitProblem& problem,
                                              const std::vector<double>& values, int max_order) {
   std::vector<OrderScreen> ranked;
-  if (problem.config().model->name() != "rigid_load") return ranked;
+  if (!problem.config().model->traits().input_is_torque) return ranked;
   const ParameterSet parameters = problem.Parameters(values);
   const double J = parameters.Get("J"), B = parameters.Get("B"), Kt = parameters.Get("Kt");
   const ShaftEffects shaft = ShaftEffects::From(parameters, problem.config().effects, 0.0);

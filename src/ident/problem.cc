@@ -25,7 +25,7 @@ FitProblem::FitProblem(Config config, std::vector<FitTrace> traces,
     experiments_.push_back(std::move(experiment));
   }
   if (config_.identification.error == "equation") {
-    if (config_.model->name() != "rigid_load") {
+    if (!config_.model->traits().input_is_torque) {
       throw InputError(
           "the equation error needs model rigid_load (its input is the drive "
           "torque); model " +

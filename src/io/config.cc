@@ -713,12 +713,10 @@ void ReadSimulation(const Reader& reader, const json& root, Config* out) {
 // it can be run at this step.
 void ReadExperiment(const Reader& reader, const json& root, Config* out) {
   Config& config = *out;
-  const std::string model_name(config.model->name());
   Experiment& experiment = config.experiment;
-  if (model_name == "blmd") {
-    experiment.duration = 0.16;
-    experiment.sample_rate = 50000.0;
-  }
+  const ModelTraits traits = config.model->traits();
+  experiment.duration = traits.default_duration;
+  experiment.sample_rate = traits.default_sample_rate;
   if (root.contains("experiment")) {
     const json& exp = root["experiment"];
     reader.RequireObject(exp, "/experiment");
@@ -734,7 +732,7 @@ void ReadExperiment(const Reader& reader, const json& root, Config* out) {
       experiment.sample_rate = reader.Positive(exp["sample_rate"], "/experiment/sample_rate");
     }
     if (exp.contains("coast_off_time")) {
-      if (model_name != "dc_servo") {
+      if (!traits.coast_down_and_pid) {
         reader.Fail("/experiment/coast_off_time", "coast-down applies to model dc_servo only");
       }
       experiment.coast_off_time =
@@ -744,7 +742,7 @@ void ReadExperiment(const Reader& reader, const json& root, Config* out) {
       }
     }
     if (exp.contains("pid")) {
-      if (model_name != "dc_servo") {
+      if (!traits.coast_down_and_pid) {
         reader.Fail("/experiment/pid", "closed-loop PID position control applies to dc_servo");
       }
       const json& pid = exp["pid"];
@@ -809,9 +807,7 @@ void ReadIdentification(const Reader& reader, const json& root, Config* out) {
   const std::string model_name(config.model->name());
   IdentificationSettings& ident = config.identification;
   ident.free = {"J", "B"};
-  ident.observe = model_name == "blmd"         ? std::vector<std::string>{"i"}
-                  : model_name == "rigid_load" ? std::vector<std::string>{"w"}
-                                               : std::vector<std::string>{"i", "w"};
+  ident.observe = config.model->traits().default_observe;
   if (root.contains("identification")) {
     const json& id = root["identification"];
     reader.RequireObject(id, "/identification");
@@ -842,7 +838,7 @@ void ReadIdentification(const Reader& reader, const json& root, Config* out) {
         reader.Fail("/identification/error",
                     "error '" + ident.error + "' is not one of: output, equation");
       }
-      if (ident.error == "equation" && model_name != "rigid_load") {
+      if (ident.error == "equation" && !config.model->traits().input_is_torque) {
         reader.Fail("/identification/error",
                     "the equation error needs model rigid_load (its input is the drive torque); "
                     "model " +

@@ -93,11 +93,18 @@ struct ColumnInfo {
   std::string quantity, unit;
 };
 
+// The model's input is a torque (N·m) rather than a voltage (ModelTraits).
+bool InputIsTorque(const std::string& model) {
+  for (const Model* m : ModelRegistry())
+    if (m->name() == model) return m->traits().input_is_torque;
+  return false;
+}
+
 ColumnInfo DescribeColumn(const std::string& column, const std::string& model) {
   if (column == "i" || column == "ib" || column == "ic") return {"current " + column, "A"};
   if (column == "w") return {"speed w", "rad/s"};
   if (column == "theta") return {"angle theta", "rad"};
-  if (column == "u") return {"input u", model == "rigid_load" ? "N·m" : "V"};
+  if (column == "u") return {"input u", InputIsTorque(model) ? "N·m" : "V"};
   return {column, ""};
 }
 

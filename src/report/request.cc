@@ -138,7 +138,7 @@ std::vector<std::string> ErrorSettings::Apply(Config* config,
     throw InputError(std::string(filter_hz > 0.0 ? "--filter-hz" : "--decimate") +
                      " applies to the equation error only (--error equation)");
   }
-  if (equation && config->model->name() != "rigid_load") {
+  if (equation && !config->model->traits().input_is_torque) {
     throw InputError(
         "--error equation needs model rigid_load (its input is the drive torque); model " +
         std::string(config->model->name()) + "'s drive torque is a state of the model");

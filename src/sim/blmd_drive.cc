@@ -71,6 +71,16 @@ SimulationSettings BlmdDriveModel::default_settings() const {
   return settings;
 }
 
+// A torque-demand input (V); 0.16 s at 50 kHz resolves the PWM and current loops' response
+// (docs/model-blmd.md); the phase current observed, as the paper's figures show it.
+ModelTraits BlmdDriveModel::traits() const {
+  ModelTraits traits;
+  traits.default_duration = 0.16;
+  traits.default_sample_rate = 50000.0;
+  traits.default_observe = {"i"};
+  return traits;
+}
+
 std::string BlmdDriveModel::Validate(const ParameterSet& values,
                                      const SimulationSettings& settings) const {
   if (std::string error = Model::Validate(values, settings); !error.empty()) return error;

@@ -47,6 +47,16 @@ SimulationSettings DcServoModel::default_settings() const {
   return settings;
 }
 
+// A voltage input; the coast-down and PID experiments and the classic estimators of Ganesh
+// et al. (2012) are this model's; current and speed observed.
+ModelTraits DcServoModel::traits() const {
+  ModelTraits traits;
+  traits.coast_down_and_pid = true;
+  traits.classic_estimators = true;
+  traits.default_observe = {"i", "w"};
+  return traits;
+}
+
 SimStatus DcServoModel::SimulateReference(const SimulationRequest& request, Trace* out) const {
   const ParameterSet& values = *request.parameters;
   const Experiment& experiment = *request.experiment;

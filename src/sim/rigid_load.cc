@@ -50,6 +50,14 @@ SimulationSettings RigidLoadModel::default_settings() const {
   return settings;
 }
 
+// Driven by its torque: the equation error applies; the speed observed.
+ModelTraits RigidLoadModel::traits() const {
+  ModelTraits traits;
+  traits.input_is_torque = true;
+  traits.default_observe = {"w"};
+  return traits;
+}
+
 SimStatus RigidLoadModel::Simulate(const SimulationRequest& request, Trace* out) const {
   const ParameterSet& values = *request.parameters;
   const Experiment& experiment = *request.experiment;

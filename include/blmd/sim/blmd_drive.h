@@ -44,6 +44,7 @@ class BlmdDriveModel final : public Model {
   const std::vector<ParamInfo>& parameters() const override;
   std::vector<std::string> outputs() const override { return {"i", "ib", "ic", "w", "theta"}; }
   SimulationSettings default_settings() const override;
+  ModelTraits traits() const override;
   std::string Validate(const ParameterSet& values,
                        const SimulationSettings& settings) const override;
   // The fast path (src/sim/blmd_drive_fast.cc): the same equations with the carrier's

@@ -28,6 +28,7 @@ class DcServoModel final : public Model {
   const std::vector<ParamInfo>& parameters() const override;
   std::vector<std::string> outputs() const override { return {"i", "w", "theta"}; }
   SimulationSettings default_settings() const override;
+  ModelTraits traits() const override;
   // The fast path (src/sim/dc_servo_fast.cc): the same exact discretisation unrolled into
   // scalar arithmetic, outputs written only at the sample steps.
   SimStatus Simulate(const SimulationRequest& request, Trace* out) const override;

@@ -38,6 +38,9 @@ struct EffectInfo {
   std::vector<ParamInfo> parameters;
   std::string equation;             // as in docs/effects.md
   std::vector<std::string> models;  // models that support it
+  // Its torque depends on the shaft angle (cogging): discovery fits it at the measured angle
+  // (docs/discovery.md, "Cogging: the measured angle").
+  bool position_dependent = false;
 };
 
 // Every effect, sorted by name. The one place that knows them all.

@@ -36,6 +36,25 @@ struct SimulationRequest {
   const std::vector<double>* sample_times = nullptr;
 };
 
+// What the rest of the code asks of a model besides its equations (issue 20: the code asks
+// the model, never its name).
+struct ModelTraits {
+  // The input u is the drive torque (or force) itself, in N·m (rigid_load): the equation
+  // error (inverse dynamics) applies and the measured torque balance ranks cogging orders.
+  // Otherwise u is a voltage (V) and the drive torque is a state of the model.
+  bool input_is_torque = false;
+  // The experiments of a DC servo: a coast-down (coast_off_time) and closed-loop PID
+  // position control (dc_servo).
+  bool coast_down_and_pid = false;
+  // The steady-state and coast-down estimators of Ganesh et al. (2012), method classic.
+  bool classic_estimators = false;
+  // A config's experiment without a duration (s) or sample rate (Hz) gets these.
+  double default_duration = 1.0;
+  double default_sample_rate = 10000.0;
+  // The observed columns when the config's identification names none.
+  std::vector<std::string> default_observe;
+};
+
 class Model {
  public:
   virtual ~Model() = default;
@@ -45,6 +64,7 @@ class Model {
   // Output columns written besides "t" and "u", e.g. {"i", "w", "theta"}.
   virtual std::vector<std::string> outputs() const = 0;
   virtual SimulationSettings default_settings() const = 0;
+  virtual ModelTraits traits() const = 0;
   // Returns an error message for values the model cannot run with (empty: fine).
   virtual std::string Validate(const ParameterSet& values,
                                const SimulationSettings& settings) const;

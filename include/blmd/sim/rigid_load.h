@@ -23,6 +23,7 @@ class RigidLoadModel final : public Model {
   const std::vector<ParamInfo>& parameters() const override;
   std::vector<std::string> outputs() const override { return {"w", "theta"}; }
   SimulationSettings default_settings() const override;
+  ModelTraits traits() const override;
   SimStatus Simulate(const SimulationRequest& request, Trace* out) const override;
   // max(Kt u_max, B w_max): the drive torque, or the damping torque at the top speed when
   // the shaft moves without a drive (a coast-down, u = 0).
