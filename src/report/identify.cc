@@ -19,12 +19,12 @@ void Stage(ProgressObserver* progress, std::string name, int steps = 0) {
 }
 
 // The spread between traces in the intervals (trace_jackknife.h): K refits, K >= 3, the
-// stage "<model>leave-one-trace-out refits" of the progress.
+// stage "<stage_prefix>leave-one-trace-out refits" of the progress.
 FitResult WidenedByTraces(const FitProblem& problem, const FitResult& fit,
-                          const OptimizerOptions& options, const std::string& model) {
+                          const OptimizerOptions& options, const std::string& stage_prefix) {
   FitResult copy = fit;
   if (fit.evaluation.ok && fit.summary.converged && problem.traces().size() >= 3) {
-    Stage(options.progress, model + "leave-one-trace-out refits",
+    Stage(options.progress, stage_prefix + "leave-one-trace-out refits",
           static_cast<int>(problem.traces().size()));
     WidenByTraceJackknife(problem, LeaveOneTraceOut(problem, fit.values, options), &copy);
   }
