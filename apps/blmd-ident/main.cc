@@ -1,8 +1,13 @@
 // blmd-ident: identify the free parameters of a config's model from measured traces.
 // Flags -> IdentSettings -> blmd::MakeIdentRequest (report/request.h) -> blmd::Identify
 // (report/identify.h) -> the report, summary, HTML and exit code (docs/cli.md).
+#include <sys/ioctl.h>
+#include <unistd.h>
+
 #include <cmath>
+#include <cstdio>
 #include <iostream>
+#include <memory>
 #include <optional>
 
 #include "../common/app_main.h"
@@ -13,6 +18,7 @@
 #include "blmd/report/export.h"
 #include "blmd/report/html_report.h"
 #include "blmd/report/identify.h"
+#include "blmd/report/progress.h"
 #include "blmd/report/report.h"
 #include "blmd/report/request.h"
 
@@ -26,6 +32,7 @@ struct IdentFlags {
   std::uint64_t seed = 1;
   int threads = 0, max_evaluations = 0;
   bool json = false, quiet = false, discover = false, verbose = false;
+  bool progress = false, no_progress = false;
   double bic_margin = 10.0;
   int max_effects = 3;
   std::string candidates_text;
@@ -70,7 +77,11 @@ struct IdentFlags {
     app.add_option("--seed", seed, "random seed (fsd)")->check(blmd::app::NonNegativeWholeNumber());
     app.add_option("--threads", threads, "worker threads (0: all cores)")
         ->check(blmd::app::NonNegativeWholeNumber());
-    app.add_flag("--quiet", quiet, "print nothing but errors");
+    app.add_flag("--quiet", quiet, "print nothing but errors (and no progress line)");
+    app.add_flag("--progress", progress,
+                 "show the progress (stage, evaluations, best cost, time) on stderr, also when "
+                 "stderr is not a terminal (default: only on a terminal, without --quiet)");
+    app.add_flag("--no-progress", no_progress, "no progress on stderr (wins over --progress)");
     app.add_option("--fail-above-nrmse", fail_above, "exit 3 when the final NRMSE exceeds X")
         ->check(blmd::app::NonNegativeNumber());
     app.add_flag(
@@ -108,9 +119,21 @@ blmd::IdentSettings Settings(const CLI::App& app, const IdentFlags& f) {
   return settings;
 }
 
-void WriteOutputs(const IdentFlags& f, const blmd::IdentOutcome& outcome) {
+// --progress, --no-progress: the progress line on stderr (docs/cli.md §2.3), by default on a
+// terminal only and not with --quiet; null when off.
+std::unique_ptr<blmd::ProgressPrinter> MakeProgress(const IdentFlags& f) {
+  const bool terminal = isatty(STDERR_FILENO) != 0;
+  if (f.no_progress || !(f.progress || (terminal && !f.quiet))) return nullptr;
+  int width = 0;  // a file: lines uncut
+  winsize size{};
+  if (terminal && ioctl(STDERR_FILENO, TIOCGWINSZ, &size) == 0) width = size.ws_col;
+  return std::make_unique<blmd::ProgressPrinter>(stderr, "blmd-ident: ", width);
+}
+
+// The output files (the HTML page computes its cost curves: a stage of the progress).
+void WriteFiles(const IdentFlags& f, const blmd::IdentOutcome& outcome,
+                const nlohmann::json& report_json, blmd::ProgressObserver* progress) {
   const blmd::IdentReport& report = outcome.report;
-  const nlohmann::json report_json = report;
   if (!f.report_path.empty()) blmd::WriteFileAtomically(f.report_path, report_json.dump(2) + "\n");
   if (!f.write_config_path.empty()) {
     const nlohmann::json config = blmd::ModelConfigJson(
@@ -119,12 +142,19 @@ void WriteOutputs(const IdentFlags& f, const blmd::IdentOutcome& outcome) {
   }
   if (!f.matlab_path.empty()) blmd::WriteFileAtomically(f.matlab_path, blmd::MatlabScript(report));
   if (!f.html_path.empty()) {
+    if (progress) progress->BeginStage("html report");
     blmd::HtmlReportOptions html_options;
     html_options.threads = f.threads;
     blmd::WriteHtmlReport(
         f.html_path, {&report, outcome.problem.get(), &outcome.first_fit, outcome.discovery.get()},
         html_options);
   }
+}
+
+// The report on stdout (--json) or the summary.
+void PrintOutputs(const IdentFlags& f, const blmd::IdentOutcome& outcome,
+                  const nlohmann::json& report_json) {
+  const blmd::IdentReport& report = outcome.report;
   if (f.json) {
     std::cout << report_json.dump(2) << "\n";
   } else if (!f.quiet) {
@@ -200,8 +230,14 @@ int main(int argc, char** argv) {
             !flags.write_config_path.empty() || !flags.matlab_path.empty()) {
           blmd::InstallCleanupOnSignal();
         }
+        // The progress line ends before anything is printed on stdout (same terminal).
+        std::unique_ptr<blmd::ProgressPrinter> progress = MakeProgress(flags);
+        request.options.progress = progress.get();
         const blmd::IdentOutcome outcome = blmd::Identify(std::move(request));
-        WriteOutputs(flags, outcome);
+        const nlohmann::json report_json = outcome.report;
+        WriteFiles(flags, outcome, report_json, progress.get());
+        if (progress) progress->Finish();
+        PrintOutputs(flags, outcome, report_json);
         return ExitCode(flags, outcome);
       },
       {"--observe", "--free", "--candidates"});

@@ -142,7 +142,7 @@ FitResult CeresOptimizer::Minimize(const FitProblem& problem,
   CheckMethodOptions("ceres", options.method_options, option_names());
   SetCeresLogging(options.verbose);
   const auto started = std::chrono::steady_clock::now();
-  CountingCost cost(problem);
+  CountingCost cost(problem, options.progress);
   const std::size_t p = problem.num_free();
   std::vector<double> x(p);
   const std::vector<double> initial = problem.InitialValues();

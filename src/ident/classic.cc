@@ -186,6 +186,7 @@ FitResult ClassicOptimizer::Minimize(const FitProblem& problem,
   }
   result.values = values;
   result.evaluation = problem.Evaluate(values);
+  if (options.progress) options.progress->Evaluated(result.evaluation.cost);  // summary: 1
   result.estimates = MakeEstimates(problem, values);
   OptimizerSummary& summary = result.summary;
   summary.method = "classic";

@@ -1,8 +1,10 @@
-// Private: a thread-safe wrapper that counts cost evaluations and their failure reasons.
+// Private: a thread-safe wrapper that counts cost evaluations and their failure reasons, and
+// reports each evaluation to a progress observer when one is given.
 #pragma once
 
 #include <Eigen/Dense>
 #include <atomic>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <string>
@@ -14,7 +16,8 @@ namespace blmd::internal {
 
 class CountingCost {
  public:
-  explicit CountingCost(const FitProblem& problem) : problem_(problem) {}
+  explicit CountingCost(const FitProblem& problem, ProgressObserver* progress = nullptr)
+      : problem_(problem), progress_(progress) {}
 
   Evaluation Evaluate(const std::vector<double>& values, std::vector<double>* residuals = nullptr) {
     Evaluation evaluation = problem_.Evaluate(values, residuals);
@@ -55,6 +58,7 @@ class CountingCost {
  private:
   void Count(const Evaluation& evaluation) {
     ++evaluations_;
+    if (progress_) progress_->Evaluated(evaluation.ok ? evaluation.cost : kInfinity);
     if (!evaluation.ok) {
       ++failed_;
       std::lock_guard<std::mutex> lock(mutex_);
@@ -62,7 +66,9 @@ class CountingCost {
     }
   }
 
+  static constexpr double kInfinity = std::numeric_limits<double>::infinity();
   const FitProblem& problem_;
+  ProgressObserver* const progress_;
   std::atomic<long> evaluations_{0};
   std::atomic<long> failed_{0};
   mutable std::mutex mutex_;

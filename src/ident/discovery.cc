@@ -48,6 +48,12 @@ FitProblem MakeProblem(const Config& config, const std::vector<FitTrace>& traces
   return problem;
 }
 
+// `evaluation`, reported to `progress` (when there is one) as one cost evaluation.
+Evaluation Counted(ProgressObserver* progress, Evaluation evaluation) {
+  if (progress) progress->Evaluated(evaluation.cost);
+  return evaluation;
+}
+
 // The cost of the free-running model (the simulated angle everywhere) at `values`.
 Evaluation FreeRunEvaluation(const FitProblem& problem, const std::vector<double>& values,
                              const Evaluation& evaluation) {
@@ -97,10 +103,12 @@ FitProblem CandidateProblem(const FitProblem& base, const std::vector<double>& b
 // Gauss-Newton fit"): cheap, and it lets J and B move with the new effect, which a scan with
 // J and B held cannot. Returns the better of the start and the step. The Jacobian is the
 // shared one (ident/jacobian.h) with a coarser floor for linear parameters (1 % of the
-// range: an effect's amplitude starts at 0) and the neighbours held within the bounds.
+// range: an effect's amplitude starts at 0) and the neighbours held within the bounds. Its
+// evaluations are reported to `progress` (may be null).
 std::pair<std::vector<double>, Evaluation> OneStepGaussNewton(const FitProblem& problem,
                                                               const std::vector<double>& values,
-                                                              const Evaluation& start) {
+                                                              const Evaluation& start,
+                                                              ProgressObserver* progress) {
   const std::size_t p = problem.num_free();
   const std::vector<double> x0 = ToSearchCoordinates(problem, values);
   DifferenceRule rule;
@@ -109,7 +117,9 @@ std::pair<std::vector<double>, Evaluation> OneStepGaussNewton(const FitProblem& 
   rule.one_sided_fallback = false;
   std::vector<double> r0;
   Eigen::MatrixXd jacobian;
-  if (!FiniteDifferenceJacobian(problem, x0, rule, nullptr, &r0, &jacobian)) return {values, start};
+  internal::CountingCost counter(problem, progress);
+  if (!FiniteDifferenceJacobian(problem, x0, rule, &counter, &r0, &jacobian))
+    return {values, start};
   const std::size_t n = r0.size();
   const Eigen::Map<const Eigen::VectorXd> residual(r0.data(), static_cast<Eigen::Index>(n));
   Eigen::MatrixXd normal = jacobian.transpose() * jacobian;
@@ -124,7 +134,7 @@ std::pair<std::vector<double>, Evaluation> OneStepGaussNewton(const FitProblem& 
     std::vector<double> x = x0;
     for (std::size_t k = 0; k < p; ++k) x[k] += step(static_cast<Eigen::Index>(k));
     const std::vector<double> trial = FromSearchCoordinates(problem, x, /*clamp=*/true);
-    const Evaluation evaluation = problem.Evaluate(trial);
+    const Evaluation evaluation = Counted(progress, problem.Evaluate(trial));
     if (evaluation.ok && evaluation.cost < best.cost) {
       best = evaluation;
       best_values = trial;
@@ -135,9 +145,11 @@ std::pair<std::vector<double>, Evaluation> OneStepGaussNewton(const FitProblem& 
 }
 
 // Screening: a deterministic scan of the effect's start points (and cogging periods) with
-// the other parameters held, then one Gauss-Newton step on all of them.
+// the other parameters held, then one Gauss-Newton step on all of them. Its evaluations are
+// reported to `progress` (may be null).
 CandidateRun ScreenCandidate(const FitProblem& base, const std::vector<double>& base_values,
-                             const CandidatePlan& plan, double bic_before) {
+                             const CandidatePlan& plan, double bic_before,
+                             ProgressObserver* progress) {
   CandidateRun run;
   run.outcome.effect = plan.effect;
   if (!plan.applicable) {
@@ -166,7 +178,7 @@ CandidateRun ScreenCandidate(const FitProblem& base, const std::vector<double>& 
       std::vector<FreeParameter> free;
       const FitProblem problem =
           CandidateProblem(base, base_values, plan, start, alternatives[a], &config, &free);
-      const Evaluation evaluation = problem.Evaluate(problem.InitialValues());
+      const Evaluation evaluation = Counted(progress, problem.Evaluate(problem.InitialValues()));
       if (evaluation.ok) of_alternative.push_back({evaluation.cost, a, start});
     }
     // With several alternatives (cogging orders) only each one's best start competes.
@@ -202,6 +214,7 @@ CandidateRun ScreenCandidate(const FitProblem& base, const std::vector<double>& 
       // At the measured angle the cost is smooth: a short Ceres fit settles each order.
       OptimizerOptions short_fit;
       short_fit.threads = 1;
+      short_fit.progress = progress;
       short_fit.method_options["max_iterations"] = 10;
       const FitResult fit = FindOptimizer("ceres").Minimize(problem, short_fit);
       if (fit.evaluation.ok) {
@@ -209,7 +222,7 @@ CandidateRun ScreenCandidate(const FitProblem& base, const std::vector<double>& 
         values = fit.values;
       }
     } else {
-      internal::CountingCost counting(problem);
+      internal::CountingCost counting(problem, progress);
       const internal::LocalResult local = internal::NloptLocal(
           counting, "bobyqa", problem.ToScaled(problem.InitialValues()), 0.05, 40, 1e-6, 1e-6);
       cost = local.cost;
@@ -231,8 +244,8 @@ CandidateRun ScreenCandidate(const FitProblem& base, const std::vector<double>& 
                                        best_values.end());
   const FitProblem problem =
       CandidateProblem(base, searched_base, plan, best_start, best_fixed, &run.config, &run.free);
-  const Evaluation at_start = problem.Evaluate(problem.InitialValues());
-  auto [values, fitted] = OneStepGaussNewton(problem, problem.InitialValues(), at_start);
+  const Evaluation at_start = Counted(progress, problem.Evaluate(problem.InitialValues()));
+  auto [values, fitted] = OneStepGaussNewton(problem, problem.InitialValues(), at_start, progress);
   Evaluation evaluation = FreeRunEvaluation(problem, values, fitted);
   if (FindEffect(plan.effect).position_dependent && problem.effect_angle_forced() &&
       evaluation.ok && !(Bic(problem, evaluation, problem.num_free()) < bic_before)) {
@@ -244,6 +257,7 @@ CandidateRun ScreenCandidate(const FitProblem& base, const std::vector<double>& 
     const FitProblem free_run(run.config, base.traces(), base.observe(), free);
     OptimizerOptions polish;
     polish.threads = 1;
+    polish.progress = progress;
     polish.method_options["max_iterations"] = 10;
     const FitResult polished = FindOptimizer("ceres").Minimize(free_run, polish);
     if (polished.evaluation.ok && polished.evaluation.cost < evaluation.cost) {
@@ -491,8 +505,13 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     };
     std::vector<std::size_t> all(plans.size());
     for (std::size_t k = 0; k < all.size(); ++k) all[k] = k;
+    ProgressObserver* const progress = options.refit.progress;
+    const std::string round_name = "discovery round " + std::to_string(round + 1);
+    if (progress) progress->BeginStage(round_name + ": screening", static_cast<int>(plans.size()));
     parallel(all, [&](std::size_t k) {
-      runs[k] = ScreenCandidate(*current_problem, current_fit.values, plans[k], current_bic);
+      runs[k] =
+          ScreenCandidate(*current_problem, current_fit.values, plans[k], current_bic, progress);
+      if (progress) progress->StepDone();
     });
     // Refit the most promising candidates by their screening BIC (deterministic order).
     // Only candidates whose screening already lowers BIC are worth a full refit.
@@ -506,9 +525,12 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     if (screened.size() > static_cast<std::size_t>(options.refits))
       screened.resize(static_cast<std::size_t>(options.refits));
     const RoundBase round_base = MakeRoundBase(*current_problem, current_fit.values, options);
+    if (progress && !screened.empty())
+      progress->BeginStage(round_name + ": refits", static_cast<int>(screened.size()));
     parallel(screened, [&](std::size_t k) {
       RefitCandidate(*current_problem, round_base, plans[k], current_bic, options, &runs[k]);
       runs[k].refitted = true;
+      if (progress) progress->StepDone();
     });
     for (auto& run : runs) {
       if (!run.refitted && !run.screen_values.empty()) {

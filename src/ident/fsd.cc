@@ -189,8 +189,25 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
   s.probes = std::max(2, s.probes);
 
   const auto started = std::chrono::steady_clock::now();
-  CountingCost cost(problem);
+  CountingCost cost(problem, options.progress);
   const int threads = ThreadCount(options.threads);
+  // The walkers' evaluation budget (--max-evaluations, shared out after the probes; 0: none).
+  const long walker_budget =
+      options.max_evaluations > 0
+          ? std::max<long>(1, (options.max_evaluations - s.probes) / s.walkers)
+          : 0;
+  if (options.progress) {
+    // The schedule's evaluations, for the progress's time left: the probes, each walker's
+    // bursts (n + 1 per step, at most quench_evaluations per quench; a budget stops a walker
+    // at the end of the burst that spends it) and at most walkers + 1 polished points.
+    const long burst = static_cast<long>(s.burst_steps) * static_cast<long>(n + 1) +
+                       static_cast<long>(s.quench_evaluations);
+    long per_walker = 1 + static_cast<long>(s.bursts) * burst;
+    if (walker_budget > 0) per_walker = std::min(per_walker, walker_budget + burst);
+    const long polish = s.polish ? static_cast<long>(s.walkers + 1) * s.polish_evaluations : 0;
+    options.progress->ExpectEvaluations(s.probes + static_cast<long>(s.walkers) * per_walker +
+                                        polish);
+  }
 
   // Probe points: the cost's spread sets the temperature scale; the best probes seed walkers.
   Random master(options.seed);
@@ -237,11 +254,9 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
     walkers[w].x = probes[order[(w - 1) % order.size()]];
 
   FsdRun run(cost, s, scale);
-  if (options.max_evaluations > 0) {
-    // Shared out among the walkers after the probes, each counting its own (repeatable);
-    // the polish gets its own budget (polish_evaluations per point) on top.
-    run.budget = std::max<long>(1, (options.max_evaluations - s.probes) / s.walkers);
-  }
+  // Shared out among the walkers after the probes, each counting its own (repeatable); the
+  // polish gets its own budget (polish_evaluations per point) on top.
+  run.budget = walker_budget;
   // Each walker has its own generator, seeded by its index: thread-count independent.
   ParallelFor(walkers.size(), threads, [&](std::size_t w) {
     Random random(options.seed * 0x9e3779b97f4a7c15ULL + 7919ULL * (w + 1));
@@ -291,6 +306,10 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
   }
   candidates = unique;
   if (s.polish) {
+    if (options.progress) {
+      options.progress->ExpectEvaluations(static_cast<long>(candidates.size()) *
+                                          s.polish_evaluations);
+    }
     ParallelFor(candidates.size(), threads, [&](std::size_t k) {
       candidates[k].local = NloptLocal(cost, "bobyqa", candidates[k].start, s.polish_step,
                                        s.polish_evaluations, 1e-9, 1e-12);

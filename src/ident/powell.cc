@@ -127,7 +127,7 @@ FitResult PowellOptimizer::Minimize(const FitProblem& problem,
   const int budget = options.max_evaluations > 0 ? options.max_evaluations : 2000;
 
   const auto started = std::chrono::steady_clock::now();
-  CountingCost cost(problem);
+  CountingCost cost(problem, options.progress);
   // PRAXIS draws random directions from NLopt's global generator: seed it, so a run repeats.
   if (algorithm == "praxis") nlopt::srand(options.seed);
   const LocalResult local = NloptLocal(cost, algorithm, problem.ToScaled(problem.InitialValues()),

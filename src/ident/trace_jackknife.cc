@@ -27,6 +27,7 @@ TraceJackknife LeaveOneTraceOut(const FitProblem& problem, const std::vector<dou
     }
     const FitProblem fold(problem.config(), std::move(kept), problem.observe(), free);
     const FitResult refit = ceres.Minimize(fold, options);
+    if (options.progress) options.progress->StepDone();
     if (!refit.evaluation.ok || !refit.summary.converged) {
       out.reason =
           "the refit without trace " + std::to_string(left + 1) + " failed: " +

@@ -1,9 +1,11 @@
 #include "blmd/report/identify.h"
 
 #include <algorithm>
+#include <string>
 #include <thread>
 #include <utility>
 
+#include "blmd/ident/progress.h"
 #include "blmd/ident/trace_jackknife.h"
 #include "blmd/report/export.h"
 #include "blmd/report/report.h"
@@ -11,11 +13,19 @@
 namespace blmd {
 namespace {
 
-// The spread between traces in the intervals (trace_jackknife.h): K refits, K >= 3.
+// Begins a stage of the progress (progress.h), if there is one.
+void Stage(ProgressObserver* progress, std::string name, int steps = 0) {
+  if (progress) progress->BeginStage(std::move(name), steps);
+}
+
+// The spread between traces in the intervals (trace_jackknife.h): K refits, K >= 3, the
+// stage "<stage_prefix>leave-one-trace-out refits" of the progress.
 FitResult WidenedByTraces(const FitProblem& problem, const FitResult& fit,
-                          const OptimizerOptions& options) {
+                          const OptimizerOptions& options, const std::string& stage_prefix) {
   FitResult copy = fit;
   if (fit.evaluation.ok && fit.summary.converged && problem.traces().size() >= 3) {
+    Stage(options.progress, stage_prefix + "leave-one-trace-out refits",
+          static_cast<int>(problem.traces().size()));
     WidenByTraceJackknife(problem, LeaveOneTraceOut(problem, fit.values, options), &copy);
   }
   return copy;
@@ -40,10 +50,12 @@ IdentOutcome Identify(IdentRequest request) {
                                               request.observe, request.free);
   }
   const OptimizerOptions& options = request.options;
+  ProgressObserver* const progress = options.progress;
+  Stage(progress, "first fit (" + request.method + ")");
   outcome.first_fit = optimizer.Minimize(problem, options);
   OptimizerOptions refit_options = options;
   refit_options.method_options = nlohmann::json::object();
-  const FitResult first_result = WidenedByTraces(problem, outcome.first_fit, refit_options);
+  const FitResult first_result = WidenedByTraces(problem, outcome.first_fit, refit_options, "");
 
   ReportInputs inputs;
   inputs.config_path = request.config_path;
@@ -54,6 +66,7 @@ IdentOutcome Identify(IdentRequest request) {
   inputs.threads = options.threads > 0
                        ? options.threads
                        : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  Stage(progress, "report");
   IdentReport report = MakeReport(inputs);
   outcome.final_config = problem.config();
   outcome.final_parameters = problem.Parameters(outcome.first_fit.values);
@@ -63,6 +76,7 @@ IdentOutcome Identify(IdentRequest request) {
     discovery_options.refit.threads = options.threads;
     discovery_options.refit.seed = options.seed;
     discovery_options.refit.verbose = options.verbose;
+    discovery_options.refit.progress = progress;
     if (validation) discovery_options.held_out = &validation->traces();
     outcome.discovery =
         std::make_unique<DiscoveryResult>(Discover(problem, outcome.first_fit, discovery_options));
@@ -84,11 +98,12 @@ IdentOutcome Identify(IdentRequest request) {
       outcome.final_parameters = final_problem->Parameters(discovery.final_fit.values);
       outcome.final_free = final_problem->free();
       const FitResult final_result =
-          WidenedByTraces(*final_problem, discovery.final_fit, refit_options);
+          WidenedByTraces(*final_problem, discovery.final_fit, refit_options, "final model: ");
       ReportInputs final_inputs = inputs;
       final_inputs.problem = final_problem.get();
       final_inputs.result = &final_result;
       final_inputs.validation = validation_after.get();
+      Stage(progress, "final model: report");
       headline = MakeReport(final_inputs);
     }
     report = FinalModelReport(std::move(headline), report, std::move(block));

@@ -37,7 +37,10 @@ struct DiscoveryOptions {
   int max_effects = 3;                  // rounds
   int refits = 3;                       // candidates refit in full per round (best by screening)
   std::vector<std::string> candidates;  // empty: every applicable effect
-  OptimizerOptions refit;               // options of the Ceres refits (threads, budgets)
+  // Options of the Ceres refits (threads, budgets). Its `progress`, when set, also gets
+  // discovery's stages (per round: "discovery round 1: screening", one step per candidate,
+  // then "discovery round 1: refits", one per refit) and the screening's evaluations.
+  OptimizerOptions refit;
   // Held-out traces (--validate), or null. With them, a candidate must qualify by the plain
   // BIC on the fit traces AND lower the held-out NRMSE by more than `held_out_margin`
   // (relative); without them, by the BIC on prewhitened residuals (evidence.h).

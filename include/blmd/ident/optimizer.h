@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "blmd/ident/problem.h"
+#include "blmd/ident/progress.h"
 
 namespace blmd {
 
@@ -29,6 +30,9 @@ struct OptimizerOptions {
   // Method-specific options by name, e.g. {"algorithm": "praxis"} for powell; unknown names
   // are an InputError listing the valid ones.
   nlohmann::json method_options = nlohmann::json::object();
+  // Where the fit reports its cost evaluations (progress.h); null: nowhere. Not owned; every
+  // fit made with these options (jackknife and discovery refits too) reports to it.
+  ProgressObserver* progress = nullptr;
 };
 
 struct OptimizerSummary {

@@ -31,6 +31,8 @@ struct TraceJackknife {
 };
 
 // Refits `problem` without each of its traces in turn (Ceres, from `values`). Needs K >= 3.
+// Each refit reports its evaluations to options.progress and, once done, one StepDone (the
+// caller begins the stage, of K steps).
 TraceJackknife LeaveOneTraceOut(const FitProblem& problem, const std::vector<double>& values,
                                 const OptimizerOptions& options);
 

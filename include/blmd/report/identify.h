@@ -25,8 +25,11 @@ struct IdentRequest {
   std::vector<std::string> observe;  // the cost's columns
   std::vector<FreeParameter> free;
   std::string method = "ceres";  // an optimiser of OptimizerRegistry()
-  // seed, threads (0: every core), evaluation budget, method options, verbose. The trace
-  // jackknife's refits and discovery's use the same, without the method options.
+  // seed, threads (0: every core), evaluation budget, method options, verbose, progress.
+  // The trace jackknife's refits and discovery's use the same, without the method options.
+  // With options.progress set, Identify reports its stages to it ("first fit (ceres)",
+  // "leave-one-trace-out refits", "report", discovery's rounds, "final model: ...") and
+  // every fit its evaluations (ident/progress.h); the caller ends it.
   OptimizerOptions options;
   bool discover = false;
   // bic_margin, max_effects, candidates; Identify sets the refit options and the held-out
