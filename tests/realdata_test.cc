@@ -609,33 +609,44 @@ TEST(DynoCoastdown, DiscoverySearchesTheLossesOnAPureCoastDown) {
   // fading over the whole speed range (ws = 101 rad/s of 118) lowers BIC more, and lowers
   // the held-out coast's NRMSE more (0.1485 -> 0.02785, Coulomb: 0.02880). A negative
   // constant torque followed before the held-out evidence of issue 19; it raises the
-  // held-out NRMSE (0.02785 -> 0.0297) and is no longer added. docs/real-data.md.
+  // held-out NRMSE (0.02785 -> 0.0297) and is no longer added.
+  // Round 2 is not asserted beyond the rule: whether cogging (39/rev) passes screening there
+  // hangs on the free-running score of a shaft coming to rest in a cogging field, which a
+  // 1e-9 change of the data flips (measured: one of five scalings of w by 1 +- 1e-9, 1e-7
+  // adds it, and so does the unscaled trace on an AMD EPYC machine but not on the machine
+  // that made docs/real-data). docs/real-data.md, "Coast-downs".
   REQUIRE_REAL_DATA("dev_dyno_spindown");
   const nlohmann::json report = DynoDiscoverReport();
   ASSERT_TRUE(report.contains("discovery"));
   const auto& d = report["discovery"];
-  EXPECT_EQ(d["added"], nlohmann::json::array({"stribeck"}));
+  ASSERT_GE(d["added"].size(), 1u);
+  EXPECT_EQ(d["added"][0], "stribeck");
   const auto& round1 = d["steps"][0]["candidates"];
   ASSERT_GE(round1.size(), 2u);
   EXPECT_EQ(round1[0]["effect"], "stribeck");
   EXPECT_NEAR(Value(round1[0]["delta_bic"]), -218628.5, 5.0);
   EXPECT_EQ(round1[0]["evidence_rule"], "held_out");
+  EXPECT_NEAR(Value(round1[0]["held_out_nrmse"]["after"]), 0.02785, 0.0002);
   EXPECT_EQ(round1[1]["effect"], "coulomb_friction");
   EXPECT_NEAR(Value(round1[1]["delta_bic"]), -186152.8, 5.0);
   EXPECT_NEAR(Value(round1[1]["parameters"]["Tc"]), 0.070371, 1e-3 * 0.070371);
   EXPECT_NEAR(Value(round1[1]["nrmse"]), 0.01059, 0.0001);
   EXPECT_NEAR(Value(round1[1]["held_out_nrmse"]["after"]), 0.02880, 0.0002);
-  const auto& after = d["parameters_after"];
-  EXPECT_NEAR(Value(after["Ts"]), 0.06391, 0.0005);
-  EXPECT_NEAR(Value(after["ws"]), 101.16, 0.1);
-  EXPECT_NEAR(Value(after["B"]), 2.698e-3, 0.002e-3);
+  const auto& stribeck = d["steps"][0]["parameters"];
+  EXPECT_NEAR(Value(stribeck["Ts"]), 0.06391, 0.0005);
+  EXPECT_NEAR(Value(stribeck["ws"]), 101.16, 0.1);
+  EXPECT_NEAR(Value(d["steps"][0]["nrmse_after"]), 0.006594, 0.00005);
   EXPECT_NEAR(Value(d["error_before"]["nrmse"]), 0.1603, 0.0005);
-  EXPECT_NEAR(Value(d["error_after"]["nrmse"]), 0.006594, 0.00005);
   EXPECT_NEAR(Value(d["validation"]["before"]["nrmse"]), 0.1485, 0.0005);
-  EXPECT_NEAR(Value(d["validation"]["after"]["nrmse"]), 0.02785, 0.0002);
-  const auto& refused = d["last_round"][0];
-  EXPECT_EQ(refused["effect"], "load_torque");
-  EXPECT_GT(Value(refused["held_out_nrmse"]["after"]), Value(refused["held_out_nrmse"]["before"]));
+  // Every later round's addition passed the held-out rule (a fall of more than 1 %), and
+  // the constant torque, which raises the held-out error, is never added.
+  for (std::size_t k = 1; k < d["steps"].size(); ++k) {
+    for (const auto& c : d["steps"][k]["candidates"]) {
+      if (c["effect"] != d["steps"][k]["effect"]) continue;
+      EXPECT_LT(Value(c["held_out_nrmse"]["after"]), 0.99 * Value(c["held_out_nrmse"]["before"]));
+    }
+  }
+  for (const auto& added : d["added"]) EXPECT_NE(added, "load_torque");
 }
 
 TEST(DynoCoastdown, DiscoveryFindsCoulombFrictionOnAPureCoastDown) {
@@ -812,8 +823,13 @@ TEST_F(OdriveCogging, DominantOrderMatchesTheMapOnTheUncompensatedFilesWhereItIs
   EXPECT_TRUE((*nocomp6_)["discovery"]["added"].empty());
   EXPECT_TRUE((*nocomp6_)["discovery"]["before"]["parameters"]["B"]["at_bound"].get<bool>());
   // The amplitude is not robust: on spinup_5 cogging is added while J and B are still
-  // degenerate (B near its bound): Tcog = 0.0720 (+50 %).
-  EXPECT_NEAR(Value((*nocomp5_)["discovery"]["parameters_after"]["Tcog"]), 0.0720, 0.001);
+  // degenerate (B near its bound), and the fit that follows does not converge: Tcog was
+  // 0.0720 (+50 % from the map) on the machine that made docs/real-data and is 0.0367
+  // (-23 %) on an AMD EPYC machine, each with an interval of about +-1 % (docs/real-data.md,
+  // ODrive). What holds on both: the report says the fit did not converge.
+  bool not_converged = false;
+  for (const auto& w : (*nocomp5_)["warnings"]) not_converged |= w["code"] == "not_converged";
+  EXPECT_TRUE(not_converged) << (*nocomp5_)["warnings"].dump();
 }
 
 TEST_F(OdriveCogging, CoggingAmplitudeSmallerOnCompensatedRuns) {
