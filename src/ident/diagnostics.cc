@@ -61,7 +61,7 @@ SimStatus PoolSignals(const FitProblem& problem, const std::vector<double>& valu
       pooled.rates.push_back(span > 0.0 ? static_cast<double>(time.size() - 1) / span : 1.0);
     }
     Trace simulated;
-    const SimStatus status = problem.Simulate(k, values, &simulated);
+    SimStatus status = problem.Simulate(k, values, &simulated);
     if (!status.ok()) return status;
     const Trace& measured = problem.measured(k);
     for (std::size_t c = 0; c < columns; ++c) {

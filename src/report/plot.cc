@@ -1500,6 +1500,7 @@ void SetDrawnRanges(const LinePlotOptions& options, PlotRanges& r) {
 // Each series' colour: its own, or the next of the palette.
 std::vector<std::string> SeriesColours(const std::vector<Series>& series) {
   std::vector<std::string> colours;
+  colours.reserve(series.size());
   std::size_t next_colour = 0;
   for (const auto& s : series) {
     colours.push_back(s.colour.empty() ? kPalette[next_colour++ % std::size(kPalette)] : s.colour);
