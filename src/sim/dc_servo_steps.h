@@ -1,5 +1,6 @@
-// Private helpers of the dc_servo model shared by its reference and fast paths
-// (src/sim/dc_servo.cc, src/sim/dc_servo_fast.cc; docs/model-dc-servo.md).
+// Private helpers of the dc_servo model's steps (src/sim/dc_servo.cc; docs/model-dc-servo.md).
+// The fast path (dc_servo_fast.cc) computes the same quantities in its own Simulate: split into
+// these and its own steps, it ran the closed loop ~5 % slower (issue 20, docs/architecture.md §6).
 #pragma once
 
 #include <Eigen/Dense>
