@@ -5,7 +5,7 @@
 #include <cmath>
 
 #include "blmd/sim/effects.h"
-#include "sim/discretise.h"
+#include "sim/dc_servo_steps.h"
 #include "sim/sampler.h"
 
 namespace blmd {
@@ -25,6 +25,46 @@ ParamInfo P(const char* name, const char* unit, const char* meaning, double lo, 
 }
 
 double Sign(double x) { return x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : 0.0); }
+
+// One step of the reference from x = [i, w, theta] under the voltage u_eff, the armature closed
+// or open (i = 0), with the shaft's effects (friction with sticking, drag, cogging at the
+// angle effect_theta). A shaft that friction stops inside the step ends it at rest.
+[[gnu::always_inline]] inline void ReferenceStep(const internal::DcServoDiscretisation& d,
+                                                 const ShaftEffects& shaft, double Kt, double dt,
+                                                 bool open, double u_eff, double effect_theta,
+                                                 double* i, double* w, double* theta) {
+  const double non_friction = shaft.NonFrictionTorque(effect_theta) + shaft.DragTorque(*w);
+  const double w_old = *w, theta_old = *theta;
+  if (open) {
+    *i = 0.0;
+    bool stuck = false;
+    const double friction = shaft.StepFriction(*w, -non_friction, &stuck);
+    if (!stuck) {
+      const Eigen::Vector2d x =
+          d.Ado * Eigen::Vector2d(*w, *theta) + d.Bdo * (friction + non_friction);
+      *w = x(0);
+      *theta = x(1);
+    }
+  } else {
+    bool stuck = false;
+    const double friction = shaft.StepFriction(*w, Kt * *i - non_friction, &stuck);
+    if (stuck) {
+      *i = d.Ads(0, 0) * *i + d.Bds(0, 0) * u_eff;
+    } else {
+      const Eigen::Vector3d x = d.Ad * Eigen::Vector3d(*i, *w, *theta) +
+                                d.Bd * Eigen::Vector2d(u_eff, friction + non_friction);
+      *i = x(0);
+      *w = x(1);
+      *theta = x(2);
+    }
+  }
+  if (shaft.StopsWithin(w_old, *w)) {
+    // Friction stopped the shaft inside this step: it ends at rest, not reversed.
+    const double fraction = w_old / (w_old - *w);
+    *theta = theta_old + 0.5 * w_old * fraction * dt;
+    *w = 0.0;
+  }
+}
 
 }  // namespace
 
@@ -64,35 +104,13 @@ SimStatus DcServoModel::SimulateReference(const SimulationRequest& request, Trac
   const double dt = request.settings.dt;
   if (SimStatus status = CheckRequest(request); !status.ok()) return status;
 
-  const double R = values.Get("R"), L = values.Get("L"), Kt = values.Get("Kt"),
-               Kb = values.Get("Kb"), J = values.Get("J"), B = values.Get("B");
+  const double Kt = values.Get("Kt");
   const ShaftEffects shaft =
       ShaftEffects::From(values, *request.effects, request.settings.friction_smoothing_w);
   const DriveEffects drive = DriveEffects::From(values, *request.effects);
-
-  // Full system: x = [i, w, theta], inputs [u_eff, T_effects].
-  Eigen::Matrix3d A;
-  A << -R / L, -Kb / L, 0.0, Kt / J, -B / J, 0.0, 0.0, 1.0, 0.0;
-  Eigen::Matrix<double, 3, 2> Bm;
-  Bm << 1.0 / L, 0.0, 0.0, -1.0 / J, 0.0, 0.0;
-  Eigen::Matrix3d Ad;
-  Eigen::Matrix<double, 3, 2> Bd;
-  internal::Discretise<3, 2>(A, Bm, dt, &Ad, &Bd);
-  // Shaft stuck (w = 0): the armature alone, x = [i], input u_eff.
-  Eigen::Matrix<double, 1, 1> As, Ads;
-  Eigen::Matrix<double, 1, 1> Bs, Bds;
-  As << -R / L;
-  Bs << 1.0 / L;
-  internal::Discretise<1, 1>(As, Bs, dt, &Ads, &Bds);
-  // Armature open (i = 0): x = [w, theta], input T_effects.
-  Eigen::Matrix2d Ao, Ado;
-  Eigen::Matrix<double, 2, 1> Bo, Bdo;
-  Ao << -B / J, 0.0, 1.0, 0.0;
-  Bo << -1.0 / J, 0.0;
-  internal::Discretise<2, 1>(Ao, Bo, dt, &Ado, &Bdo);
-
+  const internal::DcServoDiscretisation discrete =
+      internal::DcServoDiscretisation::From(values, dt);
   const bool closed_loop = experiment.closed_loop;
-  const PidSettings& pid = experiment.pid;
   const bool has_coast = experiment.coast_off_time >= 0.0;
 
   std::vector<std::string> names = {"u", "i", "w", "theta"};
@@ -102,7 +120,9 @@ SimStatus DcServoModel::SimulateReference(const SimulationRequest& request, Trac
   InputCursor input(experiment.input);
   const double t_start = times.front();
   double i = experiment.initial.i, w = experiment.initial.w, theta = experiment.initial.theta;
-  double integral = 0.0, derivative_state = theta;  // PID: filtered theta for the D term
+  internal::DcServoPid pid;
+  pid.derivative_state = theta;
+  const double alpha = dt / (experiment.pid.tau_d + dt);
 
   // The input over a step [t, t + dt) is read at its midpoint t + dt/2, so that an event on
   // the step grid (a step's t0, a switching instant, an `open` sample, coast_off_time) takes
@@ -111,19 +131,7 @@ SimStatus DcServoModel::SimulateReference(const SimulationRequest& request, Trac
   auto control = [&](double t, double* reference) {
     const double r = input.At(t + 0.5 * dt);
     *reference = r;
-    if (!closed_loop) return r;
-    const double error = r - theta;
-    // First-order filtered derivative of the measurement (backward Euler).
-    const double alpha = dt / (pid.tau_d + dt);
-    const double filtered_prev = derivative_state;
-    derivative_state += alpha * (theta - derivative_state);
-    const double dtheta = (derivative_state - filtered_prev) / dt;
-    double u = pid.Kp * error + pid.Ki * integral - pid.Kd * dtheta;
-    const bool saturated_high = u > pid.u_max, saturated_low = u < -pid.u_max;
-    if (!((saturated_high && error > 0.0) || (saturated_low && error < 0.0))) {
-      integral += error * dt;
-    }
-    return std::clamp(u, -pid.u_max, pid.u_max);
+    return closed_loop ? pid.Control(experiment.pid, alpha, dt, r, theta) : r;
   };
 
   double reference = 0.0;
@@ -139,39 +147,9 @@ SimStatus DcServoModel::SimulateReference(const SimulationRequest& request, Trac
     const double t_next = t_start + static_cast<double>(step + 1) * dt;
     const double t_mid = t + 0.5 * dt;
     const bool open = (has_coast && t_mid >= experiment.coast_off_time) || input.OpenAt(t_mid);
-
-    const double non_friction =
-        shaft.NonFrictionTorque(effect_angle.At(t, theta)) + shaft.DragTorque(w);
-    const double u_eff = u - drive.Vdt * Sign(i);
-    const double w_old = w, theta_old = theta;
-    if (open) {
-      i = 0.0;
-      bool stuck = false;
-      const double friction = shaft.StepFriction(w, -non_friction, &stuck);
-      if (!stuck) {
-        const Eigen::Vector2d x = Ado * Eigen::Vector2d(w, theta) + Bdo * (friction + non_friction);
-        w = x(0);
-        theta = x(1);
-      }
-    } else {
-      bool stuck = false;
-      const double friction = shaft.StepFriction(w, Kt * i - non_friction, &stuck);
-      if (stuck) {
-        i = Ads(0, 0) * i + Bds(0, 0) * u_eff;
-      } else {
-        const Eigen::Vector3d x = Ad * Eigen::Vector3d(i, w, theta) +
-                                  Bd * Eigen::Vector2d(u_eff, friction + non_friction);
-        i = x(0);
-        w = x(1);
-        theta = x(2);
-      }
-    }
-    if (shaft.StopsWithin(w_old, w)) {
-      // Friction stopped the shaft inside this step: it ends at rest, not reversed.
-      const double fraction = w_old / (w_old - w);
-      theta = theta_old + 0.5 * w_old * fraction * dt;
-      w = 0.0;
-    }
+    const double effect_theta = effect_angle.At(t, theta);
+    ReferenceStep(discrete, shaft, Kt, dt, open, u - drive.Vdt * Sign(i), effect_theta, &i, &w,
+                  &theta);
 
     // Recorded with the state at t_next: the voltage applied from t_next on, so that the u
     // column of a closed-loop trace means what it means in open loop (the input from that
