@@ -13,7 +13,10 @@
 #include <vector>
 
 #include "blmd/io/config.h"
+#include "blmd/sim/blmd_drive.h"
+#include "blmd/sim/dc_servo.h"
 #include "blmd/sim/experiment.h"
+#include "support/test_support.h"
 
 namespace blmd {
 namespace {
@@ -292,6 +295,48 @@ TEST(InputConfig, PrbsAndChirpKeysAndDefaults) {
       LoadText(R"({"type": "chirp", "f0": 0, "f1": 20, "duration": 1.5})", R"(, "duration": 3)");
   EXPECT_EQ(swept.experiment.input.sweep, 1.5);
   EXPECT_EQ(swept.experiment.input.shape, InputSignal::ChirpShape::kLinear);
+}
+
+// The fast paths (which read a prbs only at its bit changes and a chirp at every step) give
+// the reference paths' trace, within 1e-9 relative (as tests/fast_path_test.cc).
+template <typename ModelT>
+double FastAgainstReference(const Config& config) {
+  const auto& model = dynamic_cast<const ModelT&>(*config.model);
+  const std::vector<double> times = config.experiment.SampleTimes();
+  SimulationRequest request;
+  request.parameters = &config.parameters;
+  request.effects = &config.effects;
+  request.experiment = &config.experiment;
+  request.settings = config.simulation;
+  request.sample_times = &times;
+  Trace fast, reference;
+  EXPECT_TRUE(model.Simulate(request, &fast).ok());
+  EXPECT_TRUE(model.SimulateReference(request, &reference).ok());
+  std::string where;
+  return testing::WorstRelativeDeviation(fast, reference, &where);
+}
+
+TEST(InputFastPath, PrbsAndChirpMatchTheReferencePaths) {
+  for (const char* name : {"ganesh-prbs.json", "ganesh-chirp.json"}) {
+    const Config config = LoadConfig(testing::SourcePath(std::string("configs/") + name));
+    EXPECT_LT(FastAgainstReference<DcServoModel>(config), 1e-9) << name;
+  }
+  Config blmd = LoadConfig(testing::SourcePath("configs/blmd-d31x.json"));
+  blmd.experiment.duration = 0.05;
+  InputSignal& input = blmd.experiment.input;
+  input = InputSignal();
+  input.kind = InputSignal::Kind::kPrbs;
+  input.amplitude = 0.5;
+  input.clock = 0.002;
+  input.order = 5;
+  EXPECT_LT(FastAgainstReference<BlmdDriveModel>(blmd), 1e-9) << "blmd prbs";
+  input = InputSignal();
+  input.kind = InputSignal::Kind::kChirp;
+  input.amplitude = 0.5;
+  input.f0 = 10.0;
+  input.f1 = 200.0;
+  input.sweep = 0.05;
+  EXPECT_LT(FastAgainstReference<BlmdDriveModel>(blmd), 1e-9) << "blmd chirp";
 }
 
 }  // namespace
