@@ -631,8 +631,8 @@ TEST(ConfigErrors, ExperimentAndSimulation) {
   EXPECT_EQ(ConfigError(with("\"simulation\": { \"dt\": 0 }")),
             "config.json:11:19: 'simulation.dt' must be > 0 (got 0)");
   EXPECT_EQ(ConfigError(with("\"experiment\": { \"input\": { \"type\": \"ramp\" } }")),
-            "config.json:11:30: unknown input type 'ramp' (valid: recorded, square, step, steps, "
-            "sweep)");
+            "config.json:11:30: unknown input type 'ramp' (valid: chirp, prbs, recorded, square, "
+            "step, steps, sweep)");
   EXPECT_EQ(ConfigError(with("\"experiment\": { \"input\": { \"type\": \"square\" } }")),
             "config.json:11:19: square input needs \"period\" (s)");
   EXPECT_EQ(

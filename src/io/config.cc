@@ -423,7 +423,7 @@ InputSignal ReadInput(const Reader& reader, const json& input, const std::string
   if (!input.contains("type"))
     reader.Fail(pointer, "'" + Reader::Label(pointer) +
                              "' needs a \"type\" (step, square, "
-                             "steps, sweep, recorded)");
+                             "steps, sweep, prbs, chirp, recorded)");
   const std::string type = reader.String(input["type"], pointer + "/type");
   InputSignal signal;
   auto number_or = [&](const char* key, double fallback) {
@@ -443,6 +443,69 @@ InputSignal ReadInput(const Reader& reader, const json& input, const std::string
     signal.t0 = number_or("t0", 0.0);
     if (!input.contains("period")) reader.Fail(pointer, "square input needs \"period\" (s)");
     signal.period = reader.Positive(input["period"], pointer + "/period");
+  } else if (type == "prbs") {
+    reader.CheckKeys(input, pointer,
+                     {"type", "amplitude", "offset", "t0", "clock", "order", "seed"});
+    signal.kind = InputSignal::Kind::kPrbs;
+    signal.amplitude = number_or("amplitude", 1.0);
+    signal.offset = number_or("offset", 0.0);
+    signal.t0 = number_or("t0", 0.0);
+    if (!input.contains("clock") || !input.contains("order")) {
+      reader.Fail(pointer, "prbs input needs \"clock\" (s, one bit) and \"order\" (2 to 31)");
+    }
+    signal.clock = reader.Positive(input["clock"], pointer + "/clock");
+    // A whole number in [low, high], or the error naming the range.
+    auto whole = [&](const char* key, double low, double high, const std::string& range) {
+      const std::string at = pointer + "/" + key;
+      const double v = reader.Number(input[key], at);
+      if (!(v >= low && v <= high && v == std::floor(v))) {
+        reader.Fail(at, "'" + Reader::Label(at) + "' must be a whole number from " + range +
+                            " (got " + DisplayNumber(v) + ")");
+      }
+      return v;
+    };
+    signal.order = static_cast<int>(whole("order", 2.0, 31.0, "2 to 31"));
+    if (input.contains("seed")) {
+      const double high = std::ldexp(1.0, signal.order) - 1.0;
+      signal.seed = static_cast<std::uint32_t>(
+          whole("seed", 1.0, high, "1 to 2^order - 1 = " + DisplayNumber(high)));
+    }
+  } else if (type == "chirp") {
+    reader.CheckKeys(input, pointer,
+                     {"type", "amplitude", "offset", "t0", "f0", "f1", "duration", "shape"});
+    signal.kind = InputSignal::Kind::kChirp;
+    signal.amplitude = number_or("amplitude", 1.0);
+    signal.offset = number_or("offset", 0.0);
+    signal.t0 = number_or("t0", 0.0);
+    if (!input.contains("f0") || !input.contains("f1")) {
+      reader.Fail(pointer, "chirp input needs \"f0\" and \"f1\" (Hz)");
+    }
+    if (input.contains("shape")) {
+      const std::string shape = reader.String(input["shape"], pointer + "/shape");
+      if (shape == "log") {
+        signal.shape = InputSignal::ChirpShape::kLog;
+      } else if (shape != "linear") {
+        reader.Fail(pointer + "/shape", "unknown chirp shape '" + InputError::Excerpt(shape) +
+                                            "' (valid: linear, log)");
+      }
+    }
+    const bool log = signal.shape == InputSignal::ChirpShape::kLog;
+    for (const char* key : {"f0", "f1"}) {
+      const std::string at = pointer + "/" + key;
+      const double f = reader.Number(input[key], at);
+      if (log ? !(f > 0.0) : !(f >= 0.0)) {
+        reader.Fail(at, "'" + Reader::Label(at) + "' must be " + (log ? "> 0" : ">= 0") + " Hz" +
+                            (log ? " for a log chirp" : "") + " (got " + DisplayNumber(f) + ")");
+      }
+      (key[1] == '0' ? signal.f0 : signal.f1) = f;
+    }
+    if (!(signal.f0 > 0.0 || signal.f1 > 0.0)) {
+      reader.Fail(pointer + "/f1", "a chirp needs f0 or f1 > 0 Hz");
+    }
+    // 0: the experiment's duration, set by ReadExperiment.
+    if (input.contains("duration")) {
+      signal.sweep = reader.Positive(input["duration"], pointer + "/duration");
+    }
   } else if (type == "steps") {
     reader.CheckKeys(input, pointer, {"type", "times", "values", "offset"});
     signal.kind = InputSignal::Kind::kSteps;
@@ -496,8 +559,9 @@ InputSignal ReadInput(const Reader& reader, const json& input, const std::string
     signal.values = trace.Column(column);
     if (trace.Has("open")) signal.open = trace.Column("open");
   } else {
-    reader.Fail(pointer + "/type", "unknown input type '" + InputError::Excerpt(type) +
-                                       "' (valid: recorded, square, step, steps, sweep)");
+    reader.Fail(pointer + "/type",
+                "unknown input type '" + InputError::Excerpt(type) +
+                    "' (valid: chirp, prbs, recorded, square, step, steps, sweep)");
   }
   return signal;
 }
@@ -709,6 +773,33 @@ void ReadSimulation(const Reader& reader, const json& root, Config* out) {
   }
 }
 
+// What an input can only check once the experiment's duration and sample rate are known: a
+// chirp's sweep defaults to the duration and stays below half the sample rate (Nyquist); a
+// prbs bit lasts at least one sample.
+void CheckInputAgainstSamples(const Reader& reader, Experiment* experiment) {
+  InputSignal& input = experiment->input;
+  const double fs = experiment->sample_rate;
+  const std::string pointer = "/experiment/input";
+  if (input.kind == InputSignal::Kind::kChirp) {
+    if (!(input.sweep > 0.0)) input.sweep = experiment->duration;
+    for (const char* key : {"f0", "f1"}) {
+      const double f = key[1] == '0' ? input.f0 : input.f1;
+      if (!(f < 0.5 * fs)) {
+        reader.Fail(pointer + "/" + key,
+                    "chirp frequency " + std::string(key) + " = " + DisplayNumber(f) +
+                        " Hz is not below half the sample rate (" + DisplayNumber(0.5 * fs) +
+                        " Hz): the samples would alias it; lower it or raise sample_rate");
+      }
+    }
+  } else if (input.kind == InputSignal::Kind::kPrbs) {
+    if (input.clock * fs < 1.0 - 1e-9) {
+      reader.Fail(pointer + "/clock", "prbs clock " + DisplayNumber(input.clock) +
+                                          " s is shorter than one sample (1/sample_rate = " +
+                                          DisplayNumber(1.0 / fs) + " s)");
+    }
+  }
+}
+
 // The experiment (input, duration, sample rate, coast-down, PID, initial state), and whether
 // it can be run at this step.
 void ReadExperiment(const Reader& reader, const json& root, Config* out) {
@@ -731,6 +822,7 @@ void ReadExperiment(const Reader& reader, const json& root, Config* out) {
     if (exp.contains("sample_rate")) {
       experiment.sample_rate = reader.Positive(exp["sample_rate"], "/experiment/sample_rate");
     }
+    CheckInputAgainstSamples(reader, &experiment);
     if (exp.contains("coast_off_time")) {
       if (!traits.coast_down_and_pid) {
         reader.Fail("/experiment/coast_off_time", "coast-down applies to model dc_servo only");

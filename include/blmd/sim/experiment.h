@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -11,12 +12,27 @@ namespace blmd {
 // u(t) for the model input (dc_servo: armature voltage V; blmd: torque demand V;
 // closed loop: the position reference in rad).
 struct InputSignal {
-  enum class Kind { kStep, kSquare, kSteps, kRecorded };
+  enum class Kind { kStep, kSquare, kSteps, kRecorded, kPrbs, kChirp };
+  enum class ChirpShape { kLinear, kLog };
   Kind kind = Kind::kStep;
-  double amplitude = 0.0;  // step height; square half peak-to-peak
-  double offset = 0.0;     // value before the step; square mean
-  double t0 = 0.0;         // s, step instant; square start (begins high)
+  double amplitude = 0.0;  // step height; square, prbs, chirp: half peak-to-peak
+  double offset = 0.0;     // value before the step; square, prbs, chirp: mean (and before t0)
+  double t0 = 0.0;         // s, step instant; square start (begins high); prbs, chirp start
   double period = 0.0;     // s, square period
+  // kPrbs: a maximum-length sequence of an order-bit linear-feedback shift register with the
+  // primitive feedback polynomial PrbsPolynomial(order), started from the state seed
+  // (1 .. 2^order - 1). Bit k (k = 0, 1, ...) holds on [t0 + k clock, t0 + (k+1) clock):
+  // offset + amplitude when it is 1, offset - amplitude when 0; it repeats every
+  // 2^order - 1 bits. See docs/config.md for the register.
+  double clock = 0.0;      // s, kPrbs bit duration Tc
+  int order = 0;           // kPrbs register length n, 2..31
+  std::uint32_t seed = 1;  // kPrbs start state, nonzero, < 2^order
+  // kChirp: offset + amplitude sin(phi(t - t0)), phi(0) = 0, phi' = 2 pi f: f sweeps f0 -> f1
+  // over sweep seconds (linearly or exponentially), then stays at f1. offset before t0.
+  double f0 = 0.0;     // Hz
+  double f1 = 0.0;     // Hz
+  double sweep = 0.0;  // s, > 0
+  ChirpShape shape = ChirpShape::kLinear;
   // kSteps: values[k] holds from times[k] on (offset before times[0]).
   // kRecorded: zero-order hold of recorded samples, values[k] holds on [times[k], times[k+1]).
   std::vector<double> times;
@@ -24,9 +40,21 @@ struct InputSignal {
   // kRecorded, dc_servo only: 1 where the armature is open (coast-down), empty if never.
   std::vector<double> open;
 
+  // u(t). kPrbs: O(order·log k) at bit k (the register jumped there); InputCursor reads a
+  // prbs at non-decreasing times in O(1) amortised.
   double At(double t) const;
   bool OpenAt(double t) const;
+  // kPrbs: the bit (0 or 1) that holds at t >= t0. kChirp: phi(t) in rad and f(t) in Hz
+  // (f0 before t0).
+  int PrbsBit(double t) const;
+  double ChirpPhase(double t) const;
+  double ChirpFrequency(double t) const;
 };
+
+// The feedback polynomial of the order-n maximum-length register (n = 2..31), as the bit
+// mask of p(x) = x^n + ... + 1 without its x^n term (bit j: the coefficient of x^j): the
+// primitive tap sets of Xilinx XAPP052 (Alfke 1996), Table 3. 0 for another n.
+std::uint32_t PrbsPolynomial(int order);
 
 // Reads an InputSignal at non-decreasing times in O(1) amortised (no search per step).
 class InputCursor {
@@ -36,13 +64,22 @@ class InputCursor {
   bool OpenAt(double t);
   // The earliest time after t at which At() or OpenAt() may change (t itself when it
   // cannot tell cheaply, e.g. a square wave; +infinity when never): a fast path reads the
-  // signal again only once its time reaches this.
+  // signal again only once its time reaches this. A prbs: its next bit edge at which the
+  // bit changes (runs of equal bits are skipped). A chirp changes continuously: t.
   double NextChange(double t);
 
  private:
   void Advance(double t);
+  // kPrbs: the register state of bit k, kept for the next call (stepped forward or jumped).
+  std::uint32_t PrbsStateAt(std::uint64_t k);
   const InputSignal& signal_;
   std::size_t index_ = 0;
+  bool prbs_ready_ = false;
+  std::uint64_t prbs_index_ = 0;  // the bit whose register state prbs_state_ holds
+  std::uint32_t prbs_state_ = 0;
+  // Bits [prbs_run_begin_, prbs_run_end_) hold the same value; prbs_run_end_ is where it
+  // changes (valid when prbs_run_end_ > prbs_run_begin_).
+  std::uint64_t prbs_run_begin_ = 0, prbs_run_end_ = 0;
 };
 
 // Closed-loop position control (dc_servo): PID on theta, output saturated at +-u_max.
