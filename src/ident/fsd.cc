@@ -154,21 +154,10 @@ class FsdRun {
 
 thread_local long FsdRun::walker_evaluations = 0;
 
-}  // namespace
-
-std::vector<std::string> FsdOptimizer::option_names() const {
-  return {"walkers",     "bursts",   "burst_steps",    "quench_evaluations",
-          "quench_step", "probes",   "initial_spread", "t0",
-          "fd_step",     "max_step", "polish",         "polish_evaluations",
-          "polish_step"};
-}
-
-FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptions& options) const {
-  const auto& o = options.method_options;
-  CheckMethodOptions("fsd", o, option_names());
+// The method options (docs/identification.md, fsd options: ranges; scaled units are
+// fractions of the box).
+FsdSettings ReadSettings(const nlohmann::json& o, std::size_t n) {
   FsdSettings s;
-  const std::size_t n = problem.num_free();
-  // Ranges: docs/identification.md (fsd options); scaled units are fractions of the box.
   const std::string m = "fsd";
   s.walkers = OptionWholeNumber(m, o, "walkers", s.walkers, 1, 1024);
   s.bursts = OptionWholeNumber(m, o, "bursts", s.bursts, 1, 100000);
@@ -187,38 +176,26 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
       OptionWholeNumber(m, o, "polish_evaluations", s.polish_evaluations, 1, 1000000);
   s.polish_step = OptionNumber(m, o, "polish_step", s.polish_step, {0.0, 1.0, true});
   s.probes = std::max(2, s.probes);
+  return s;
+}
 
-  const auto started = std::chrono::steady_clock::now();
-  CountingCost cost(problem, options.progress);
-  const int threads = ThreadCount(options.threads);
-  // The walkers' evaluation budget (--max-evaluations, shared out after the probes; 0: none).
-  const long walker_budget =
-      options.max_evaluations > 0
-          ? std::max<long>(1, (options.max_evaluations - s.probes) / s.walkers)
-          : 0;
-  if (options.progress) {
-    // The schedule's evaluations, for the progress's time left: the probes, each walker's
-    // bursts (n + 1 per step, at most quench_evaluations per quench; a budget stops a walker
-    // at the end of the burst that spends it) and at most walkers + 1 polished points.
-    const long burst = static_cast<long>(s.burst_steps) * static_cast<long>(n + 1) +
-                       static_cast<long>(s.quench_evaluations);
-    long per_walker = 1 + static_cast<long>(s.bursts) * burst;
-    if (walker_budget > 0) per_walker = std::min(per_walker, walker_budget + burst);
-    const long polish = s.polish ? static_cast<long>(s.walkers + 1) * s.polish_evaluations : 0;
-    options.progress->ExpectEvaluations(s.probes + static_cast<long>(s.walkers) * per_walker +
-                                        polish);
-  }
+// The schedule's evaluations, for the progress's time left: the probes, each walker's
+// bursts (n + 1 per step, at most quench_evaluations per quench; a budget stops a walker at
+// the end of the burst that spends it) and at most walkers + 1 polished points.
+long ScheduledEvaluations(const FsdSettings& s, std::size_t n, long walker_budget) {
+  const long burst = static_cast<long>(s.burst_steps) * static_cast<long>(n + 1) +
+                     static_cast<long>(s.quench_evaluations);
+  long per_walker = 1 + static_cast<long>(s.bursts) * burst;
+  if (walker_budget > 0) per_walker = std::min(per_walker, walker_budget + burst);
+  const long polish = s.polish ? static_cast<long>(s.walkers + 1) * s.polish_evaluations : 0;
+  return s.probes + static_cast<long>(s.walkers) * per_walker + polish;
+}
 
-  // Probe points: the cost's spread sets the temperature scale; the best probes seed walkers.
-  Random master(options.seed);
-  std::vector<std::vector<double>> probes(static_cast<std::size_t>(s.probes),
-                                          std::vector<double>(n));
-  for (auto& p : probes) {
-    for (double& v : p) v = master.Uniform();
-  }
+// The probes' costs, evaluated in shards (SIMD lanes for blmd); every probe's cost lands in
+// its own slot, so the result does not depend on the thread count.
+std::vector<double> ProbeCosts(CountingCost& cost, const std::vector<std::vector<double>>& probes,
+                               int threads) {
   std::vector<double> probe_cost(probes.size());
-  // Shards of probes, each evaluated together (SIMD lanes for blmd); every probe's cost
-  // lands in its own slot, so the result does not depend on the thread count.
   ParallelFor(static_cast<std::size_t>(threads), threads, [&](std::size_t shard) {
     const auto [begin, end] = ShardRange(probes.size(), static_cast<int>(shard) + 1, threads);
     const std::vector<double> costs = cost.ScaledCosts(
@@ -226,6 +203,12 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
                                          probes.begin() + static_cast<std::ptrdiff_t>(end)));
     std::copy(costs.begin(), costs.end(), probe_cost.begin() + static_cast<std::ptrdiff_t>(begin));
   });
+  return probe_cost;
+}
+
+// The temperature scale: the sample standard deviation of the finite probe costs (1 when
+// fewer than two are finite or it is not positive).
+double CostScale(const std::vector<double>& probe_cost) {
   std::vector<double> finite;
   for (double c : probe_cost) {
     if (std::isfinite(c)) finite.push_back(c);
@@ -240,38 +223,37 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
     scale = std::sqrt(variance / static_cast<double>(finite.size() - 1));
   }
   if (!(scale > 0.0) || !std::isfinite(scale)) scale = 1.0;
-  // Step size a from the wanted initial spread: sqrt(2 a T0) = initial_spread.
-  const double a = s.initial_spread * s.initial_spread / (2.0 * s.t0);
+  return scale;
+}
 
+// The walkers' starts: the first at the start values, the others at the best probes.
+std::vector<Walker> StartWalkers(const FitProblem& problem, const FsdSettings& s,
+                                 const std::vector<std::vector<double>>& probes,
+                                 const std::vector<double>& probe_cost) {
   std::vector<std::size_t> order(probes.size());
   for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
   std::stable_sort(order.begin(), order.end(),
                    [&](std::size_t l, std::size_t r) { return probe_cost[l] < probe_cost[r]; });
-
   std::vector<Walker> walkers(static_cast<std::size_t>(s.walkers));
   walkers[0].x = problem.ToScaled(problem.InitialValues());
   for (std::size_t w = 1; w < walkers.size(); ++w)
     walkers[w].x = probes[order[(w - 1) % order.size()]];
+  return walkers;
+}
 
-  FsdRun run(cost, s, scale);
-  // Shared out among the walkers after the probes, each counting its own (repeatable); the
-  // polish gets its own budget (polish_evaluations per point) on top.
-  run.budget = walker_budget;
-  // Each walker has its own generator, seeded by its index: thread-count independent.
-  ParallelFor(walkers.size(), threads, [&](std::size_t w) {
-    Random random(options.seed * 0x9e3779b97f4a7c15ULL + 7919ULL * (w + 1));
-    run.RunWalker(walkers[w], random, a);
-  });
-  // Polish: every walker's best point and the best probe, each by BOBYQA (in parallel);
-  // the lowest wins, ties to the earlier candidate, so the outcome is thread-independent.
-  // Polishing several basins rather than only the best-so-far matters on rugged costs (the
-  // BLMD current feedback), where the diffusion's best point may sit in a narrow side valley.
-  struct PolishCandidate {
-    std::string source;
-    std::vector<double> start;
-    double start_cost = 0.0;
-    LocalResult local;
-  };
+struct PolishCandidate {
+  std::string source;
+  std::vector<double> start;
+  double start_cost = 0.0;
+  LocalResult local;
+};
+
+// What the polish starts from: every walker's best point and the best probe, near-duplicates
+// (within 1e-3 of the unit cube) dropped, the first kept.
+std::vector<PolishCandidate> PolishCandidates(const std::vector<Walker>& walkers,
+                                              const std::vector<std::vector<double>>& probes,
+                                              const std::vector<double>& probe_cost, double scale,
+                                              std::size_t n) {
   std::vector<PolishCandidate> candidates;
   for (std::size_t w = 0; w < walkers.size(); ++w) {
     if (std::isfinite(walkers[w].best)) {
@@ -279,20 +261,17 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
           {"walker " + std::to_string(w), walkers[w].best_x, walkers[w].best * scale, {}});
     }
   }
-  {
-    std::size_t best_probe = probes.size();
-    for (std::size_t k = 0; k < probes.size(); ++k) {
-      if (std::isfinite(probe_cost[k]) &&
-          (best_probe == probes.size() || probe_cost[k] < probe_cost[best_probe])) {
-        best_probe = k;
-      }
-    }
-    if (best_probe < probes.size()) {
-      candidates.push_back(
-          {"probe " + std::to_string(best_probe), probes[best_probe], probe_cost[best_probe], {}});
+  std::size_t best_probe = probes.size();
+  for (std::size_t k = 0; k < probes.size(); ++k) {
+    if (std::isfinite(probe_cost[k]) &&
+        (best_probe == probes.size() || probe_cost[k] < probe_cost[best_probe])) {
+      best_probe = k;
     }
   }
-  // Drop near-duplicates (within 1e-3 of the unit cube), keeping the first.
+  if (best_probe < probes.size()) {
+    candidates.push_back(
+        {"probe " + std::to_string(best_probe), probes[best_probe], probe_cost[best_probe], {}});
+  }
   std::vector<PolishCandidate> unique;
   for (const auto& c : candidates) {
     bool duplicate = false;
@@ -304,7 +283,116 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
     }
     if (!duplicate) unique.push_back(c);
   }
-  candidates = unique;
+  return unique;
+}
+
+// The lowest of the (polished) candidates; ties to the earlier one, so the outcome is
+// thread-independent. `polished` lists every candidate's start and end cost.
+struct PolishOutcome {
+  std::vector<double> x;  // empty when no candidate had a finite cost
+  LocalResult polish;
+  std::string winner;
+  nlohmann::json polished = nlohmann::json::array();
+};
+PolishOutcome BestCandidate(const std::vector<PolishCandidate>& candidates, bool polish_on) {
+  PolishOutcome out;
+  double best_cost = std::numeric_limits<double>::infinity();
+  for (const auto& c : candidates) {
+    const bool improved = polish_on && c.local.cost <= c.start_cost;
+    const double end_cost = improved ? c.local.cost : c.start_cost;
+    out.polished.push_back(
+        {{"source", c.source}, {"start_cost", c.start_cost}, {"end_cost", end_cost}});
+    if (end_cost < best_cost) {
+      best_cost = end_cost;
+      out.x = improved ? c.local.scaled : c.start;
+      out.polish = c.local;
+      out.winner = c.source;
+    }
+  }
+  return out;
+}
+
+// The method summary's details: the settings, the schedule and what each walker reached.
+nlohmann::json Details(const FsdSettings& s, const OptimizerOptions& options,
+                       const std::vector<Walker>& walkers, const PolishOutcome& outcome,
+                       double scale, double a) {
+  nlohmann::json walker_json = nlohmann::json::array();
+  for (const auto& w : walkers) {
+    walker_json.push_back({{"best_cost", std::isfinite(w.best) ? nlohmann::json(w.best * scale)
+                                                               : nlohmann::json(nullptr)}});
+  }
+  return {{"seed", options.seed},
+          {"polished", outcome.polished},
+          {"winner", outcome.winner},
+          {"walkers", s.walkers},
+          {"bursts", s.bursts},
+          {"burst_steps", s.burst_steps},
+          {"quench_evaluations", s.quench_evaluations},
+          {"quench_step", s.quench_step},
+          {"probes", s.probes},
+          {"cost_scale", scale},
+          {"t0", s.t0},
+          {"schedule", "T_k = t0 ln 2 / ln(2 + k), in units of cost_scale"},
+          {"step_a", a},
+          {"initial_spread", s.initial_spread},
+          {"fd_step", s.fd_step},
+          {"max_step", s.max_step},
+          {"polish", s.polish},
+          {"polish_evaluations", s.polish_evaluations},
+          {"polish_step", s.polish_step},
+          {"walker_results", walker_json}};
+}
+
+}  // namespace
+
+std::vector<std::string> FsdOptimizer::option_names() const {
+  return {"walkers",     "bursts",   "burst_steps",    "quench_evaluations",
+          "quench_step", "probes",   "initial_spread", "t0",
+          "fd_step",     "max_step", "polish",         "polish_evaluations",
+          "polish_step"};
+}
+
+FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptions& options) const {
+  CheckMethodOptions("fsd", options.method_options, option_names());
+  const std::size_t n = problem.num_free();
+  const FsdSettings s = ReadSettings(options.method_options, n);
+  const auto started = std::chrono::steady_clock::now();
+  CountingCost cost(problem, options.progress);
+  const int threads = ThreadCount(options.threads);
+  // The walkers' evaluation budget (--max-evaluations, shared out after the probes; 0: none).
+  const long walker_budget =
+      options.max_evaluations > 0
+          ? std::max<long>(1, (options.max_evaluations - s.probes) / s.walkers)
+          : 0;
+  if (options.progress)
+    options.progress->ExpectEvaluations(ScheduledEvaluations(s, n, walker_budget));
+
+  // Probe points: the cost's spread sets the temperature scale; the best probes seed walkers.
+  Random master(options.seed);
+  std::vector<std::vector<double>> probes(static_cast<std::size_t>(s.probes),
+                                          std::vector<double>(n));
+  for (auto& p : probes) {
+    for (double& v : p) v = master.Uniform();
+  }
+  const std::vector<double> probe_cost = ProbeCosts(cost, probes, threads);
+  const double scale = CostScale(probe_cost);
+  // Step size a from the wanted initial spread: sqrt(2 a T0) = initial_spread.
+  const double a = s.initial_spread * s.initial_spread / (2.0 * s.t0);
+  std::vector<Walker> walkers = StartWalkers(problem, s, probes, probe_cost);
+
+  FsdRun run(cost, s, scale);
+  // Shared out among the walkers after the probes, each counting its own (repeatable); the
+  // polish gets its own budget (polish_evaluations per point) on top.
+  run.budget = walker_budget;
+  // Each walker has its own generator, seeded by its index: thread-count independent.
+  ParallelFor(walkers.size(), threads, [&](std::size_t w) {
+    Random random(options.seed * 0x9e3779b97f4a7c15ULL + 7919ULL * (w + 1));
+    run.RunWalker(walkers[w], random, a);
+  });
+  // Polish: every walker's best point and the best probe, each by BOBYQA (in parallel).
+  // Polishing several basins rather than only the best-so-far matters on rugged costs (the
+  // BLMD current feedback), where the diffusion's best point may sit in a narrow side valley.
+  std::vector<PolishCandidate> candidates = PolishCandidates(walkers, probes, probe_cost, scale, n);
   if (s.polish) {
     if (options.progress) {
       options.progress->ExpectEvaluations(static_cast<long>(candidates.size()) *
@@ -315,24 +403,8 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
                                        s.polish_evaluations, 1e-9, 1e-12);
     });
   }
-  std::vector<double> x;
-  double best_cost = std::numeric_limits<double>::infinity();
-  LocalResult polish;
-  std::string winner;
-  nlohmann::json polished = nlohmann::json::array();
-  for (const auto& c : candidates) {
-    const bool improved = s.polish && c.local.cost <= c.start_cost;
-    const double end_cost = improved ? c.local.cost : c.start_cost;
-    polished.push_back(
-        {{"source", c.source}, {"start_cost", c.start_cost}, {"end_cost", end_cost}});
-    if (end_cost < best_cost) {
-      best_cost = end_cost;
-      x = improved ? c.local.scaled : c.start;
-      polish = c.local;
-      winner = c.source;
-    }
-  }
-  if (x.empty()) x = walkers[0].x;
+  const PolishOutcome outcome = BestCandidate(candidates, s.polish);
+  const std::vector<double> x = outcome.x.empty() ? walkers[0].x : outcome.x;
 
   FitResult result;
   result.values = problem.FromScaled(x);
@@ -341,39 +413,15 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
   OptimizerSummary& summary = result.summary;
   summary.method = "fsd";
   summary.algorithm = "fast simulated diffusion + LN_BOBYQA polish";
-  summary.converged = result.evaluation.ok && (!s.polish || polish.converged);
+  summary.converged = result.evaluation.ok && (!s.polish || outcome.polish.converged);
   summary.termination =
-      s.polish ? "schedule completed; polish: " + polish.message : "schedule completed";
+      s.polish ? "schedule completed; polish: " + outcome.polish.message : "schedule completed";
   summary.message = summary.termination;
-  summary.raw_code = polish.code;
+  summary.raw_code = outcome.polish.code;
   long steps = 0;
   for (const auto& w : walkers) steps += w.steps;
   summary.iterations = steps;
-  nlohmann::json walker_json = nlohmann::json::array();
-  for (const auto& w : walkers) {
-    walker_json.push_back({{"best_cost", std::isfinite(w.best) ? nlohmann::json(w.best * scale)
-                                                               : nlohmann::json(nullptr)}});
-  }
-  summary.details = {{"seed", options.seed},
-                     {"polished", polished},
-                     {"winner", winner},
-                     {"walkers", s.walkers},
-                     {"bursts", s.bursts},
-                     {"burst_steps", s.burst_steps},
-                     {"quench_evaluations", s.quench_evaluations},
-                     {"quench_step", s.quench_step},
-                     {"probes", s.probes},
-                     {"cost_scale", scale},
-                     {"t0", s.t0},
-                     {"schedule", "T_k = t0 ln 2 / ln(2 + k), in units of cost_scale"},
-                     {"step_a", a},
-                     {"initial_spread", s.initial_spread},
-                     {"fd_step", s.fd_step},
-                     {"max_step", s.max_step},
-                     {"polish", s.polish},
-                     {"polish_evaluations", s.polish_evaluations},
-                     {"polish_step", s.polish_step},
-                     {"walker_results", walker_json}};
+  summary.details = Details(s, options, walkers, outcome, scale, a);
   FinishFit(problem, cost, started, &result);
   return result;
 }
