@@ -26,7 +26,9 @@ std::string Discover(const std::string& arguments) {
 // The count of the final line "blmd-ident: done: N evaluations, ..." (-1 when absent).
 long DoneEvaluations(const std::string& err) {
   std::smatch match;
-  static const std::regex done("\rblmd-ident: done: ([0-9]+) evaluations, [0-9.]+ s *\n$");
+  // The time reads "12.3 s", or "1:21 min" past a minute (a slow machine, a sanitizer build).
+  static const std::regex done(
+      "\rblmd-ident: done: ([0-9]+) evaluations, ([0-9.]+ s|[0-9]+:[0-9]{2} min) *\n$");
   if (!std::regex_search(err, match, done)) return -1;
   return std::stol(match[1].str());
 }
