@@ -220,6 +220,17 @@ long double ClosedForm(const InputSignal& s, long double t) {
   return s.offset + s.amplitude * std::sin(2 * std::numbers::pi_v<long double> * turns);
 }
 
+// A time so far from t0 that its bit index exceeds 2^64 (1e300 s at a 1 ms clock): the index
+// saturates instead of an undefined float-to-integer conversion (-fsanitize=float-cast-
+// overflow stopped here), and the value is still one of the two levels.
+TEST(Prbs, AFarTimeGivesALevelNotUndefinedBehaviour) {
+  const InputSignal signal = Prbs(7, 1, 1e-3);
+  for (double t : {1e300, 1e30, 1.8446744073709552e16}) {
+    const double u = signal.At(t);
+    EXPECT_TRUE(u == 13.0 || u == -11.0) << t << ": " << u;
+  }
+}
+
 TEST(Chirp, ValueMatchesTheClosedFormAtRandomTimes) {
   std::mt19937_64 generator(20240522);
   for (const auto shape : {InputSignal::ChirpShape::kLinear, InputSignal::ChirpShape::kLog}) {

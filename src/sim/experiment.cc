@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "blmd/error.h"
+#include "saturating_cast.h"
 
 namespace blmd {
 namespace {
@@ -63,7 +64,7 @@ int PrbsOutput(std::uint32_t state, int order) {
 
 // The index of the bit that holds at t >= t0, with the square wave's snapping to the edges.
 std::uint64_t PrbsIndex(const InputSignal& signal, double t) {
-  return static_cast<std::uint64_t>(HalfPeriodIndex(t, signal.t0, signal.clock));
+  return internal::SaturatingCast<std::uint64_t>(HalfPeriodIndex(t, signal.t0, signal.clock));
 }
 
 bool PrbsValid(const InputSignal& signal) {
