@@ -15,6 +15,7 @@
 #include "blmd/run.h"
 #include "blmd/sim/blmd_drive.h"
 #include "blmd/sim/dc_servo.h"
+#include "support/fast_reference.h"
 #include "support/test_support.h"
 
 namespace blmd {
@@ -24,25 +25,11 @@ constexpr double kTolerance = 1e-9;
 
 Config Load(const std::string& name) { return LoadConfig(testing::SourcePath("configs/" + name)); }
 
-struct Runs {
-  Trace fast, reference;
-  SimStatus fast_status, reference_status;
-};
+using Runs = testing::FastAndReference;
 
 template <typename ModelT>
 Runs RunBoth(const Config& config) {
-  const auto& model = dynamic_cast<const ModelT&>(*config.model);
-  const std::vector<double> times = config.experiment.SampleTimes();
-  SimulationRequest request;
-  request.parameters = &config.parameters;
-  request.effects = &config.effects;
-  request.experiment = &config.experiment;
-  request.settings = config.simulation;
-  request.sample_times = &times;
-  Runs runs;
-  runs.fast_status = model.Simulate(request, &runs.fast);
-  runs.reference_status = model.SimulateReference(request, &runs.reference);
-  return runs;
+  return testing::RunFastAndReference<ModelT>(config);
 }
 
 double g_worst_overall = 0.0;

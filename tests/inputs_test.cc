@@ -16,6 +16,7 @@
 #include "blmd/sim/blmd_drive.h"
 #include "blmd/sim/dc_servo.h"
 #include "blmd/sim/experiment.h"
+#include "support/fast_reference.h"
 #include "support/test_support.h"
 
 namespace blmd {
@@ -312,19 +313,11 @@ TEST(InputConfig, PrbsAndChirpKeysAndDefaults) {
 // the reference paths' trace, within 1e-9 relative (as tests/fast_path_test.cc).
 template <typename ModelT>
 double FastAgainstReference(const Config& config) {
-  const auto& model = dynamic_cast<const ModelT&>(*config.model);
-  const std::vector<double> times = config.experiment.SampleTimes();
-  SimulationRequest request;
-  request.parameters = &config.parameters;
-  request.effects = &config.effects;
-  request.experiment = &config.experiment;
-  request.settings = config.simulation;
-  request.sample_times = &times;
-  Trace fast, reference;
-  EXPECT_TRUE(model.Simulate(request, &fast).ok());
-  EXPECT_TRUE(model.SimulateReference(request, &reference).ok());
+  const testing::FastAndReference runs = testing::RunFastAndReference<ModelT>(config);
+  EXPECT_TRUE(runs.fast_status.ok());
+  EXPECT_TRUE(runs.reference_status.ok());
   std::string where;
-  return testing::WorstRelativeDeviation(fast, reference, &where);
+  return testing::WorstRelativeDeviation(runs.fast, runs.reference, &where);
 }
 
 TEST(InputFastPath, PrbsAndChirpMatchTheReferencePaths) {

@@ -34,30 +34,39 @@ const OtherUnit* Matching(const std::string& column, double ratio) {
   return nullptr;
 }
 
-// The least-squares gain of the measured column over the simulated one, pooled over every
-// trace, and how much of the measured power g s explains; false when a simulation fails.
+// The least-squares gain of each observed column's measurement over its simulation at
+// `values`, pooled over every trace, and how much of the measured power g s explains; empty
+// when a simulation fails. Every trace is simulated once for all the columns.
 struct Gain {
   double gain = 0.0;
   double r2 = 0.0;
+  bool ok = false;
 };
-bool ColumnGain(const FitProblem& problem, const std::vector<double>& values,
-                const std::string& column, Gain* out) {
-  double ms = 0.0, ss = 0.0, mm = 0.0;
+std::vector<Gain> ColumnGains(const FitProblem& problem, const std::vector<double>& values) {
+  const std::vector<std::string>& observe = problem.observe();
+  std::vector<double> ms(observe.size(), 0.0), ss(observe.size(), 0.0), mm(observe.size(), 0.0);
   for (std::size_t k = 0; k < problem.traces().size(); ++k) {
     Trace simulated;
-    if (!problem.Simulate(k, values, &simulated).ok() || !simulated.Has(column)) return false;
-    const std::vector<double>& s = simulated.Column(column);
-    const std::vector<double>& m = problem.measured(k).Column(column);
-    for (std::size_t n = 0; n < m.size() && n < s.size(); ++n) {
-      ms += m[n] * s[n];
-      ss += s[n] * s[n];
-      mm += m[n] * m[n];
+    if (!problem.Simulate(k, values, &simulated).ok()) return {};
+    for (std::size_t c = 0; c < observe.size(); ++c) {
+      if (!simulated.Has(observe[c])) continue;
+      const std::vector<double>& s = simulated.Column(observe[c]);
+      const std::vector<double>& m = problem.measured(k).Column(observe[c]);
+      for (std::size_t n = 0; n < m.size() && n < s.size(); ++n) {
+        ms[c] += m[n] * s[n];
+        ss[c] += s[n] * s[n];
+        mm[c] += m[n] * m[n];
+      }
     }
   }
-  if (!(ss > 0.0 && mm > 0.0 && std::isfinite(ms + ss + mm))) return false;
-  out->gain = ms / ss;
-  out->r2 = 1.0 - (mm - out->gain * ms) / mm;  // sum (m - g s)^2 = mm - g ms
-  return true;
+  std::vector<Gain> gains(observe.size());
+  for (std::size_t c = 0; c < observe.size(); ++c) {
+    if (!(ss[c] > 0.0 && mm[c] > 0.0 && std::isfinite(ms[c] + ss[c] + mm[c]))) continue;
+    gains[c].gain = ms[c] / ss[c];
+    gains[c].r2 = 1.0 - (mm[c] - gains[c].gain * ms[c]) / mm[c];  // sum (m - g s)^2 = mm - g ms
+    gains[c].ok = true;
+  }
+  return gains;
 }
 
 }  // namespace
@@ -75,13 +84,14 @@ std::vector<UnitsHint> CheckUnits(const FitProblem& problem, const std::vector<d
     return false;
   };
   const std::vector<double> start = problem.InitialValues();
-  for (const std::string& column : problem.observe()) {
-    for (const auto& [values, where] :
-         {std::pair{&start, "the config's values"}, std::pair{&fitted, "the fitted values"}}) {
-      Gain g;
-      if (hinted(column) || values->size() != problem.num_free() ||
-          !ColumnGain(problem, *values, column, &g) || g.r2 < kShapeAgreement)
-        continue;
+  for (const auto& [values, where] :
+       {std::pair{&start, "the config's values"}, std::pair{&fitted, "the fitted values"}}) {
+    if (values->size() != problem.num_free()) continue;
+    const std::vector<Gain> gains = ColumnGains(problem, *values);
+    for (std::size_t c = 0; c < gains.size(); ++c) {
+      const std::string& column = problem.observe()[c];
+      const Gain& g = gains[c];
+      if (hinted(column) || !g.ok || g.r2 < kShapeAgreement) continue;
       if (const OtherUnit* unit = Matching(column, g.gain)) {
         hints.push_back(
             {column, unit->unit, unit->model_unit, unit->factor, g.gain,
@@ -91,11 +101,17 @@ std::vector<UnitsHint> CheckUnits(const FitProblem& problem, const std::vector<d
       }
     }
   }
+  // In the order of the observed columns, whichever parameter set showed it.
+  const std::vector<std::string>& columns = problem.observe();
+  auto index = [&](const UnitsHint& hint) {
+    return std::find(columns.begin(), columns.end(), hint.column) - columns.begin();
+  };
+  std::stable_sort(hints.begin(), hints.end(),
+                   [&](const UnitsHint& a, const UnitsHint& b) { return index(a) < index(b); });
   // A back-EMF constant (V·s/rad) fitted at config / factor: the speed it multiplies was in
   // another unit.
-  const auto& observe = problem.observe();
   if (fitted.size() != problem.num_free() || hinted("w") ||
-      std::find(observe.begin(), observe.end(), "w") == observe.end())
+      std::find(columns.begin(), columns.end(), "w") == columns.end())
     return hints;
   const ParameterSet config_values = problem.Parameters(start);
   for (std::size_t k = 0; k < problem.num_free(); ++k) {

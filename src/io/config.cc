@@ -429,27 +429,27 @@ InputSignal ReadInput(const Reader& reader, const json& input, const std::string
   auto number_or = [&](const char* key, double fallback) {
     return input.contains(key) ? reader.Number(input[key], pointer + "/" + key) : fallback;
   };
+  // The keys every generated input shares: its amplitude, offset and start time.
+  auto read_levels = [&] {
+    signal.amplitude = number_or("amplitude", 1.0);
+    signal.offset = number_or("offset", 0.0);
+    signal.t0 = number_or("t0", 0.0);
+  };
   if (type == "step") {
     reader.CheckKeys(input, pointer, {"type", "amplitude", "offset", "t0"});
     signal.kind = InputSignal::Kind::kStep;
-    signal.amplitude = number_or("amplitude", 1.0);
-    signal.offset = number_or("offset", 0.0);
-    signal.t0 = number_or("t0", 0.0);
+    read_levels();
   } else if (type == "square") {
     reader.CheckKeys(input, pointer, {"type", "amplitude", "offset", "t0", "period"});
     signal.kind = InputSignal::Kind::kSquare;
-    signal.amplitude = number_or("amplitude", 1.0);
-    signal.offset = number_or("offset", 0.0);
-    signal.t0 = number_or("t0", 0.0);
+    read_levels();
     if (!input.contains("period")) reader.Fail(pointer, "square input needs \"period\" (s)");
     signal.period = reader.Positive(input["period"], pointer + "/period");
   } else if (type == "prbs") {
     reader.CheckKeys(input, pointer,
                      {"type", "amplitude", "offset", "t0", "clock", "order", "seed"});
     signal.kind = InputSignal::Kind::kPrbs;
-    signal.amplitude = number_or("amplitude", 1.0);
-    signal.offset = number_or("offset", 0.0);
-    signal.t0 = number_or("t0", 0.0);
+    read_levels();
     if (!input.contains("clock") || !input.contains("order")) {
       reader.Fail(pointer, "prbs input needs \"clock\" (s, one bit) and \"order\" (2 to 31)");
     }
@@ -474,9 +474,7 @@ InputSignal ReadInput(const Reader& reader, const json& input, const std::string
     reader.CheckKeys(input, pointer,
                      {"type", "amplitude", "offset", "t0", "f0", "f1", "duration", "shape"});
     signal.kind = InputSignal::Kind::kChirp;
-    signal.amplitude = number_or("amplitude", 1.0);
-    signal.offset = number_or("offset", 0.0);
-    signal.t0 = number_or("t0", 0.0);
+    read_levels();
     if (!input.contains("f0") || !input.contains("f1")) {
       reader.Fail(pointer, "chirp input needs \"f0\" and \"f1\" (Hz)");
     }
