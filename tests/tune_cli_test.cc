@@ -75,7 +75,7 @@ class TuneCli : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new TempDir;
-    const CommandResult fit = Run(BinPath("blmd-ident") + " --config " +
+    const CommandResult fit = testing::Run(BinPath("blmd-ident") + " --config " +
                                   SourcePath("configs/ganesh-square.json") + " --trace " +
                                   SourcePath("testdata/ganesh-square.csv") + " --report " +
                                   dir_->File("fit.json") + " --quiet");

@@ -113,6 +113,12 @@ TEST(TuneDesign, PlacesTheCrossoverOnGaneshsPlant) {
         const Complex l = Pid(c, w) * g;
         EXPECT_NEAR(std::abs(l), 1.0, 1e-12);
         EXPECT_NEAR(180.0 + std::arg(l) * kDeg, pm, 1e-9);
+        // The library's margins find that one crossover, also when it falls exactly on a point
+        // of their grid (f_c itself is one: four decades either side).
+        const LoopMargins margins = ComputeMargins(plant, c, fc / 1e4, fc * 1e4);
+        EXPECT_EQ(margins.gain_crossovers, 1);
+        EXPECT_NEAR(margins.crossover_hz, fc, 1e-9 * fc);
+        EXPECT_NEAR(margins.phase_margin_deg, pm, 1e-7);
         if (position) {
           EXPECT_NEAR(c.derivative_filter_hz, 10.0 * fc, 1e-12);
           EXPECT_NEAR(4.0 * c.ki * c.kd, c.kp * c.kp, 1e-12 * c.kp * c.kp);  // Ti = 4 Td

@@ -12,14 +12,14 @@ namespace {
 using Complex = std::complex<double>;
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
-// Refines a sign change of f between a and b (f(a)·f(b) <= 0) by bisection in log ω to
+// Refines a change of f between a and b from > 0 to <= 0 (or back) by bisection in log ω to
 // 1e-12 of the frequency.
 double Bisect(const std::function<double(double)>& f, double a, double b) {
   double fa = f(a);
   for (int k = 0; k < 200 && b - a > 1e-12 * b; ++k) {
     const double mid = std::sqrt(a * b);
     const double fm = f(mid);
-    if ((fm <= 0.0) == (fa <= 0.0)) {
+    if ((fm > 0.0) == (fa > 0.0)) {
       a = mid;
       fa = fm;
     } else {
@@ -121,8 +121,10 @@ LoopMargins ComputeMargins(const TransferFunction& plant, const Controller& cont
     value[k] = loop(omega[k]);
   }
   for (std::size_t k = 0; k + 1 < omega.size(); ++k) {
+    // Above 1 or not: a point exactly on |L| = 1 (the design puts ω_c on the grid) belongs to
+    // one side, so the crossing is counted once.
     const double g0 = std::log(std::abs(value[k])), g1 = std::log(std::abs(value[k + 1]));
-    if (g0 != 0.0 && (g0 > 0.0) == (g1 > 0.0)) continue;
+    if ((g0 > 0.0) == (g1 > 0.0)) continue;
     const double wc = Bisect(log_gain, omega[k], omega[k + 1]);
     const double pm = WrapDegrees(180.0 + std::arg(loop(wc)) * 180.0 / std::numbers::pi);
     ++margins.gain_crossovers;
@@ -133,7 +135,7 @@ LoopMargins ComputeMargins(const TransferFunction& plant, const Controller& cont
   }
   for (std::size_t k = 0; k + 1 < omega.size(); ++k) {
     const double i0 = value[k].imag(), i1 = value[k + 1].imag();
-    if (i0 != 0.0 && (i0 > 0.0) == (i1 > 0.0)) continue;
+    if ((i0 > 0.0) == (i1 > 0.0)) continue;
     const double w180 = Bisect(imaginary, omega[k], omega[k + 1]);
     const Complex l = loop(w180);
     if (!(l.real() < 0.0)) continue;
