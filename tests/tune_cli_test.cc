@@ -119,6 +119,7 @@ void CheckLoop(const std::string& loop, double fc, double pm, const std::string&
   EXPECT_NEAR(report["achieved"]["crossover_hz"].get<double>(), fc, 1e-6 * fc);
   EXPECT_NEAR(report["achieved"]["phase_margin_deg"].get<double>(), pm, 1e-6);
   EXPECT_TRUE(report["achieved"]["stable"].get<bool>());
+  EXPECT_EQ(report["warnings"], json::array());
 
   // The box: J and B with the identification's 95 % intervals; the worst phase margin and
   // the crossover's range over its four corners by the hand formula.

@@ -4,8 +4,10 @@
 // hand-written formulas of the plant and the controller (not the library's).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
+#include <cstdio>
 #include <numbers>
 #include <regex>
 
@@ -171,6 +173,56 @@ TEST(TuneDesign, RefusesMoreLeadThanThePidGives) {
   EXPECT_NEAR(design.max_controller_phase_deg, std::atan(10.0) * kDeg, 1e-12);
   const double needed = 60.0 - 180.0 - std::arg(GaneshPosition(2.0 * kPi * 8.0)) * kDeg + 360.0;
   EXPECT_NEAR(design.controller_phase_deg, needed, 1e-9);
+}
+
+// A wide box (J within ±50 %, B from half to twice): the worst case Tune reports is the worst
+// of the hand formula's margins at the four corners and the nominal model, and each corner
+// holds the values of its bits (bit j set: parameter j at its upper end).
+TEST(TuneBox, WorstCaseOverAWideBoxIsTheHandFormulasAtTheCorners) {
+  TuneInput input;
+  input.config = LoadConfig(testing::SourcePath("configs/ganesh-noload.json"));
+  input.box = {{"J", J, 0.5 * J, 1.5 * J, false}, {"B", B, 0.5 * B, 2.0 * B, false}};
+  input.box_source = "test";
+  TuneRequest request;
+  request.design.crossover_hz = 2.0;
+  request.design.phase_margin_deg = 60.0;
+  request.u_max = 24.0;
+  const TuneResult result = Tune(input, request);
+  ASSERT_FALSE(result.refused) << result.refusal;
+  ASSERT_EQ(result.corners.size(), 4u);
+  double worst_pm = 60.0, low = 2.0, high = 2.0;
+  for (std::size_t c = 0; c < 4; ++c) {
+    const auto& values = result.corners[c].values;
+    ASSERT_EQ(values.size(), 2u);
+    const double j = values[0].second, b = values[1].second;
+    EXPECT_EQ(j, c & 1u ? 1.5 * J : 0.5 * J);
+    EXPECT_EQ(b, c & 2u ? 2.0 * B : 0.5 * B);
+    // L(jω) of the corner's plant with the tuned controller, written out; crossover by bisection.
+    auto loop = [&](double w) {
+      const Complex s(0.0, w);
+      const Complex g = Kt / ((R + s * L) * (j * s + b) + Kb * Kt) / s;
+      return Pid(result.design.controller, w) * g;
+    };
+    double lo = 2.0 * kPi * 0.01, hi = 2.0 * kPi * 100.0;
+    for (int k = 0; k < 200; ++k) {
+      const double mid = std::sqrt(lo * hi);
+      (std::abs(loop(mid)) > 1.0 ? lo : hi) = mid;
+    }
+    const double pm = 180.0 + std::arg(loop(lo)) * kDeg, fc = lo / (2.0 * kPi);
+    EXPECT_NEAR(result.corners[c].margins.phase_margin_deg, pm, 1e-7) << c;
+    EXPECT_NEAR(result.corners[c].margins.crossover_hz, fc, 1e-9) << c;
+    if (pm < worst_pm) worst_pm = pm;
+    low = std::min(low, fc);
+    high = std::max(high, fc);
+  }
+  EXPECT_NEAR(result.worst.phase_margin_deg.value, worst_pm, 1e-7);
+  EXPECT_NEAR(result.worst.crossover_low_hz.value, low, 1e-9);
+  EXPECT_NEAR(result.worst.crossover_high_hz.value, high, 1e-9);
+  EXPECT_LT(worst_pm, 55.0);  // the box matters: the margin moves by more than 5 degrees
+  std::printf("[ measured ] J +-50 %%, B x0.5..2: crossover %.4g..%.4g Hz, worst phase margin "
+              "%.4g deg (corner %d), worst overshoot %.4g %% (corner %d)\n",
+              low, high, worst_pm, result.worst.phase_margin_deg.corner,
+              result.worst.overshoot_percent.value, result.worst.overshoot_percent.corner);
 }
 
 }  // namespace

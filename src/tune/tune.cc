@@ -235,6 +235,15 @@ void AddWarnings(const TuneInput& input, TuneResult* result) {
     warn("saturated_corner", std::to_string(w.saturated) + " of " + std::to_string(corners) +
                                  " corners of the 95 % box reach the voltage limit in the step");
   }
+  const StepFigures& nominal = result->nominal.step;
+  if (std::abs(nominal.steady_state_error) > 0.02 * result->step) {
+    warn("steady_state_error",
+         "the simulated step ends " + Text(nominal.steady_state_error) + " short of the " +
+             Text(result->step) + " reference (" +
+             Text(100.0 * nominal.steady_state_error / result->step) +
+             " %): an effect of the model (friction, a load) holds the shaft within the " +
+             Text(result->duration) + " s simulated");
+  }
   if (w.invalid > 0) {
     warn("no_step_figures", std::to_string(w.invalid) +
                                 " simulated steps (nominal and corners) never rose through 90 %: "
