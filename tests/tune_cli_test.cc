@@ -76,9 +76,9 @@ class TuneCli : public ::testing::Test {
   static void SetUpTestSuite() {
     dir_ = new TempDir;
     const CommandResult fit = testing::Run(BinPath("blmd-ident") + " --config " +
-                                  SourcePath("configs/ganesh-square.json") + " --trace " +
-                                  SourcePath("testdata/ganesh-square.csv") + " --report " +
-                                  dir_->File("fit.json") + " --quiet");
+                                           SourcePath("configs/ganesh-square.json") + " --trace " +
+                                           SourcePath("testdata/ganesh-square.csv") + " --report " +
+                                           dir_->File("fit.json") + " --quiet");
     ASSERT_EQ(fit.exit_code, 0) << fit.err;
   }
   static void TearDownTestSuite() {
@@ -196,9 +196,9 @@ TEST_F(TuneCli, RefusesWhatThePlantCannotMeet) {
   const std::string outputs =
       " --report " + dir.File("tune.json") + " --write-config " + dir.File("closed.json");
   // A PI speed loop at 10 Hz: the plant lags by 150°, a 60° margin needs lead.
-  ExpectRefused(Tune(Base() + " --loop speed --crossover 10 --phase-margin 60 --limit u=24" +
-                     outputs),
-                dir, "a PI cannot give 60 deg of phase margin at 10 Hz");
+  ExpectRefused(
+      Tune(Base() + " --loop speed --crossover 10 --phase-margin 60 --limit u=24" + outputs), dir,
+      "a PI cannot give 60 deg of phase margin at 10 Hz");
   // A 100 rad step at 2 Hz needs more than 24 V (kp·100 at once).
   const CommandResult volts =
       Tune(Base() + " --loop position --crossover 2 --phase-margin 60 --limit u=24 --step 100" +
@@ -244,15 +244,15 @@ TEST_F(TuneCli, BadInputWritesNothing) {
   ExpectBadInput(Tune(Base() + " --loop position --crossover 2 --phase-margin 60" + outputs), dir,
                  "--limit u=VOLTS is needed");
   // A config given as the report: not a blmd-ident report, named with its line and column.
-  ExpectBadInput(Tune("--config " + SourcePath("configs/ganesh-square.json") + " --from-report " +
-                      SourcePath("configs/ganesh-noload.json") + " --loop position" + request +
-                      outputs),
-                 dir, "ganesh-noload.json:1:1: not a blmd-ident report");
+  ExpectBadInput(
+      Tune("--config " + SourcePath("configs/ganesh-square.json") + " --from-report " +
+           SourcePath("configs/ganesh-noload.json") + " --loop position" + request + outputs),
+      dir, "ganesh-noload.json:1:1: not a blmd-ident report");
   // A report of another model.
-  ExpectBadInput(Tune("--config " + SourcePath("configs/ganesh-square.json") + " --from-report " +
-                      SourcePath("docs/real-data/emps.json") + " --loop position" + request +
-                      outputs),
-                 dir, "the report is of model");
+  ExpectBadInput(
+      Tune("--config " + SourcePath("configs/ganesh-square.json") + " --from-report " +
+           SourcePath("docs/real-data/emps.json") + " --loop position" + request + outputs),
+      dir, "the report is of model");
   // A model without the closed-loop experiment.
   ExpectBadInput(Tune("--config " + SourcePath("configs/blmd-d31x.json") + " --loop speed" +
                       request + outputs),

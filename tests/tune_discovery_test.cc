@@ -46,14 +46,14 @@ TEST(TuneDiscovery, FrictionEntersTheStepAndTheBox) {
   TempDir dir;
   const CommandResult fit =
       testing::Run(BinPath("blmd-ident") + " --config " + SourcePath("configs/ganesh-square.json") +
-          " --trace " + SourcePath("testdata/dc-hidden-coulomb.csv") + " --discover --report " +
-          dir.File("fit.json") + " --quiet");
+                   " --trace " + SourcePath("testdata/dc-hidden-coulomb.csv") +
+                   " --discover --report " + dir.File("fit.json") + " --quiet");
   ASSERT_EQ(fit.exit_code, 0) << fit.err;
   const std::string request = " --loop position --crossover 2 --phase-margin 60 --limit u=24";
   const CommandResult tuned =
       testing::Run(BinPath("blmd-tune") + " --config " + SourcePath("configs/ganesh-square.json") +
-          " --from-report " + dir.File("fit.json") + request + " --report " +
-          dir.File("tune.json") + " --write-config " + dir.File("closed.json"));
+                   " --from-report " + dir.File("fit.json") + request + " --report " +
+                   dir.File("tune.json") + " --write-config " + dir.File("closed.json"));
   ASSERT_EQ(tuned.exit_code, 0) << tuned.err;
   const json report = json::parse(Slurp(dir.File("tune.json")));
   EXPECT_EQ(report["plant"]["effects"], json::array({"coulomb_friction"}));
@@ -74,8 +74,9 @@ TEST(TuneDiscovery, FrictionEntersTheStepAndTheBox) {
 
   // The step with the friction: the closed-loop config replays it in blmd-sim, whose final
   // theta (the mean of the last 2 % of the samples) is the report's final value.
-  const CommandResult sim = testing::Run(BinPath("blmd-sim") + " --config " + dir.File("closed.json") +
-                                " --out " + dir.File("closed.csv") + " --quiet");
+  const CommandResult sim =
+      testing::Run(BinPath("blmd-sim") + " --config " + dir.File("closed.json") + " --out " +
+                   dir.File("closed.csv") + " --quiet");
   ASSERT_EQ(sim.exit_code, 0) << sim.err;
   const Trace trace = ReadTraceCsv(dir.File("closed.csv"));
   const std::vector<double>& theta = trace.Column("theta");
@@ -87,8 +88,9 @@ TEST(TuneDiscovery, FrictionEntersTheStepAndTheBox) {
   EXPECT_NEAR(sum / static_cast<double>(tail), nominal["final_value"].get<double>(), 1e-12);
   // Without the friction (the config's own model, no report) the same request ends at the
   // reference; with it the shaft is still held short at the end of the simulated step.
-  const CommandResult plain = testing::Run(BinPath("blmd-tune") + " --config " +
-                                  SourcePath("configs/ganesh-square.json") + request + " --json");
+  const CommandResult plain =
+      testing::Run(BinPath("blmd-tune") + " --config " + SourcePath("configs/ganesh-square.json") +
+                   request + " --json");
   ASSERT_EQ(plain.exit_code, 0) << plain.err;
   const json without = json::parse(plain.out);
   const double error_with = nominal["steady_state_error"];

@@ -2,6 +2,8 @@
 // of loops whose crossover, phase margin and gain margin are known by hand, the closed-loop
 // poles of a second-order loop, and the designed gains checked by evaluating L(jω) with
 // hand-written formulas of the plant and the controller (not the library's).
+#include "blmd/tune/tune.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -15,7 +17,6 @@
 #include "blmd/sim/model.h"
 #include "blmd/tune/design.h"
 #include "blmd/tune/loop.h"
-#include "blmd/tune/tune.h"
 #include "support/test_support.h"
 
 namespace blmd {
@@ -219,10 +220,11 @@ TEST(TuneBox, WorstCaseOverAWideBoxIsTheHandFormulasAtTheCorners) {
   EXPECT_NEAR(result.worst.crossover_low_hz.value, low, 1e-9);
   EXPECT_NEAR(result.worst.crossover_high_hz.value, high, 1e-9);
   EXPECT_LT(worst_pm, 55.0);  // the box matters: the margin moves by more than 5 degrees
-  std::printf("[ measured ] J +-50 %%, B x0.5..2: crossover %.4g..%.4g Hz, worst phase margin "
-              "%.4g deg (corner %d), worst overshoot %.4g %% (corner %d)\n",
-              low, high, worst_pm, result.worst.phase_margin_deg.corner,
-              result.worst.overshoot_percent.value, result.worst.overshoot_percent.corner);
+  std::printf(
+      "[ measured ] J +-50 %%, B x0.5..2: crossover %.4g..%.4g Hz, worst phase margin "
+      "%.4g deg (corner %d), worst overshoot %.4g %% (corner %d)\n",
+      low, high, worst_pm, result.worst.phase_margin_deg.corner,
+      result.worst.overshoot_percent.value, result.worst.overshoot_percent.corner);
 }
 
 }  // namespace

@@ -91,7 +91,8 @@ blmd::TuneRequest MakeRequest(const CLI::App& app, const TuneFlags& f, const blm
       }
     }
   }
-  request.design.loop = speed ? blmd::PidSettings::Loop::kSpeed : blmd::PidSettings::Loop::kPosition;
+  request.design.loop =
+      speed ? blmd::PidSettings::Loop::kSpeed : blmd::PidSettings::Loop::kPosition;
   request.design.crossover_hz = f.crossover_hz;
   request.design.phase_margin_deg = f.phase_margin_deg;
   request.design.integral_ratio = f.integral_ratio;

@@ -844,8 +844,8 @@ void ReadExperiment(const Reader& reader, const json& root, Config* out) {
         if (loop == "speed") {
           experiment.pid.loop = PidSettings::Loop::kSpeed;
         } else if (loop != "position") {
-          reader.Fail("/experiment/pid/loop", "unknown loop '" + InputError::Excerpt(loop) +
-                                                  "' (valid: position, speed)");
+          reader.Fail("/experiment/pid/loop",
+                      "unknown loop '" + InputError::Excerpt(loop) + "' (valid: position, speed)");
         }
       }
       auto get = [&](const char* key, double* field) {

@@ -129,14 +129,15 @@ json RobustnessJson(const TuneInput& input, const TuneResult& result) {
 
 json RequestJson(const TuneRequest& request, const TuneResult& result) {
   const bool speed = IsSpeed(request);
-  json out = {{"loop", speed ? "speed" : "position"},
-              {"crossover_hz", request.design.crossover_hz},
-              {"phase_margin_deg", request.design.phase_margin_deg},
-              {"step", result.step},
-              {"step_unit", speed ? "rad/s" : "rad"},
-              {"limits", {{"u", request.u_max}, {"i", Number(request.i_max > 0 ? request.i_max : NAN)}}},
-              {"duration_s", result.duration},
-              {"sample_rate_hz", result.sample_rate}};
+  json out = {
+      {"loop", speed ? "speed" : "position"},
+      {"crossover_hz", request.design.crossover_hz},
+      {"phase_margin_deg", request.design.phase_margin_deg},
+      {"step", result.step},
+      {"step_unit", speed ? "rad/s" : "rad"},
+      {"limits", {{"u", request.u_max}, {"i", Number(request.i_max > 0 ? request.i_max : NAN)}}},
+      {"duration_s", result.duration},
+      {"sample_rate_hz", result.sample_rate}};
   if (!speed) {
     out["integral_ratio"] = request.design.integral_ratio;
     out["derivative_filter_ratio"] = request.design.filter_ratio;
@@ -190,9 +191,8 @@ json TuneReportJson(const TuneInput& input, const TuneRequest& request, const Tu
   out["version"] = kVersion;
   out["schema_version"] = kTuneReportSchemaVersion;
   out["model"] = std::string(input.config.model->name());
-  out["config"] = {{"path", input.config.path},
-                   {"name", input.config.name},
-                   {"sha256", input.config_sha256}};
+  out["config"] = {
+      {"path", input.config.path}, {"name", input.config.name}, {"sha256", input.config_sha256}};
   out["from_report"] = input.report_path.empty()
                            ? json(nullptr)
                            : json{{"path", input.report_path}, {"sha256", input.report_sha256}};
@@ -230,14 +230,14 @@ std::string TuneSummary(const TuneInput& input, const TuneRequest& request,
   const WorstCase& w = result.worst;
   const std::string unit = IsSpeed(request) ? "rad/s" : "rad";
   std::ostringstream out;
-  out << "blmd-tune: " << (IsSpeed(request) ? "speed loop (PI)" : "position loop (PID)")
-      << " of " << input.config.model->name() << " '" << input.config.name << "' for "
+  out << "blmd-tune: " << (IsSpeed(request) ? "speed loop (PI)" : "position loop (PID)") << " of "
+      << input.config.model->name() << " '" << input.config.name << "' for "
       << Text(request.design.crossover_hz) << " Hz, " << Text(request.design.phase_margin_deg)
       << " deg\n";
   out << "  kp " << Text(c.kp, 6) << " " << units["kp"].get<std::string>() << "   ki "
-      << Text(c.ki, 6) << " " << units["ki"].get<std::string>() << "   kd " << Text(c.kd, 6)
-      << " " << units["kd"].get<std::string>() << "   derivative filter "
-      << Text(c.derivative_filter_hz) << " Hz\n";
+      << Text(c.ki, 6) << " " << units["ki"].get<std::string>() << "   kd " << Text(c.kd, 6) << " "
+      << units["kd"].get<std::string>() << "   derivative filter " << Text(c.derivative_filter_hz)
+      << " Hz\n";
   out << "  achieved: crossover " << Text(m.crossover_hz) << " Hz, phase margin "
       << Text(m.phase_margin_deg) << " deg, gain margin " << Text(m.gain_margin_db) << " dB\n";
   out << "  step " << Text(result.step) << " " << unit << ": rise " << Text(s.rise_time_s)
@@ -275,7 +275,8 @@ json ClosedLoopConfigJson(const TuneInput& input, const TuneRequest& request,
   json effects = json::object();
   for (const auto& name : config.effects) {
     json effect = json::object();
-    for (const auto& p : FindEffect(name).parameters) effect[p.name] = config.parameters.Get(p.name);
+    for (const auto& p : FindEffect(name).parameters)
+      effect[p.name] = config.parameters.Get(p.name);
     effects[name] = effect;
   }
   if (effects.empty()) {

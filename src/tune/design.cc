@@ -68,16 +68,15 @@ std::string RefusalReason(const TransferFunction& plant, const DesignOptions& op
                           const DesignResult& result) {
   const bool lead = result.controller_phase_deg > 0.0;
   const std::string structure =
-      IsPid(options) ? "a PID (derivative filter at " + Text(options.filter_ratio) +
-                           " x the crossover)"
-                     : "a PI";
+      IsPid(options)
+          ? "a PID (derivative filter at " + Text(options.filter_ratio) + " x the crossover)"
+          : "a PI";
   std::string reason = structure + " cannot give " + Text(options.phase_margin_deg) +
                        " deg of phase margin at " + Text(options.crossover_hz) +
                        " Hz: the plant's phase there is " + Text(result.plant_phase_deg) +
-                       " deg, so the controller would need " +
-                       Text(result.controller_phase_deg) + " deg, and it gives between " +
-                       Text(result.min_controller_phase_deg) + " and " +
-                       Text(result.max_controller_phase_deg) + " deg";
+                       " deg, so the controller would need " + Text(result.controller_phase_deg) +
+                       " deg, and it gives between " + Text(result.min_controller_phase_deg) +
+                       " and " + Text(result.max_controller_phase_deg) + " deg";
   const double edge = FeasibleEdge(plant, options, lead);
   if (std::isfinite(edge)) {
     reason += std::string("; the ") + (lead ? "highest" : "lowest") + " crossover with " +
@@ -145,9 +144,9 @@ DesignResult DesignController(const TransferFunction& plant, const DesignOptions
     result.reason = RefusalReason(plant, options, result);
     return result;
   }
-  result.controller = IsPid(options)
-                          ? DesignPid(options, omega, result.plant_gain, result.controller_phase_deg)
-                          : DesignPi(omega, result.plant_gain, result.controller_phase_deg);
+  result.controller =
+      IsPid(options) ? DesignPid(options, omega, result.plant_gain, result.controller_phase_deg)
+                     : DesignPi(omega, result.plant_gain, result.controller_phase_deg);
   result.ok = true;
   return result;
 }

@@ -51,8 +51,7 @@ Complex Controller::At(double omega) const {
   const Complex s(0.0, omega);
   Complex c = kp + ki / s;
   if (kd != 0.0) {
-    c += derivative_filter_hz > 0.0 ? kd * s / (1.0 + s / (kTwoPi * derivative_filter_hz))
-                                    : kd * s;
+    c += derivative_filter_hz > 0.0 ? kd * s / (1.0 + s / (kTwoPi * derivative_filter_hz)) : kd * s;
   }
   return c;
 }

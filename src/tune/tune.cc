@@ -31,7 +31,8 @@ bool IsSpeed(const TuneRequest& request) {
 const char* Unit(const TuneRequest& request) { return IsSpeed(request) ? "rad/s" : "rad"; }
 
 // The plant u -> the loop's measured output at `values`.
-TransferFunction PlantAt(const Model& model, const ParameterSet& values, const std::string& output) {
+TransferFunction PlantAt(const Model& model, const ParameterSet& values,
+                         const std::string& output) {
   for (auto& tf : TransferFunctions(model.Linearise(values))) {
     if (tf.output == output) return tf;
   }
@@ -153,8 +154,8 @@ void CheckLimits(const TuneInput& input, const TuneRequest& request, TuneResult*
 
 void Consider(WorstFigure* worst, double value, int corner, bool larger_is_worse) {
   if (!std::isfinite(value) && !std::isinf(value)) return;
-  const bool worse = std::isnan(worst->value) ||
-                     (larger_is_worse ? value > worst->value : value < worst->value);
+  const bool worse =
+      std::isnan(worst->value) || (larger_is_worse ? value > worst->value : value < worst->value);
   if (worse) *worst = {value, corner};
 }
 
@@ -306,8 +307,8 @@ TuneResult Tune(const TuneInput& input, const TuneRequest& request) {
   }
   result.step = request.step > 0.0 ? request.step : DefaultStep(request, result.plant);
   ChooseTimeBase(request, result.nominal.poles, config.simulation.dt, &result);
-  if (const std::string error =
-          RunLengthError(result.duration, config.simulation.dt, result.duration * result.sample_rate);
+  if (const std::string error = RunLengthError(result.duration, config.simulation.dt,
+                                               result.duration * result.sample_rate);
       !error.empty()) {
     throw InputError(error);
   }

@@ -33,8 +33,7 @@ bool IsPair(const json& value) {
 
 // One axis of the box, its low end raised to the parameter's lower bound where the
 // interval reaches below it (a positive parameter's interval may reach 0 or below).
-ParameterInterval Interval(const Config& config, const std::string& name, double low,
-                           double high) {
+ParameterInterval Interval(const Config& config, const std::string& name, double low, double high) {
   ParameterInterval interval;
   interval.name = name;
   interval.value = config.parameters.Get(name);
@@ -121,8 +120,8 @@ void ApplyReport(const std::string& path, TuneInput* input) {
     }
     const double value = entry["value"].get<double>();
     if ((info->positive && !(value > 0.0)) || (info->non_negative && value < 0.0)) {
-      document.Fail(pointer + "/value", "parameter '" + name + "' must be " +
-                                            (info->positive ? "> 0" : ">= 0"));
+      document.Fail(pointer + "/value",
+                    "parameter '" + name + "' must be " + (info->positive ? "> 0" : ">= 0"));
     }
     config.parameters.Set(name, value);
   }
@@ -148,8 +147,7 @@ void ApplyConfigNotes(TuneInput* input) {
     if (!entry.is_object() || !entry.contains("ci95") || !IsPair(entry["ci95"])) continue;
     if (!input->config.parameters.Has(name)) continue;
     const json& ci = entry["ci95"];
-    input->box.push_back(
-        Interval(input->config, name, ci[0].get<double>(), ci[1].get<double>()));
+    input->box.push_back(Interval(input->config, name, ci[0].get<double>(), ci[1].get<double>()));
   }
   if (!input->box.empty()) input->box_source = "config notes";
 }

@@ -37,8 +37,8 @@ struct DesignResult {
   // which it can still give the phase margin.
   std::string reason;
   Controller controller;
-  double plant_gain = std::numeric_limits<double>::quiet_NaN();           // |G(jω_c)|
-  double plant_phase_deg = std::numeric_limits<double>::quiet_NaN();      // arg G(jω_c)
+  double plant_gain = std::numeric_limits<double>::quiet_NaN();            // |G(jω_c)|
+  double plant_phase_deg = std::numeric_limits<double>::quiet_NaN();       // arg G(jω_c)
   double controller_phase_deg = std::numeric_limits<double>::quiet_NaN();  // arg C(jω_c) needed
   // The largest phase (lead) and smallest (lag) the structure gives at ω_c, degrees.
   double max_controller_phase_deg = std::numeric_limits<double>::quiet_NaN();

@@ -36,8 +36,8 @@ std::complex<double> Polyval(const std::vector<double>& coefficients, std::compl
 std::complex<double> FrequencyResponse(const TransferFunction& g, double omega);
 
 // The stability margins of L(jω) = C(jω)·G(jω) (Åström & Murray, Feedback Systems, 2008,
-// ch. 9 "Frequency Domain Analysis", stability margins), found on a logarithmic grid of 400 points per decade between low_hz and
-// high_hz and refined by bisection to 1e-12 of the frequency:
+// ch. 9 "Frequency Domain Analysis", stability margins), found on a logarithmic grid of 400 points
+// per decade between low_hz and high_hz and refined by bisection to 1e-12 of the frequency:
 //  - gain crossovers: |L| = 1. Where there are several, crossover_hz and phase_margin_deg are
 //    those of the one with the smallest phase margin (as MATLAB's `margin`);
 //  - phase margin: 180° + arg L(jω_c), wrapped to (−180°, 180°];
@@ -66,8 +66,7 @@ struct ClosedLoopPoles {
   // 1/min(−Re p) over the poles, s: the slowest mode's time constant (stable loops).
   double slowest_time_constant = std::numeric_limits<double>::quiet_NaN();
 };
-ClosedLoopPoles ComputeClosedLoopPoles(const TransferFunction& plant,
-                                       const Controller& controller);
+ClosedLoopPoles ComputeClosedLoopPoles(const TransferFunction& plant, const Controller& controller);
 
 // Product and sum of polynomials (descending powers).
 std::vector<double> PolyMultiply(const std::vector<double>& a, const std::vector<double>& b);

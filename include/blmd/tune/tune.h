@@ -30,9 +30,9 @@ struct ParameterInterval {
 // The model to tune: the config's, with the values, effects and intervals of the
 // identification when given.
 struct TuneInput {
-  Config config;                         // model, parameter values, effects, numerics
-  std::vector<ParameterInterval> box;    // empty: no intervals known
-  std::string box_source;                // "report", "config notes" or "" (no box)
+  Config config;                           // model, parameter values, effects, numerics
+  std::vector<ParameterInterval> box;      // empty: no intervals known
+  std::string box_source;                  // "report", "config notes" or "" (no box)
   std::string report_path, report_sha256;  // --from-report ("" when not given)
   std::string config_sha256;
 };
@@ -88,9 +88,9 @@ struct WorstFigure {
   int corner = -1;
 };
 struct WorstCase {
-  WorstFigure crossover_low_hz, crossover_high_hz;  // lowest and highest crossover
-  WorstFigure phase_margin_deg;                     // smallest
-  WorstFigure gain_margin_db;                       // smallest (+inf: none anywhere)
+  WorstFigure crossover_low_hz, crossover_high_hz;              // lowest and highest crossover
+  WorstFigure phase_margin_deg;                                 // smallest
+  WorstFigure gain_margin_db;                                   // smallest (+inf: none anywhere)
   WorstFigure rise_time_s, overshoot_percent, settling_time_s;  // largest
   WorstFigure steady_state_error;                               // largest |.|, signed
   WorstFigure peak_u, peak_i;                                   // largest
@@ -101,7 +101,7 @@ struct WorstCase {
 
 struct TuneResult {
   bool refused = false;
-  std::string refusal;  // why the request cannot be met (refused)
+  std::string refusal;       // why the request cannot be met (refused)
   std::string plant_output;  // "w" or "theta": the loop's measured column
   TransferFunction plant;    // u -> the measured output, at the nominal values
   DesignResult design;
