@@ -13,6 +13,7 @@
 #include <numbers>
 #include <regex>
 #include <string>
+#include <vector>
 
 #include "support/test_support.h"
 
@@ -253,10 +254,31 @@ TEST_F(TuneCli, BadInputWritesNothing) {
       Tune("--config " + SourcePath("configs/ganesh-square.json") + " --from-report " +
            SourcePath("docs/real-data/emps.json") + " --loop position" + request + outputs),
       dir, "the report is of model");
+  // The report given as the config: which flag takes it.
+  ExpectBadInput(Tune("--config " + FitReport() + " --loop position" + request + outputs), dir,
+                 "a blmd-ident report, not a config: give it with --from-report");
   // A model without the closed-loop experiment.
   ExpectBadInput(Tune("--config " + SourcePath("configs/blmd-d31x.json") + " --loop speed" +
                       request + outputs),
                  dir, "has no closed-loop experiment");
+}
+
+// A coarse simulation step: the sampled PID's derivative filter at 20 Hz with dt = 1 ms
+// (2π·20·0.001 = 0.126 > 0.1) is warned about, and the step still runs.
+TEST_F(TuneCli, WarnsWhenTheSampledControllerIsCoarse) {
+  TempDir dir;
+  json config = json::parse(Slurp(SourcePath("configs/ganesh-noload.json")));
+  config["simulation"]["dt"] = 1e-3;
+  const std::string path = dir.Write("coarse.json", config.dump());
+  const CommandResult run = Tune("--config " + path +
+                                 " --loop position --crossover 2 --phase-margin 60 --limit u=24 "
+                                 "--json");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const json report = json::parse(run.out);
+  std::vector<std::string> codes;
+  for (const json& w : report["warnings"]) codes.push_back(w["code"]);
+  EXPECT_EQ(codes, (std::vector<std::string>{"no_intervals", "sampled_controller"}));
+  EXPECT_TRUE(report["step_response"]["nominal"]["valid"].get<bool>());
 }
 
 }  // namespace

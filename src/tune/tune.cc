@@ -210,7 +210,7 @@ void EvaluateBox(const TuneInput& input, const TuneRequest& request, TuneResult*
     AddToWorst(result->corners[c], static_cast<int>(c), &result->worst);
 }
 
-void AddWarnings(const TuneInput& input, TuneResult* result) {
+void AddWarnings(const TuneInput& input, const TuneRequest& request, TuneResult* result) {
   auto warn = [&](const std::string& code, const std::string& message) {
     result->warnings.emplace_back(code, message);
   };
@@ -235,6 +235,20 @@ void AddWarnings(const TuneInput& input, TuneResult* result) {
   if (w.saturated > 0) {
     warn("saturated_corner", std::to_string(w.saturated) + " of " + std::to_string(corners) +
                                  " corners of the 95 % box reach the voltage limit in the step");
+  }
+  // The simulated PID is sampled at the step dt and holds its output over it (a delay of about
+  // dt/2, left out of the margins: 180·f_c·dt degrees at the crossover), and its derivative
+  // filter is discretised by backward Euler: both matter once f_c or f_d nears 1/dt.
+  const double dt = input.config.simulation.dt;
+  const double hold_deg = 180.0 * request.design.crossover_hz * dt;
+  const double filter_steps = kTwoPi * result->design.controller.derivative_filter_hz * dt;
+  if (hold_deg > 1.0 || filter_steps > 0.1) {
+    warn("sampled_controller",
+         "the simulated PID runs at dt = " + Text(dt) + " s: its sample-and-hold costs " +
+             Text(hold_deg) + " deg at the crossover and its derivative filter (2 pi f_d dt = " +
+             Text(filter_steps) +
+             ") is discretised: the step may differ from the continuous loop's margins "
+             "(reduce simulation.dt)");
   }
   const StepFigures& nominal = result->nominal.step;
   if (std::abs(nominal.steady_state_error) > 0.02 * result->step) {
@@ -319,7 +333,7 @@ TuneResult Tune(const TuneInput& input, const TuneRequest& request) {
   CheckLimits(input, request, &result);
   if (result.refused) return result;
   EvaluateBox(input, request, &result);
-  AddWarnings(input, &result);
+  AddWarnings(input, request, &result);
   return result;
 }
 

@@ -152,11 +152,31 @@ void ApplyConfigNotes(TuneInput* input) {
   if (!input->box.empty()) input->box_source = "config notes";
 }
 
+// A blmd-ident report given as the config: say which flag takes it.
+[[noreturn]] void RethrowForReport(const std::string& config_path, const InputError& error) {
+  try {
+    const JsonDocument document = JsonDocument::Load(config_path, kMaxConfigBytes, "config");
+    if (document.root().is_object() && document.root().value("tool", "") == "blmd-ident") {
+      throw InputError(config_path +
+                       ": a blmd-ident report, not a config: give it with --from-report and "
+                       "the drive's config with --config");
+    }
+  } catch (const InputError& second) {
+    if (std::string(second.what()).find("a blmd-ident report, not a config") != std::string::npos)
+      throw;
+  }
+  throw error;
+}
+
 }  // namespace
 
 TuneInput LoadTuneInput(const std::string& config_path, const std::string& report_path) {
   TuneInput input;
-  input.config = LoadConfig(config_path);
+  try {
+    input.config = LoadConfig(config_path);
+  } catch (const InputError& error) {
+    RethrowForReport(config_path, error);
+  }
   input.config_sha256 = Sha256Hex(ReadFileText(config_path, kMaxConfigBytes, "config"));
   if (!input.config.model->traits().coast_down_and_pid) CheckModel(input.config);
   if (report_path.empty()) {
