@@ -196,7 +196,7 @@ TEST_F(TuneCli, RefusesWhatThePlantCannotMeet) {
   TempDir dir;
   const std::string outputs =
       " --report " + dir.File("tune.json") + " --write-config " + dir.File("closed.json");
-  // A PI speed loop at 10 Hz: the plant lags by 150°, a 60° margin needs lead.
+  // A PI speed loop at 10 Hz: the plant lags by 142°, a 60° margin needs lead.
   ExpectRefused(
       Tune(Base() + " --loop speed --crossover 10 --phase-margin 60 --limit u=24" + outputs), dir,
       "a PI cannot give 60 deg of phase margin at 10 Hz");

@@ -18,7 +18,8 @@ using nlohmann::json;
 json Number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
 std::string Text(double value, int digits = 4) {
-  if (!std::isfinite(value)) return std::isinf(value) ? (value > 0 ? "inf" : "-inf") : "n/a";
+  if (!std::isfinite(value))
+    return std::isinf(value) ? (value > 0 ? "infinite" : "-infinite") : "n/a";
   char buffer[48];
   std::snprintf(buffer, sizeof buffer, "%.*g", digits, value);
   return buffer;

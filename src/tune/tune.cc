@@ -210,9 +210,14 @@ void EvaluateBox(const TuneInput& input, const TuneRequest& request, TuneResult*
     AddToWorst(result->corners[c], static_cast<int>(c), &result->worst);
 }
 
-void AddWarnings(const TuneInput& input, const TuneRequest& request, TuneResult* result) {
+void Warn(TuneResult* result, const std::string& code, const std::string& message) {
+  result->warnings.emplace_back(code, message);
+}
+
+// What the box says: no intervals, clipped ones, unstable or saturating corners.
+void AddBoxWarnings(const TuneInput& input, TuneResult* result) {
   auto warn = [&](const std::string& code, const std::string& message) {
-    result->warnings.emplace_back(code, message);
+    Warn(result, code, message);
   };
   if (input.box.empty()) {
     warn("no_intervals",
@@ -236,6 +241,13 @@ void AddWarnings(const TuneInput& input, const TuneRequest& request, TuneResult*
     warn("saturated_corner", std::to_string(w.saturated) + " of " + std::to_string(corners) +
                                  " corners of the 95 % box reach the voltage limit in the step");
   }
+}
+
+// What the simulated step says: a coarse sampled controller, a shaft held short, no figures.
+void AddStepWarnings(const TuneInput& input, const TuneRequest& request, TuneResult* result) {
+  auto warn = [&](const std::string& code, const std::string& message) {
+    Warn(result, code, message);
+  };
   // The simulated PID is sampled at the step dt and holds its output over it (a delay of about
   // dt/2, left out of the margins: 180·f_c·dt degrees at the crossover), and its derivative
   // filter is discretised by backward Euler: both matter once f_c or f_d nears 1/dt.
@@ -259,8 +271,8 @@ void AddWarnings(const TuneInput& input, const TuneRequest& request, TuneResult*
              " %): an effect of the model (friction, a load) holds the shaft within the " +
              Text(result->duration) + " s simulated");
   }
-  if (w.invalid > 0) {
-    warn("no_step_figures", std::to_string(w.invalid) +
+  if (result->worst.invalid > 0) {
+    warn("no_step_figures", std::to_string(result->worst.invalid) +
                                 " simulated steps (nominal and corners) never rose through 90 %: "
                                 "friction or a load holds the shaft short of the reference");
   }
@@ -333,7 +345,8 @@ TuneResult Tune(const TuneInput& input, const TuneRequest& request) {
   CheckLimits(input, request, &result);
   if (result.refused) return result;
   EvaluateBox(input, request, &result);
-  AddWarnings(input, request, &result);
+  AddBoxWarnings(input, &result);
+  AddStepWarnings(input, request, &result);
   return result;
 }
 
