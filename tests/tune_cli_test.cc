@@ -76,10 +76,10 @@ class TuneCli : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new TempDir;
-    const CommandResult fit = testing::Run(BinPath("blmd-ident") + " --config " +
-                                           SourcePath("configs/ganesh-square.json") + " --trace " +
-                                           SourcePath("testdata/ganesh-square.csv") + " --report " +
-                                           dir_->File("fit.json") + " --quiet");
+    const CommandResult fit = testing::Run(
+        BinPath("blmd-ident") + " --config " + SourcePath("configs/ganesh-square.json") +
+        " --trace " + SourcePath("testdata/ganesh-square.csv") + " --report " +
+        dir_->File("fit.json") + " --write-config " + dir_->File("model.json") + " --quiet");
     ASSERT_EQ(fit.exit_code, 0) << fit.err;
   }
   static void TearDownTestSuite() {
@@ -179,6 +179,23 @@ TEST_F(TuneCli, GaneshPositionLoopMeetsTheRequestOnTheTruePlant) {
 
 TEST_F(TuneCli, GaneshSpeedLoopMeetsTheRequestOnTheTruePlant) {
   CheckLoop("speed", 3.0, 60.0, FitReport(), Base());
+}
+
+// The config blmd-ident --write-config wrote carries the intervals in its notes: without
+// --from-report they are the box, the same as the report's, and the gains are the same.
+TEST_F(TuneCli, TheWrittenConfigsNotesGiveTheSameBox) {
+  const std::string request =
+      " --loop position --crossover 2 --phase-margin 60 --limit u=24 --json";
+  const CommandResult from_notes = Tune("--config " + dir_->File("model.json") + request);
+  const CommandResult from_report = Tune(Base() + request);
+  ASSERT_EQ(from_notes.exit_code, 0) << from_notes.err;
+  ASSERT_EQ(from_report.exit_code, 0) << from_report.err;
+  const json notes = json::parse(from_notes.out), report = json::parse(from_report.out);
+  EXPECT_EQ(notes["robustness"]["box_source"], "config notes");
+  EXPECT_EQ(report["robustness"]["box_source"], "report");
+  EXPECT_EQ(notes["robustness"]["parameters"], report["robustness"]["parameters"]);
+  EXPECT_EQ(notes["controller"], report["controller"]);
+  EXPECT_EQ(notes["robustness"]["worst_case"], report["robustness"]["worst_case"]);
 }
 
 // Exit 1, one line with the reason, nothing written.
