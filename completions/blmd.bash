@@ -1,5 +1,5 @@
-# Bash completion for blmd-ident, blmd-sim and blmd-surface (docs/cli.md, "Completion").
-# One file for the three commands; `cmake --install` puts a copy under each command's name
+# Bash completion for blmd-ident, blmd-sim, blmd-surface and blmd-tune (docs/cli.md,
+# "Completion"). One file for the commands; `cmake --install` puts a copy under each command's name
 # in share/bash-completion/completions, where bash-completion loads it on first use. Without
 # an install: source completions/blmd.bash. Needs bash only (not the bash-completion
 # package's helpers).
@@ -8,7 +8,8 @@
 # *.json and folders), the optimisers after --method, the effects after --effect and
 # --candidates (a comma list), the models after --init-config, the trace columns after
 # --observe, --noise and --derive, the choices of --error, --initial-state, --delimiter and
-# --duplicate-time, and blmd-surface's subcommands merge and plot.
+# --duplicate-time, and blmd-surface's subcommands merge and plot; blmd-tune's --loop
+# choices and its --limit names (u=, i=).
 #
 # The lists below are the commands' own: tests/completion_test.cc compares them with the
 # flags of each command's --help and with the model, effect and optimiser registries, so they
@@ -22,6 +23,7 @@ _blmd_columns="i ib ic theta u w"
 _blmd_ident_flags="--baseline --bic-margin --candidates --column --config --decimate --delimiter --derive --discover --duplicate-time --error --export-matlab --fail-above-nrmse --fail-on-warning --filter-hz --free --help --html --initial --initial-state --json --max-effects --max-evaluations --method --no-progress --observe --option --progress --quiet --report --scale --seed --select --split --threads --trace --validate --verbose --version --write-config"
 _blmd_sim_flags="--config --delimiter --duplicate-time --effect --help --init-config --input --noise --out --quiet --seed --version"
 _blmd_surface_flags="--column --config --decimate --delimiter --derive --duplicate-time --error --filter-hz --force --grid --help --initial-state --json --observe --out --quiet --scale --select --shard --split --svg --threads --trace --version"
+_blmd_tune_flags="--config --crossover --duration --filter-ratio --from-report --help --integral-ratio --json --limit --loop --phase-margin --quiet --report --step --threads --version --write-config"
 _blmd_surface_merge_flags="--help --out"
 _blmd_surface_plot_flags="--help --quiet --svg --title"
 
@@ -67,7 +69,7 @@ _blmd_prefixes() {
   compopt -o nospace 2>/dev/null
 }
 
-# Completes the word COMP_CWORD of COMP_WORDS for command $1 (ident, sim or surface).
+# Completes the word COMP_CWORD of COMP_WORDS for command $1 (ident, sim, surface or tune).
 _blmd_complete() {
   local command=$1 cur=${COMP_WORDS[COMP_CWORD]} prev=""
   ((COMP_CWORD > 0)) && prev=${COMP_WORDS[COMP_CWORD - 1]}
@@ -86,6 +88,7 @@ _blmd_complete() {
   case $command in
     ident) flags=$_blmd_ident_flags ;;
     sim) flags=$_blmd_sim_flags ;;
+    tune) flags=$_blmd_tune_flags ;;
     surface)
       flags=$_blmd_surface_flags
       for ((k = 1; k < COMP_CWORD; ++k)); do
@@ -103,7 +106,7 @@ _blmd_complete() {
 
   local value=1 # whether $prev takes the value being completed
   case $prev in
-    --config | --report | --baseline | --write-config) _blmd_files "$cur" '*.json' ;;
+    --config | --report | --baseline | --write-config | --from-report) _blmd_files "$cur" '*.json' ;;
     --export-matlab) _blmd_files "$cur" '*.m' ;;
     --trace | --validate | --input | --out | --html | --svg) _blmd_files "$cur" ;;
     --method) _blmd_words "$_blmd_methods" "$cur" ;;
@@ -117,9 +120,12 @@ _blmd_complete() {
     --initial-state) _blmd_words "config trace" "$cur" ;;
     --delimiter) _blmd_words ", ; tab" "$cur" ;;
     --duplicate-time) _blmd_words "error first mean" "$cur" ;;
+    --loop) _blmd_words "position speed" "$cur" ;;
+    --limit) _blmd_prefixes "i u" "$cur" "=" ;;
     --bic-margin | --column | --decimate | --fail-above-nrmse | --filter-hz | --free | \
       --grid | --initial | --max-effects | --max-evaluations | --option | --scale | --seed | \
-      --select | --shard | --split | --threads | --title)
+      --select | --shard | --split | --threads | --title | --crossover | --phase-margin | \
+      --step | --duration | --integral-ratio | --filter-ratio)
       COMPREPLY=() # a value of the user's own
       ;;
     *) value=0 ;;
@@ -140,7 +146,9 @@ _blmd_complete() {
 _blmd_ident() { _blmd_complete ident; }
 _blmd_sim() { _blmd_complete sim; }
 _blmd_surface() { _blmd_complete surface; }
+_blmd_tune() { _blmd_complete tune; }
 
 complete -F _blmd_ident blmd-ident
 complete -F _blmd_sim blmd-sim
 complete -F _blmd_surface blmd-surface
+complete -F _blmd_tune blmd-tune

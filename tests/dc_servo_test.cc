@@ -881,6 +881,29 @@ TEST(DcServoClosedLoop, SaturatesExactlyAtTheSupply) {
   EXPECT_NEAR(trace.Column("theta").back(), 1.0, 0.02);
 }
 
+// The speed loop ("loop": "speed"): the PID measures w and the reference is a speed. With
+// Kp alone the closed loop settles where Kp (r - w) G_w(0) = w, G_w(0) = Kt/(R B + Kt Kb)
+// (docs/model-dc-servo.md §1): w = r Kp G_w(0)/(1 + Kp G_w(0)); u(0) = Kp r exactly; with
+// the integral term w reaches r.
+TEST(DcServoClosedLoop, SpeedLoopSettlesWhereTheClosedFormSays) {
+  Config config = LoadConfig(testing::SourcePath("configs/ganesh-pid.json"));
+  config.experiment.pid = {PidSettings::Loop::kSpeed, 0.1, 0.0, 0.0, 1e-3, 1e3};
+  config.experiment.input.amplitude = 50.0;  // rad/s
+  config.experiment.duration = 3.0;
+  const double R = 12.6, Kt = 0.04, Kb = 0.04, B = 2.261e-5, Kp = 0.1, r = 50.0;
+  const double g0 = Kt / (R * B + Kt * Kb);
+  Trace trace;
+  ASSERT_TRUE(RunExperiment(config, &trace).ok());
+  EXPECT_EQ(trace.Column("u").front(), Kp * r);
+  const double expected = r * Kp * g0 / (1.0 + Kp * g0);
+  Report("speed loop P: |w_end - closed form| (rad/s)",
+         std::abs(trace.Column("w").back() - expected), 1e-6);
+  EXPECT_NEAR(trace.Column("w").back(), expected, 1e-6 * expected);
+  config.experiment.pid.Ki = 2.0;
+  ASSERT_TRUE(RunExperiment(config, &trace).ok());
+  EXPECT_NEAR(trace.Column("w").back(), r, 1e-3 * r);
+}
+
 // The u column of a closed-loop trace is the voltage applied from each sample instant on
 // (the open-loop convention), so replaying it as a recorded input, sampled at every step,
 // reproduces the closed-loop run exactly.

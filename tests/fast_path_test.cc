@@ -165,6 +165,10 @@ TEST(FastPath, DcServoCoulombFrictionInMacroSteps) {
 
 TEST(FastPath, DcServoClosedLoopPidAndStaircase) {
   ExpectFastMatchesReference<DcServoModel>("dc_servo PID", Load("ganesh-pid.json"));
+  Config speed = Load("ganesh-pid.json");  // the speed loop: the PID measures w
+  speed.experiment.pid = {PidSettings::Loop::kSpeed, 0.2, 3.0, 0.001, 2e-3, 24.0};
+  speed.experiment.input.amplitude = 80.0;
+  ExpectFastMatchesReference<DcServoModel>("dc_servo speed-loop PID", speed);
   Config staircase = Load("ganesh-staircase.json");
   staircase.experiment.sample_rate = 3000.0;  // samples between steps, interpolated
   ExpectFastMatchesReference<DcServoModel>("dc_servo staircase, 3 kHz", staircase);

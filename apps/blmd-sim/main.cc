@@ -91,7 +91,10 @@ void PrintSummary(const SimFlags& f, const blmd::Config& config, const blmd::Tra
                 Fixed(hi).c_str(), Fixed(column.back()).c_str());
   }
   if (config.experiment.closed_loop) {
-    const auto metrics = blmd::ComputeStepMetrics(trace.Column("t"), trace.Column("theta"),
+    // The loop's measured column: theta, or w for the speed loop (docs/model-dc-servo.md §6.1).
+    const bool speed = config.experiment.pid.loop == blmd::PidSettings::Loop::kSpeed;
+    const char* measured = speed ? "w" : "theta";
+    const auto metrics = blmd::ComputeStepMetrics(trace.Column("t"), trace.Column(measured),
                                                   config.experiment.input.t0);
     if (metrics.valid) {
       std::printf(
@@ -99,7 +102,7 @@ void PrintSummary(const SimFlags& f, const blmd::Config& config, const blmd::Tra
           Fixed(metrics.rise_time).c_str(), Fixed(metrics.overshoot_percent).c_str(),
           Fixed(metrics.settling_time).c_str());
     } else {
-      std::printf("  closed loop: theta did not respond (no step metrics)\n");
+      std::printf("  closed loop: %s did not respond (no step metrics)\n", measured);
     }
   }
 }

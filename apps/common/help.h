@@ -56,6 +56,20 @@ Examples:
     $ blmd-surface merge part-1.csv part-2.csv --out j.csv
     $ blmd-surface plot j.csv --svg j.svg)";
   }
+  if (command == "blmd-tune") {
+    return R"(Exit status:
+  0  the gains were found (and the report and config written)
+  1  the request cannot be met: the controller cannot give the phase margin at that crossover, or the step needs more than the drive's limits (the reason on one line, nothing written); or an output could not be written
+  2  bad usage or input: a flag, the config, the --from-report file (one error line, nothing written)
+
+Examples:
+  A PID position loop for the Ganesh servo at 2 Hz with 60 deg of phase margin, 24 V drive:
+    $ blmd-tune --config configs/ganesh-noload.json --loop position --crossover 2 --phase-margin 60 --limit u=24
+  From an identification: the final model and its 95 % box, a PI speed loop, the closed loop run by blmd-sim:
+    $ blmd-ident --config configs/ganesh-square.json --trace testdata/ganesh-square.csv --report fit.json --quiet
+    $ blmd-tune --config configs/ganesh-square.json --from-report fit.json --loop speed --crossover 3 --phase-margin 60 --limit u=24 --limit i=4 --report tune.json --write-config closed.json
+    $ blmd-sim --config closed.json --out closed.csv)";
+  }
   throw std::logic_error("HelpFooter: no footer for " + command);
 }
 

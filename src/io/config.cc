@@ -837,8 +837,17 @@ void ReadExperiment(const Reader& reader, const json& root, Config* out) {
       }
       const json& pid = exp["pid"];
       reader.RequireObject(pid, "/experiment/pid");
-      reader.CheckKeys(pid, "/experiment/pid", {"Kp", "Ki", "Kd", "tau_d", "u_max"});
+      reader.CheckKeys(pid, "/experiment/pid", {"loop", "Kp", "Ki", "Kd", "tau_d", "u_max"});
       experiment.closed_loop = true;
+      if (pid.contains("loop")) {
+        const std::string loop = reader.String(pid["loop"], "/experiment/pid/loop");
+        if (loop == "speed") {
+          experiment.pid.loop = PidSettings::Loop::kSpeed;
+        } else if (loop != "position") {
+          reader.Fail("/experiment/pid/loop",
+                      "unknown loop '" + InputError::Excerpt(loop) + "' (valid: position, speed)");
+        }
+      }
       auto get = [&](const char* key, double* field) {
         if (pid.contains(key))
           *field = reader.Number(pid[key], std::string("/experiment/pid/") + key);

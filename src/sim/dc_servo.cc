@@ -121,7 +121,8 @@ SimStatus DcServoModel::SimulateReference(const SimulationRequest& request, Trac
   const double t_start = times.front();
   double i = experiment.initial.i, w = experiment.initial.w, theta = experiment.initial.theta;
   internal::DcServoPid pid;
-  pid.derivative_state = theta;
+  const bool speed_loop = experiment.pid.loop == PidSettings::Loop::kSpeed;
+  pid.derivative_state = speed_loop ? w : theta;
   const double alpha = dt / (experiment.pid.tau_d + dt);
 
   // The input over a step [t, t + dt) is read at its midpoint t + dt/2, so that an event on
@@ -131,7 +132,7 @@ SimStatus DcServoModel::SimulateReference(const SimulationRequest& request, Trac
   auto control = [&](double t, double* reference) {
     const double r = input.At(t + 0.5 * dt);
     *reference = r;
-    return closed_loop ? pid.Control(experiment.pid, alpha, dt, r, theta) : r;
+    return closed_loop ? pid.Control(experiment.pid, alpha, dt, r, speed_loop ? w : theta) : r;
   };
 
   double reference = 0.0;

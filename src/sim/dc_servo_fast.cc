@@ -136,7 +136,9 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
   InputCursor input(experiment.input);
   const double t_start = times.front();
   double i = experiment.initial.i, w = experiment.initial.w, theta = experiment.initial.theta;
-  double integral = 0.0, derivative_state = theta;
+  // The measured y of the loop: theta, or w for the speed loop (experiment.h).
+  const bool speed_loop = pid.loop == PidSettings::Loop::kSpeed;
+  double integral = 0.0, derivative_state = speed_loop ? w : theta;
   const double alpha = dt / (pid.tau_d + dt);
 
   // The input over [t, t + dt) is read at t + dt/2 (as the reference), but only again once
@@ -155,11 +157,12 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
     const double r = input_value;
     *reference = r;
     if (!closed_loop) return r;
-    const double error = r - theta;
+    const double y = speed_loop ? w : theta;
+    const double error = r - y;
     const double filtered_prev = derivative_state;
-    derivative_state += alpha * (theta - derivative_state);
-    const double dtheta = (derivative_state - filtered_prev) / dt;
-    double u = pid.Kp * error + pid.Ki * integral - pid.Kd * dtheta;
+    derivative_state += alpha * (y - derivative_state);
+    const double dy = (derivative_state - filtered_prev) / dt;
+    double u = pid.Kp * error + pid.Ki * integral - pid.Kd * dy;
     const bool saturated_high = u > pid.u_max, saturated_low = u < -pid.u_max;
     if (!((saturated_high && error > 0.0) || (saturated_low && error < 0.0))) {
       integral += error * dt;

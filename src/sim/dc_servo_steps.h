@@ -51,16 +51,17 @@ struct DcServoDiscretisation {
 // of the error).
 struct DcServoPid {
   double integral = 0.0;
-  double derivative_state = 0.0;  // rad, the filtered theta of the D term
+  double derivative_state = 0.0;  // rad (speed loop: rad/s), the filtered y of the D term
 
-  // The voltage over the next step for the reference r and the measured angle theta.
+  // The voltage over the next step for the reference r and the measured y (the angle theta,
+  // or the speed w for the speed loop).
   [[gnu::always_inline]] inline double Control(const PidSettings& pid, double alpha, double dt,
-                                               double r, double theta) {
-    const double error = r - theta;
+                                               double r, double y) {
+    const double error = r - y;
     const double filtered_prev = derivative_state;
-    derivative_state += alpha * (theta - derivative_state);
-    const double dtheta = (derivative_state - filtered_prev) / dt;
-    double u = pid.Kp * error + pid.Ki * integral - pid.Kd * dtheta;
+    derivative_state += alpha * (y - derivative_state);
+    const double dy = (derivative_state - filtered_prev) / dt;
+    double u = pid.Kp * error + pid.Ki * integral - pid.Kd * dy;
     const bool saturated_high = u > pid.u_max, saturated_low = u < -pid.u_max;
     if (!((saturated_high && error > 0.0) || (saturated_low && error < 0.0))) {
       integral += error * dt;

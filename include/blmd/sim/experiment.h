@@ -82,14 +82,18 @@ class InputCursor {
   std::uint64_t prbs_run_begin_ = 0, prbs_run_end_ = 0;
 };
 
-// Closed-loop position control (dc_servo): PID on theta, output saturated at +-u_max.
-// u = Kp e + Ki integral(e) - Kd dtheta_f/dt, e = r - theta; derivative on the measurement
-// through a first-order filter (tau_d); the integrator stops while the output saturates
-// in the direction of the error (clamping anti-windup).
+// Closed-loop control (dc_servo): PID on the measured y (theta, or w for the speed loop),
+// output saturated at +-u_max. u = Kp e + Ki integral(e) - Kd dy_f/dt, e = r - y; derivative
+// on the measurement through a first-order filter (tau_d); the integrator stops while the
+// output saturates in the direction of the error (clamping anti-windup).
 struct PidSettings {
-  double Kp = 0.0;      // V/rad
-  double Ki = 0.0;      // V/(rad·s)
-  double Kd = 0.0;      // V·s/rad
+  // What the loop measures and the reference means: the shaft angle theta (rad, the
+  // default) or the shaft speed w (rad/s). The gains' units follow: V/rad or V·s/rad, ...
+  enum class Loop { kPosition, kSpeed };
+  Loop loop = Loop::kPosition;
+  double Kp = 0.0;      // V/rad (speed loop: V·s/rad)
+  double Ki = 0.0;      // V/(rad·s) (speed loop: V/rad)
+  double Kd = 0.0;      // V·s/rad (speed loop: V·s²/rad)
   double tau_d = 1e-3;  // s, derivative filter time constant
   double u_max = 24.0;  // V, saturation (the supply)
 };

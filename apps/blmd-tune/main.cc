@@ -1,0 +1,148 @@
+// blmd-tune: PI (speed loop) or PID (position loop) gains from the identified model for a
+// requested crossover and phase margin, checked over the parameters' 95 % box and on the
+// nonlinear model in closed loop (docs/tuning.md, docs/cli.md §4).
+// Flags -> TuneRequest -> blmd::LoadTuneInput, blmd::Tune (tune/tune.h) -> the report, the
+// closed-loop config, the summary, the exit code.
+#include <iostream>
+
+#include "../common/app_main.h"
+#include "blmd/io/files.h"
+#include "blmd/io/flags.h"
+#include "blmd/report/tune_report.h"
+#include "blmd/tune/tune.h"
+
+namespace {
+
+// Every flag of blmd-tune (docs/cli.md §4).
+struct TuneFlags {
+  std::string config_path, report_in_path, loop, report_path, write_config_path;
+  std::vector<std::string> limits;
+  double crossover_hz = 0.0, phase_margin_deg = 0.0, step = 0.0, duration = 0.0;
+  double integral_ratio = 4.0, filter_ratio = 10.0;
+  int threads = 0;
+  bool json = false, quiet = false;
+
+  void Add(CLI::App& app) {
+    app.add_option("--config", config_path, "the model to tune (JSON config)")->required();
+    app.add_option("--from-report", report_in_path,
+                   "a blmd-ident --report JSON: its final model and 95 % intervals are used");
+    app.add_option("--loop", loop, "speed (PI) or position (PID)")
+        ->required()
+        ->check(CLI::IsMember({"speed", "position"}));
+    app.add_option("--crossover", crossover_hz, "open-loop gain crossover, Hz")
+        ->required()
+        ->check(blmd::app::PositiveNumber());
+    app.add_option("--phase-margin", phase_margin_deg, "phase margin at the crossover, degrees")
+        ->required()
+        ->check(blmd::app::PositiveNumber());
+    app.add_option("--limit", limits,
+                   "the drive's limit u=VOLTS (default: the config's experiment.pid.u_max) or "
+                   "i=AMPS (repeatable)");
+    app.add_option("--step", step,
+                   "reference step of the checked response, rad (speed loop: rad/s); default "
+                   "1 rad, or 10 % of the speed u_max gives")
+        ->check(blmd::app::PositiveNumber());
+    app.add_option("--duration", duration,
+                   "length of the simulated step, s (default: from the closed loop's poles)")
+        ->check(blmd::app::PositiveNumber());
+    app.add_option("--integral-ratio", integral_ratio,
+                   "position loop: Ti/Td of the PID (default 4)")
+        ->check(blmd::app::PositiveNumber());
+    app.add_option("--filter-ratio", filter_ratio,
+                   "position loop: derivative filter frequency over the crossover (default 10)")
+        ->check(blmd::app::PositiveNumber());
+    app.add_option("--report", report_path, "write the JSON report here");
+    app.add_option("--write-config", write_config_path,
+                   "write the closed-loop config (the tuned step) that blmd-sim runs");
+    app.add_flag("--json", json, "print the JSON report on stdout instead of the summary");
+    app.add_option("--threads", threads, "worker threads for the box's corners (0: all cores)")
+        ->check(blmd::app::NonNegativeWholeNumber());
+    app.add_flag("--quiet", quiet, "print nothing but errors");
+  }
+};
+
+// --limit u=V, i=A; u defaults to the config's experiment.pid.u_max when it has a pid.
+void ReadLimits(const TuneFlags& f, const blmd::Config& config, blmd::TuneRequest* request) {
+  for (const std::string& text : f.limits) {
+    const auto [name, value] = blmd::ParseAssignment(text, "--limit");
+    if (name != "u" && name != "i") {
+      throw blmd::InputError("--limit: unknown limit '" + blmd::InputError::Excerpt(name) +
+                             "' (valid: u=VOLTS, i=AMPS)");
+    }
+    if (!(value > 0.0)) throw blmd::InputError("--limit " + text + ": the limit must be > 0");
+    (name == "u" ? request->u_max : request->i_max) = value;
+  }
+  if (request->u_max > 0.0) return;
+  if (!config.experiment.closed_loop) {
+    throw blmd::InputError("--limit u=VOLTS is needed: the drive's voltage limit (" + config.path +
+                           " has no experiment.pid.u_max)");
+  }
+  request->u_max = config.experiment.pid.u_max;
+}
+
+blmd::TuneRequest MakeRequest(const CLI::App& app, const TuneFlags& f, const blmd::Config& config) {
+  blmd::TuneRequest request;
+  const bool speed = f.loop == "speed";
+  if (speed) {
+    for (const char* flag : {"--integral-ratio", "--filter-ratio"}) {
+      if (app.count(flag) > 0) {
+        throw blmd::InputError(std::string(flag) +
+                               " applies to the position loop's PID (the speed loop is a PI)");
+      }
+    }
+  }
+  request.design.loop =
+      speed ? blmd::PidSettings::Loop::kSpeed : blmd::PidSettings::Loop::kPosition;
+  request.design.crossover_hz = f.crossover_hz;
+  request.design.phase_margin_deg = f.phase_margin_deg;
+  request.design.integral_ratio = f.integral_ratio;
+  request.design.filter_ratio = f.filter_ratio;
+  request.step = f.step;
+  request.duration = f.duration;
+  request.threads = f.threads;
+  ReadLimits(f, config, &request);
+  if (const std::string error = request.Validate(); !error.empty()) throw blmd::InputError(error);
+  return request;
+}
+
+int Run(const CLI::App& app, TuneFlags& f) {
+  f.threads = blmd::app::CapThreads(f.threads);
+  blmd::CheckOutputs({{"--report", f.report_path}, {"--write-config", f.write_config_path}},
+                     {{"--config", f.config_path}, {"--from-report", f.report_in_path}});
+  const blmd::TuneInput input = blmd::LoadTuneInput(f.config_path, f.report_in_path);
+  const blmd::TuneRequest request = MakeRequest(app, f, input.config);
+  if (!f.report_path.empty() || !f.write_config_path.empty()) blmd::InstallCleanupOnSignal();
+  const blmd::TuneResult result = blmd::Tune(input, request);
+  if (result.refused) {
+    // A request the plant cannot meet: exit 1, the reason, nothing written.
+    std::cerr << "error: cannot tune: " << result.refusal << "\n";
+    return blmd::kExitFailed;
+  }
+  const nlohmann::json report = blmd::TuneReportJson(input, request, result);
+  if (!f.report_path.empty()) blmd::WriteFileAtomically(f.report_path, report.dump(2) + "\n");
+  if (!f.write_config_path.empty()) {
+    const nlohmann::json config = blmd::ClosedLoopConfigJson(input, request, result);
+    blmd::WriteFileAtomically(f.write_config_path, config.dump(2) + "\n");
+  }
+  if (f.json) {
+    std::cout << report.dump(2) << "\n";
+  } else if (!f.quiet) {
+    std::cout << blmd::TuneSummary(input, request, result);
+    if (!f.report_path.empty()) std::cout << "report: " << f.report_path << "\n";
+    if (!f.write_config_path.empty()) std::cout << "config: " << f.write_config_path << "\n";
+  }
+  return blmd::kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "blmd-tune: PI or PID gains from the identified model for a crossover and phase margin, "
+      "checked over the parameters' 95 % box"};
+  blmd::app::AddVersionFlag(app, "blmd-tune");
+  blmd::app::AddHelpFooter(app, "blmd-tune");
+  TuneFlags flags;
+  flags.Add(app);
+  return blmd::app::Main(app, argc, argv, [&]() -> int { return Run(app, flags); });
+}

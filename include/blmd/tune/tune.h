@@ -1,0 +1,127 @@
+// blmd-tune's library call (docs/tuning.md): the identified model in (a config, with the
+// final model and 95 % intervals of a blmd-ident report when given), the gains for a
+// requested crossover and phase margin out, checked on the linear loop (margins, poles), on
+// the nonlinear model in closed loop (a simulated reference step with the drive's limits),
+// and over the corners of the parameters' 95 % box. Options in (TuneRequest), summary out
+// (TuneResult): a request the plant cannot meet is a status (`refused` with the reason), not
+// an exception; bad input is an InputError.
+#pragma once
+
+#include <limits>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "blmd/io/config.h"
+#include "blmd/sim/linear_model.h"
+#include "blmd/tune/design.h"
+#include "blmd/tune/loop.h"
+
+namespace blmd {
+
+// A parameter's 95 % interval: one axis of the box whose corners are checked.
+struct ParameterInterval {
+  std::string name;
+  double value = 0.0;  // the nominal (identified) value
+  double low = 0.0, high = 0.0;
+  bool clipped = false;  // low was below the parameter's lower bound and was raised to it
+};
+
+// The model to tune: the config's, with the values, effects and intervals of the
+// identification when given.
+struct TuneInput {
+  Config config;                           // model, parameter values, effects, numerics
+  std::vector<ParameterInterval> box;      // empty: no intervals known
+  std::string box_source;                  // "report", "config notes" or "" (no box)
+  std::string report_path, report_sha256;  // --from-report ("" when not given)
+  std::string config_sha256;
+};
+
+// Reads `config_path` and, when `report_path` is not empty, a blmd-ident report of the same
+// model: its final model's parameter values replace the config's, its final effects (with
+// their values) are added where the config lacks them, and its free parameters' 95 %
+// intervals (`ci95`) are the box. Without a report, the intervals a blmd-ident
+// --write-config config records under notes.parameters.<name>.ci95 are the box. InputError
+// (file, line, column) for a bad file, a report of another model, a model without the
+// closed-loop (pid) experiment or without a linear part.
+TuneInput LoadTuneInput(const std::string& config_path, const std::string& report_path);
+
+struct TuneRequest {
+  DesignOptions design;
+  double u_max = 0.0;     // the drive's input limit (dc_servo: V), > 0
+  double i_max = 0.0;     // A, the drive's current limit; 0: not checked
+  double step = 0.0;      // reference step (rad; speed loop rad/s); 0: the default
+  double duration = 0.0;  // s, of the simulated step; 0: from the closed loop's poles
+  int threads = 0;        // for the corners' simulations; 0: every hardware thread
+  // "" when the request can be used, else what is wrong (one line).
+  std::string Validate() const;
+};
+
+// The simulated closed-loop step response (ComputeStepMetrics, run.h) of the loop's measured
+// column (theta, or w), towards its own final value, and what the drive had to give.
+struct StepFigures {
+  bool simulated = false;  // false: the simulation failed (failure says why)
+  std::string failure;
+  bool valid = false;  // the metrics exist (the response rose through 10 % and 90 %)
+  double rise_time_s = std::numeric_limits<double>::quiet_NaN();
+  double overshoot_percent = std::numeric_limits<double>::quiet_NaN();
+  double settling_time_s = std::numeric_limits<double>::quiet_NaN();
+  double final_value = std::numeric_limits<double>::quiet_NaN();
+  double steady_state_error = std::numeric_limits<double>::quiet_NaN();  // step − final value
+  double peak_u = std::numeric_limits<double>::quiet_NaN();  // max |u|, V (the input's unit)
+  double peak_i = std::numeric_limits<double>::quiet_NaN();  // max |i|, A
+  bool saturated = false;                                    // |u| reached u_max
+};
+
+// The linear loop and the simulated step at one parameter point.
+struct LoopCheck {
+  std::vector<std::pair<std::string, double>> values;  // the box parameters at this point
+  LoopMargins margins;
+  ClosedLoopPoles poles;
+  StepFigures step;
+};
+
+// The worst of each figure over the nominal model and the box's corners, with the index of
+// the corner that gives it (-1: the nominal model).
+struct WorstFigure {
+  double value = std::numeric_limits<double>::quiet_NaN();
+  int corner = -1;
+};
+struct WorstCase {
+  WorstFigure crossover_low_hz, crossover_high_hz;              // lowest and highest crossover
+  WorstFigure phase_margin_deg;                                 // smallest
+  WorstFigure gain_margin_db;                                   // smallest (+inf: none anywhere)
+  WorstFigure rise_time_s, overshoot_percent, settling_time_s;  // largest
+  WorstFigure steady_state_error;                               // largest |.|, signed
+  WorstFigure peak_u, peak_i;                                   // largest
+  int unstable = 0;   // corners whose closed loop is unstable
+  int saturated = 0;  // corners whose step reached u_max
+  int invalid = 0;    // corners without step metrics (the response never rose through 90 %)
+};
+
+struct TuneResult {
+  bool refused = false;
+  std::string refusal;       // why the request cannot be met (refused)
+  std::string plant_output;  // "w" or "theta": the loop's measured column
+  TransferFunction plant;    // u -> the measured output, at the nominal values
+  DesignResult design;
+  LoopCheck nominal;
+  // The simulated step: its size, length and sample rate (also written by --write-config).
+  double step = 0.0, duration = 0.0, sample_rate = 0.0;
+  double demand_peak_u = std::numeric_limits<double>::quiet_NaN();  // refused: unlimited peak
+  std::vector<LoopCheck> corners;  // 2^k corners of the box (k = box size), in binary order
+  WorstCase worst;
+  std::vector<std::pair<std::string, std::string>> warnings;  // code, message
+};
+
+// Designs, checks and evaluates (docs/tuning.md). Throws InputError for a request that does
+// not validate.
+TuneResult Tune(const TuneInput& input, const TuneRequest& request);
+
+// The experiment that simulates the tuned loop's step: a step of `step` at t = 0 from rest,
+// the PID of `controller` (tau_d = 1/(2π f_d), 1 ms when there is no filter) limited at
+// u_max, for `duration` s at `sample_rate` Hz.
+Experiment StepExperiment(PidSettings::Loop loop, const Controller& controller, double u_max,
+                          double step, double duration, double sample_rate);
+
+}  // namespace blmd

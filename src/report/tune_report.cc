@@ -1,0 +1,304 @@
+// blmd-tune's JSON report, summary and closed-loop config (docs/tuning.md §5–6).
+#include "blmd/report/tune_report.h"
+
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <sstream>
+
+#include "blmd/report/report.h"
+#include "blmd/sim/effects.h"
+#include "blmd/version.h"
+
+namespace blmd {
+namespace {
+
+using nlohmann::json;
+
+json Number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+std::string Text(double value, int digits = 4) {
+  if (!std::isfinite(value))
+    return std::isinf(value) ? (value > 0 ? "infinite" : "-infinite") : "n/a";
+  char buffer[48];
+  std::snprintf(buffer, sizeof buffer, "%.*g", digits, value);
+  return buffer;
+}
+
+bool IsSpeed(const TuneRequest& request) {
+  return request.design.loop == PidSettings::Loop::kSpeed;
+}
+
+// The unit of the model's input ("V" from "u (V)").
+std::string InputUnit(const TuneInput& input) {
+  const std::string text = input.config.model->Linearise(input.config.parameters).input;
+  const auto open = text.find('('), close = text.rfind(')');
+  return open != std::string::npos && close > open ? text.substr(open + 1, close - open - 1) : "";
+}
+
+// The gains' units: the input's unit over the measured output's (rad, or rad/s), times s^k.
+json GainUnits(const TuneInput& input, const TuneRequest& request) {
+  const std::string u = InputUnit(input);
+  if (IsSpeed(request)) {
+    return {{"kp", u + "·s/rad"}, {"ki", u + "/rad"}, {"kd", u + "·s²/rad"}};
+  }
+  return {{"kp", u + "/rad"}, {"ki", u + "/(rad·s)"}, {"kd", u + "·s/rad"}};
+}
+
+json StepJson(const StepFigures& s) {
+  json out = json::object();
+  if (!s.simulated) {
+    out["failed"] = s.failure;
+    return out;
+  }
+  out["valid"] = s.valid;
+  out["rise_time_s"] = Number(s.rise_time_s);
+  out["overshoot_percent"] = Number(s.overshoot_percent);
+  out["settling_time_s"] = Number(s.settling_time_s);
+  out["final_value"] = Number(s.final_value);
+  out["steady_state_error"] = Number(s.steady_state_error);
+  out["peak_u"] = Number(s.peak_u);
+  out["peak_i"] = Number(s.peak_i);
+  out["saturated"] = s.saturated;
+  return out;
+}
+
+json MarginsJson(const LoopCheck& check) {
+  const LoopMargins& m = check.margins;
+  json out = {{"crossover_hz", Number(m.crossover_hz)},
+              {"phase_margin_deg", Number(m.phase_margin_deg)},
+              {"gain_margin_db", Number(m.gain_margin_db)},
+              {"phase_crossover_hz", Number(m.phase_crossover_hz)},
+              {"lower_gain_margin_db", Number(m.lower_gain_margin_db)},
+              {"gain_crossovers", m.gain_crossovers},
+              {"stable", check.poles.stable}};
+  if (!m.ok) out["failed"] = m.reason;
+  return out;
+}
+
+json Where(const WorstFigure& figure) { return figure.corner; }
+
+json WorstStepJson(const WorstCase& w) {
+  return {{"rise_time_s", Number(w.rise_time_s.value)},
+          {"overshoot_percent", Number(w.overshoot_percent.value)},
+          {"settling_time_s", Number(w.settling_time_s.value)},
+          {"steady_state_error", Number(w.steady_state_error.value)},
+          {"peak_u", Number(w.peak_u.value)},
+          {"peak_i", Number(w.peak_i.value)},
+          {"where",
+           {{"rise_time_s", Where(w.rise_time_s)},
+            {"overshoot_percent", Where(w.overshoot_percent)},
+            {"settling_time_s", Where(w.settling_time_s)},
+            {"steady_state_error", Where(w.steady_state_error)},
+            {"peak_u", Where(w.peak_u)},
+            {"peak_i", Where(w.peak_i)}}}};
+}
+
+json RobustnessJson(const TuneInput& input, const TuneResult& result) {
+  json box = json::object();
+  for (const auto& axis : input.box) {
+    box[axis.name] = {{"value", Number(axis.value)},
+                      {"ci95", {Number(axis.low), Number(axis.high)}},
+                      {"clipped", axis.clipped}};
+  }
+  json corners = json::array();
+  for (const auto& corner : result.corners) {
+    json values = json::object();
+    for (const auto& [name, value] : corner.values) values[name] = Number(value);
+    json entry = MarginsJson(corner);
+    entry["parameters"] = values;
+    entry["step"] = StepJson(corner.step);
+    corners.push_back(entry);
+  }
+  const WorstCase& w = result.worst;
+  json worst = {{"crossover_hz_min", Number(w.crossover_low_hz.value)},
+                {"crossover_hz_max", Number(w.crossover_high_hz.value)},
+                {"phase_margin_deg", Number(w.phase_margin_deg.value)},
+                {"gain_margin_db", Number(w.gain_margin_db.value)},
+                {"unstable_corners", w.unstable},
+                {"saturated_corners", w.saturated},
+                {"where",
+                 {{"crossover_hz_min", Where(w.crossover_low_hz)},
+                  {"crossover_hz_max", Where(w.crossover_high_hz)},
+                  {"phase_margin_deg", Where(w.phase_margin_deg)},
+                  {"gain_margin_db", Where(w.gain_margin_db)}}}};
+  return {{"box_source", input.box_source.empty() ? json(nullptr) : json(input.box_source)},
+          {"parameters", box},
+          {"corners", corners},
+          {"worst_case", worst}};
+}
+
+json RequestJson(const TuneRequest& request, const TuneResult& result) {
+  const bool speed = IsSpeed(request);
+  json out = {
+      {"loop", speed ? "speed" : "position"},
+      {"crossover_hz", request.design.crossover_hz},
+      {"phase_margin_deg", request.design.phase_margin_deg},
+      {"step", result.step},
+      {"step_unit", speed ? "rad/s" : "rad"},
+      {"limits", {{"u", request.u_max}, {"i", Number(request.i_max > 0 ? request.i_max : NAN)}}},
+      {"duration_s", result.duration},
+      {"sample_rate_hz", result.sample_rate}};
+  if (!speed) {
+    out["integral_ratio"] = request.design.integral_ratio;
+    out["derivative_filter_ratio"] = request.design.filter_ratio;
+  }
+  return out;
+}
+
+json PlantJson(const TuneInput& input, const TuneResult& result) {
+  json parameters = json::object();
+  for (const auto& [name, value] : input.config.parameters.entries()) parameters[name] = value;
+  return {{"input", input.config.model->Linearise(input.config.parameters).input},
+          {"output", result.plant_output},
+          {"numerator", result.plant.numerator},
+          {"denominator", result.plant.denominator},
+          {"gain_at_crossover", Number(result.design.plant_gain)},
+          {"phase_at_crossover_deg", Number(result.design.plant_phase_deg)},
+          {"parameters", parameters},
+          {"effects", input.config.effects}};
+}
+
+json ControllerJson(const TuneInput& input, const TuneRequest& request, const TuneResult& result) {
+  const Controller& c = result.design.controller;
+  const Experiment e = StepExperiment(request.design.loop, c, request.u_max, result.step,
+                                      result.duration, result.sample_rate);
+  return {{"structure", IsSpeed(request) ? "PI" : "PID"},
+          {"kp", c.kp},
+          {"ki", c.ki},
+          {"kd", c.kd},
+          {"derivative_filter_hz", c.derivative_filter_hz},
+          {"units", GainUnits(input, request)},
+          {"pid_experiment",
+           {{"loop", IsSpeed(request) ? "speed" : "position"},
+            {"Kp", e.pid.Kp},
+            {"Ki", e.pid.Ki},
+            {"Kd", e.pid.Kd},
+            {"tau_d", e.pid.tau_d},
+            {"u_max", e.pid.u_max}}}};
+}
+
+json PolesJson(const ClosedLoopPoles& poles) {
+  json out = json::array();
+  for (const auto& p : poles.poles) out.push_back({Number(p.real()), Number(p.imag())});
+  return out;
+}
+
+}  // namespace
+
+json TuneReportJson(const TuneInput& input, const TuneRequest& request, const TuneResult& result) {
+  json out = json::object();
+  out["tool"] = "blmd-tune";
+  out["version"] = kVersion;
+  out["schema_version"] = kTuneReportSchemaVersion;
+  out["model"] = std::string(input.config.model->name());
+  out["config"] = {
+      {"path", input.config.path}, {"name", input.config.name}, {"sha256", input.config_sha256}};
+  out["from_report"] = input.report_path.empty()
+                           ? json(nullptr)
+                           : json{{"path", input.report_path}, {"sha256", input.report_sha256}};
+  out["request"] = RequestJson(request, result);
+  out["plant"] = PlantJson(input, result);
+  out["method"] = {
+      {"name", IsSpeed(request) ? "PI placing L(j w_c) at e^{j(PM - 180 deg)}"
+                                : "PID (Ti = a Td, derivative filter at n f_c) placing "
+                                  "L(j w_c) at e^{j(PM - 180 deg)}"},
+      {"controller_phase_deg", Number(result.design.controller_phase_deg)},
+      {"source",
+       "Astrom & Hagglund, PID Controllers: Theory, Design, and Tuning (1995), ch. 4; "
+       "docs/tuning.md"}};
+  out["controller"] = ControllerJson(input, request, result);
+  json achieved = MarginsJson(result.nominal);
+  achieved["closed_loop_poles"] = PolesJson(result.nominal.poles);
+  out["achieved"] = achieved;
+  out["step_response"] = {{"nominal", StepJson(result.nominal.step)},
+                          {"worst_case", WorstStepJson(result.worst)}};
+  out["robustness"] = RobustnessJson(input, result);
+  json warnings = json::array();
+  for (const auto& [code, message] : result.warnings)
+    warnings.push_back({{"code", code}, {"message", message}});
+  out["warnings"] = warnings;
+  SanitizeJson(&out);
+  return out;
+}
+
+std::string TuneSummary(const TuneInput& input, const TuneRequest& request,
+                        const TuneResult& result) {
+  const Controller& c = result.design.controller;
+  const json units = GainUnits(input, request);
+  const LoopMargins& m = result.nominal.margins;
+  const StepFigures& s = result.nominal.step;
+  const WorstCase& w = result.worst;
+  const std::string unit = IsSpeed(request) ? "rad/s" : "rad";
+  std::ostringstream out;
+  out << "blmd-tune: " << (IsSpeed(request) ? "speed loop (PI)" : "position loop (PID)") << " of "
+      << input.config.model->name() << " '" << input.config.name << "' for "
+      << Text(request.design.crossover_hz) << " Hz, " << Text(request.design.phase_margin_deg)
+      << " deg\n";
+  out << "  kp " << Text(c.kp, 6) << " " << units["kp"].get<std::string>() << "   ki "
+      << Text(c.ki, 6) << " " << units["ki"].get<std::string>() << "   kd " << Text(c.kd, 6) << " "
+      << units["kd"].get<std::string>() << "   derivative filter " << Text(c.derivative_filter_hz)
+      << " Hz\n";
+  out << "  achieved: crossover " << Text(m.crossover_hz) << " Hz, phase margin "
+      << Text(m.phase_margin_deg) << " deg, gain margin " << Text(m.gain_margin_db) << " dB\n";
+  out << "  step " << Text(result.step) << " " << unit << ": rise " << Text(s.rise_time_s)
+      << " s, overshoot " << Text(s.overshoot_percent) << " %, settling " << Text(s.settling_time_s)
+      << " s, steady-state error " << Text(s.steady_state_error) << " " << unit << ", peak "
+      << Text(s.peak_u) << " V / " << Text(s.peak_i) << " A\n";
+  if (!result.corners.empty()) {
+    out << "  worst over the " << result.corners.size() << " corners of the 95 % box ("
+        << input.box_source << "): crossover " << Text(w.crossover_low_hz.value) << " to "
+        << Text(w.crossover_high_hz.value) << " Hz, phase margin " << Text(w.phase_margin_deg.value)
+        << " deg, gain margin " << Text(w.gain_margin_db.value) << " dB, overshoot "
+        << Text(w.overshoot_percent.value) << " %, settling " << Text(w.settling_time_s.value)
+        << " s\n";
+  }
+  for (const auto& [code, message] : result.warnings)
+    out << "  warning (" << code << "): " << message << "\n";
+  return out.str();
+}
+
+json ClosedLoopConfigJson(const TuneInput& input, const TuneRequest& request,
+                          const TuneResult& result) {
+  const Config& config = input.config;
+  json doc = config.document.is_object() ? config.document : json::object();
+  doc["model"] = std::string(config.model->name());
+  if (doc.contains("description")) doc.erase("description");  // it described the old experiment
+  doc["description"] = std::string("The ") + (IsSpeed(request) ? "speed" : "position") +
+                       " loop tuned by blmd-tune for " + Text(request.design.crossover_hz) +
+                       " Hz and " + Text(request.design.phase_margin_deg) +
+                       " deg of phase margin: a step of the reference from rest.";
+  json parameters = json::object();
+  for (const auto& info : config.model->parameters()) {
+    if (config.parameters.Has(info.name)) parameters[info.name] = config.parameters.Get(info.name);
+  }
+  doc["parameters"] = parameters;
+  json effects = json::object();
+  for (const auto& name : config.effects) {
+    json effect = json::object();
+    for (const auto& p : FindEffect(name).parameters)
+      effect[p.name] = config.parameters.Get(p.name);
+    effects[name] = effect;
+  }
+  if (effects.empty()) {
+    doc.erase("effects");
+  } else {
+    doc["effects"] = effects;
+  }
+  const json controller = ControllerJson(input, request, result);
+  doc["experiment"] = {{"input", {{"type", "step"}, {"amplitude", result.step}}},
+                       {"pid", controller["pid_experiment"]},
+                       {"duration", result.duration},
+                       {"sample_rate", result.sample_rate}};
+  json notes = {{"tuned_by", std::string("blmd-tune ") + kVersion},
+                {"from_config", config.path},
+                {"request", RequestJson(request, result)},
+                {"controller", controller}};
+  if (!input.report_path.empty()) notes["from_report"] = input.report_path;
+  if (!config.notes.is_null()) notes["config_notes"] = config.notes;
+  doc["notes"] = notes;
+  SanitizeJson(&doc);
+  return doc;
+}
+
+}  // namespace blmd

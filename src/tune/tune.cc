@@ -1,0 +1,353 @@
+// Tune: design, the nominal checks, the refusals, and the box's corners (docs/tuning.md).
+#include "blmd/tune/tune.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+
+#include "blmd/error.h"
+#include "blmd/run.h"
+#include "parallel.h"
+
+namespace blmd {
+namespace {
+
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+// The margins are searched over four decades either side of the requested crossover.
+constexpr double kSearchDecades = 1e4;
+// More parameters with intervals than this would make 2^k corners too many to simulate.
+constexpr std::size_t kMaxBoxParameters = 12;
+
+std::string Text(double value, int digits = 4) {
+  char buffer[48];
+  std::snprintf(buffer, sizeof buffer, "%.*g", digits, value);
+  return buffer;
+}
+
+bool IsSpeed(const TuneRequest& request) {
+  return request.design.loop == PidSettings::Loop::kSpeed;
+}
+const char* Unit(const TuneRequest& request) { return IsSpeed(request) ? "rad/s" : "rad"; }
+
+// The plant u -> the loop's measured output at `values`.
+TransferFunction PlantAt(const Model& model, const ParameterSet& values,
+                         const std::string& output) {
+  for (auto& tf : TransferFunctions(model.Linearise(values))) {
+    if (tf.output == output) return tf;
+  }
+  throw std::logic_error("PlantAt: the linear model has no output " + output);
+}
+
+// Simulates the step of `experiment` at `values` and reads its figures off the measured
+// column.
+StepFigures SimulateStep(const Config& config, const ParameterSet& values,
+                         const Experiment& experiment, const std::string& measured) {
+  StepFigures figures;
+  const std::vector<double> times = experiment.SampleTimes();
+  SimulationRequest request;
+  request.parameters = &values;
+  request.effects = &config.effects;
+  request.experiment = &experiment;
+  request.settings = config.simulation;
+  request.sample_times = &times;
+  Trace trace;
+  const SimStatus status = config.model->Simulate(request, &trace);
+  if (!status.ok()) {
+    figures.failure = status.message + " at t = " + Text(status.at_time) + " s";
+    return figures;
+  }
+  figures.simulated = true;
+  const auto& t = trace.Column("t");
+  const auto& y = trace.Column(measured);
+  const StepMetrics metrics = ComputeStepMetrics(t, y, experiment.input.t0);
+  figures.valid = metrics.valid;
+  if (metrics.valid) {
+    figures.rise_time_s = metrics.rise_time;
+    figures.overshoot_percent = metrics.overshoot_percent;
+    figures.settling_time_s = metrics.settling_time;
+  }
+  // The final value as ComputeStepMetrics takes it: the mean of the last 2 % of the samples.
+  const std::size_t tail = std::max<std::size_t>(1, y.size() / 50);
+  double sum = 0.0;
+  for (std::size_t k = y.size() - tail; k < y.size(); ++k) sum += y[k];
+  figures.final_value = sum / static_cast<double>(tail);
+  figures.steady_state_error = experiment.input.amplitude - figures.final_value;
+  figures.peak_u = figures.peak_i = 0.0;
+  for (double u : trace.Column("u")) figures.peak_u = std::max(figures.peak_u, std::abs(u));
+  for (double i : trace.Column("i")) figures.peak_i = std::max(figures.peak_i, std::abs(i));
+  figures.saturated = figures.peak_u >= experiment.pid.u_max * (1.0 - 1e-12);
+  return figures;
+}
+
+// The default step: 1 rad for the position loop; for the speed loop 10 % of the steady speed
+// that u_max gives (|G_w(0)|·u_max), so that the step leaves the drive headroom.
+double DefaultStep(const TuneRequest& request, const TransferFunction& plant) {
+  if (!IsSpeed(request)) return 1.0;
+  const double dc = std::abs(plant.numerator.back() / plant.denominator.back());
+  return std::isfinite(dc) && dc > 0.0 ? 0.1 * request.u_max * dc : 1.0;
+}
+
+// Long enough for the slowest closed-loop mode to settle (8 time constants: e^-8 = 3e-4) and
+// for 20/ω_c, at most 400/ω_c; the sample rate about 1000 samples per crossover period, on the
+// step grid.
+void ChooseTimeBase(const TuneRequest& request, const ClosedLoopPoles& poles, double dt,
+                    TuneResult* result) {
+  const double wc = kTwoPi * request.design.crossover_hz;
+  result->duration = request.duration > 0.0
+                         ? request.duration
+                         : std::clamp(8.0 * poles.slowest_time_constant, 20.0 / wc, 400.0 / wc);
+  const double target = 1000.0 * request.design.crossover_hz;
+  const double every = std::max(1.0, std::floor(1.0 / (dt * target)));
+  result->sample_rate = 1.0 / (every * dt);
+}
+
+LoopCheck CheckAt(const TuneInput& input, const TuneRequest& request, const TuneResult& result,
+                  const ParameterSet& values) {
+  LoopCheck check;
+  const TransferFunction plant = PlantAt(*input.config.model, values, result.plant_output);
+  const double fc = request.design.crossover_hz;
+  check.margins =
+      ComputeMargins(plant, result.design.controller, fc / kSearchDecades, fc * kSearchDecades);
+  check.poles = ComputeClosedLoopPoles(plant, result.design.controller);
+  const Experiment experiment =
+      StepExperiment(request.design.loop, result.design.controller, request.u_max, result.step,
+                     result.duration, result.sample_rate);
+  check.step = SimulateStep(input.config, values, experiment, result.plant_output);
+  return check;
+}
+
+// Refuses when the nominal step needs more than the drive gives: the voltage (found by the
+// same step with the limit lifted) or the current.
+void CheckLimits(const TuneInput& input, const TuneRequest& request, TuneResult* result) {
+  const StepFigures& step = result->nominal.step;
+  const std::string what = "a " + Text(result->step) + " " + Unit(request) + " step";
+  if (!step.simulated) {
+    result->refused = true;
+    result->refusal = "the simulated closed loop failed for " + what + ": " + step.failure;
+    return;
+  }
+  if (step.saturated) {
+    const Experiment unlimited =
+        StepExperiment(request.design.loop, result->design.controller, 1e12, result->step,
+                       result->duration, result->sample_rate);
+    const StepFigures demand =
+        SimulateStep(input.config, input.config.parameters, unlimited, result->plant_output);
+    result->demand_peak_u = demand.peak_u;
+    result->refused = true;
+    result->refusal = "the loop needs " + Text(demand.peak_u) + " V for " + what +
+                      ", beyond the drive's " + Text(request.u_max) +
+                      " V: at this crossover the largest step within the limit is " +
+                      Text(result->step * request.u_max / demand.peak_u) + " " + Unit(request) +
+                      " (ask for a lower crossover or a smaller --step)";
+    return;
+  }
+  if (request.i_max > 0.0 && step.peak_i > request.i_max) {
+    result->refused = true;
+    result->refusal = "the loop draws " + Text(step.peak_i) + " A for " + what +
+                      ", beyond the drive's " + Text(request.i_max) +
+                      " A: the largest step within the limit is about " +
+                      Text(result->step * request.i_max / step.peak_i) + " " + Unit(request) +
+                      " (ask for a lower crossover or a smaller --step)";
+  }
+}
+
+void Consider(WorstFigure* worst, double value, int corner, bool larger_is_worse) {
+  if (!std::isfinite(value) && !std::isinf(value)) return;
+  const bool worse =
+      std::isnan(worst->value) || (larger_is_worse ? value > worst->value : value < worst->value);
+  if (worse) *worst = {value, corner};
+}
+
+void AddToWorst(const LoopCheck& check, int corner, WorstCase* worst) {
+  const LoopMargins& m = check.margins;
+  if (m.ok) {
+    Consider(&worst->crossover_low_hz, m.crossover_hz, corner, false);
+    Consider(&worst->crossover_high_hz, m.crossover_hz, corner, true);
+    Consider(&worst->phase_margin_deg, m.phase_margin_deg, corner, false);
+    Consider(&worst->gain_margin_db, m.gain_margin_db, corner, false);
+  }
+  if (!check.poles.stable) ++worst->unstable;
+  const StepFigures& s = check.step;
+  if (s.simulated) {
+    if (s.saturated) ++worst->saturated;
+    if (!s.valid) ++worst->invalid;
+    Consider(&worst->rise_time_s, s.rise_time_s, corner, true);
+    Consider(&worst->overshoot_percent, s.overshoot_percent, corner, true);
+    Consider(&worst->settling_time_s, s.settling_time_s, corner, true);
+    if (std::isnan(worst->steady_state_error.value) ||
+        std::abs(s.steady_state_error) > std::abs(worst->steady_state_error.value)) {
+      worst->steady_state_error = {s.steady_state_error, corner};
+    }
+    Consider(&worst->peak_u, s.peak_u, corner, true);
+    Consider(&worst->peak_i, s.peak_i, corner, true);
+  }
+}
+
+void EvaluateBox(const TuneInput& input, const TuneRequest& request, TuneResult* result) {
+  const std::size_t k = input.box.size();
+  if (k > kMaxBoxParameters) {
+    throw InputError(std::to_string(k) + " parameters have 95 % intervals: the box's 2^" +
+                     std::to_string(k) + " corners are too many (at most " +
+                     std::to_string(kMaxBoxParameters) + " parameters)");
+  }
+  const std::size_t count = k == 0 ? 0 : std::size_t{1} << k;
+  result->corners.resize(count);
+  internal::ParallelFor(count, request.threads, [&](std::size_t corner) {
+    ParameterSet values = input.config.parameters;
+    std::vector<std::pair<std::string, double>> at;
+    for (std::size_t j = 0; j < k; ++j) {
+      const ParameterInterval& axis = input.box[j];
+      const double v = (corner >> j) & 1u ? axis.high : axis.low;
+      values.Set(axis.name, v);
+      at.emplace_back(axis.name, v);
+    }
+    result->corners[corner] = CheckAt(input, request, *result, values);
+    result->corners[corner].values = std::move(at);
+  });
+  AddToWorst(result->nominal, -1, &result->worst);
+  for (std::size_t c = 0; c < count; ++c)
+    AddToWorst(result->corners[c], static_cast<int>(c), &result->worst);
+}
+
+void Warn(TuneResult* result, const std::string& code, const std::string& message) {
+  result->warnings.emplace_back(code, message);
+}
+
+// What the box says: no intervals, clipped ones, unstable or saturating corners.
+void AddBoxWarnings(const TuneInput& input, TuneResult* result) {
+  auto warn = [&](const std::string& code, const std::string& message) {
+    Warn(result, code, message);
+  };
+  if (input.box.empty()) {
+    warn("no_intervals",
+         "no 95 % intervals (give --from-report with a blmd-ident report): the gains are "
+         "checked on the nominal model only");
+  }
+  for (const auto& axis : input.box) {
+    if (axis.clipped) {
+      warn("interval_clipped", "the 95 % interval of " + axis.name +
+                                   " reaches below its lower bound; the box starts at " +
+                                   Text(axis.low));
+    }
+  }
+  const WorstCase& w = result->worst;
+  const int corners = static_cast<int>(result->corners.size());
+  if (w.unstable > 0) {
+    warn("unstable_corner", std::to_string(w.unstable) + " of " + std::to_string(corners) +
+                                " corners of the 95 % box give an unstable closed loop");
+  }
+  if (w.saturated > 0) {
+    warn("saturated_corner", std::to_string(w.saturated) + " of " + std::to_string(corners) +
+                                 " corners of the 95 % box reach the voltage limit in the step");
+  }
+}
+
+// What the simulated step says: a coarse sampled controller, a shaft held short, no figures.
+void AddStepWarnings(const TuneInput& input, const TuneRequest& request, TuneResult* result) {
+  auto warn = [&](const std::string& code, const std::string& message) {
+    Warn(result, code, message);
+  };
+  // The simulated PID is sampled at the step dt and holds its output over it (a delay of about
+  // dt/2, left out of the margins: 180·f_c·dt degrees at the crossover), and its derivative
+  // filter is discretised by backward Euler: both matter once f_c or f_d nears 1/dt.
+  const double dt = input.config.simulation.dt;
+  const double hold_deg = 180.0 * request.design.crossover_hz * dt;
+  const double filter_steps = kTwoPi * result->design.controller.derivative_filter_hz * dt;
+  if (hold_deg > 1.0 || filter_steps > 0.1) {
+    warn("sampled_controller",
+         "the simulated PID runs at dt = " + Text(dt) + " s: its sample-and-hold costs " +
+             Text(hold_deg) + " deg at the crossover and its derivative filter (2 pi f_d dt = " +
+             Text(filter_steps) +
+             ") is discretised: the step may differ from the continuous loop's margins "
+             "(reduce simulation.dt)");
+  }
+  const StepFigures& nominal = result->nominal.step;
+  if (std::abs(nominal.steady_state_error) > 0.02 * result->step) {
+    warn("steady_state_error",
+         "the simulated step ends " + Text(nominal.steady_state_error) + " short of the " +
+             Text(result->step) + " reference (" +
+             Text(100.0 * nominal.steady_state_error / result->step) +
+             " %): an effect of the model (friction, a load) holds the shaft within the " +
+             Text(result->duration) + " s simulated");
+  }
+  if (result->worst.invalid > 0) {
+    warn("no_step_figures", std::to_string(result->worst.invalid) +
+                                " simulated steps (nominal and corners) never rose through 90 %: "
+                                "friction or a load holds the shaft short of the reference");
+  }
+}
+
+}  // namespace
+
+std::string TuneRequest::Validate() const {
+  if (std::string error = design.Validate(); !error.empty()) return error;
+  if (!(u_max > 0.0) || !std::isfinite(u_max)) return "the voltage limit u must be > 0";
+  if (!(i_max >= 0.0) || !std::isfinite(i_max)) return "the current limit i must be > 0";
+  if (!(step >= 0.0) || !std::isfinite(step)) return "the step must be > 0";
+  if (!(duration >= 0.0) || !std::isfinite(duration)) return "the duration must be > 0";
+  return "";
+}
+
+Experiment StepExperiment(PidSettings::Loop loop, const Controller& controller, double u_max,
+                          double step, double duration, double sample_rate) {
+  Experiment experiment;
+  experiment.input.kind = InputSignal::Kind::kStep;
+  experiment.input.amplitude = step;
+  experiment.duration = duration;
+  experiment.sample_rate = sample_rate;
+  experiment.closed_loop = true;
+  experiment.pid.loop = loop;
+  experiment.pid.Kp = controller.kp;
+  experiment.pid.Ki = controller.ki;
+  experiment.pid.Kd = controller.kd;
+  experiment.pid.tau_d = controller.derivative_filter_hz > 0.0
+                             ? 1.0 / (kTwoPi * controller.derivative_filter_hz)
+                             : 1e-3;
+  experiment.pid.u_max = u_max;
+  return experiment;
+}
+
+TuneResult Tune(const TuneInput& input, const TuneRequest& request) {
+  if (std::string error = request.Validate(); !error.empty()) throw InputError(error);
+  TuneResult result;
+  result.plant_output = IsSpeed(request) ? "w" : "theta";
+  const Config& config = input.config;
+  result.plant = PlantAt(*config.model, config.parameters, result.plant_output);
+  result.design = DesignController(result.plant, request.design);
+  if (!result.design.ok) {
+    result.refused = true;
+    result.refusal = result.design.reason;
+    return result;
+  }
+  const double fc = request.design.crossover_hz;
+  result.nominal.margins = ComputeMargins(result.plant, result.design.controller,
+                                          fc / kSearchDecades, fc * kSearchDecades);
+  result.nominal.poles = ComputeClosedLoopPoles(result.plant, result.design.controller);
+  if (!result.nominal.poles.stable) {
+    result.refused = true;
+    result.refusal = "the loop placed at " + Text(fc) + " Hz is unstable on the model (" +
+                     std::to_string(result.nominal.margins.gain_crossovers) +
+                     " gain crossovers): ask for another crossover or phase margin";
+    return result;
+  }
+  result.step = request.step > 0.0 ? request.step : DefaultStep(request, result.plant);
+  ChooseTimeBase(request, result.nominal.poles, config.simulation.dt, &result);
+  if (const std::string error = RunLengthError(result.duration, config.simulation.dt,
+                                               result.duration * result.sample_rate);
+      !error.empty()) {
+    throw InputError(error);
+  }
+  const Experiment experiment =
+      StepExperiment(request.design.loop, result.design.controller, request.u_max, result.step,
+                     result.duration, result.sample_rate);
+  result.nominal.step = SimulateStep(config, config.parameters, experiment, result.plant_output);
+  CheckLimits(input, request, &result);
+  if (result.refused) return result;
+  EvaluateBox(input, request, &result);
+  AddBoxWarnings(input, &result);
+  AddStepWarnings(input, request, &result);
+  return result;
+}
+
+}  // namespace blmd

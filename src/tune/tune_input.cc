@@ -1,0 +1,191 @@
+// LoadTuneInput: the config, and the final model and intervals of a blmd-ident report.
+#include <algorithm>
+#include <cmath>
+
+#include "blmd/error.h"
+#include "blmd/io/files.h"
+#include "blmd/sim/effects.h"
+#include "blmd/tune/tune.h"
+
+namespace blmd {
+namespace {
+
+using nlohmann::json;
+
+// The model must have the closed-loop experiment (the step is simulated through it) and a
+// linear part (the margins are computed on it).
+void CheckModel(const Config& config) {
+  if (!config.model->traits().coast_down_and_pid) {
+    throw InputError(config.path + ": model " + std::string(config.model->name()) +
+                     " has no closed-loop experiment (experiment.pid, dc_servo only): "
+                     "blmd-tune simulates the tuned loop through it (docs/tuning.md)");
+  }
+  const LinearModel linear = config.model->Linearise(config.parameters);
+  if (!linear.available) {
+    throw InputError(config.path + ": model " + std::string(config.model->name()) +
+                     " has no linear part at these values: " + linear.reason);
+  }
+}
+
+bool IsPair(const json& value) {
+  return value.is_array() && value.size() == 2 && value[0].is_number() && value[1].is_number();
+}
+
+// One axis of the box, its low end raised to the parameter's lower bound where the
+// interval reaches below it (a positive parameter's interval may reach 0 or below).
+ParameterInterval Interval(const Config& config, const std::string& name, double low, double high) {
+  ParameterInterval interval;
+  interval.name = name;
+  interval.value = config.parameters.Get(name);
+  interval.low = std::min(low, high);
+  interval.high = std::max(low, high);
+  const ParamInfo* info = config.FindParameterInfo(name);
+  const double lower = config.Bounds(name).first;
+  const bool must_be_positive = info && (info->positive || info->non_negative);
+  if (must_be_positive && interval.low < lower) {
+    interval.low = lower;
+    interval.clipped = true;
+  }
+  return interval;
+}
+
+// The report's final effects that the config lacks, added with the report's values; a
+// config effect the report's final model lacks means the report is of another config.
+void ApplyEffects(const JsonDocument& document, Config* config) {
+  const json& root = document.root();
+  if (!root.contains("effects") || !root["effects"].is_array()) {
+    document.Fail(root.contains("effects") ? "/effects" : "",
+                  "the report has no \"effects\" list (its final model's effects)");
+  }
+  std::vector<std::string> effects;
+  for (std::size_t k = 0; k < root["effects"].size(); ++k) {
+    const json& name = root["effects"][k];
+    if (!name.is_string()) document.Fail("/effects/" + std::to_string(k), "not an effect name");
+    effects.push_back(name.get<std::string>());
+  }
+  for (const auto& declared : config->effects) {
+    if (std::find(effects.begin(), effects.end(), declared) == effects.end()) {
+      document.Fail("/effects", "the report's final model lacks the effect '" + declared +
+                                    "' that " + config->path +
+                                    " declares: a report of another config");
+    }
+  }
+  const json& parameters = root["parameters"];
+  for (const auto& name : effects) {
+    if (std::find(config->effects.begin(), config->effects.end(), name) != config->effects.end())
+      continue;
+    ParameterSet values;
+    try {
+      for (const auto& p : FindEffect(name).parameters) {
+        const json& entry = parameters.contains(p.name) ? parameters[p.name] : json();
+        if (entry.is_object() && entry.contains("value") && entry["value"].is_number())
+          values.Set(p.name, entry["value"].get<double>());
+      }
+      config->AddEffect(name, values);
+    } catch (const InputError& error) {
+      document.Fail("/effects", error.what());
+    }
+  }
+}
+
+// The report's final values replace the config's; its free parameters' ci95 are the box.
+void ApplyReport(const std::string& path, TuneInput* input) {
+  const JsonDocument document =
+      JsonDocument::Load(path, 256u << 20, "identification report (a blmd-ident --report JSON)");
+  const json& root = document.root();
+  Config& config = input->config;
+  if (!root.is_object() || root.value("tool", std::string()) != "blmd-ident") {
+    document.Fail("", "not a blmd-ident report (no \"tool\": \"blmd-ident\")");
+  }
+  const std::string model(config.model->name());
+  if (!root.contains("model") || !root["model"].is_string() || root["model"] != model) {
+    document.Fail(root.contains("model") ? "/model" : "",
+                  "the report is of model " +
+                      (root.contains("model") ? root["model"].dump() : std::string("(none)")) +
+                      ", the config's model is " + model);
+  }
+  if (!root.contains("parameters") || !root["parameters"].is_object()) {
+    document.Fail("", "the report has no \"parameters\" object");
+  }
+  ApplyEffects(document, &config);
+  for (const auto& [name, entry] : root["parameters"].items()) {
+    const std::string pointer = "/parameters/" + name;
+    if (!entry.is_object() || !entry.contains("value") || !entry["value"].is_number()) {
+      document.Fail(pointer, "parameter '" + name + "' has no numeric \"value\"");
+    }
+    const ParamInfo* info = config.FindParameterInfo(name);
+    if (!info) {
+      document.Fail(pointer, "'" + name + "' is not a parameter of model " + model +
+                                 " or of the effects " + Join(config.effects));
+    }
+    const double value = entry["value"].get<double>();
+    if ((info->positive && !(value > 0.0)) || (info->non_negative && value < 0.0)) {
+      document.Fail(pointer + "/value",
+                    "parameter '" + name + "' must be " + (info->positive ? "> 0" : ">= 0"));
+    }
+    config.parameters.Set(name, value);
+  }
+  for (const auto& [name, entry] : root["parameters"].items()) {
+    const json& ci = entry.contains("ci95") ? entry["ci95"] : json();
+    if (entry.value("free", false) && IsPair(ci)) {
+      input->box.push_back(Interval(config, name, ci[0].get<double>(), ci[1].get<double>()));
+    }
+  }
+  input->box_source = input->box.empty() ? "" : "report";
+  input->report_path = path;
+  input->report_sha256 = Sha256Hex(ReadFileText(path, 256u << 20, "identification report"));
+}
+
+// The intervals blmd-ident --write-config records in a config's notes (docs/export.md §1).
+void ApplyConfigNotes(TuneInput* input) {
+  const json& notes = input->config.notes;
+  if (!notes.is_object() || !notes.contains("parameters") || !notes["parameters"].is_object())
+    return;
+  const json& by = notes.contains("identified_by") ? notes["identified_by"] : json();
+  if (!by.is_string() || by.get<std::string>().rfind("blmd-ident", 0) != 0) return;
+  for (const auto& [name, entry] : notes["parameters"].items()) {
+    if (!entry.is_object() || !entry.contains("ci95") || !IsPair(entry["ci95"])) continue;
+    if (!input->config.parameters.Has(name)) continue;
+    const json& ci = entry["ci95"];
+    input->box.push_back(Interval(input->config, name, ci[0].get<double>(), ci[1].get<double>()));
+  }
+  if (!input->box.empty()) input->box_source = "config notes";
+}
+
+// A blmd-ident report given as the config: say which flag takes it.
+[[noreturn]] void RethrowForReport(const std::string& config_path, const InputError& error) {
+  try {
+    const JsonDocument document = JsonDocument::Load(config_path, kMaxConfigBytes, "config");
+    if (document.root().is_object() && document.root().value("tool", "") == "blmd-ident") {
+      throw InputError(config_path +
+                       ": a blmd-ident report, not a config: give it with --from-report and "
+                       "the drive's config with --config");
+    }
+  } catch (const InputError& second) {
+    if (std::string(second.what()).find("a blmd-ident report, not a config") != std::string::npos)
+      throw;
+  }
+  throw error;
+}
+
+}  // namespace
+
+TuneInput LoadTuneInput(const std::string& config_path, const std::string& report_path) {
+  TuneInput input;
+  try {
+    input.config = LoadConfig(config_path);
+  } catch (const InputError& error) {
+    RethrowForReport(config_path, error);
+  }
+  input.config_sha256 = Sha256Hex(ReadFileText(config_path, kMaxConfigBytes, "config"));
+  if (!input.config.model->traits().coast_down_and_pid) CheckModel(input.config);
+  if (report_path.empty()) {
+    ApplyConfigNotes(&input);
+  } else {
+    ApplyReport(report_path, &input);
+  }
+  CheckModel(input.config);
+  return input;
+}
+
+}  // namespace blmd
