@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -80,11 +81,13 @@ DesignProblem GaneshProblem() {
   return problem;
 }
 
-DesignOptions Options() {
+// 2 s at |u| <= 12 V (the config's own run), with more limits when given.
+DesignOptions Options(const std::map<std::string, double>& output_limits = {}) {
   DesignOptions options;
   options.duration = 2.0;
   options.sample_rate = 2000.0;
   options.input_limit = 12.0;
+  options.output_limits = output_limits;
   return options;
 }
 
@@ -101,38 +104,73 @@ void Report(const char* what, const PrecisionPrediction& predicted, const Spread
   }
 }
 
-TEST(DesignStudy, PredictionsMatchTheSpreadAndTheDesignNarrowsJ) {
+struct Comparison {
+  double predicted_narrowing_j = 0.0;  // default's predicted J half-width / the design's
+  double measured_narrowing_j = 0.0;   // the same from the 50-run spreads
+};
+
+// The config's square wave (its amplitude lowered, as blmd-design does, to keep within the
+// limits) and the design (D-optimal, or A-optimal with a target), each predicted and measured over `runs` experiments; the
+// predictions of J and B within 25 % of the measured spread.
+Comparison CompareWithDefault(const DesignOptions& options) {
   const DesignProblem problem = GaneshProblem();
   const int runs = Runs();
-  // The default: the config's own square wave.
   DesignCandidate square;
-  square.family = "square";
+  square.family = "config";
   square.input = problem.config.experiment.input;
-  square = EvaluateCandidate(problem, Options(), square);
-  ASSERT_TRUE(square.feasible) << square.rejected;
+  square = EvaluateCandidate(problem, options, square);
+  EXPECT_TRUE(square.feasible) << square.rejected;
+  const DesignResult design = SearchDesign(problem, options);
+  EXPECT_TRUE(design.ok) << design.reason;
+  if (!square.feasible || !design.ok) return {};
+  std::printf("default: square, amplitude %.4g V, period %.4g s\n", square.input.amplitude,
+              square.input.period);
+  std::printf("design: %s, amplitude %.4g V (period %.4g s, dwell %.4g s, levels %d, clock %.4g "
+              "s, f %.4g-%.4g Hz), best of %ld\n",
+              design.best.family.c_str(), design.best.input.amplitude, design.best.input.period,
+              design.best.dwell, design.best.levels, design.best.input.clock,
+              design.best.input.f0, design.best.input.f1, design.evaluated);
   const Spread square_spread = MeasureSpread(problem, square.input, runs);
-  Report("square", square.prediction, square_spread, runs);
-
-  const DesignResult design = SearchDesign(problem, Options());
-  ASSERT_TRUE(design.ok) << design.reason;
-  std::printf("design: %s, %ld candidates, criterion %.4g (square %.4g)\n",
-              design.best.family.c_str(), design.evaluated, design.best.criterion,
-              square.criterion);
+  Report("default", square.prediction, square_spread, runs);
   const Spread design_spread = MeasureSpread(problem, design.best.input, runs);
   Report("design", design.best.prediction, design_spread, runs);
-
   EXPECT_EQ(square_spread.converged, runs);
   EXPECT_EQ(design_spread.converged, runs);
   for (int k = 0; k < 2; ++k) {
     const auto j = static_cast<std::size_t>(k);
     EXPECT_NEAR(square.prediction.ci95_halfwidth[j] / square_spread.ci95_halfwidth[k], 1.0, 0.25)
-        << (k ? "B" : "J") << " square";
+        << (k ? "B" : "J") << " default";
     EXPECT_NEAR(design.best.prediction.ci95_halfwidth[j] / design_spread.ci95_halfwidth[k], 1.0,
                 0.25)
         << (k ? "B" : "J") << " design";
   }
-  // The designed experiment narrows J at least twice, by the measured spread.
-  EXPECT_GE(square_spread.ci95_halfwidth[0] / design_spread.ci95_halfwidth[0], 2.0);
+  Comparison out;
+  out.predicted_narrowing_j =
+      square.prediction.ci95_halfwidth[0] / design.best.prediction.ci95_halfwidth[0];
+  out.measured_narrowing_j = square_spread.ci95_halfwidth[0] / design_spread.ci95_halfwidth[0];
+  std::printf("J narrowed %.3fx predicted, %.3fx measured\n", out.predicted_narrowing_j,
+              out.measured_narrowing_j);
+  return out;
+}
+
+// The config's own run: 2 s at |u| <= 12 V, the A-optimal design for J. The config's 1 s square
+// wave is close to the best any family reaches here (docs/design.md §4): the design narrows J
+// by about 1.1x, and the prediction's narrowing agrees with the measured one.
+TEST(DesignStudy, ConfigRunPredictionsMatchTheSpread) {
+  DesignOptions options = Options();
+  options.target = {"J"};
+  const Comparison c = CompareWithDefault(options);
+  EXPECT_GE(c.predicted_narrowing_j, 1.0);
+  EXPECT_NEAR(c.measured_narrowing_j / c.predicted_narrowing_j, 1.0, 0.25);
+}
+
+// A limited travel, |theta| <= 20 rad (about three turns) in the same 2 s at |u| <= 12 V: the
+// square wave must lower its amplitude to 2.3 V to stay within it; the design narrows J at
+// least twice, by the measured spread.
+TEST(DesignStudy, LimitedTravelDesignNarrowsJTwice) {
+  const Comparison c = CompareWithDefault(Options({{"theta", 20.0}}));
+  EXPECT_GE(c.predicted_narrowing_j, 2.0);
+  EXPECT_GE(c.measured_narrowing_j, 2.0);
 }
 
 }  // namespace

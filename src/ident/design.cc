@@ -77,19 +77,20 @@ DesignCandidate Square(double amplitude, double period) {
   return c;
 }
 
-// Levels +a/n, +2a/n, ..., +a, -a/n, ..., -a, each held `dwell` seconds, repeated.
+// A staircase triangle: levels a·s/n with s = 1, 2, ..., n, n-1, ..., 0, -1, ..., -n, ..., 0,
+// 1, ... (steps of a/n, period 4n dwells), each held `dwell` seconds; n = 1 is +a, 0, -a, 0.
 DesignCandidate Steps(double amplitude, double dwell, int levels, double duration) {
   DesignCandidate c;
   c.family = "steps";
   c.dwell = dwell;
   c.levels = levels;
   c.input.kind = InputSignal::Kind::kSteps;
+  const long period = 4L * levels;
   for (long k = 0; static_cast<double>(k) * dwell < duration - 1e-12; ++k) {
-    const long step = k % (2L * levels);
-    const double sign = step < levels ? 1.0 : -1.0;
-    const double level = static_cast<double>(step % levels + 1) / levels;
+    const long phase = (k + 1) % period;
+    const long s = phase <= levels ? phase : (phase <= 3 * levels ? 2 * levels - phase : phase - period);
     c.input.times.push_back(static_cast<double>(k) * dwell);
-    c.input.values.push_back(sign * level * amplitude);
+    c.input.values.push_back(amplitude * static_cast<double>(s) / levels);
   }
   c.input.amplitude = amplitude;
   return c;
@@ -147,7 +148,7 @@ std::vector<DesignCandidate> CoarseGrid(const DesignOptions& o, const std::strin
   if (family == "square") {
     for (double p : LogGrid(4 * ts, 2 * d, kSquarePoints)) out.push_back(Square(a, Quantise(p, 2 * ts, 2)));
   } else if (family == "steps") {
-    for (int levels = 2; levels <= 4; ++levels) {
+    for (int levels : {1, 2, 3, 4, 6, 8}) {
       for (double w : LogGrid(2 * ts, d / 2, kStepsPoints))
         out.push_back(Steps(a, Quantise(w, ts, 1), levels, d));
     }
@@ -408,6 +409,14 @@ DesignCandidate EvaluateCandidate(const DesignProblem& problem, const DesignOpti
     }
     double factor = 1.0;
     std::string over;
+    if (options.input_limit > 0.0) {
+      double peak = 0.0;
+      for (double v : response.Column("u")) peak = std::max(peak, std::abs(v));
+      if (peak > options.input_limit * (1.0 + 1e-12)) {
+        factor = options.input_limit / peak;
+        over = "u";
+      }
+    }
     for (const auto& [column, limit] : options.output_limits) {
       double peak = 0.0;
       for (double v : response.Column(column)) peak = std::max(peak, std::abs(v));

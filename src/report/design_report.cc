@@ -300,18 +300,17 @@ DesignReport RunDesign(const DesignRequest& request) {
     report.evaluated = result.evaluated;
     report.rejected = result.rejected;
   }
-  // The config's own input over the same span and samples, as configured (no amplitude change).
+  // The config's own input over the same span and samples: searching, with its amplitude
+  // lowered as a candidate's to keep within the limits; with --trace, as configured.
   if (auto reference = ReferenceCandidate(request.problem.config); reference && report.ok) {
-    const std::vector<double> times =
-        request.evaluate_trace ? request.trace.Column("t") : [&] {
-          Experiment e;
-          e.duration = request.options.duration;
-          e.sample_rate = request.options.sample_rate;
-          return e.SampleTimes();
-        }();
-    Trace response;
-    DesignCandidate evaluated =
-        PredictOn(problem, *reference, times, request.options.target, &response);
+    DesignCandidate evaluated;
+    if (request.evaluate_trace) {
+      Trace response;
+      evaluated = PredictOn(problem, *reference, request.trace.Column("t"),
+                            request.options.target, &response);
+    } else {
+      evaluated = EvaluateCandidate(problem, request.options, *reference);
+    }
     if (evaluated.feasible) {
       report.reference_within_limits = WithinLimits(request.options, evaluated.prediction);
       report.reference = evaluated;
