@@ -56,10 +56,25 @@ std::vector<double> LogGrid(double lo, double hi, int n) {
   return grid;
 }
 
-// `value` as a whole number (at least `least`) of `quantum`s.
-double Quantise(double value, double quantum, double least) {
-  return quantum * std::max(least, std::round(value / quantum));
+// `value` as a whole number n >= `least` of quanta of `samples` sample intervals, written
+// (n·samples)/fs so that the time prints as it reads (0.1075, not 0.10750000000000001).
+double Quantise(double value, int samples, double fs, double least) {
+  const double n = std::max(least, std::round(value * fs / samples));
+  return n * samples / fs;
 }
+
+// `value` rounded to three significant digits by `round` (std::floor or std::round), the
+// result the double nearest to the decimal (10.6, not 10.600000000000001).
+double Round3(double value, double (*round)(double)) {
+  if (!(value > 0.0)) return value;
+  const int exponent = static_cast<int>(std::floor(std::log10(value))) - 2;
+  const double scale = std::pow(10.0, std::abs(exponent));  // exact for |exponent| <= 22
+  return exponent < 0 ? round(value * scale * (1.0 + 1e-12)) / scale
+                      : round(value / scale * (1.0 + 1e-12)) * scale;
+}
+// A frequency to three digits (0.907 Hz); a lowered amplitude down to three digits (11.5 V).
+double RoundNearest3(double value) { return Round3(value, std::round); }
+double RoundDown3(double value) { return Round3(value, std::floor); }
 
 // The order of the shortest maximum-length register whose period covers the run.
 int PrbsOrderCovering(double clock, double duration) {
@@ -79,7 +94,7 @@ DesignCandidate Square(double amplitude, double period) {
 
 // A staircase triangle: levels a·s/n with s = 1, 2, ..., n, n-1, ..., 0, -1, ..., -n, ..., 0,
 // 1, ... (steps of a/n, period 4n dwells), each held `dwell` seconds; n = 1 is +a, 0, -a, 0.
-DesignCandidate Steps(double amplitude, double dwell, int levels, double duration) {
+DesignCandidate Steps(double amplitude, double dwell, int levels, double duration, double fs) {
   DesignCandidate c;
   c.family = "steps";
   c.dwell = dwell;
@@ -89,7 +104,7 @@ DesignCandidate Steps(double amplitude, double dwell, int levels, double duratio
   for (long k = 0; static_cast<double>(k) * dwell < duration - 1e-12; ++k) {
     const long phase = (k + 1) % period;
     const long s = phase <= levels ? phase : (phase <= 3 * levels ? 2 * levels - phase : phase - period);
-    c.input.times.push_back(static_cast<double>(k) * dwell);
+    c.input.times.push_back(std::round(static_cast<double>(k) * dwell * fs) / fs);
     c.input.values.push_back(amplitude * static_cast<double>(s) / levels);
   }
   c.input.amplitude = amplitude;
@@ -113,16 +128,23 @@ DesignCandidate Chirp(double amplitude, double f0, double f1, InputSignal::Chirp
   c.family = "chirp";
   c.input.kind = InputSignal::Kind::kChirp;
   c.input.amplitude = amplitude;
-  c.input.f0 = f0;
-  c.input.f1 = f1;
+  c.input.f0 = RoundNearest3(f0);
+  c.input.f1 = RoundNearest3(f1);
   c.input.shape = shape;
   c.input.sweep = duration;
   return c;
 }
 
-void ScaleAmplitude(DesignCandidate* c, double factor) {
-  c->input.amplitude *= factor;
-  for (double& v : c->input.values) v *= factor;
+// Lowers the amplitude by `factor` (rounded down to three digits), the steps' levels with it.
+void ScaleAmplitude(DesignCandidate* c, double factor, const DesignOptions& o) {
+  const double amplitude = RoundDown3(c->input.amplitude * factor);
+  if (c->family == "steps") {  // the levels anew, as exact as the amplitude
+    *c = Steps(amplitude, c->dwell, c->levels, o.duration, o.sample_rate);
+    return;
+  }
+  const double applied = c->input.amplitude > 0.0 ? amplitude / c->input.amplitude : factor;
+  c->input.amplitude = amplitude;
+  for (double& v : c->input.values) v *= applied;
 }
 
 // A key that tells candidates apart (the same settings are evaluated once).
@@ -146,15 +168,15 @@ std::vector<DesignCandidate> CoarseGrid(const DesignOptions& o, const std::strin
   const double ts = 1.0 / o.sample_rate, d = o.duration, a = o.input_limit;
   std::vector<DesignCandidate> out;
   if (family == "square") {
-    for (double p : LogGrid(4 * ts, 2 * d, kSquarePoints)) out.push_back(Square(a, Quantise(p, 2 * ts, 2)));
+    for (double p : LogGrid(4 * ts, 2 * d, kSquarePoints)) out.push_back(Square(a, Quantise(p, 2, o.sample_rate, 2)));
   } else if (family == "steps") {
     for (int levels : {1, 2, 3, 4, 6, 8}) {
       for (double w : LogGrid(2 * ts, d / 2, kStepsPoints))
-        out.push_back(Steps(a, Quantise(w, ts, 1), levels, d));
+        out.push_back(Steps(a, Quantise(w, 1, o.sample_rate, 1), levels, d, o.sample_rate));
     }
   } else if (family == "prbs") {
     for (double c : LogGrid(ts, d / 4, kPrbsPoints)) {
-      const double clock = Quantise(c, ts, 1);
+      const double clock = Quantise(c, 1, o.sample_rate, 1);
       const int order = PrbsOrderCovering(clock, d);
       out.push_back(Prbs(a, clock, order));
       if (order > 2) out.push_back(Prbs(a, clock, order - 1));
@@ -184,12 +206,14 @@ std::vector<DesignCandidate> Neighbours(const DesignOptions& o, const DesignCand
   for (double k : {-2.0, -1.0, 1.0, 2.0}) {
     const double e = k / (3.0 * shrink);
     if (best.family == "square") {
-      out.push_back(Square(a, Quantise(best.input.period * std::pow(ratio_square, e), 2 * ts, 2)));
+      out.push_back(Square(a, Quantise(best.input.period * std::pow(ratio_square, e), 2, o.sample_rate, 2)));
     } else if (best.family == "steps") {
       out.push_back(
-          Steps(a, Quantise(best.dwell * std::pow(ratio_steps, e), ts, 1), best.levels, d));
+          Steps(a, Quantise(best.dwell * std::pow(ratio_steps, e), 1, o.sample_rate, 1),
+                            best.levels, d, o.sample_rate));
     } else if (best.family == "prbs") {
-      const double clock = Quantise(best.input.clock * std::pow(ratio_prbs, e), ts, 1);
+      const double clock =
+          Quantise(best.input.clock * std::pow(ratio_prbs, e), 1, o.sample_rate, 1);
       const int covering = PrbsOrderCovering(clock, d);
       out.push_back(Prbs(a, clock, covering));
       if (covering > 2) out.push_back(Prbs(a, clock, covering - 1));
@@ -430,7 +454,7 @@ DesignCandidate EvaluateCandidate(const DesignProblem& problem, const DesignOpti
       candidate.rejected = "the response exceeds the limit on " + over;
       return candidate;
     }
-    ScaleAmplitude(&candidate, factor * 0.999);  // the response is about linear in u
+    ScaleAmplitude(&candidate, factor, options);  // the response is about linear in u
   }
   candidate.prediction = PredictPrecision(problem, response);
   if (!candidate.prediction.ok) {

@@ -489,7 +489,9 @@ std::string Describe(const DesignCandidate& c) {
   text += ", amplitude " + Sig(c.input.amplitude);
   if (s.contains("period_s")) text += ", period " + Sig(s["period_s"]) + " s";
   if (s.contains("dwell_s")) {
-    text += ", " + std::to_string(c.levels) + " levels each way, " + Sig(s["dwell_s"]) + " s each";
+    text += c.levels == 1 ? std::string(" (+a, 0, -a, 0)")
+                          : ", a staircase of " + std::to_string(c.levels) + " levels each way";
+    text += ", " + Sig(s["dwell_s"]) + " s per level";
   }
   if (s.contains("clock_s")) {
     text += ", clock " + Sig(s["clock_s"]) + " s, order " + std::to_string(c.input.order);
