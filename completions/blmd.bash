@@ -1,5 +1,5 @@
-# Bash completion for blmd-ident, blmd-sim and blmd-surface (docs/cli.md, "Completion").
-# One file for the three commands; `cmake --install` puts a copy under each command's name
+# Bash completion for blmd-ident, blmd-sim, blmd-surface and blmd-design (docs/cli.md,
+# "Completion"). One file for the commands; `cmake --install` puts a copy under each command's name
 # in share/bash-completion/completions, where bash-completion loads it on first use. Without
 # an install: source completions/blmd.bash. Needs bash only (not the bash-completion
 # package's helpers).
@@ -22,6 +22,7 @@ _blmd_columns="i ib ic theta u w"
 _blmd_ident_flags="--baseline --bic-margin --candidates --column --config --decimate --delimiter --derive --discover --duplicate-time --error --export-matlab --fail-above-nrmse --fail-on-warning --filter-hz --free --help --html --initial --initial-state --json --max-effects --max-evaluations --method --no-progress --observe --option --progress --quiet --report --scale --seed --select --split --threads --trace --validate --verbose --version --write-config"
 _blmd_sim_flags="--config --delimiter --duplicate-time --effect --help --init-config --input --noise --out --quiet --seed --version"
 _blmd_surface_flags="--column --config --decimate --delimiter --derive --duplicate-time --error --filter-hz --force --grid --help --initial-state --json --observe --out --quiet --scale --select --shard --split --svg --threads --trace --version"
+_blmd_design_flags="--config --delimiter --duplicate-time --duration --family --help --json --limit --noise --quiet --report --target --threads --trace --version --write-config --write-input"
 _blmd_surface_merge_flags="--help --out"
 _blmd_surface_plot_flags="--help --quiet --svg --title"
 
@@ -86,6 +87,7 @@ _blmd_complete() {
   case $command in
     ident) flags=$_blmd_ident_flags ;;
     sim) flags=$_blmd_sim_flags ;;
+    design) flags=$_blmd_design_flags ;;
     surface)
       flags=$_blmd_surface_flags
       for ((k = 1; k < COMP_CWORD; ++k)); do
@@ -105,19 +107,20 @@ _blmd_complete() {
   case $prev in
     --config | --report | --baseline | --write-config) _blmd_files "$cur" '*.json' ;;
     --export-matlab) _blmd_files "$cur" '*.m' ;;
-    --trace | --validate | --input | --out | --html | --svg) _blmd_files "$cur" ;;
+    --trace | --validate | --input | --out | --html | --svg | --write-input) _blmd_files "$cur" ;;
     --method) _blmd_words "$_blmd_methods" "$cur" ;;
     --init-config) _blmd_words "$_blmd_models" "$cur" ;;
     --candidates) _blmd_list "$_blmd_effects" "$cur" ;;
     --observe) _blmd_list "$_blmd_columns" "$cur" ;;
     --effect) _blmd_prefixes "$_blmd_effects" "$cur" ":" ;;
-    --noise) _blmd_prefixes "$_blmd_columns" "$cur" "=" ;;
+    --noise | --limit) _blmd_prefixes "$_blmd_columns" "$cur" "=" ;;
+    --family) _blmd_words "all chirp prbs square steps" "$cur" ;;
     --derive) _blmd_words "w=theta" "$cur" ;;
     --error) _blmd_words "output equation" "$cur" ;;
     --initial-state) _blmd_words "config trace" "$cur" ;;
     --delimiter) _blmd_words ", ; tab" "$cur" ;;
     --duplicate-time) _blmd_words "error first mean" "$cur" ;;
-    --bic-margin | --column | --decimate | --fail-above-nrmse | --filter-hz | --free | \
+    --bic-margin | --column | --decimate | --duration | --target | --fail-above-nrmse | --filter-hz | --free | \
       --grid | --initial | --max-effects | --max-evaluations | --option | --scale | --seed | \
       --select | --shard | --split | --threads | --title)
       COMPREPLY=() # a value of the user's own
@@ -140,7 +143,9 @@ _blmd_complete() {
 _blmd_ident() { _blmd_complete ident; }
 _blmd_sim() { _blmd_complete sim; }
 _blmd_surface() { _blmd_complete surface; }
+_blmd_design() { _blmd_complete design; }
 
 complete -F _blmd_ident blmd-ident
 complete -F _blmd_sim blmd-sim
 complete -F _blmd_surface blmd-surface
+complete -F _blmd_design blmd-design

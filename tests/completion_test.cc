@@ -1,4 +1,4 @@
-// Bash completion of the three commands (completions/blmd.bash, docs/cli.md "Completion"):
+// Bash completion of the commands (completions/blmd.bash, docs/cli.md "Completion"):
 //  - its lists are the commands' own: the flags of each command's --help (and of blmd-surface
 //    merge and plot), the model, effect and optimiser registries, the models' output columns;
 //  - real bash, given COMP_WORDS and COMP_CWORD as readline sets them, offers exactly the
@@ -70,6 +70,7 @@ TEST(Completion, ListsAreTheCommandsOwn) {
        {std::pair<std::string, std::string>{"_blmd_ident_flags", "blmd-ident --help"},
         {"_blmd_sim_flags", "blmd-sim --help"},
         {"_blmd_surface_flags", "blmd-surface --help"},
+        {"_blmd_design_flags", "blmd-design --help"},
         {"_blmd_surface_merge_flags", "blmd-surface merge --help"},
         {"_blmd_surface_plot_flags", "blmd-surface plot --help"}}) {
     SCOPED_TRACE(arguments);
@@ -178,6 +179,13 @@ TEST(Completion, RealBashOffersExactlyTheseCandidates) {
       {{"blmd-surface", "merge", ""}, {"b.csv", "sub"}},
       {{"blmd-surface", "merge", "b.csv", "--"}, {"--help", "--out"}},
       {{"blmd-surface", "plot", "b.csv", "--"}, {"--help", "--quiet", "--svg", "--title"}},
+      // blmd-design: its flags, families, limits, files.
+      {{"blmd-design", "--fa"}, {"--family"}},
+      {{"blmd-design", "--family", ""}, {"all", "chirp", "prbs", "square", "steps"}},
+      {{"blmd-design", "--limit", "t"}, {"theta="}},
+      {{"blmd-design", "--write-input", "b"}, {"b.csv"}},
+      {{"blmd-design", "--write-config", ""}, {"a.json", "sub"}},
+      {{"blmd-design", "--duration", ""}, {}},
   };
   for (const auto& [words, expected] : cases) {
     std::string line;
