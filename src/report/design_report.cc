@@ -146,6 +146,7 @@ DesignRequest MakeDesignRequest(const Config& config, const std::string& config_
                                 const DesignSettings& s) {
   DesignRequest request;
   request.config_path = config_path;
+  request.config_sha256 = Sha256Hex(ReadFileText(config_path, kMaxConfigBytes, "config"));
   request.problem = MakeDesignProblem(config);
   request.options.threads = s.threads;
   request.options.sample_rate = config.experiment.sample_rate;
@@ -268,6 +269,7 @@ DesignCandidate EvaluateRecorded(const DesignRequest& request, DesignProblem* pr
 DesignReport RunDesign(const DesignRequest& request) {
   DesignReport report;
   report.config_path = request.config_path;
+  report.config_sha256 = request.config_sha256;
   report.model = std::string(request.problem.config.model->name());
   report.evaluate_trace = request.evaluate_trace;
   report.trace_path = request.trace_path;
@@ -359,20 +361,27 @@ nlohmann::json InputJson(const InputSignal& input) {
 
 namespace {
 
-// The settings a family searched, by name (the report's design.settings).
+// The settings of an input, by name (the report's design.settings): its amplitude (the largest
+// |u - offset| of a table) and what its family searches.
 json Settings(const DesignCandidate& c) {
-  json s = {{"amplitude", c.input.amplitude}};
-  if (c.family == "square" || (c.family == "config" && c.input.kind == InputSignal::Kind::kSquare)) {
+  using Kind = InputSignal::Kind;
+  double amplitude = c.input.amplitude;
+  if (c.input.kind == Kind::kSteps || c.input.kind == Kind::kRecorded) {
+    amplitude = 0.0;
+    for (double v : c.input.values) amplitude = std::max(amplitude, std::abs(v));
+  }
+  json s = {{"amplitude", amplitude}};
+  if (c.input.kind == Kind::kSquare) {
     s["period_s"] = c.input.period;
   } else if (c.family == "steps") {
     s["dwell_s"] = c.dwell;
     s["levels_per_direction"] = c.levels;
-  } else if (c.input.kind == InputSignal::Kind::kPrbs) {
+  } else if (c.input.kind == Kind::kPrbs) {
     s["clock_s"] = c.input.clock;
     s["order"] = c.input.order;
     s["seed"] = c.input.seed;
     s["sequence_period_s"] = (std::exp2(c.input.order) - 1.0) * c.input.clock;
-  } else if (c.input.kind == InputSignal::Kind::kChirp) {
+  } else if (c.input.kind == Kind::kChirp) {
     s["f0_hz"] = c.input.f0;
     s["f1_hz"] = c.input.f1;
     s["shape"] = c.input.shape == InputSignal::ChirpShape::kLog ? "log" : "linear";
@@ -433,7 +442,7 @@ nlohmann::json DesignReportJson(const DesignReport& report) {
   for (const auto& [column, value] : report.options.output_limits) limits[column] = value;
   json out = {{"tool", "blmd-design"},
               {"version", kVersion},
-              {"config", report.config_path},
+              {"config", {{"path", report.config_path}, {"sha256", report.config_sha256}}},
               {"model", report.model},
               {"mode", report.evaluate_trace ? "trace" : "search"},
               {"criterion", report.criterion},

@@ -30,7 +30,7 @@ struct DesignSettings {
 };
 
 struct DesignRequest {
-  std::string config_path;
+  std::string config_path, config_sha256;
   DesignProblem problem;                  // sigma filled
   std::vector<std::string> noise_source;  // per observed column: "flag", "flag_percent", "trace"
   DesignOptions options;
@@ -48,7 +48,7 @@ DesignRequest MakeDesignRequest(const Config& config, const std::string& config_
 struct DesignReport {
   bool ok = false;
   std::string reason;  // why no design (exit 1)
-  std::string config_path, model;
+  std::string config_path, config_sha256, model;
   bool evaluate_trace = false;
   std::string trace_path, trace_sha256;
   std::string criterion;  // "D-optimal" or "A-optimal"
