@@ -1,4 +1,4 @@
-// blmd-design end to end (docs/cli.md §4, docs/design.md): the search writes a report, a config
+// blmd-design end to end (docs/cli.md §5, docs/design.md): the search writes a report, a config
 // blmd-sim runs with exactly the written input table, and the input table; --trace evaluates a
 // recording (its noise from the residual, against the sigma its file records) and agrees with
 // the search's evaluation of the same input; no design is exit 1 with the report; bad input is
@@ -16,7 +16,9 @@
 namespace blmd::testing {
 namespace {
 
-std::string Design() { return BinPath("blmd-design") + " --config " + SourcePath("configs/ganesh-square.json"); }
+std::string Design() {
+  return BinPath("blmd-design") + " --config " + SourcePath("configs/ganesh-square.json");
+}
 
 TEST(DesignCli, SearchWritesReportConfigAndInputThatBlmdSimPlays) {
   TempDir dir;
@@ -59,9 +61,8 @@ TEST(DesignCli, SearchWritesReportConfigAndInputThatBlmdSimPlays) {
   EXPECT_EQ(simulated.Column("t"), table.Column("t"));
 
   // --trace of the played table, with the same noise: the same prediction.
-  const CommandResult again =
-      testing::Run(Design() + " --trace " + dir.File("sim.csv") +
-                   " --noise i=0.014 --noise w=2.5 --json");
+  const CommandResult again = testing::Run(Design() + " --trace " + dir.File("sim.csv") +
+                                           " --noise i=0.014 --noise w=2.5 --json");
   ASSERT_EQ(again.exit_code, 0) << again.err;
   const nlohmann::json t = nlohmann::json::parse(again.out);
   EXPECT_EQ(t["mode"], "trace");
@@ -101,8 +102,7 @@ TEST(DesignCli, TraceNoiseFromTheResidualAndThePredictionOfItsInput) {
 TEST(DesignCli, NoDesignIsExitOneWithTheReport) {
   TempDir dir;
   // Six free parameters from w alone: the transfer function shows four coefficients.
-  const std::string config = dir.Write(
-      "six.json", R"({"model": "dc_servo",
+  const std::string config = dir.Write("six.json", R"({"model": "dc_servo",
         "parameters": {"R": 12.6, "L": 0.283, "Kt": 0.04, "Kb": 0.04, "J": 2.26e-5, "B": 2.261e-5},
         "experiment": {"input": {"type": "square", "amplitude": 12, "period": 1}, "duration": 2, "sample_rate": 2000},
         "identification": {"free": ["R", "L", "Kt", "Kb", "J", "B"], "observe": ["w"]}})");
@@ -140,7 +140,8 @@ TEST(DesignCli, BadInputIsExitTwoWithOneLineAndNothingWritten) {
       {"--duration 2 --limit u=12 --noise i=0.01 --noise w=2 --family sine", "--family"},
       {"--duration 2 --limit u=12 --noise i=0.01 --noise w=2 --target R",
        "--target R: not a free parameter (free: J, B)"},
-      {"--duration 1e9 --limit u=12 --noise i=0.01 --noise w=2", "--duration 1e+09: a run of 1e+09 s"},
+      {"--duration 1e9 --limit u=12 --noise i=0.01 --noise w=2",
+       "--duration 1e+09: a run of 1e+09 s"},
       {"--trace " + trace + " --duration 2", "--duration: not with --trace"},
       {"--trace " + trace + " --write-input OUT", "--write-input: not with --trace"},
       {"--trace /nonexistent.csv", "/nonexistent.csv: cannot read"},
@@ -164,9 +165,9 @@ TEST(DesignCli, BadInputIsExitTwoWithOneLineAndNothingWritten) {
 }
 
 TEST(DesignCli, EquationErrorConfigIsRefused) {
-  const CommandResult run =
-      testing::Run(BinPath("blmd-design") + " --config " + SourcePath("tests/schema/rigid-fit.json") +
-                   " --duration 2 --limit u=1 --noise u=0.01");
+  const CommandResult run = testing::Run(BinPath("blmd-design") + " --config " +
+                                         SourcePath("tests/schema/rigid-fit.json") +
+                                         " --duration 2 --limit u=1 --noise u=0.01");
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_NE(run.err.find("the equation error"), std::string::npos) << run.err;
 }

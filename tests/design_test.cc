@@ -4,6 +4,8 @@
 // the cost's covariance is the Cramér–Rao bound; the half-width's log-scale form), the
 // limits, the families' shapes and the refusals. The calibration against simulated
 // experiments is tests/design_study_test.cc.
+#include "blmd/ident/design.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -11,7 +13,6 @@
 #include <vector>
 
 #include "blmd/error.h"
-#include "blmd/ident/design.h"
 #include "blmd/io/config.h"
 #include "support/test_support.h"
 
@@ -100,9 +101,9 @@ TEST(DesignPrediction, MatchesSensitivitiesSimulatedIndependently) {
       EXPECT_NEAR(p.cramer_rao(i, j), cramer_rao(i, j), 1e-6 * std::abs(cramer_rao(i, i)));
       EXPECT_NEAR(p.covariance(i, j), sandwich(i, j), 1e-6 * std::abs(sandwich(i, i)));
     }
-    EXPECT_DOUBLE_EQ(p.ci95_halfwidth[static_cast<std::size_t>(i)],
-                     Ci95HalfWidth(p.values[static_cast<std::size_t>(i)],
-                                   std::sqrt(p.covariance(i, i)), true));
+    EXPECT_DOUBLE_EQ(
+        p.ci95_halfwidth[static_cast<std::size_t>(i)],
+        Ci95HalfWidth(p.values[static_cast<std::size_t>(i)], std::sqrt(p.covariance(i, i)), true));
   }
   EXPECT_NEAR(p.log_det, std::log(p.covariance.determinant()), 1e-9);
   EXPECT_DOUBLE_EQ(p.peaks.at("u"), 12.0);
@@ -143,7 +144,8 @@ TEST(DesignPrediction, UnidentifiableParametersAreASingularInformation) {
   DesignProblem problem = MakeDesignProblem(config);
   problem.observe = {"w"};
   problem.sigma = {kSigmaW};
-  const PrecisionPrediction p = PredictPrecision(problem, Response(problem, config.experiment.input));
+  const PrecisionPrediction p =
+      PredictPrecision(problem, Response(problem, config.experiment.input));
   EXPECT_FALSE(p.ok);
   EXPECT_NE(p.reason.find("singular"), std::string::npos) << p.reason;
 }

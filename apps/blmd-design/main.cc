@@ -1,6 +1,6 @@
 // blmd-design: which experiment to run. Flags -> DesignSettings -> blmd::MakeDesignRequest
 // (report/design_report.h) -> blmd::RunDesign -> the report, the config, the input table, the
-// summary and the exit code (docs/cli.md §4, docs/design.md).
+// summary and the exit code (docs/cli.md §5, docs/design.md).
 #include <iostream>
 #include <optional>
 
@@ -13,7 +13,7 @@
 
 namespace {
 
-// Every flag of blmd-design (docs/cli.md §4).
+// Every flag of blmd-design (docs/cli.md §5).
 struct DesignFlags {
   std::string config_path, report_path, write_config_path, write_input_path, trace_path;
   std::string family = "all", target;
@@ -25,8 +25,9 @@ struct DesignFlags {
 
   void Add(CLI::App& app) {
     app.add_option("--config", config_path, "the model at its prior values (JSON)")->required();
-    app.add_option("--duration", duration, "length of the experiment to design, s (required "
-                                           "without --trace)")
+    app.add_option("--duration", duration,
+                   "length of the experiment to design, s (required "
+                   "without --trace)")
         ->check(blmd::app::PositiveNumber());
     app.add_option("--limit", limits,
                    "a limit NAME=VALUE: u (largest |u|, required without --trace) or an output "
@@ -117,8 +118,9 @@ int Run(const CLI::App& app, DesignFlags& f) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"blmd-design: which experiment to run: the predicted precision of J, B (and any "
-               "free parameter) and the input that maximises it within the drive's limits"};
+  CLI::App app{
+      "blmd-design: which experiment to run: the predicted precision of J, B (and any "
+      "free parameter) and the input that maximises it within the drive's limits"};
   blmd::app::AddVersionFlag(app, "blmd-design");
   blmd::app::AddHelpFooter(app, "blmd-design");
   DesignFlags flags;

@@ -103,7 +103,8 @@ DesignCandidate Steps(double amplitude, double dwell, int levels, double duratio
   const long period = 4L * levels;
   for (long k = 0; static_cast<double>(k) * dwell < duration - 1e-12; ++k) {
     const long phase = (k + 1) % period;
-    const long s = phase <= levels ? phase : (phase <= 3 * levels ? 2 * levels - phase : phase - period);
+    const long s =
+        phase <= levels ? phase : (phase <= 3 * levels ? 2 * levels - phase : phase - period);
     c.input.times.push_back(std::round(static_cast<double>(k) * dwell * fs) / fs);
     c.input.values.push_back(amplitude * static_cast<double>(s) / levels);
   }
@@ -168,7 +169,8 @@ std::vector<DesignCandidate> CoarseGrid(const DesignOptions& o, const std::strin
   const double ts = 1.0 / o.sample_rate, d = o.duration, a = o.input_limit;
   std::vector<DesignCandidate> out;
   if (family == "square") {
-    for (double p : LogGrid(4 * ts, 2 * d, kSquarePoints)) out.push_back(Square(a, Quantise(p, 2, o.sample_rate, 2)));
+    for (double p : LogGrid(4 * ts, 2 * d, kSquarePoints))
+      out.push_back(Square(a, Quantise(p, 2, o.sample_rate, 2)));
   } else if (family == "steps") {
     for (int levels : {1, 2, 3, 4, 6, 8}) {
       for (double w : LogGrid(2 * ts, d / 2, kStepsPoints))
@@ -206,11 +208,11 @@ std::vector<DesignCandidate> Neighbours(const DesignOptions& o, const DesignCand
   for (double k : {-2.0, -1.0, 1.0, 2.0}) {
     const double e = k / (3.0 * shrink);
     if (best.family == "square") {
-      out.push_back(Square(a, Quantise(best.input.period * std::pow(ratio_square, e), 2, o.sample_rate, 2)));
-    } else if (best.family == "steps") {
       out.push_back(
-          Steps(a, Quantise(best.dwell * std::pow(ratio_steps, e), 1, o.sample_rate, 1),
-                            best.levels, d, o.sample_rate));
+          Square(a, Quantise(best.input.period * std::pow(ratio_square, e), 2, o.sample_rate, 2)));
+    } else if (best.family == "steps") {
+      out.push_back(Steps(a, Quantise(best.dwell * std::pow(ratio_steps, e), 1, o.sample_rate, 1),
+                          best.levels, d, o.sample_rate));
     } else if (best.family == "prbs") {
       const double clock =
           Quantise(best.input.clock * std::pow(ratio_prbs, e), 1, o.sample_rate, 1);
@@ -283,8 +285,9 @@ double Ci95HalfWidth(double value, double sd, bool log_scale) {
 
 DesignProblem MakeDesignProblem(const Config& config) {
   if (config.identification.error == "equation") {
-    throw InputError(config.path + ": the equation error (identification.error) is not designed "
-                                   "for: blmd-design predicts the output error's precision");
+    throw InputError(config.path +
+                     ": the equation error (identification.error) is not designed "
+                     "for: blmd-design predicts the output error's precision");
   }
   DesignProblem problem;
   problem.config = config;
@@ -384,8 +387,7 @@ PrecisionPrediction PredictPrecision(const DesignProblem& dp, const Trace& respo
   }
   MatrixXd bread_inverse;
   if (!InvertScaled(bread, &bread_inverse) || !InvertScaled(fisher, &out.cramer_rao)) {
-    out.reason =
-        "the experiment does not tell the free parameters apart (singular information)";
+    out.reason = "the experiment does not tell the free parameters apart (singular information)";
     return out;
   }
   out.covariance = bread_inverse * meat * bread_inverse;
@@ -493,14 +495,15 @@ DesignResult SearchDesign(const DesignProblem& problem, const DesignOptions& opt
     if (!c.feasible) ++result.rejected[c.rejected];
   }
   for (const auto& family : families) {
-    if (const DesignCandidate* best = BestOf(evaluated, family)) result.family_best.push_back(*best);
+    if (const DesignCandidate* best = BestOf(evaluated, family))
+      result.family_best.push_back(*best);
   }
   if (result.family_best.empty()) {
     result.reason = "no candidate input is feasible within the limits";
     if (!result.rejected.empty()) {
-      const auto most = std::max_element(
-          result.rejected.begin(), result.rejected.end(),
-          [](const auto& a, const auto& b) { return a.second < b.second; });
+      const auto most =
+          std::max_element(result.rejected.begin(), result.rejected.end(),
+                           [](const auto& a, const auto& b) { return a.second < b.second; });
       result.reason += " (most often: " + most->first + ")";
     }
     return result;

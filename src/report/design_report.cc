@@ -32,7 +32,8 @@ void ParseLimits(const Config& config, const std::vector<std::string>& texts,
       throw InputError("--limit " + name + ": not the input or an output of " +
                        std::string(config.model->name()) + " (valid: " + Join(valid) + ")");
     }
-    if (!(value > 0.0)) throw InputError("--limit " + name + ": must be > 0, not " + DisplayNumber(value));
+    if (!(value > 0.0))
+      throw InputError("--limit " + name + ": must be > 0, not " + DisplayNumber(value));
     if (name == "u") {
       options->input_limit = value;
       *has_input_limit = true;
@@ -71,8 +72,8 @@ void SetNoise(const Config& config, const std::string& config_path, const Design
   for (const auto& n : noise) {
     const auto at = std::find(problem.observe.begin(), problem.observe.end(), n.column);
     if (at == problem.observe.end()) {
-      throw InputError("--noise " + n.column + ": not an observed column (observed: " +
-                       Join(problem.observe) + ")");
+      throw InputError("--noise " + n.column +
+                       ": not an observed column (observed: " + Join(problem.observe) + ")");
     }
     if (!(n.sigma > 0.0)) throw InputError("--noise " + n.column + ": sigma must be > 0");
     const auto c = static_cast<std::size_t>(at - problem.observe.begin());
@@ -153,7 +154,8 @@ DesignRequest MakeDesignRequest(const Config& config, const std::string& config_
   bool has_input_limit = false;
   ParseLimits(config, s.limits, &request.options, &has_input_limit);
   if (s.trace_path.empty()) {
-    if (!has_input_limit) throw InputError("--limit u=V is required: the largest |u| the drive may apply");
+    if (!has_input_limit)
+      throw InputError("--limit u=V is required: the largest |u| the drive may apply");
     if (!s.duration) throw InputError("--duration is required (the experiment's length, s)");
     if (!(*s.duration > 0.0) || !std::isfinite(*s.duration)) {
       throw InputError("--duration: must be a number > 0, not " + DisplayNumber(*s.duration));
@@ -174,8 +176,10 @@ DesignRequest MakeDesignRequest(const Config& config, const std::string& config_
     }
     request.options.families = Families(s.family);
   } else {
-    if (s.duration) throw InputError("--duration: not with --trace (the trace's span is the experiment)");
-    if (s.family != "all") throw InputError("--family: not with --trace (its recorded input is evaluated)");
+    if (s.duration)
+      throw InputError("--duration: not with --trace (the trace's span is the experiment)");
+    if (s.family != "all")
+      throw InputError("--family: not with --trace (its recorded input is evaluated)");
     ReadTrace(config, s, &request);
     const auto& t = request.trace.Column("t");
     request.options.duration = t.back() - t.front();
@@ -308,8 +312,8 @@ DesignReport RunDesign(const DesignRequest& request) {
     DesignCandidate evaluated;
     if (request.evaluate_trace) {
       Trace response;
-      evaluated = PredictOn(problem, *reference, request.trace.Column("t"),
-                            request.options.target, &response);
+      evaluated = PredictOn(problem, *reference, request.trace.Column("t"), request.options.target,
+                            &response);
     } else {
       evaluated = EvaluateCandidate(problem, request.options, *reference);
     }
@@ -342,13 +346,19 @@ nlohmann::json InputJson(const InputSignal& input) {
       if (input.offset != 0.0) out["offset"] = input.offset;
       break;
     case Kind::kPrbs:
-      out = {{"type", "prbs"},   {"amplitude", input.amplitude}, {"clock", input.clock},
-             {"order", input.order}, {"seed", input.seed}};
+      out = {{"type", "prbs"},
+             {"amplitude", input.amplitude},
+             {"clock", input.clock},
+             {"order", input.order},
+             {"seed", input.seed}};
       levels();
       break;
     case Kind::kChirp:
-      out = {{"type", "chirp"}, {"amplitude", input.amplitude}, {"f0", input.f0},
-             {"f1", input.f1},  {"duration", input.sweep},
+      out = {{"type", "chirp"},
+             {"amplitude", input.amplitude},
+             {"f0", input.f0},
+             {"f1", input.f1},
+             {"duration", input.sweep},
              {"shape", input.shape == InputSignal::ChirpShape::kLog ? "log" : "linear"}};
       levels();
       break;
@@ -506,7 +516,8 @@ std::string Describe(const DesignCandidate& c) {
     text += ", clock " + Sig(s["clock_s"]) + " s, order " + std::to_string(c.input.order);
   }
   if (s.contains("f0_hz")) {
-    text += ", " + Sig(c.input.f0) + " -> " + Sig(c.input.f1) + " Hz " + s["shape"].get<std::string>();
+    text +=
+        ", " + Sig(c.input.f0) + " -> " + Sig(c.input.f1) + " Hz " + s["shape"].get<std::string>();
   }
   return text;
 }
@@ -548,12 +559,11 @@ nlohmann::json DesignConfigJson(const Config& config, const DesignReport& report
   json doc = config.document.is_object() ? config.document : json::object();
   doc["model"] = std::string(config.model->name());
   doc["name"] = config.name + "-design";
-  doc["description"] = "blmd-design: " + Describe(report.chosen) + ", " + report.criterion +
-                       " for " + (report.target.empty() ? std::string("all free parameters")
-                                                         : Join(report.target));
-  json experiment = doc.contains("experiment") && doc["experiment"].is_object()
-                        ? doc["experiment"]
-                        : json::object();
+  doc["description"] =
+      "blmd-design: " + Describe(report.chosen) + ", " + report.criterion + " for " +
+      (report.target.empty() ? std::string("all free parameters") : Join(report.target));
+  json experiment = doc.contains("experiment") && doc["experiment"].is_object() ? doc["experiment"]
+                                                                                : json::object();
   experiment.erase("pid");
   experiment.erase("coast_off_time");
   experiment["input"] = InputJson(report.chosen.input);

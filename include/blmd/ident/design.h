@@ -39,16 +39,16 @@ const std::vector<std::string>& DesignFamilies();  // square, steps, prbs, chirp
 // The predicted precision of one experiment.
 struct PrecisionPrediction {
   bool ok = false;
-  std::string reason;                // why not ok (a failed simulation, a singular information)
-  std::vector<std::string> names;    // the free parameters
-  std::vector<double> values;        // their prior values
-  std::vector<bool> log_scale;       // searched as ln value
-  Eigen::MatrixXd covariance;        // of the cost's estimate, search coordinates
-  Eigen::MatrixXd cramer_rao;        // inverse Fisher information, search coordinates
-  std::vector<double> ci95_halfwidth;              // absolute, the parameter's unit
-  std::vector<double> cramer_rao_ci95_halfwidth;   // the same from the Cramér–Rao bound
-  double log_det = 0.0;              // ln det covariance (the D-criterion)
-  std::map<std::string, double> peaks;  // max |value| of u and each output, noise-free
+  std::string reason;                  // why not ok (a failed simulation, a singular information)
+  std::vector<std::string> names;      // the free parameters
+  std::vector<double> values;          // their prior values
+  std::vector<bool> log_scale;         // searched as ln value
+  Eigen::MatrixXd covariance;          // of the cost's estimate, search coordinates
+  Eigen::MatrixXd cramer_rao;          // inverse Fisher information, search coordinates
+  std::vector<double> ci95_halfwidth;  // absolute, the parameter's unit
+  std::vector<double> cramer_rao_ci95_halfwidth;  // the same from the Cramér–Rao bound
+  double log_det = 0.0;                           // ln det covariance (the D-criterion)
+  std::map<std::string, double> peaks;            // max |value| of u and each output, noise-free
 };
 
 // The 95 % half-width (absolute) of a parameter with value `value` and standard deviation
@@ -58,7 +58,7 @@ double Ci95HalfWidth(double value, double sd, bool log_scale);
 
 // What the prediction needs besides the experiment.
 struct DesignProblem {
-  Config config;                    // the model at the prior values; its experiment open loop
+  Config config;                     // the model at the prior values; its experiment open loop
   std::vector<std::string> observe;  // the observed columns
   std::vector<FreeParameter> free;   // the free parameters (bounds for the difference step)
   std::vector<double> sigma;         // per observed column: noise standard deviation, its unit
@@ -83,14 +83,14 @@ SimStatus SimulateSampledInput(const DesignProblem& problem, const InputSignal& 
 
 // One candidate input of a family.
 struct DesignCandidate {
-  std::string family;       // square, steps, prbs, chirp
-  InputSignal input;        // as a config writes it (amplitude within the limits)
-  double dwell = 0.0;       // steps: s per level
-  int levels = 0;           // steps: levels per direction
-  bool feasible = false;    // simulated, within the limits, a prediction made
-  std::string rejected;     // why not feasible
+  std::string family;     // square, steps, prbs, chirp
+  InputSignal input;      // as a config writes it (amplitude within the limits)
+  double dwell = 0.0;     // steps: s per level
+  int levels = 0;         // steps: levels per direction
+  bool feasible = false;  // simulated, within the limits, a prediction made
+  std::string rejected;   // why not feasible
   PrecisionPrediction prediction;
-  double criterion = 0.0;   // smaller is better (D: ln det cov; A: sum of target variances)
+  double criterion = 0.0;  // smaller is better (D: ln det cov; A: sum of target variances)
 };
 
 struct DesignOptions {

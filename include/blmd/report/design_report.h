@@ -1,4 +1,4 @@
-// blmd-design (docs/design.md, docs/cli.md §4): the flags' text forms checked against the
+// blmd-design (docs/design.md, docs/cli.md §5): the flags' text forms checked against the
 // config and turned into a design request, the design run (a search, or the evaluation of a
 // recorded input), and what it writes: the JSON report, the summary, the chosen experiment as
 // a config and as an input table (t, u).
@@ -36,11 +36,11 @@ struct DesignRequest {
   DesignOptions options;
   bool evaluate_trace = false;
   std::string trace_path, trace_sha256;
-  Trace trace;            // --trace: t, u and the observed columns as read
-  InputSignal recorded;   // --trace: its u (and open) held between samples
+  Trace trace;           // --trace: t, u and the observed columns as read
+  InputSignal recorded;  // --trace: its u (and open) held between samples
 };
 
-// Checks the settings against the config in blmd-design's order (docs/cli.md §4): limits,
+// Checks the settings against the config in blmd-design's order (docs/cli.md §5): limits,
 // noise, duration or trace, family, target. InputError naming the flag for bad input.
 DesignRequest MakeDesignRequest(const Config& config, const std::string& config_path,
                                 const DesignSettings& settings);
@@ -57,9 +57,9 @@ struct DesignReport {
   std::vector<std::string> observe;
   std::vector<double> sigma;
   std::vector<std::string> noise_source;
-  std::vector<std::string> units;       // per free parameter
-  DesignCandidate chosen;               // the design, or the trace's input (family "recorded")
-  bool chosen_within_limits = true;     // --trace: the recorded peaks within the limits
+  std::vector<std::string> units;            // per free parameter
+  DesignCandidate chosen;                    // the design, or the trace's input (family "recorded")
+  bool chosen_within_limits = true;          // --trace: the recorded peaks within the limits
   std::optional<DesignCandidate> reference;  // the config's own input, same duration
   bool reference_within_limits = true;
   std::vector<DesignCandidate> family_best;
