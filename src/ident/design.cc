@@ -333,6 +333,80 @@ SimStatus SimulateSampledInput(const DesignProblem& problem, const InputSignal& 
   return problem.config.model->Simulate(request, response);
 }
 
+namespace {
+
+// Per observed column: S_c^T S_c of its sensitivities (search coordinates), the noise-free
+// column's variance and its sample count.
+struct ColumnSensitivity {
+  MatrixXd product;
+  double variance = 0.0;
+  double samples = 0.0;
+};
+
+// The sensitivities of `response`'s observed columns at the prior values: a FitProblem on the
+// noise-free response (its residuals zero there) differentiated by FiniteDifferenceJacobian,
+// each row divided by its column's cost weight. Empty, with the reason, when it cannot be.
+std::vector<ColumnSensitivity> Sensitivities(const DesignProblem& dp, const Trace& response,
+                                             const std::vector<double>& values,
+                                             std::string* reason) {
+  std::vector<FitTrace> traces;
+  traces.push_back(RecordedFitTrace(response, dp.config.experiment.initial, "design"));
+  std::optional<FitProblem> problem;
+  try {
+    problem.emplace(dp.config, std::move(traces), dp.observe, dp.free);
+  } catch (const InputError& error) {
+    *reason = error.what();  // a constant observed column: nothing to learn from it
+    return {};
+  }
+  const std::vector<double> x = internal::ToSearchCoordinates(*problem, values);
+  std::vector<double> residuals;
+  MatrixXd jacobian;
+  if (!internal::FiniteDifferenceJacobian(*problem, x, internal::DifferenceRule{}, nullptr,
+                                          &residuals, &jacobian)) {
+    *reason = "a simulation beside the prior values failed (no sensitivities)";
+    return {};
+  }
+  const Index p = jacobian.cols();
+  std::vector<ColumnSensitivity> columns(dp.observe.size());
+  for (std::size_t c = 0; c < columns.size(); ++c) {
+    columns[c].product = MatrixXd::Zero(p, p);
+    columns[c].variance = problem->variance()[c];
+  }
+  for (Index i = 0; i < jacobian.rows(); ++i) {
+    const auto c =
+        static_cast<std::size_t>(problem->residual_columns()[static_cast<std::size_t>(i)]);
+    const auto row = jacobian.row(i) / problem->column_weight(c);
+    columns[c].product += row.transpose() * row;
+    columns[c].samples += 1.0;
+  }
+  return columns;
+}
+
+// The covariance of the cost's estimate (the sandwich with weights a_c = 1/(C N_c (Var_c +
+// sigma_c^2))) and the inverse Fisher information; false when either is singular.
+bool Covariances(const std::vector<ColumnSensitivity>& columns, const std::vector<double>& sigma,
+                 PrecisionPrediction* out) {
+  const Index p = columns.front().product.rows();
+  MatrixXd bread = MatrixXd::Zero(p, p), meat = MatrixXd::Zero(p, p), fisher = MatrixXd::Zero(p, p);
+  for (std::size_t c = 0; c < columns.size(); ++c) {
+    const double sigma2 = sigma[c] * sigma[c];
+    const double weight = 1.0 / (static_cast<double>(columns.size()) * columns[c].samples *
+                                 (columns[c].variance + sigma2));  // a_c: the noisy variance
+    bread += weight * columns[c].product;
+    meat += weight * weight * sigma2 * columns[c].product;
+    fisher += columns[c].product / sigma2;
+  }
+  MatrixXd bread_inverse;
+  if (!InvertScaled(bread, &bread_inverse) || !InvertScaled(fisher, &out->cramer_rao)) {
+    out->reason = "the experiment does not tell the free parameters apart (singular information)";
+    return false;
+  }
+  out->covariance = bread_inverse * meat * bread_inverse;
+  return true;
+}
+
+}  // namespace
+
 PrecisionPrediction PredictPrecision(const DesignProblem& dp, const Trace& response) {
   PrecisionPrediction out;
   for (const auto& p : dp.free) {
@@ -346,51 +420,9 @@ PrecisionPrediction PredictPrecision(const DesignProblem& dp, const Trace& respo
     for (double v : response.Column(name)) peak = std::max(peak, std::abs(v));
     out.peaks[name] = peak;
   }
-  std::vector<FitTrace> traces;
-  traces.push_back(RecordedFitTrace(response, dp.config.experiment.initial, "design"));
-  std::optional<FitProblem> problem;
-  try {
-    problem.emplace(dp.config, std::move(traces), dp.observe, dp.free);
-  } catch (const InputError& error) {
-    out.reason = error.what();  // a constant observed column: nothing to learn from it
-    return out;
-  }
-  const std::vector<double> x = internal::ToSearchCoordinates(*problem, out.values);
-  std::vector<double> residuals;
-  MatrixXd jacobian;
-  if (!internal::FiniteDifferenceJacobian(*problem, x, internal::DifferenceRule{}, nullptr,
-                                          &residuals, &jacobian)) {
-    out.reason = "a simulation beside the prior values failed (no sensitivities)";
-    return out;
-  }
-  // Sensitivities S (column units per search unit) from the cost's weighted Jacobian, then
-  // the information of the cost's weights a_c and the Fisher information.
-  const Index p = jacobian.cols();
-  const std::size_t columns = dp.observe.size();
-  MatrixXd bread = MatrixXd::Zero(p, p), meat = MatrixXd::Zero(p, p), fisher = MatrixXd::Zero(p, p);
-  for (std::size_t c = 0; c < columns; ++c) {
-    MatrixXd block = MatrixXd::Zero(p, p);
-    Index n = 0;
-    for (Index i = 0; i < jacobian.rows(); ++i) {
-      if (problem->residual_columns()[static_cast<std::size_t>(i)] != static_cast<int>(c)) continue;
-      const auto row = jacobian.row(i) / problem->column_weight(c);
-      block += row.transpose() * row;
-      ++n;
-    }
-    const double sigma2 = dp.sigma[c] * dp.sigma[c];
-    const double weight =
-        1.0 / (static_cast<double>(columns) * static_cast<double>(n) *
-               (problem->variance()[c] + sigma2));  // a_c: the noisy column's variance
-    bread += weight * block;
-    meat += weight * weight * sigma2 * block;
-    fisher += block / sigma2;
-  }
-  MatrixXd bread_inverse;
-  if (!InvertScaled(bread, &bread_inverse) || !InvertScaled(fisher, &out.cramer_rao)) {
-    out.reason = "the experiment does not tell the free parameters apart (singular information)";
-    return out;
-  }
-  out.covariance = bread_inverse * meat * bread_inverse;
+  const std::vector<ColumnSensitivity> columns =
+      Sensitivities(dp, response, out.values, &out.reason);
+  if (columns.empty() || !Covariances(columns, dp.sigma, &out)) return out;
   const Eigen::LDLT<MatrixXd> ldlt(out.covariance);
   if (!out.covariance.allFinite() || ldlt.info() != Eigen::Success ||
       !(ldlt.vectorD().minCoeff() > 0.0)) {
@@ -398,12 +430,12 @@ PrecisionPrediction PredictPrecision(const DesignProblem& dp, const Trace& respo
     return out;
   }
   out.log_det = ldlt.vectorD().array().log().sum();
-  for (Index k = 0; k < p; ++k) {
-    const auto j = static_cast<std::size_t>(k);
+  for (std::size_t k = 0; k < out.names.size(); ++k) {
+    const auto i = static_cast<Index>(k);
     out.ci95_halfwidth.push_back(
-        Ci95HalfWidth(out.values[j], std::sqrt(out.covariance(k, k)), out.log_scale[j]));
+        Ci95HalfWidth(out.values[k], std::sqrt(out.covariance(i, i)), out.log_scale[k]));
     out.cramer_rao_ci95_halfwidth.push_back(
-        Ci95HalfWidth(out.values[j], std::sqrt(out.cramer_rao(k, k)), out.log_scale[j]));
+        Ci95HalfWidth(out.values[k], std::sqrt(out.cramer_rao(i, i)), out.log_scale[k]));
   }
   out.ok = true;
   return out;

@@ -143,6 +143,52 @@ std::vector<std::string> Families(const std::string& text) {
 
 }  // namespace
 
+namespace {
+
+// Without --trace: the run's length checked, the families.
+void SetSearchRun(const Config& config, const std::string& config_path, const DesignSettings& s,
+                  bool has_input_limit, DesignRequest* request) {
+  if (!has_input_limit) {
+    throw InputError("--limit u=V is required: the largest |u| the drive may apply");
+  }
+  if (!s.duration) throw InputError("--duration is required (the experiment's length, s)");
+  const double duration = *s.duration;
+  if (!(duration > 0.0) || !std::isfinite(duration)) {
+    throw InputError("--duration: must be a number > 0, not " + DisplayNumber(duration));
+  }
+  request->options.duration = duration;
+  const double samples = duration * request->options.sample_rate;
+  if (const std::string error = RunLengthError(duration, config.simulation.dt, samples);
+      !error.empty()) {
+    throw InputError("--duration " + DisplayNumber(duration) + ": " + error);
+  }
+  if (samples < 10.0) {
+    throw InputError("--duration " + DisplayNumber(duration) + ": fewer than 10 samples at " +
+                     "the config's sample_rate " + DisplayNumber(request->options.sample_rate) +
+                     " Hz");
+  }
+  if (1.0 / request->options.sample_rate < config.simulation.dt * (1 - 1e-9)) {
+    throw InputError(config_path + ": experiment.sample_rate is above 1/simulation.dt");
+  }
+  request->options.families = Families(s.family);
+}
+
+// With --trace: its span and mean sample rate.
+void SetTraceRun(const Config& config, const DesignSettings& s, DesignRequest* request) {
+  if (s.duration) {
+    throw InputError("--duration: not with --trace (the trace's span is the experiment)");
+  }
+  if (s.family != "all") {
+    throw InputError("--family: not with --trace (its recorded input is evaluated)");
+  }
+  ReadTrace(config, s, request);
+  const auto& t = request->trace.Column("t");
+  request->options.duration = t.back() - t.front();
+  request->options.sample_rate = static_cast<double>(t.size() - 1) / request->options.duration;
+}
+
+}  // namespace
+
 DesignRequest MakeDesignRequest(const Config& config, const std::string& config_path,
                                 const DesignSettings& s) {
   DesignRequest request;
@@ -154,36 +200,9 @@ DesignRequest MakeDesignRequest(const Config& config, const std::string& config_
   bool has_input_limit = false;
   ParseLimits(config, s.limits, &request.options, &has_input_limit);
   if (s.trace_path.empty()) {
-    if (!has_input_limit)
-      throw InputError("--limit u=V is required: the largest |u| the drive may apply");
-    if (!s.duration) throw InputError("--duration is required (the experiment's length, s)");
-    if (!(*s.duration > 0.0) || !std::isfinite(*s.duration)) {
-      throw InputError("--duration: must be a number > 0, not " + DisplayNumber(*s.duration));
-    }
-    request.options.duration = *s.duration;
-    const double samples = *s.duration * request.options.sample_rate;
-    if (const std::string error = RunLengthError(*s.duration, config.simulation.dt, samples);
-        !error.empty()) {
-      throw InputError("--duration " + DisplayNumber(*s.duration) + ": " + error);
-    }
-    if (samples < 10.0) {
-      throw InputError("--duration " + DisplayNumber(*s.duration) + ": fewer than 10 samples at " +
-                       "the config's sample_rate " + DisplayNumber(request.options.sample_rate) +
-                       " Hz");
-    }
-    if (1.0 / request.options.sample_rate < config.simulation.dt * (1 - 1e-9)) {
-      throw InputError(config_path + ": experiment.sample_rate is above 1/simulation.dt");
-    }
-    request.options.families = Families(s.family);
+    SetSearchRun(config, config_path, s, has_input_limit, &request);
   } else {
-    if (s.duration)
-      throw InputError("--duration: not with --trace (the trace's span is the experiment)");
-    if (s.family != "all")
-      throw InputError("--family: not with --trace (its recorded input is evaluated)");
-    ReadTrace(config, s, &request);
-    const auto& t = request.trace.Column("t");
-    request.options.duration = t.back() - t.front();
-    request.options.sample_rate = static_cast<double>(t.size() - 1) / request.options.duration;
+    SetTraceRun(config, s, &request);
   }
   if (!s.target.empty()) request.options.target = ParseNameList(s.target, "--target");
   std::vector<std::string> free;
@@ -268,6 +287,26 @@ DesignCandidate EvaluateRecorded(const DesignRequest& request, DesignProblem* pr
   return PredictOn(*problem, c, times, request.options.target, &response);
 }
 
+// The config's own input over the same span and samples: searching, with its amplitude
+// lowered as a candidate's to keep within the limits; with --trace, as configured.
+void AddReference(const DesignRequest& request, const DesignProblem& problem,
+                  DesignReport* report) {
+  const auto reference = ReferenceCandidate(request.problem.config);
+  if (!reference) return;
+  DesignCandidate evaluated;
+  if (request.evaluate_trace) {
+    Trace response;
+    evaluated = PredictOn(problem, *reference, request.trace.Column("t"), request.options.target,
+                          &response);
+  } else {
+    evaluated = EvaluateCandidate(problem, request.options, *reference);
+  }
+  if (evaluated.feasible) {
+    report->reference_within_limits = WithinLimits(request.options, evaluated.prediction);
+    report->reference = evaluated;
+  }
+}
+
 }  // namespace
 
 DesignReport RunDesign(const DesignRequest& request) {
@@ -306,22 +345,7 @@ DesignReport RunDesign(const DesignRequest& request) {
     report.evaluated = result.evaluated;
     report.rejected = result.rejected;
   }
-  // The config's own input over the same span and samples: searching, with its amplitude
-  // lowered as a candidate's to keep within the limits; with --trace, as configured.
-  if (auto reference = ReferenceCandidate(request.problem.config); reference && report.ok) {
-    DesignCandidate evaluated;
-    if (request.evaluate_trace) {
-      Trace response;
-      evaluated = PredictOn(problem, *reference, request.trace.Column("t"), request.options.target,
-                            &response);
-    } else {
-      evaluated = EvaluateCandidate(problem, request.options, *reference);
-    }
-    if (evaluated.feasible) {
-      report.reference_within_limits = WithinLimits(request.options, evaluated.prediction);
-      report.reference = evaluated;
-    }
-  }
+  if (report.ok) AddReference(request, problem, &report);
   return report;
 }
 
