@@ -50,6 +50,7 @@ std::vector<double> Times(double duration, double sample_rate) {
 // n values from lo to hi, equally spaced in log.
 std::vector<double> LogGrid(double lo, double hi, int n) {
   std::vector<double> grid;
+  grid.reserve(static_cast<std::size_t>(n));
   for (int k = 0; k < n; ++k) {
     grid.push_back(n == 1 ? lo : lo * std::pow(hi / lo, static_cast<double>(k) / (n - 1)));
   }
@@ -100,11 +101,11 @@ DesignCandidate Steps(double amplitude, double dwell, int levels, double duratio
   c.dwell = dwell;
   c.levels = levels;
   c.input.kind = InputSignal::Kind::kSteps;
-  const long period = 4L * levels;
+  const long n = levels;
+  const long period = 4L * n;
   for (long k = 0; static_cast<double>(k) * dwell < duration - 1e-12; ++k) {
     const long phase = (k + 1) % period;
-    const long s =
-        phase <= levels ? phase : (phase <= 3 * levels ? 2 * levels - phase : phase - period);
+    const long s = phase <= n ? phase : (phase <= 3 * n ? 2 * n - phase : phase - period);
     c.input.times.push_back(std::round(static_cast<double>(k) * dwell * fs) / fs);
     c.input.values.push_back(amplitude * static_cast<double>(s) / levels);
   }
