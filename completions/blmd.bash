@@ -1,4 +1,4 @@
-# Bash completion for blmd-ident, blmd-sim, blmd-surface and blmd-tune (docs/cli.md,
+# Bash completion for blmd-ident, blmd-sim, blmd-surface, blmd-tune and blmd-design (docs/cli.md,
 # "Completion"). One file for the commands; `cmake --install` puts a copy under each command's name
 # in share/bash-completion/completions, where bash-completion loads it on first use. Without
 # an install: source completions/blmd.bash. Needs bash only (not the bash-completion
@@ -9,7 +9,7 @@
 # --candidates (a comma list), the models after --init-config, the trace columns after
 # --observe, --noise and --derive, the choices of --error, --initial-state, --delimiter and
 # --duplicate-time, and blmd-surface's subcommands merge and plot; blmd-tune's --loop
-# choices and its --limit names (u=, i=).
+# choices and its --limit names (u=, i=); blmd-design's --family and its --limit columns.
 #
 # The lists below are the commands' own: tests/completion_test.cc compares them with the
 # flags of each command's --help and with the model, effect and optimiser registries, so they
@@ -24,6 +24,7 @@ _blmd_ident_flags="--baseline --bic-margin --candidates --column --config --deci
 _blmd_sim_flags="--config --delimiter --duplicate-time --effect --help --init-config --input --noise --out --quiet --seed --version"
 _blmd_surface_flags="--column --config --decimate --delimiter --derive --duplicate-time --error --filter-hz --force --grid --help --initial-state --json --observe --out --quiet --scale --select --shard --split --svg --threads --trace --version"
 _blmd_tune_flags="--config --crossover --duration --filter-ratio --from-report --help --integral-ratio --json --limit --loop --phase-margin --quiet --report --step --threads --version --write-config"
+_blmd_design_flags="--config --delimiter --duplicate-time --duration --family --help --json --limit --noise --quiet --report --target --threads --trace --version --write-config --write-input"
 _blmd_surface_merge_flags="--help --out"
 _blmd_surface_plot_flags="--help --quiet --svg --title"
 
@@ -89,6 +90,7 @@ _blmd_complete() {
     ident) flags=$_blmd_ident_flags ;;
     sim) flags=$_blmd_sim_flags ;;
     tune) flags=$_blmd_tune_flags ;;
+    design) flags=$_blmd_design_flags ;;
     surface)
       flags=$_blmd_surface_flags
       for ((k = 1; k < COMP_CWORD; ++k)); do
@@ -108,21 +110,29 @@ _blmd_complete() {
   case $prev in
     --config | --report | --baseline | --write-config | --from-report) _blmd_files "$cur" '*.json' ;;
     --export-matlab) _blmd_files "$cur" '*.m' ;;
-    --trace | --validate | --input | --out | --html | --svg) _blmd_files "$cur" ;;
+    --trace | --validate | --input | --out | --html | --svg | --write-input) _blmd_files "$cur" ;;
     --method) _blmd_words "$_blmd_methods" "$cur" ;;
     --init-config) _blmd_words "$_blmd_models" "$cur" ;;
     --candidates) _blmd_list "$_blmd_effects" "$cur" ;;
     --observe) _blmd_list "$_blmd_columns" "$cur" ;;
     --effect) _blmd_prefixes "$_blmd_effects" "$cur" ":" ;;
     --noise) _blmd_prefixes "$_blmd_columns" "$cur" "=" ;;
+    --limit)
+      # blmd-tune limits the drive (u=, i=); blmd-design the input and the outputs.
+      if [[ $command == tune ]]; then
+        _blmd_prefixes "i u" "$cur" "="
+      else
+        _blmd_prefixes "$_blmd_columns" "$cur" "="
+      fi
+      ;;
+    --family) _blmd_words "all chirp prbs square steps" "$cur" ;;
     --derive) _blmd_words "w=theta" "$cur" ;;
     --error) _blmd_words "output equation" "$cur" ;;
     --initial-state) _blmd_words "config trace" "$cur" ;;
     --delimiter) _blmd_words ", ; tab" "$cur" ;;
     --duplicate-time) _blmd_words "error first mean" "$cur" ;;
     --loop) _blmd_words "position speed" "$cur" ;;
-    --limit) _blmd_prefixes "i u" "$cur" "=" ;;
-    --bic-margin | --column | --decimate | --fail-above-nrmse | --filter-hz | --free | \
+    --bic-margin | --column | --decimate | --target | --fail-above-nrmse | --filter-hz | --free | \
       --grid | --initial | --max-effects | --max-evaluations | --option | --scale | --seed | \
       --select | --shard | --split | --threads | --title | --crossover | --phase-margin | \
       --step | --duration | --integral-ratio | --filter-ratio)
@@ -147,8 +157,10 @@ _blmd_ident() { _blmd_complete ident; }
 _blmd_sim() { _blmd_complete sim; }
 _blmd_surface() { _blmd_complete surface; }
 _blmd_tune() { _blmd_complete tune; }
+_blmd_design() { _blmd_complete design; }
 
 complete -F _blmd_ident blmd-ident
 complete -F _blmd_sim blmd-sim
 complete -F _blmd_surface blmd-surface
 complete -F _blmd_tune blmd-tune
+complete -F _blmd_design blmd-design

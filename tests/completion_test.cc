@@ -1,4 +1,4 @@
-// Bash completion of the four commands (completions/blmd.bash, docs/cli.md "Completion"):
+// Bash completion of the commands (completions/blmd.bash, docs/cli.md "Completion"):
 //  - its lists are the commands' own: the flags of each command's --help (and of blmd-surface
 //    merge and plot), the model, effect and optimiser registries, the models' output columns;
 //  - real bash, given COMP_WORDS and COMP_CWORD as readline sets them, offers exactly the
@@ -71,6 +71,7 @@ TEST(Completion, ListsAreTheCommandsOwn) {
         {"_blmd_sim_flags", "blmd-sim --help"},
         {"_blmd_surface_flags", "blmd-surface --help"},
         {"_blmd_tune_flags", "blmd-tune --help"},
+        {"_blmd_design_flags", "blmd-design --help"},
         {"_blmd_surface_merge_flags", "blmd-surface merge --help"},
         {"_blmd_surface_plot_flags", "blmd-surface plot --help"}}) {
     SCOPED_TRACE(arguments);
@@ -185,6 +186,13 @@ TEST(Completion, RealBashOffersExactlyTheseCandidates) {
       {{"blmd-tune", "--loop", ""}, {"position", "speed"}},
       {{"blmd-tune", "--limit", ""}, {"i=", "u="}},
       {{"blmd-tune", "--crossover", ""}, {}},
+      // blmd-design: its flags, families, limits, files.
+      {{"blmd-design", "--fa"}, {"--family"}},
+      {{"blmd-design", "--family", ""}, {"all", "chirp", "prbs", "square", "steps"}},
+      {{"blmd-design", "--limit", "t"}, {"theta="}},
+      {{"blmd-design", "--write-input", "b"}, {"b.csv"}},
+      {{"blmd-design", "--write-config", ""}, {"a.json", "sub"}},
+      {{"blmd-design", "--duration", ""}, {}},
   };
   for (const auto& [words, expected] : cases) {
     std::string line;

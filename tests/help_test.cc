@@ -41,7 +41,8 @@ struct Expected {
 TEST(HelpFooter, ExitCodesAndExamplesOfEveryCommand) {
   for (const Expected& expected :
        {Expected{"blmd-sim", {"0", "1", "2"}}, Expected{"blmd-ident", {"0", "1", "2", "3"}},
-        Expected{"blmd-surface", {"0", "1", "2"}}, Expected{"blmd-tune", {"0", "1", "2"}}}) {
+        Expected{"blmd-surface", {"0", "1", "2"}}, Expected{"blmd-tune", {"0", "1", "2"}},
+        Expected{"blmd-design", {"0", "1", "2"}}}) {
     SCOPED_TRACE(expected.command);
     const CommandResult help = testing::Run(BinPath(expected.command) + " --help");
     ASSERT_EQ(help.exit_code, 0) << help.err;

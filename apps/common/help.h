@@ -70,6 +70,20 @@ Examples:
     $ blmd-tune --config configs/ganesh-square.json --from-report fit.json --loop speed --crossover 3 --phase-margin 60 --limit u=24 --limit i=4 --report tune.json --write-config closed.json
     $ blmd-sim --config closed.json --out closed.csv)";
   }
+  if (command == "blmd-design") {
+    return R"(Exit status:
+  0  the design was made (--trace: the recorded input was evaluated) and the outputs written
+  1  no design: no candidate input is feasible within the limits, or the experiment does not tell the free parameters apart (the report is still written), or an output could not be written
+  2  bad usage or input: a flag, the config, the --trace CSV, a limit or noise level (one error line, nothing written)
+
+Examples:
+  The 2 s experiment that pins J and B of the Ganesh servo down best at |u| <= 12 V, with 14 mA and 2.5 rad/s of noise on i and w; the config and the input table to play:
+    $ blmd-design --config configs/ganesh-square.json --duration 2 --limit u=12 --noise i=0.014 --noise w=2.5 --write-config design.json --write-input design-input.csv
+  A PRBS for J alone (A-optimal), the current at most 1 A, noise 1 % of the config's own peaks:
+    $ blmd-design --config configs/ganesh-square.json --duration 2 --limit u=12 --limit i=1 --noise i=1% --noise w=1% --family prbs --target J
+  How good is the experiment already run (noise from its residual against the model):
+    $ blmd-design --config configs/ganesh-square.json --trace testdata/ganesh-square.csv)";
+  }
   throw std::logic_error("HelpFooter: no footer for " + command);
 }
 

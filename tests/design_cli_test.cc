@@ -1,0 +1,176 @@
+// blmd-design end to end (docs/cli.md §5, docs/design.md): the search writes a report, a config
+// blmd-sim runs with exactly the written input table, and the input table; --trace evaluates a
+// recording (its noise from the residual, against the sigma its file records) and agrees with
+// the search's evaluation of the same input; no design is exit 1 with the report; bad input is
+// exit 2 with one line and nothing written.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "blmd/io/csv.h"
+#include "support/test_support.h"
+
+namespace blmd::testing {
+namespace {
+
+std::string Design() {
+  return BinPath("blmd-design") + " --config " + SourcePath("configs/ganesh-square.json");
+}
+
+TEST(DesignCli, SearchWritesReportConfigAndInputThatBlmdSimPlays) {
+  TempDir dir;
+  const CommandResult run = testing::Run(
+      Design() + " --duration 2 --limit u=12 --limit theta=20 --noise i=0.014 --noise w=2.5" +
+      " --report " + dir.File("r.json") + " --write-config " + dir.File("c.json") +
+      " --write-input " + dir.File("u.csv"));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(run.err, "");
+  EXPECT_NE(run.out.find("predicted 95 % half-width"), std::string::npos) << run.out;
+  const nlohmann::json r = nlohmann::json::parse(Slurp(dir.File("r.json")));
+  EXPECT_EQ(r["tool"], "blmd-design");
+  EXPECT_EQ(r["mode"], "search");
+  EXPECT_EQ(r["criterion"], "D-optimal");
+  EXPECT_EQ(r["ok"], true);
+  for (const char* p : {"J", "B"}) {
+    const double hw = r["predicted"][p]["ci95_halfwidth"].get<double>();
+    EXPECT_GT(hw, 0.0);
+    EXPECT_LT(hw, 0.05 * r["predicted"][p]["prior"].get<double>());
+    EXPECT_DOUBLE_EQ(r["design"]["predicted"][p]["ci95_halfwidth"].get<double>(), hw);
+  }
+  EXPECT_EQ(r["predicted"]["J"]["unit"], "kg·m²");
+  EXPECT_LE(r["design"]["peaks"]["theta"].get<double>(), 20.0);
+  EXPECT_LE(r["design"]["peaks"]["u"].get<double>(), 12.0);
+  // The config's own square wave, lowered to 2.29 V to stay within 20 rad, does J 3x worse.
+  EXPECT_EQ(r["reference"]["family"], "config");
+  EXPECT_GE(r["reference"]["halfwidth_over_design"]["J"].get<double>(), 2.0);
+  EXPECT_EQ(r["families"].size(), 4u);
+
+  // blmd-sim runs the written config; its u is the written table's, sample for sample.
+  const CommandResult sim = testing::Run(BinPath("blmd-sim") + " --config " + dir.File("c.json") +
+                                         " --out " + dir.File("sim.csv") + " --quiet");
+  ASSERT_EQ(sim.exit_code, 0) << sim.err;
+  const Trace simulated = ReadTraceCsv(dir.File("sim.csv"));
+  const Trace table = ReadTraceCsv(dir.File("u.csv"));
+  EXPECT_EQ(table.names(), (std::vector<std::string>{"t", "u"}));
+  ASSERT_EQ(simulated.rows(), table.rows());
+  EXPECT_EQ(simulated.rows(), 4001u);
+  EXPECT_EQ(simulated.Column("u"), table.Column("u"));
+  EXPECT_EQ(simulated.Column("t"), table.Column("t"));
+
+  // --trace of the played table, with the same noise: the same prediction.
+  const CommandResult again = testing::Run(Design() + " --trace " + dir.File("sim.csv") +
+                                           " --noise i=0.014 --noise w=2.5 --json");
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  const nlohmann::json t = nlohmann::json::parse(again.out);
+  EXPECT_EQ(t["mode"], "trace");
+  for (const char* p : {"J", "B"}) {
+    EXPECT_NEAR(t["predicted"][p]["ci95_halfwidth"].get<double>(),
+                r["predicted"][p]["ci95_halfwidth"].get<double>(),
+                1e-9 * r["predicted"][p]["ci95_halfwidth"].get<double>());
+  }
+}
+
+// testdata/ganesh-square.csv: the config's square wave with noise sigma_i = 0.013907 A,
+// sigma_w = 2.4821 rad/s (its comment lines). The residual estimates them; with them given,
+// the prediction equals the config input's.
+TEST(DesignCli, TraceNoiseFromTheResidualAndThePredictionOfItsInput) {
+  const std::string trace = SourcePath("testdata/ganesh-square.csv");
+  CommandResult run = testing::Run(Design() + " --trace " + trace + " --json");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  nlohmann::json r = nlohmann::json::parse(run.out);
+  EXPECT_EQ(r["noise"]["i"]["source"], "trace");
+  EXPECT_NEAR(r["noise"]["i"]["sigma"].get<double>(), 0.013906856197717934, 0.03 * 0.0139);
+  EXPECT_NEAR(r["noise"]["w"]["sigma"].get<double>(), 2.482116377753937, 0.03 * 2.482);
+  EXPECT_FALSE(r.contains("families"));
+  EXPECT_EQ(r["design"]["family"], "recorded");
+
+  run = testing::Run(Design() + " --trace " + trace +
+                     " --noise i=0.013906856197717934 --noise w=2.482116377753937 --json");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  r = nlohmann::json::parse(run.out);
+  EXPECT_EQ(r["noise"]["w"]["source"], "flag");
+  for (const char* p : {"J", "B"}) {
+    EXPECT_NEAR(r["predicted"][p]["ci95_halfwidth"].get<double>(),
+                r["reference"]["predicted"][p]["ci95_halfwidth"].get<double>(),
+                1e-9 * r["predicted"][p]["ci95_halfwidth"].get<double>());
+  }
+}
+
+TEST(DesignCli, NoDesignIsExitOneWithTheReport) {
+  TempDir dir;
+  // Six free parameters from w alone: the transfer function shows four coefficients.
+  const std::string config = dir.Write("six.json", R"({"model": "dc_servo",
+        "parameters": {"R": 12.6, "L": 0.283, "Kt": 0.04, "Kb": 0.04, "J": 2.26e-5, "B": 2.261e-5},
+        "experiment": {"input": {"type": "square", "amplitude": 12, "period": 1}, "duration": 2, "sample_rate": 2000},
+        "identification": {"free": ["R", "L", "Kt", "Kb", "J", "B"], "observe": ["w"]}})");
+  const CommandResult run = testing::Run(
+      BinPath("blmd-design") + " --config " + config + " --duration 1 --limit u=12 --noise w=1" +
+      " --family square --report " + dir.File("r.json") + " --write-config " + dir.File("c.json"));
+  EXPECT_EQ(run.exit_code, 1) << run.err;
+  EXPECT_NE(run.err.find("error: no design: no candidate input is feasible"), std::string::npos)
+      << run.err;
+  EXPECT_NE(run.err.find("singular"), std::string::npos) << run.err;
+  const nlohmann::json r = nlohmann::json::parse(Slurp(dir.File("r.json")));
+  EXPECT_EQ(r["ok"], false);
+  EXPECT_FALSE(r.contains("predicted"));
+  EXPECT_FALSE(FileExists(dir.File("c.json")));
+}
+
+struct Bad {
+  std::string flags;
+  std::string message;  // a part of the one error line
+};
+
+TEST(DesignCli, BadInputIsExitTwoWithOneLineAndNothingWritten) {
+  const std::string trace = SourcePath("testdata/ganesh-square.csv");
+  const std::vector<Bad> cases = {
+      {"--duration 2 --noise i=0.01 --noise w=2", "--limit u=V is required"},
+      {"--limit u=12 --noise i=0.01 --noise w=2", "--duration is required"},
+      {"--duration 2 --limit u=12 --noise i=0.01", "no noise level for the observed column 'w'"},
+      {"--duration 2 --limit u=12 --noise i=0.01 --noise w=2 --noise theta=1",
+       "--noise theta: not an observed column (observed: i, w)"},
+      {"--duration 2 --limit u=12 --noise i=0 --noise w=2", "--noise i: sigma must be > 0"},
+      {"--duration 2 --limit u=12 --limit x=3 --noise i=0.01 --noise w=2",
+       "--limit x: not the input or an output of dc_servo (valid: u, i, w, theta)"},
+      {"--duration 2 --limit u=-1 --noise i=0.01 --noise w=2", "--limit u: must be > 0"},
+      {"--duration 0 --limit u=12 --noise i=0.01 --noise w=2", "must be a number > 0"},
+      {"--duration 2 --limit u=12 --noise i=0.01 --noise w=2 --family sine", "--family"},
+      {"--duration 2 --limit u=12 --noise i=0.01 --noise w=2 --target R",
+       "--target R: not a free parameter (free: J, B)"},
+      {"--duration 1e9 --limit u=12 --noise i=0.01 --noise w=2",
+       "--duration 1e+09: a run of 1e+09 s"},
+      {"--trace " + trace + " --duration 2", "--duration: not with --trace"},
+      {"--trace " + trace + " --write-input OUT", "--write-input: not with --trace"},
+      {"--trace /nonexistent.csv", "/nonexistent.csv: cannot read"},
+  };
+  for (const Bad& bad : cases) {
+    SCOPED_TRACE(bad.flags);
+    TempDir dir;
+    std::string flags = bad.flags;
+    if (const auto at = flags.find("OUT"); at != std::string::npos)
+      flags.replace(at, 3, dir.File("out.csv"));
+    const CommandResult run =
+        testing::Run(Design() + " " + flags + " --report " + dir.File("r.json"));
+    EXPECT_EQ(run.exit_code, 2);
+    EXPECT_EQ(run.out, "");
+    EXPECT_EQ(run.err.find('\n'), run.err.size() - 1) << run.err;  // one line
+    EXPECT_EQ(run.err.rfind("error: ", 0), 0u) << run.err;
+    EXPECT_NE(run.err.find(bad.message), std::string::npos) << run.err;
+    EXPECT_FALSE(FileExists(dir.File("r.json")));
+    EXPECT_FALSE(FileExists(dir.File("out.csv")));
+  }
+}
+
+TEST(DesignCli, EquationErrorConfigIsRefused) {
+  const CommandResult run = testing::Run(BinPath("blmd-design") + " --config " +
+                                         SourcePath("tests/schema/rigid-fit.json") +
+                                         " --duration 2 --limit u=1 --noise u=0.01");
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find("the equation error"), std::string::npos) << run.err;
+}
+
+}  // namespace
+}  // namespace blmd::testing
