@@ -112,6 +112,7 @@ ModelReport MakeModelReport(const ReportInputs& inputs) {
   }
 
   if (fit.errors.ok) model.residual.analysis = AnalyseResidual(problem, result.values);
+  model.correlation = EstimateParameterCorrelation(problem, result);
   // Intervals that take the residuals as white are optimistic when they are not; the HAC
   // sandwich's account for the correlation (docs/uncertainty.md).
   bool any_white_interval = false;
@@ -248,6 +249,13 @@ std::vector<StepParameter> StepParameters(const DiscoveryStep& step) {
   return parameters;
 }
 
+void AddLinearViews(IdentReport* report, const FitProblem& problem, const Config& final_config,
+                    const ParameterSet& final_parameters) {
+  report->linear_model = final_config.model->Linearise(final_parameters);
+  report->frequency_response = MakeFrequencyResponseReport(problem, report->linear_model);
+  report->step_response = MakeStepResponseReport(report->linear_model);
+}
+
 void WidenForAmbiguity(IdentReport* report) {
   if (!report->discovery) return;
   auto& parameters = report->final_model.parameters;
@@ -338,6 +346,20 @@ void AddWarnings(IdentReport* report) {
       reason = ": " + details["interval"]["unavailable"].get<std::string>();
     }
     add("interval_unavailable", "no interval for " + no_interval + reason);
+  }
+  const ParameterCorrelation& correlation = model.correlation;
+  for (std::size_t j = 0; correlation.available && j < correlation.names.size(); ++j) {
+    for (std::size_t k = j + 1; k < correlation.names.size(); ++k) {
+      const double rho =
+          correlation.correlation(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k));
+      if (!(std::abs(rho) > kPoorlySeparableCorrelation)) continue;
+      add("parameters_correlated",
+          correlation.names[j] + " and " + correlation.names[k] + " are correlated (rho = " +
+              Figure(rho, 3) +
+              "): these traces determine a combination of the two far better than either; "
+              "each interval is wide along that line. An input with other excitation (another "
+              "amplitude, frequency or direction) separates them");
+    }
   }
   for (const UnitsHint& hint : report->units_hints) {
     add("units_suspect", hint.evidence + ": is '" + hint.column + "' in " + hint.unit +
