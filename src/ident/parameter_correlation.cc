@@ -32,7 +32,7 @@ Eigen::MatrixXd CorrelationFromCovariance(const Eigen::MatrixXd& covariance) {
       const bool ok = vj > 0.0 && vk > 0.0 && std::isfinite(vj) && std::isfinite(vk);
       correlation(j, k) = !ok     ? std::numeric_limits<double>::quiet_NaN()
                           : j == k ? 1.0
-                                   : covariance(j, k) / std::sqrt(vj * vk);
+                                   : 0.5 * (covariance(j, k) + covariance(k, j)) / std::sqrt(vj * vk);
     }
   }
   return correlation;

@@ -13,10 +13,12 @@ namespace blmd {
 namespace {
 
 // A bin has content when its input power is at least this fraction of the largest within
-// the octave around it (-30 dB: the valleys between a square wave's resolved harmonics and
-// a PRBS's nulls fall out, a broadband input keeps every bin) and of the largest overall
-// (-60 dB: what lies beyond a chirp's band).
-constexpr double kLocalContent = 1e-3;
+// the octave around it (-20 dB: the valleys between a square wave's resolved harmonics and
+// the bins at a PRBS's spectral nulls fall out, where what the Hann window leaks from the
+// strong bins beside them, its sidelobes at -31 dB and below, would be a fair part of their
+// power; a broadband input keeps every bin) and of the largest overall (-60 dB: what lies
+// beyond a chirp's band).
+constexpr double kLocalContent = 1e-2;
 constexpr double kGlobalContent = 1e-6;
 // Points per decade above which FFT bins are averaged in log bands.
 constexpr double kPointsPerDecade = 100.0;
@@ -73,15 +75,19 @@ std::string InputProblem(const FitProblem& problem) {
   return "";
 }
 
-// The bins with content (see kLocalContent).
+// The bins with content (see kLocalContent), from the second: the periodic Hann window's
+// transform is nonzero at bins 0 and ±1 only, so the first (index 0 here: the DC bin is not
+// in the spectra) holds what the detrending left of each segment's mean, not the input's
+// content.
 std::vector<std::size_t> BinsWithContent(const WelchSpectra& spectra) {
   const std::vector<double>& p = spectra.input_psd;
-  const double largest = *std::max_element(p.begin(), p.end());
   std::vector<std::size_t> kept;
+  if (p.size() < 2) return kept;
+  const double largest = *std::max_element(p.begin() + 1, p.end());
   if (!(largest > 0.0)) return kept;
   const std::vector<double>& f = spectra.f_hz;
-  std::size_t low = 0, high = 0;  // the bins within the octave [f/√2, f·√2]
-  for (std::size_t m = 0; m < p.size(); ++m) {
+  std::size_t low = 1, high = 1;  // the bins within the octave [f/√2, f·√2]
+  for (std::size_t m = 1; m < p.size(); ++m) {
     while (f[low] < f[m] / std::numbers::sqrt2) ++low;
     while (high + 1 < p.size() && f[high + 1] <= f[m] * std::numbers::sqrt2) ++high;
     const double local = *std::max_element(p.begin() + static_cast<std::ptrdiff_t>(low),
@@ -113,9 +119,11 @@ double Mean(const std::vector<double>& v, const std::vector<std::size_t>& at) {
   return sum / static_cast<double>(at.size());
 }
 
-// The model's Bode values at `f_hz` and on a log grid over their range, the phase unwrapped
-// along both together (so the points sit on the drawn curve's branch).
-void ModelResponse(const LinearModel& model, std::size_t output, FrequencyResponseOutput* out) {
+// The model's Bode values at `f_hz` and on a log grid over their range, sampled with a
+// zero-order hold at `dt_s` as the trace is (linear_response.h), the phase unwrapped along
+// both together (so the points sit on the drawn curve's branch).
+void ModelResponse(const LinearModel& model, std::size_t output, double dt_s,
+                   FrequencyResponseOutput* out) {
   const double lo = out->f_hz.front(), hi = out->f_hz.back() > lo ? out->f_hz.back() : 2.0 * lo;
   std::vector<std::pair<double, int>> grid;  // (f, index into f_hz, or -1 for the curve)
   for (int k = 0; k < kModelCurvePoints; ++k) {
@@ -128,7 +136,7 @@ void ModelResponse(const LinearModel& model, std::size_t output, FrequencyRespon
                    [](const auto& a, const auto& b) { return a.first < b.first; });
   std::vector<double> f;
   for (const auto& g : grid) f.push_back(g.first);
-  const BodeCurve all = Bode(model, output, f);
+  const BodeCurve all = Bode(model, output, f, dt_s);
   out->model_mag_db.assign(out->f_hz.size(), 0.0);
   out->model_phase_deg.assign(out->f_hz.size(), 0.0);
   for (std::size_t k = 0; k < grid.size(); ++k) {
@@ -155,7 +163,10 @@ FrequencyResponseOutput EstimateOutput(const WelchSpectra& spectra, std::size_t 
     const std::complex<double> h = puy / puu;
     const double coherence = std::norm(puy) / (puu * pyy);
     const double segments = Mean(spectra.input_segments_effective, band);
-    out.f_hz.push_back(Mean(spectra.f_hz, band));
+    // The band's frequency: the bins' weighted by the input power, as H1 weights their H.
+    double weighted = 0.0;
+    for (std::size_t m : band) weighted += spectra.input_psd[m] * spectra.f_hz[m];
+    out.f_hz.push_back(weighted / (puu * static_cast<double>(band.size())));
     out.merged_bins.push_back(static_cast<int>(band.size()));
     out.empirical_mag_db.push_back(20.0 * std::log10(std::abs(h)));
     out.empirical_phase_deg.push_back(std::arg(h) * 180.0 / std::numbers::pi);
@@ -178,7 +189,8 @@ FrequencyResponseReport MakeFrequencyResponseReport(const FitProblem& problem,
   }
   report.input = model.input;
   report.note = "the model curve is the identified model's linear part (" + model.assumption +
-                "): what it leaves out shows in the measured response, not in the curve";
+                "), sampled with the trace's zero-order hold: what it leaves out shows in the "
+                "measured response, not in the curve";
   report.reason = InputProblem(problem);
   if (!report.reason.empty()) return report;
   const std::vector<std::string> columns = Outputs(problem, model);
@@ -236,7 +248,7 @@ FrequencyResponseReport MakeFrequencyResponseReport(const FitProblem& problem,
     out.output = columns[o];
     const auto index = static_cast<std::size_t>(
         std::find(model.outputs.begin(), model.outputs.end(), columns[o]) - model.outputs.begin());
-    ModelResponse(model, index, &out);
+    ModelResponse(model, index, 1.0 / report.sample_rate_hz, &out);
     // The measured phase on the model's branch: within ±180° of the model's.
     for (std::size_t k = 0; k < out.f_hz.size(); ++k) {
       const double d = out.empirical_phase_deg[k] - out.model_phase_deg[k];

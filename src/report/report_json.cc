@@ -141,6 +141,7 @@ json FrequencyResponseJson(const FrequencyResponseReport& r) {
   out["window"] = "hann";
   out["overlap"] = 0.5;
   out["detrend"] = "linear";
+  out["model_sampling"] = "zero_order_hold";
   out["input"] = r.input;
   out["note"] = r.note;
   out["sample_rate_hz"] = Number(r.sample_rate_hz);

@@ -61,22 +61,58 @@ StepFigures FinalValue(const TransferFunction& tf) {
 
 }  // namespace
 
-std::complex<double> FrequencyResponse(const LinearModel& model, std::size_t output, double f_hz) {
+void DiscretiseLinearModel(const LinearModel& model, double dt_s, Eigen::MatrixXd* phi,
+                           Eigen::VectorXd* gamma) {
   const Eigen::Index n = model.A.rows();
-  const std::complex<double> s(0.0, 2.0 * std::numbers::pi * f_hz);
-  const Eigen::MatrixXcd sI_minus_A =
-      s * Eigen::MatrixXcd::Identity(n, n) - model.A.cast<std::complex<double>>();
-  const Eigen::VectorXcd x = sI_minus_A.partialPivLu().solve(model.B.col(0).cast<std::complex<double>>());
+  Eigen::MatrixXd augmented = Eigen::MatrixXd::Zero(n + 1, n + 1);
+  augmented.topLeftCorner(n, n) = model.A * dt_s;
+  augmented.topRightCorner(n, 1) = model.B * dt_s;
+  const Eigen::MatrixXd expm = augmented.exp();
+  *phi = expm.topLeftCorner(n, n);
+  *gamma = expm.topRightCorner(n, 1);
+}
+
+namespace {
+
+// C_k (λI - M)^-1 b + D_k.
+std::complex<double> Resolvent(const LinearModel& model, std::size_t output,
+                               const Eigen::MatrixXd& M, const Eigen::VectorXd& b,
+                               std::complex<double> lambda) {
+  const Eigen::Index n = M.rows();
+  const Eigen::MatrixXcd shifted =
+      lambda * Eigen::MatrixXcd::Identity(n, n) - M.cast<std::complex<double>>();
+  const Eigen::VectorXcd x = shifted.partialPivLu().solve(b.cast<std::complex<double>>());
   const auto k = static_cast<Eigen::Index>(output);
   return (model.C.row(k).cast<std::complex<double>>() * x)(0) + model.D(k, 0);
 }
 
-BodeCurve Bode(const LinearModel& model, std::size_t output, const std::vector<double>& f_hz) {
+}  // namespace
+
+std::complex<double> FrequencyResponse(const LinearModel& model, std::size_t output, double f_hz,
+                                       double sample_interval_s) {
+  const double omega = 2.0 * std::numbers::pi * f_hz;
+  if (!(sample_interval_s > 0.0))
+    return Resolvent(model, output, model.A, model.B.col(0), {0.0, omega});
+  Eigen::MatrixXd phi;
+  Eigen::VectorXd gamma;
+  DiscretiseLinearModel(model, sample_interval_s, &phi, &gamma);
+  return Resolvent(model, output, phi, gamma, std::polar(1.0, omega * sample_interval_s));
+}
+
+BodeCurve Bode(const LinearModel& model, std::size_t output, const std::vector<double>& f_hz,
+               double sample_interval_s) {
   BodeCurve curve;
   curve.f_hz = f_hz;
+  const bool sampled = sample_interval_s > 0.0;
+  Eigen::MatrixXd phi = model.A;
+  Eigen::VectorXd gamma = model.B.col(0);
+  if (sampled) DiscretiseLinearModel(model, sample_interval_s, &phi, &gamma);
   double previous = 0.0;
   for (std::size_t i = 0; i < f_hz.size(); ++i) {
-    const std::complex<double> g = FrequencyResponse(model, output, f_hz[i]);
+    const double omega = 2.0 * std::numbers::pi * f_hz[i];
+    const std::complex<double> lambda =
+        sampled ? std::polar(1.0, omega * sample_interval_s) : std::complex<double>(0.0, omega);
+    const std::complex<double> g = Resolvent(model, output, phi, gamma, lambda);
     curve.magnitude_db.push_back(20.0 * std::log10(std::abs(g)));
     double phase = std::arg(g) * 180.0 / std::numbers::pi;
     if (i > 0) phase -= 360.0 * std::round((phase - previous) / 360.0);
@@ -150,18 +186,13 @@ StepResponse ComputeStepResponse(const LinearModel& model) {
   const double wanted = std::ceil(50.0 * response.duration_s * fastest);
   const auto steps = static_cast<std::size_t>(std::clamp(wanted, 2000.0, 200000.0));
   response.dt_s = response.duration_s / static_cast<double>(steps);
-  // Exact zero-order-hold discretisation of one step.
-  const Eigen::Index n = model.A.rows();
-  Eigen::MatrixXd augmented = Eigen::MatrixXd::Zero(n + 1, n + 1);
-  augmented.topLeftCorner(n, n) = model.A * response.dt_s;
-  augmented.topRightCorner(n, 1) = model.B * response.dt_s;
-  const Eigen::MatrixXd expm = augmented.exp();
-  const Eigen::MatrixXd phi = expm.topLeftCorner(n, n);
-  const Eigen::VectorXd gamma = expm.topRightCorner(n, 1);
+  Eigen::MatrixXd phi;
+  Eigen::VectorXd gamma;
+  DiscretiseLinearModel(model, response.dt_s, &phi, &gamma);
   const auto outputs = static_cast<std::size_t>(model.C.rows());
   response.y.assign(outputs, std::vector<double>(steps + 1));
   response.t_s.resize(steps + 1);
-  Eigen::VectorXd x = Eigen::VectorXd::Zero(n);
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(model.A.rows());
   for (std::size_t i = 0; i <= steps; ++i) {
     response.t_s[i] = static_cast<double>(i) * response.dt_s;
     const Eigen::VectorXd y = model.C * x + model.D.col(0);

@@ -31,8 +31,9 @@ struct ParameterCorrelation {
   Eigen::MatrixXd correlation;       // unit diagonal, symmetric, entries in [-1, 1]
 };
 
-// ρ_jk = cov_jk / sqrt(cov_jj·cov_kk); NaN in the row and column of a variance that is not
-// positive and finite.
+// ρ_jk = cov_jk / sqrt(cov_jj·cov_kk), with cov_jk taken as (cov_jk + cov_kj)/2 (a computed
+// sandwich is symmetric only to rounding), so ρ is exactly symmetric; NaN in the row and
+// column of a variance that is not positive and finite.
 Eigen::MatrixXd CorrelationFromCovariance(const Eigen::MatrixXd& covariance);
 
 // The correlation of `result`'s estimates on `problem`: the same Jacobian (central

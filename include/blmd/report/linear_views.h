@@ -27,7 +27,10 @@ struct FrequencyResponseOutput {
   std::vector<double> coherence;       // γ², 0..1
   std::vector<double> random_error;    // normalised random error of |H1| (Bendat & Piersol)
   std::vector<bool> low_coherence;     // γ² below the threshold, or one segment's power only
-  std::vector<double> model_mag_db, model_phase_deg;  // the linear part at f_hz
+  // The linear part at f_hz, sampled as the trace is: u held between samples (zero-order
+  // hold), so it is the transfer from the recorded samples of u to those of y that H1
+  // estimates (linear_response.h FrequencyResponse with the sample interval).
+  std::vector<double> model_mag_db, model_phase_deg;
   BodeCurve model_curve;               // the linear part on a log grid over the same range
 };
 

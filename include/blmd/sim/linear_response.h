@@ -6,6 +6,7 @@
 // Digital Control of Dynamic Systems, 3rd ed. 1998, §4.3.3), so neither depends on a step size.
 #pragma once
 
+#include <Eigen/Dense>
 #include <complex>
 #include <cstddef>
 #include <string>
@@ -16,17 +17,30 @@
 namespace blmd {
 
 // G_k(j·2π·f) = C_k (j·2π·f·I - A)^-1 B + D_k: output k's response to the input at f_hz.
-// `model` must be available and k one of its outputs.
-std::complex<double> FrequencyResponse(const LinearModel& model, std::size_t output, double f_hz);
+// With sample_interval_s = T > 0, the response of the samples instead: the input held between
+// samples (zero-order hold, as a trace's u is: docs/trace-format.md) and the output sampled,
+// H_k(z) = C_k (zI - Φ)^-1 Γ + D_k at z = exp(j·2π·f·T), the exact discretisation's
+// transfer function (Franklin, Powell & Workman §4.3.3); it equals G_k up to the hold's
+// delay of T/2 and its gain sinc(f·T) for f well below 1/(2T), and is what the Welch estimate
+// of sampled records measures. `model` must be available and k one of its outputs.
+std::complex<double> FrequencyResponse(const LinearModel& model, std::size_t output, double f_hz,
+                                       double sample_interval_s = 0.0);
 
-// 20·log10|G| (dB) and the phase of G (degrees) of output k at increasing frequencies `f_hz`.
+// 20·log10|G| (dB) and the phase of G (degrees) of output k at increasing frequencies `f_hz`
+// (continuous, or sampled with sample_interval_s > 0 as FrequencyResponse).
 // The phase is unwrapped along the frequencies: it starts from its principal value
 // (-180°, 180°] at the first frequency and moves continuously (no jump of more than 180°
 // between neighbours), so an integrator with two lags reads -90° falling to -270°.
 struct BodeCurve {
   std::vector<double> f_hz, magnitude_db, phase_deg;
 };
-BodeCurve Bode(const LinearModel& model, std::size_t output, const std::vector<double>& f_hz);
+BodeCurve Bode(const LinearModel& model, std::size_t output, const std::vector<double>& f_hz,
+               double sample_interval_s = 0.0);
+
+// The exact zero-order-hold discretisation of `model` over `dt_s`:
+// [Φ Γ; 0 I] = exp([A B; 0 0]·dt).
+void DiscretiseLinearModel(const LinearModel& model, double dt_s, Eigen::MatrixXd* phi,
+                           Eigen::VectorXd* gamma);
 
 // The classical figures of a response y(t) to a unit step at t = 0 with final value `final_value`
 // (all times in s from the step; between samples the response is interpolated linearly):
