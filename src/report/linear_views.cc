@@ -23,7 +23,7 @@ constexpr double kGlobalContent = 1e-6;
 // Points per decade above which FFT bins are averaged in log bands.
 constexpr double kPointsPerDecade = 100.0;
 // Points of the model curve drawn on a log grid.
-constexpr int kModelCurvePoints = 400;
+constexpr int kModelCurvePoints = 200;
 
 // The uniform sample rate of a trace's time column, or 0 when some interval is more than
 // 1 % from the mean.
