@@ -116,7 +116,7 @@ void WriteCorrelation(Page& page, const ParameterCorrelation& c) {
   h += "<table class=\"correlation\" data-method=\"" + Escape(c.method) + "\">\n" + HeaderRow(head);
   bool poor = false;
   for (std::size_t j = 0; j < c.names.size(); ++j) {
-    h += "<tr data-name=\"" + Escape(c.names[j]) + "\"><th>" + Escape(c.names[j]) + "</th>";
+    h += "<tr data-row=\"" + Escape(c.names[j]) + "\"><th>" + Escape(c.names[j]) + "</th>";
     for (std::size_t k = 0; k < c.names.size(); ++k) {
       const double rho = c.correlation(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k));
       const bool marked = j != k && std::abs(rho) > kPoorlySeparableCorrelation;

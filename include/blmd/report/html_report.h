@@ -26,7 +26,7 @@
 //                               data-parameter, data-points, data-centre, data-argmin on slices,
 //                               data-points, data-low (low-coherence points) on the Bode and
 //                               coherence plots
-//   table.correlation           the correlation matrix: tr[data-name] per parameter,
+//   table.correlation           the correlation matrix: tr[data-row] per parameter,
 //                               td.rho[data-rho] per entry, td.poor where |rho| > 0.95
 //   section#frequency-response, section#step-response (table.step, tr.step-output[data-column])
 //   tr.parameter[data-name]     one row per parameter of the table
