@@ -80,6 +80,13 @@ ParameterCorrelation EstimateParameterCorrelation(const FitProblem& problem,
     out.reason = "a parameter's variance is zero: the cost does not depend on it";
     return out;
   }
+  for (std::size_t j = 0; j < out.names.size(); ++j) {
+    for (std::size_t k = j + 1; k < out.names.size(); ++k) {
+      const double rho = out.correlation(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k));
+      if (std::abs(rho) > kPoorlySeparableCorrelation)
+        out.poorly_separable.push_back({out.names[j], out.names[k], rho});
+    }
+  }
   out.available = true;
   return out;
 }

@@ -137,8 +137,8 @@ void WriteCorrelation(Page& page, const ParameterCorrelation& c) {
   if (poor) {
     h += " <b>|ρ| &gt; " + G(kPoorlySeparableCorrelation, 2) +
          " (marked !): these traces determine a combination of the two far better than "
-         "either; each interval is wide along that line, and an input with other excitation "
-         "separates them.</b>";
+         "either; the intervals allow for it, and an input with other excitation (another "
+         "amplitude, frequency or direction) separates them.</b>";
   }
   h += "</p>\n";
 }

@@ -347,20 +347,6 @@ void AddWarnings(IdentReport* report) {
     }
     add("interval_unavailable", "no interval for " + no_interval + reason);
   }
-  const ParameterCorrelation& correlation = model.correlation;
-  for (std::size_t j = 0; correlation.available && j < correlation.names.size(); ++j) {
-    for (std::size_t k = j + 1; k < correlation.names.size(); ++k) {
-      const double rho =
-          correlation.correlation(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k));
-      if (!(std::abs(rho) > kPoorlySeparableCorrelation)) continue;
-      add("parameters_correlated",
-          correlation.names[j] + " and " + correlation.names[k] + " are correlated (rho = " +
-              Figure(rho, 3) +
-              "): these traces determine a combination of the two far better than either; "
-              "each interval is wide along that line. An input with other excitation (another "
-              "amplitude, frequency or direction) separates them");
-    }
-  }
   for (const UnitsHint& hint : report->units_hints) {
     add("units_suspect", hint.evidence + ": is '" + hint.column + "' in " + hint.unit +
                              "? The model works in " + hint.model_unit +

@@ -130,6 +130,10 @@ json CorrelationJson(const ParameterCorrelation& c) {
     matrix.push_back(row);
   }
   out["matrix"] = matrix;
+  json pairs = json::array();
+  for (const CorrelatedPair& pair : c.poorly_separable)
+    pairs.push_back({{"parameters", {pair.first, pair.second}}, {"rho", Number(pair.rho)}});
+  out["poorly_separable"] = pairs;
   return out;
 }
 

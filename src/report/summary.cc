@@ -185,6 +185,11 @@ std::string HumanSummary(const IdentReport& report) {
   if (model.intervals_optimistic) {
     out << "note: the intervals assume white residuals and are optimistic here\n";
   }
+  for (const CorrelatedPair& pair : model.correlation.poorly_separable) {
+    out << "note: " << pair.first << " and " << pair.second << " are correlated (rho = "
+        << Figure(pair.rho, 3)
+        << "): these traces determine a combination of the two far better than either\n";
+  }
   if (model.validation) {
     out << "validation: NRMSE " << Nrmse(model.validation->errors) << " on "
         << model.validation->traces.size() << " held-out trace(s)\n";

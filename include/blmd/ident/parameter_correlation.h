@@ -18,9 +18,14 @@
 
 namespace blmd {
 
-// |ρ| above this: the two parameters are poorly separable (the warning
-// parameters_correlated, docs/report.md).
+// |ρ| above this: the two parameters are poorly separable (a note in the report, the summary
+// and the page, docs/report.md; not a warning: the intervals already allow for it).
 inline constexpr double kPoorlySeparableCorrelation = 0.95;
+
+struct CorrelatedPair {
+  std::string first, second;  // in the problem's order
+  double rho = 0.0;
+};
 
 struct ParameterCorrelation {
   bool available = false;
@@ -29,6 +34,8 @@ struct ParameterCorrelation {
   std::vector<std::string> names;    // the free parameters, in the problem's order
   Eigen::MatrixXd covariance;        // search coordinates
   Eigen::MatrixXd correlation;       // unit diagonal, symmetric, entries in [-1, 1]
+  // The pairs with |rho| > kPoorlySeparableCorrelation, in the matrix's order.
+  std::vector<CorrelatedPair> poorly_separable;
 };
 
 // ρ_jk = cov_jk / sqrt(cov_jj·cov_kk), with cov_jk taken as (cov_jk + cov_kj)/2 (a computed
