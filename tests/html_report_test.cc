@@ -448,8 +448,9 @@ TEST(HtmlReportCli, MillionSampleTraceGivesAPageUnderTwoMegabytes) {
   // response, and the page says why.
   EXPECT_EQ(Figures(page).size(), 12u);
   EXPECT_EQ(Count(page, "<svg "), 12u);
-  EXPECT_EQ(Count(page, "No empirical frequency response: the input u has no power at any "
-                        "frequency (it is constant)."),
+  EXPECT_EQ(Count(page,
+                  "No empirical frequency response: the input u has no power at any "
+                  "frequency (it is constant)."),
             1u);
   EXPECT_GE(Count(page, "1000001 samples"), 2u);
   ExpectSelfContained(page);

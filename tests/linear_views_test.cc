@@ -7,6 +7,8 @@
 // harmonics only); the step figures of a first-order lag (rise ln 9·τ, settling ln 50·τ) and
 // of an underdamped second-order system (overshoot exp(-πζ/√(1-ζ²))); the correlation matrix
 // (unit diagonal, cov/(σσ), the intervals' σ) and its warning.
+#include "blmd/report/linear_views.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -18,7 +20,6 @@
 #include "blmd/ident/spectral.h"
 #include "blmd/ident/trace_input.h"
 #include "blmd/io/config.h"
-#include "blmd/report/linear_views.h"
 #include "blmd/report/report.h"
 #include "blmd/run.h"
 #include "blmd/sim/linear_response.h"
@@ -155,8 +156,8 @@ TEST(Welch, H1OfANoiseFreeFirstOrderSystemIsItsSampledResponse) {
         lowest_coherence, std::norm(s.cross_psd[0][m]) / (s.input_psd[m] * s.output_psd[0][m]));
     if (s.f_hz[m] <= fs / 10) {  // the analytic |G(jω)| = K/sqrt(1 + (ωτ)²)
       const double w = 2 * kPi * s.f_hz[m];
-      worst_continuous = std::max(
-          worst_continuous, std::abs(std::abs(h1) / (K / std::hypot(1.0, w * tau)) - 1.0));
+      worst_continuous =
+          std::max(worst_continuous, std::abs(std::abs(h1) / (K / std::hypot(1.0, w * tau)) - 1.0));
     }
   }
   std::cout << "noise-free H1 over " << s.f_hz.size() << " bins: gain within " << worst_gain
@@ -186,9 +187,9 @@ TEST(Welch, CoherenceAndRandomErrorWithOutputNoiseAreBendatAndPiersols) {
     const Complex truth = FrequencyResponse(model, 0, s.f_hz[m], T);
     // Both densities of unit-variance white noise: 2/fs one-sided.
     const double true_coherence = std::norm(truth) / (std::norm(truth) + sigma * sigma);
-    const double coherence =
-        std::norm(s.cross_psd[0][m]) / (s.input_psd[m] * s.output_psd[0][m]);
-    coherence_error += coherence - true_coherence - (1 - true_coherence) * (1 - true_coherence) / s.equivalent_averages;
+    const double coherence = std::norm(s.cross_psd[0][m]) / (s.input_psd[m] * s.output_psd[0][m]);
+    coherence_error += coherence - true_coherence -
+                       (1 - true_coherence) * (1 - true_coherence) / s.equivalent_averages;
     const double error = FrequencyResponseRandomError(true_coherence, s.equivalent_averages);
     const double h1 = std::abs(s.cross_psd[0][m] / s.input_psd[m]);
     ++counted;
@@ -196,8 +197,7 @@ TEST(Welch, CoherenceAndRandomErrorWithOutputNoiseAreBendatAndPiersols) {
   }
   const double coverage = static_cast<double>(inside) / static_cast<double>(counted);
   std::cout << "with output noise: mean coherence error less the bias " << coherence_error / counted
-            << ", |H1| within 1.96 random errors at " << coverage << " of " << counted
-            << " bins\n";
+            << ", |H1| within 1.96 random errors at " << coverage << " of " << counted << " bins\n";
   EXPECT_NEAR(coherence_error / counted, 0.0, 0.01);
   EXPECT_GT(coverage, 0.90);
   EXPECT_LT(coverage, 0.99);
@@ -214,13 +214,14 @@ TEST(Welch, RandomErrorIsBendatAndPiersolsFormula) {
 // bins around them) and leaves out the empty ones between, e.g. its even harmonics.
 TEST(FrequencyResponseReport, KeepsOnlyTheOddHarmonicsOfASquareWave) {
   TempDir dir;
-  const Config config = RigidConfig(
-      dir, R"({"input": {"type": "square", "amplitude": 0.5, "period": 1.0},
+  const Config config =
+      RigidConfig(dir, R"({"input": {"type": "square", "amplitude": 0.5, "period": 1.0},
               "duration": 100.0, "sample_rate": 200})");
   Trace trace;
   ASSERT_TRUE(RunExperiment(config, &trace).ok());
   std::vector<FitTrace> traces = {RecordedFitTrace(trace, {})};
-  const FitProblem problem(config, std::move(traces), {"w"}, MakeFreeParameters(config, {"J", "B"}));
+  const FitProblem problem(config, std::move(traces), {"w"},
+                           MakeFreeParameters(config, {"J", "B"}));
   const LinearModel model = config.model->Linearise(config.parameters);
   const FrequencyResponseReport r = MakeFrequencyResponseReport(problem, model);
   ASSERT_TRUE(r.available) << r.reason;
@@ -237,7 +238,7 @@ TEST(FrequencyResponseReport, KeepsOnlyTheOddHarmonicsOfASquareWave) {
     if (f > 40.0) continue;
     const int harmonic = static_cast<int>(std::lround(f));
     EXPECT_LE(std::abs(f - harmonic), 2.5 * r.resolution_hz) << f;  // at a harmonic
-    EXPECT_EQ(harmonic % 2, 1) << f;                                 // an odd one
+    EXPECT_EQ(harmonic % 2, 1) << f;                                // an odd one
     ++near_harmonic[static_cast<std::size_t>(harmonic)];
   }
   for (int h = 1; h <= 39; h += 2) EXPECT_GE(near_harmonic[static_cast<std::size_t>(h)], 1) << h;
@@ -292,8 +293,8 @@ TEST(FrequencyResponseReport, PrbsThroughTheServoMatchesItsModel) {
           std::max(worst_phase, std::abs(o.empirical_phase_deg[k] - o.model_phase_deg[k]));
     }
     std::cout << o.output << ": " << compared << " of " << points
-              << " points up to 200 Hz with coherence >= 0.99; worst gap " << worst_mag
-              << " dB, " << worst_phase << " deg\n";
+              << " points up to 200 Hz with coherence >= 0.99; worst gap " << worst_mag << " dB, "
+              << worst_phase << " deg\n";
     EXPECT_GT(compared, points / 2) << o.output;
     EXPECT_LT(worst_mag, 0.5) << o.output;
     EXPECT_LT(worst_phase, 3.0) << o.output;
@@ -366,9 +367,9 @@ TEST(StepResponse, DcServoFinalValuesAreItsDcGains) {
   const StepResponse s = ComputeStepResponse(config.model->Linearise(v));
   ASSERT_TRUE(s.ok);
   const double den = v.Get("R") * v.Get("B") + v.Get("Kt") * v.Get("Kb");
-  EXPECT_NEAR(s.figures[0].final_value, v.Get("B") / den, 1e-12 * v.Get("B") / den);  // i
+  EXPECT_NEAR(s.figures[0].final_value, v.Get("B") / den, 1e-12 * v.Get("B") / den);    // i
   EXPECT_NEAR(s.figures[1].final_value, v.Get("Kt") / den, 1e-12 * v.Get("Kt") / den);  // w
-  EXPECT_FALSE(s.figures[2].ok);  // theta
+  EXPECT_FALSE(s.figures[2].ok);                                                        // theta
   // The samples have settled at the end of the run.
   EXPECT_NEAR(s.y[1].back(), v.Get("Kt") / den, 1e-3 * v.Get("Kt") / den);
 }
@@ -409,8 +410,8 @@ TEST(Correlation, ComesFromTheCovarianceOfTheIntervals) {
   const Config config = LoadConfig(SourcePath("configs/ganesh-noload.json"));
   TraceInputOptions input;
   input.required = config.identification.observe;
-  std::vector<FitTrace> traces = {LoadFitTrace(SourcePath("testdata/ganesh-noload-step.csv"),
-                                               input, config.experiment.initial)};
+  std::vector<FitTrace> traces = {LoadFitTrace(SourcePath("testdata/ganesh-noload-step.csv"), input,
+                                               config.experiment.initial)};
   const FitProblem problem(config, std::move(traces), config.identification.observe,
                            MakeFreeParameters(config, config.identification.free));
   OptimizerOptions options;
@@ -449,7 +450,8 @@ TEST(Correlation, NotesWhenTwoParametersAreHardlySeparable) {
   std::normal_distribution<double> normal(0.0, 0.05);
   for (double& w : trace.Column("w")) w += normal(random);
   std::vector<FitTrace> traces = {RecordedFitTrace(trace, {})};
-  const FitProblem problem(config, std::move(traces), {"w"}, MakeFreeParameters(config, {"J", "B"}));
+  const FitProblem problem(config, std::move(traces), {"w"},
+                           MakeFreeParameters(config, {"J", "B"}));
   OptimizerOptions options;
   options.threads = 2;
   const FitResult result = FindOptimizer("ceres").Minimize(problem, options);
@@ -483,8 +485,8 @@ TEST(Correlation, NotesWhenTwoParametersAreHardlySeparable) {
   std::vector<FitTrace> long_traces = {RecordedFitTrace(long_trace, {})};
   const FitProblem long_problem(long_config, std::move(long_traces), {"w"},
                                 MakeFreeParameters(long_config, {"J", "B"}));
-  const ParameterCorrelation separated =
-      EstimateParameterCorrelation(long_problem, FindOptimizer("ceres").Minimize(long_problem, options));
+  const ParameterCorrelation separated = EstimateParameterCorrelation(
+      long_problem, FindOptimizer("ceres").Minimize(long_problem, options));
   ASSERT_TRUE(separated.available);
   std::cout << "eight time constants: rho(J, B) = " << separated.correlation(0, 1) << "\n";
   EXPECT_LT(std::abs(separated.correlation(0, 1)), kPoorlySeparableCorrelation);

@@ -30,9 +30,10 @@ Eigen::MatrixXd CorrelationFromCovariance(const Eigen::MatrixXd& covariance) {
     for (Eigen::Index k = 0; k < p; ++k) {
       const double vj = covariance(j, j), vk = covariance(k, k);
       const bool ok = vj > 0.0 && vk > 0.0 && std::isfinite(vj) && std::isfinite(vk);
-      correlation(j, k) = !ok     ? std::numeric_limits<double>::quiet_NaN()
-                          : j == k ? 1.0
-                                   : 0.5 * (covariance(j, k) + covariance(k, j)) / std::sqrt(vj * vk);
+      correlation(j, k) = !ok ? std::numeric_limits<double>::quiet_NaN()
+                          : j == k
+                              ? 1.0
+                              : 0.5 * (covariance(j, k) + covariance(k, j)) / std::sqrt(vj * vk);
     }
   }
   return correlation;
@@ -82,7 +83,8 @@ ParameterCorrelation EstimateParameterCorrelation(const FitProblem& problem,
   }
   for (std::size_t j = 0; j < out.names.size(); ++j) {
     for (std::size_t k = j + 1; k < out.names.size(); ++k) {
-      const double rho = out.correlation(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k));
+      const double rho =
+          out.correlation(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k));
       if (std::abs(rho) > kPoorlySeparableCorrelation)
         out.poorly_separable.push_back({out.names[j], out.names[k], rho});
     }

@@ -54,8 +54,8 @@ double FrequencyResponseRandomError(double coherence, double averages) {
   return std::sqrt(1.0 - g) / (std::sqrt(g) * std::sqrt(2.0 * averages));
 }
 
-WelchSpectra EstimateWelchSpectra(const std::vector<SpectralRecord>& records,
-                                  double sample_rate_hz, std::size_t segment_length) {
+WelchSpectra EstimateWelchSpectra(const std::vector<SpectralRecord>& records, double sample_rate_hz,
+                                  std::size_t segment_length) {
   WelchSpectra spectra;
   const std::size_t L = segment_length;
   if (L < 16 || L % 2 != 0 || !(sample_rate_hz > 0.0) || records.empty()) {
@@ -68,7 +68,7 @@ WelchSpectra EstimateWelchSpectra(const std::vector<SpectralRecord>& records,
   double window_power = 0.0, overlap = 0.0;
   for (std::size_t i = 0; i < L; ++i) {
     window[i] = 0.5 - 0.5 * std::cos(2.0 * std::numbers::pi * static_cast<double>(i) /
-                                      static_cast<double>(L));
+                                     static_cast<double>(L));
     window_power += window[i] * window[i];
   }
   for (std::size_t i = 0; i + L / 2 < L; ++i) overlap += window[i] * window[i + L / 2];
@@ -121,8 +121,7 @@ WelchSpectra EstimateWelchSpectra(const std::vector<SpectralRecord>& records,
   spectra.cross_psd.assign(outputs, std::vector<Complex>(bins));
   for (std::size_t m = 1; m <= bins; ++m) {
     // One-sided density: twice the two-sided, but for the Nyquist bin, which has no mirror.
-    const double scale =
-        (m == bins ? 1.0 : 2.0) / (sample_rate_hz * window_power * K);
+    const double scale = (m == bins ? 1.0 : 2.0) / (sample_rate_hz * window_power * K);
     const std::size_t b = m - 1;
     spectra.f_hz.push_back(static_cast<double>(m) * sample_rate_hz / static_cast<double>(L));
     spectra.input_psd.push_back(scale * sums.uu[b]);

@@ -94,8 +94,9 @@ class Page {
   int figures_ = 0;
 };
 
-inline std::string Row(const std::vector<std::string>& cells_html, const std::string& row_attributes = "",
-                const std::vector<bool>& numeric = {}) {
+inline std::string Row(const std::vector<std::string>& cells_html,
+                       const std::string& row_attributes = "",
+                       const std::vector<bool>& numeric = {}) {
   std::string out = "<tr" + row_attributes + ">";
   for (std::size_t k = 0; k < cells_html.size(); ++k) {
     const bool num = k < numeric.size() && numeric[k];

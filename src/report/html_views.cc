@@ -67,14 +67,14 @@ LinePlotOptions LogFrequencyPlot(const Page& page, const std::string& title,
 // (reliable ones dark, low-coherence ones as grey rings).
 std::string BodePlot(const Page& page, const FrequencyResponseOutput& o, bool phase,
                      const std::string& title) {
-  LinePlotOptions plot = LogFrequencyPlot(page, title, phase ? "phase" : "magnitude",
-                                          phase ? "deg" : "dB");
+  LinePlotOptions plot =
+      LogFrequencyPlot(page, title, phase ? "phase" : "magnitude", phase ? "deg" : "dB");
   const std::vector<double>& model = phase ? o.model_curve.phase_deg : o.model_curve.magnitude_db;
   const std::vector<double>& measured = phase ? o.empirical_phase_deg : o.empirical_mag_db;
-  std::vector<Series> series = {Curve("model: linear part (nonlinear effects left out)",
-                                      o.model_curve.f_hz, model),
-                                Points("measured H1", kMeasuredDots, false),
-                                Points("measured, low coherence", kLowDots, true)};
+  std::vector<Series> series = {
+      Curve("model: linear part (nonlinear effects left out)", o.model_curve.f_hz, model),
+      Points("measured H1", kMeasuredDots, false),
+      Points("measured, low coherence", kLowDots, true)};
   for (std::size_t k = 0; k < o.f_hz.size(); ++k) {
     Series& s = series[o.low_coherence[k] ? 2 : 1];
     s.x.push_back(o.f_hz[k]);
@@ -90,8 +90,8 @@ std::string CoherencePlot(const Page& page, const FrequencyResponseOutput& o, do
   LinePlotOptions plot = LogFrequencyPlot(page, title, "coherence", "γ²");
   plot.y_min = 0.0;
   plot.y_max = 1.05;
-  plot.bands.push_back({"threshold " + G(threshold, 2), false, threshold, threshold, "#444444",
-                        1.0, "5 3"});
+  plot.bands.push_back(
+      {"threshold " + G(threshold, 2), false, threshold, threshold, "#444444", 1.0, "5 3"});
   Series line = Curve("coherence", o.f_hz, o.coherence);
   line.line_width = 1.2;
   line.marker_radius = 2.0;
@@ -123,8 +123,9 @@ void WriteCorrelation(Page& page, const ParameterCorrelation& c) {
       poor = poor || marked;
       // The diagonal (1 by definition) neutral; the others coloured by ρ.
       const std::string style = j == k ? "background:#eeeeee"
-                                : std::abs(rho) > 0.6 ? "background:" + RhoColour(rho) + ";color:#fff"
-                                                      : "background:" + RhoColour(rho);
+                                : std::abs(rho) > 0.6
+                                    ? "background:" + RhoColour(rho) + ";color:#fff"
+                                    : "background:" + RhoColour(rho);
       h += "<td class=\"num rho" + std::string(marked ? " poor" : "") + "\" data-rho=\"" +
            G(rho, 6) + "\" style=\"" + style + "\">" +
            (marked ? "<b>" + G(rho, 3) + " !</b>" : G(rho, 3)) + "</td>";
@@ -156,8 +157,8 @@ void WriteFrequencyResponse(Page& page, const IdentReport& report) {
   std::size_t points = r.outputs.empty() ? 0 : r.outputs.front().f_hz.size();
   h += "<p class=\"note\">Measured: H1 = P<sub>uy</sub>/P<sub>uu</sub> from the recorded input u "
        "to each output, Welch's averaged spectra over " +
-       Count(r.averages, "segment") + " of " + std::to_string(r.segment_length) +
-       " samples (" + G(r.equivalent_averages, 3) +
+       Count(r.averages, "segment") + " of " + std::to_string(r.segment_length) + " samples (" +
+       G(r.equivalent_averages, 3) +
        " independent averages; Hann window, 50 % overlap, each segment's line removed), "
        "resolution " +
        G(r.resolution_hz, 3) + " Hz, at the " + std::to_string(points) +
@@ -181,15 +182,21 @@ void WriteFrequencyResponse(Page& page, const IdentReport& report) {
     h += "<div class=\"grid\">\n";
     page.Figure("bode-magnitude", attributes, BodePlot(page, o, false, name + ": magnitude"),
                 "Magnitude of " + Escape(info.quantity) + " per unit of u (dB of " +
-                    Escape(info.unit) + " per input unit): measured against the model's linear "
-                    "part. " + points_note);
+                    Escape(info.unit) +
+                    " per input unit): measured against the model's linear "
+                    "part. " +
+                    points_note);
     page.Figure("bode-phase", attributes, BodePlot(page, o, true, name + ": phase"),
-                "Phase of " + Escape(info.quantity) + " against u, the measured points on the "
-                "model's branch (within ±180° of it). " + points_note);
-    page.Figure("coherence", attributes, CoherencePlot(page, o, r.coherence_threshold, name + ": coherence"),
-                "Coherence of " + Escape(info.quantity) + " with u: 1 for a noise-free linear "
-                "relation; the random error of |H1| is √(1 − γ²)/(|γ|·√(2·n<sub>d</sub>)) "
-                "(Bendat &amp; Piersol).");
+                "Phase of " + Escape(info.quantity) +
+                    " against u, the measured points on the "
+                    "model's branch (within ±180° of it). " +
+                    points_note);
+    page.Figure("coherence", attributes,
+                CoherencePlot(page, o, r.coherence_threshold, name + ": coherence"),
+                "Coherence of " + Escape(info.quantity) +
+                    " with u: 1 for a noise-free linear "
+                    "relation; the random error of |H1| is √(1 − γ²)/(|γ|·√(2·n<sub>d</sub>)) "
+                    "(Bendat &amp; Piersol).");
     h += "</div>\n";
   }
   page.EndSection();
@@ -247,8 +254,8 @@ void WriteStepResponse(Page& page, const IdentReport& report) {
     const double band = 0.02 * std::abs(f.final_value);
     plot.bands.push_back({"final value ±2 %", false, f.final_value - band, f.final_value + band,
                           kBandColour, 0.3, ""});
-    plot.bands.push_back({"settled", true, f.settling_time_s, f.settling_time_s, "#222222", 1.0,
-                          "5 3"});
+    plot.bands.push_back(
+        {"settled", true, f.settling_time_s, f.settling_time_s, "#222222", 1.0, "5 3"});
     plot.bands.push_back({"", false, 0.0, 0.0, "#444444", 1.0, ""});
     page.Figure("step", " data-column=\"" + Escape(r.outputs[k]) + "\"",
                 LinePlotSvg(plot, {Curve("response to 1 " + input_unit, s.t_s, s.y[k])}),

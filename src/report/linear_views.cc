@@ -171,8 +171,8 @@ FrequencyResponseOutput EstimateOutput(const WelchSpectra& spectra, std::size_t 
     out.empirical_mag_db.push_back(20.0 * std::log10(std::abs(h)));
     out.empirical_phase_deg.push_back(std::arg(h) * 180.0 / std::numbers::pi);
     out.coherence.push_back(coherence);
-    out.random_error.push_back(FrequencyResponseRandomError(
-        coherence, std::min(spectra.equivalent_averages, segments)));
+    out.random_error.push_back(
+        FrequencyResponseRandomError(coherence, std::min(spectra.equivalent_averages, segments)));
     out.low_coherence.push_back(!(coherence >= threshold) || segments < 2.0);
   }
   return out;
@@ -202,8 +202,8 @@ FrequencyResponseReport MakeFrequencyResponseReport(const FitProblem& problem,
   std::vector<const Trace*> traces;
   for (const auto& t : problem.traces()) {
     const double rate = UniformRate(t.trace.Column("t"));
-    if (rate > 0.0 && (traces.empty() || std::abs(rate - report.sample_rate_hz) <=
-                                             1e-6 * report.sample_rate_hz)) {
+    if (rate > 0.0 && (traces.empty() ||
+                       std::abs(rate - report.sample_rate_hz) <= 1e-6 * report.sample_rate_hz)) {
       if (traces.empty()) report.sample_rate_hz = rate;
       traces.push_back(&t.trace);
     }

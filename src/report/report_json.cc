@@ -126,7 +126,8 @@ json CorrelationJson(const ParameterCorrelation& c) {
   json matrix = json::array();
   for (Eigen::Index j = 0; j < c.correlation.rows(); ++j) {
     json row = json::array();
-    for (Eigen::Index k = 0; k < c.correlation.cols(); ++k) row.push_back(Number(c.correlation(j, k)));
+    for (Eigen::Index k = 0; k < c.correlation.cols(); ++k)
+      row.push_back(Number(c.correlation(j, k)));
     matrix.push_back(row);
   }
   out["matrix"] = matrix;

@@ -187,8 +187,8 @@ std::string HumanSummary(const IdentReport& report) {
     out << "note: the intervals assume white residuals and are optimistic here\n";
   }
   for (const CorrelatedPair& pair : model.correlation.poorly_separable) {
-    out << "note: " << pair.first << " and " << pair.second << " are correlated (rho = "
-        << Figure(pair.rho, 3)
+    out << "note: " << pair.first << " and " << pair.second
+        << " are correlated (rho = " << Figure(pair.rho, 3)
         << "): these traces determine a combination of the two far better than either\n";
   }
   if (model.validation) {
@@ -210,8 +210,9 @@ std::string HumanSummary(const IdentReport& report) {
       if (step.outputs[k] != "w" || !f.ok) continue;
       out << "step of u (linear part): w -> " << Figure(f.final_value, 4) << " rad/s per "
           << internal::DescribeColumn("u", report.model).unit << ", rise "
-          << Figure(f.rise_time_s, 3) << " s (10-90 %), overshoot " << Figure(f.overshoot_percent, 3)
-          << " %, settled (2 %) after " << Figure(f.settling_time_s, 3) << " s\n";
+          << Figure(f.rise_time_s, 3) << " s (10-90 %), overshoot "
+          << Figure(f.overshoot_percent, 3) << " %, settled (2 %) after "
+          << Figure(f.settling_time_s, 3) << " s\n";
     }
   }
   if (report.baseline) Baseline(*report.baseline, out);

@@ -29,11 +29,11 @@ struct CorrelatedPair {
 
 struct ParameterCorrelation {
   bool available = false;
-  std::string reason;                // why there is none
-  std::string method;                // of the covariance: "hac_prewhitened"
-  std::vector<std::string> names;    // the free parameters, in the problem's order
-  Eigen::MatrixXd covariance;        // search coordinates
-  Eigen::MatrixXd correlation;       // unit diagonal, symmetric, entries in [-1, 1]
+  std::string reason;              // why there is none
+  std::string method;              // of the covariance: "hac_prewhitened"
+  std::vector<std::string> names;  // the free parameters, in the problem's order
+  Eigen::MatrixXd covariance;      // search coordinates
+  Eigen::MatrixXd correlation;     // unit diagonal, symmetric, entries in [-1, 1]
   // The pairs with |rho| > kPoorlySeparableCorrelation, in the matrix's order.
   std::vector<CorrelatedPair> poorly_separable;
 };

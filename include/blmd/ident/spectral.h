@@ -52,8 +52,8 @@ struct WelchSpectra {
   // One-sided spectral densities, (unit of u)²/Hz, (unit of y)²/Hz and (u·y)/Hz;
   // cross = E[conj(U)·Y] (Bendat & Piersol's G_xy), so H1 = cross/input_psd.
   std::vector<double> input_psd;
-  std::vector<std::vector<double>> output_psd;                 // [output][bin]
-  std::vector<std::vector<std::complex<double>>> cross_psd;    // [output][bin]
+  std::vector<std::vector<double>> output_psd;               // [output][bin]
+  std::vector<std::vector<std::complex<double>>> cross_psd;  // [output][bin]
   // Per bin, how many segments carry the input's power there: (Σ_s P_s)² / Σ_s P_s² over the
   // segments' input periodograms P_s (K when every segment has the same power, 1 when one
   // segment has it all, as for a single step: then γ² = 1 whatever the data, and means nothing).
@@ -63,8 +63,8 @@ struct WelchSpectra {
 // The averaged spectra of `records` (segments of `segment_length` samples, even and >= 16;
 // records shorter than that are skipped). Not ok when no record is long enough or a value is
 // not finite.
-WelchSpectra EstimateWelchSpectra(const std::vector<SpectralRecord>& records,
-                                  double sample_rate_hz, std::size_t segment_length);
+WelchSpectra EstimateWelchSpectra(const std::vector<SpectralRecord>& records, double sample_rate_hz,
+                                  std::size_t segment_length);
 
 // Bendat & Piersol (2010) ch. 9: the normalised random error of the gain |H1| (and the
 // standard deviation, in radians, of its phase) from the coherence and the number of

@@ -20,18 +20,18 @@ namespace blmd {
 // power (docs/report.md: "frequencies with content"); above the FFT's resolution the bins
 // are averaged in bands of 1/100 decade, so there are at most about 100 points per decade.
 struct FrequencyResponseOutput {
-  std::string output;                  // the trace column (i, w, theta)
-  std::vector<double> f_hz;            // the mean frequency of the bins averaged in each point
-  std::vector<int> merged_bins;        // how many FFT bins each point averages
+  std::string output;            // the trace column (i, w, theta)
+  std::vector<double> f_hz;      // the mean frequency of the bins averaged in each point
+  std::vector<int> merged_bins;  // how many FFT bins each point averages
   std::vector<double> empirical_mag_db, empirical_phase_deg;  // 20·log10|H1|, arg H1
-  std::vector<double> coherence;       // γ², 0..1
-  std::vector<double> random_error;    // normalised random error of |H1| (Bendat & Piersol)
-  std::vector<bool> low_coherence;     // γ² below the threshold, or one segment's power only
+  std::vector<double> coherence;                              // γ², 0..1
+  std::vector<double> random_error;  // normalised random error of |H1| (Bendat & Piersol)
+  std::vector<bool> low_coherence;   // γ² below the threshold, or one segment's power only
   // The linear part at f_hz, sampled as the trace is: u held between samples (zero-order
   // hold), so it is the transfer from the recorded samples of u to those of y that H1
   // estimates (linear_response.h FrequencyResponse with the sample interval).
   std::vector<double> model_mag_db, model_phase_deg;
-  BodeCurve model_curve;               // the linear part on a log grid over the same range
+  BodeCurve model_curve;  // the linear part on a log grid over the same range
 };
 
 struct FrequencyResponseReport {
@@ -43,8 +43,8 @@ struct FrequencyResponseReport {
   std::size_t segment_length = 0;  // samples per Welch segment (WelchSegmentLength)
   std::size_t averages = 0;        // segments averaged, over every trace used
   double equivalent_averages = 0.0;
-  double resolution_hz = 0.0;      // fs / segment_length
-  std::size_t traces = 0;          // traces pooled
+  double resolution_hz = 0.0;  // fs / segment_length
+  std::size_t traces = 0;      // traces pooled
   std::size_t bins = 0, bins_with_content = 0;
   double coherence_threshold = 0.5;
   std::vector<FrequencyResponseOutput> outputs;

@@ -75,9 +75,9 @@ struct StepResponse {
   std::string reason;  // why there is none (no linear part, no stable pole to set a time scale)
   double duration_s = 0.0;
   double dt_s = 0.0;
-  std::vector<double> t_s;                // 0, dt, ..., duration
-  std::vector<std::vector<double>> y;     // per output of the model, at t_s
-  std::vector<StepFigures> figures;       // per output
+  std::vector<double> t_s;             // 0, dt, ..., duration
+  std::vector<std::vector<double>> y;  // per output of the model, at t_s
+  std::vector<StepFigures> figures;    // per output
 };
 StepResponse ComputeStepResponse(const LinearModel& model);
 
