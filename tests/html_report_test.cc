@@ -345,6 +345,81 @@ TEST(HtmlReport, ShowsTheModelBeforeAndAfterDiscovery) {
   EXPECT_EQ(after_residuals, 2);
 }
 
+// The linear views (docs/report.md): with Identify's AddLinearViews the page gains, per
+// observed output, the Bode magnitude and phase (measured points against the model's curve)
+// and the coherence, a step response per output with a final value, its table, and after the
+// parameter table the correlation matrix; each drawn from the report's numbers.
+TEST(HtmlReport, ShowsTheFrequencyResponseStepResponseAndCorrelation) {
+  const Fitted f = Fit("ganesh-square.json", "dc-hidden-coulomb.csv");
+  IdentReport report = f.report;
+  AddLinearViews(&report, *f.problem, f.problem->config(), f.problem->Parameters(f.result.values));
+  ASSERT_TRUE(report.frequency_response && report.frequency_response->available)
+      << report.frequency_response->reason;
+  ASSERT_TRUE(report.step_response && report.step_response->available);
+  HtmlReportOptions options;
+  options.threads = 2;
+  const std::string html = MakeHtmlReport({&report, f.problem.get(), &f.result, nullptr}, options);
+  ExpectSelfContained(html);
+  EXPECT_EQ(Count(html, "<section id=\"frequency-response\">"), 1u);
+  EXPECT_EQ(Count(html, "<section id=\"step-response\">"), 1u);
+  const std::vector<std::string> figures = Figures(html);
+  ASSERT_EQ(figures.size(), 18u);  // the 10 of a fit, 3 per output (i, w), 2 steps (i, w)
+  std::map<std::string, int> kinds;
+  for (const auto& figure : figures) ++kinds[Attribute(figure, "data-kind")];
+  EXPECT_EQ(kinds["bode-magnitude"], 2);
+  EXPECT_EQ(kinds["bode-phase"], 2);
+  EXPECT_EQ(kinds["coherence"], 2);
+  EXPECT_EQ(kinds["step"], 2);
+  const FrequencyResponseReport& r = *report.frequency_response;
+  for (const auto& figure : figures) {
+    const std::string kind = Attribute(figure, "data-kind");
+    if (kind != "bode-magnitude" && kind != "bode-phase" && kind != "coherence") continue;
+    const std::string column = Attribute(figure, "data-column");
+    const FrequencyResponseOutput* o = nullptr;
+    for (const auto& candidate : r.outputs) o = candidate.output == column ? &candidate : o;
+    ASSERT_NE(o, nullptr) << column;
+    const std::size_t points = o->f_hz.size();
+    std::size_t low = 0;
+    for (bool b : o->low_coherence) low += b;
+    EXPECT_EQ(Attribute(figure, "data-points"), std::to_string(points));
+    EXPECT_EQ(Attribute(figure, "data-low"), std::to_string(low));
+    EXPECT_EQ(Count(figure, "<svg "), 1u);
+    EXPECT_EQ(Count(figure, "class=\"axis-label\""), 2u);
+    EXPECT_EQ(Count(figure, ">frequency (Hz)</text>"), 1u);
+    if (kind == "coherence") {  // one marker per point, and the threshold line
+      EXPECT_EQ(Count(figure, "<circle cx="), points);
+      EXPECT_EQ(Count(figure, "class=\"reference-line\""), 1u);
+      continue;
+    }
+    // The model's curve, a dark dot per trusted point and a grey ring per low-coherence one
+    // (each series also once in the legend).
+    EXPECT_EQ(Count(figure, "class=\"curve\""), 1u);
+    EXPECT_EQ(Count(figure, "<circle cx="), points);
+    EXPECT_EQ(Count(figure, "fill=\"#ffffff\" stroke=\"#9a9a9a\""), low + (low > 0));
+    EXPECT_EQ(Count(figure, "r=\"2.6\" fill=\"#222222\""), points - low + (points > low));
+    EXPECT_EQ(Count(figure, "nonlinear effects left out"), 1u);  // said on the plot
+  }
+  // The step table: one row per output of the linear part; the angle integrates.
+  EXPECT_EQ(Count(html, "<tr class=\"step-output\""), 3u);
+  EXPECT_NE(html.find("integrating output"), std::string::npos);
+  const StepFigures& w = report.step_response->response.figures[1];
+  ASSERT_TRUE(w.ok);
+  ASSERT_GT(w.rise_time_s, 1e-3);  // printed plainly, 3 significant digits, in the caption
+  char rise[64];
+  std::snprintf(rise, sizeof rise, "rise time %.3g s", w.rise_time_s);
+  EXPECT_EQ(Count(html, rise), 1u);
+  // The correlation matrix: J and B, unit diagonal, the report's off-diagonal value.
+  const ParameterCorrelation& c = report.final_model.correlation;
+  ASSERT_TRUE(c.available);
+  EXPECT_EQ(Count(html, "<table class=\"correlation\""), 1u);
+  EXPECT_EQ(Count(html, "<td class=\"num rho"), 4u);
+  EXPECT_EQ(Count(html, "data-rho=\"1\""), 2u);
+  char rho[32];
+  std::snprintf(rho, sizeof rho, "data-rho=\"%.6g\"", c.correlation(0, 1));
+  EXPECT_EQ(Count(html, rho), 2u);
+  EXPECT_LT(html.find("<table class=\"correlation\""), html.find("<section id=\"traces\""));
+}
+
 // The real command on a 1e6-sample trace: the page stays small because every plot draws at
 // most five samples per pixel column.
 TEST(HtmlReportCli, MillionSampleTraceGivesAPageUnderTwoMegabytes) {
@@ -369,8 +444,14 @@ TEST(HtmlReportCli, MillionSampleTraceGivesAPageUnderTwoMegabytes) {
   std::cout << "HTML report of a 1000001-sample trace: " << size << " bytes\n";
   EXPECT_LT(size, 2u * 1024 * 1024);
   const std::string page = Slurp(html);
-  EXPECT_EQ(Figures(page).size(), 10u);
-  EXPECT_EQ(Count(page, "<svg "), 10u);
+  // 10 of the fit and the steps of i and w; a step from t = 0 holds u constant: no frequency
+  // response, and the page says why.
+  EXPECT_EQ(Figures(page).size(), 12u);
+  EXPECT_EQ(Count(page, "<svg "), 12u);
+  EXPECT_EQ(Count(page,
+                  "No empirical frequency response: the input u has no power at any "
+                  "frequency (it is constant)."),
+            1u);
   EXPECT_GE(Count(page, "1000001 samples"), 2u);
   ExpectSelfContained(page);
 }

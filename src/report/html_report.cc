@@ -14,6 +14,7 @@
 #include "blmd/report/plot.h"
 #include "blmd/version.h"
 #include "parallel.h"
+#include "report/html_page.h"
 #include "report/markup.h"
 
 namespace blmd {
@@ -24,38 +25,21 @@ using nlohmann::json;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// Colours (Okabe-Ito, see docs/report.md): the measurement is a light grey under the
-// simulations; the fit is blue and solid, the model after discovery vermilion and dashed,
-// so the two differ in greyscale too.
-constexpr const char* kMeasuredColour = "#9a9a9a";
-constexpr const char* kFitColour = "#0072b2";
-constexpr const char* kAfterColour = "#d55e00";
-constexpr const char* kAfterDash = "7 4";
-constexpr const char* kBandColour = "#7f7f7f";
+using internal::ColumnInfo;
+using internal::DescribeColumn;
+using internal::G;
+using internal::HeaderRow;
+using internal::kAfterColour;
+using internal::kAfterDash;
+using internal::kBandColour;
+using internal::kFitColour;
+using internal::kMeasuredColour;
+using internal::Page;
+using internal::Row;
 
 // ---- text ------------------------------------------------------------------------------
 
 using internal::Escape;  // report/markup.h
-
-// `digits` significant digits: plain from 1e-3 to 1e6, else with a compact exponent
-// ("2.2613e-5"); "n/a" when not finite.
-std::string G(double v, int digits = 5) {
-  if (!std::isfinite(v)) return "n/a";
-  char buffer[64];
-  const double a = std::abs(v);
-  const bool exponent_form = a != 0.0 && (a < 1e-3 || a >= 1e6);
-  std::snprintf(buffer, sizeof buffer, exponent_form ? "%.*e" : "%.*g",
-                exponent_form ? digits - 1 : digits, v);
-  std::string text = buffer;
-  const auto e = text.find('e');
-  if (e == std::string::npos) return text;
-  std::string mantissa = text.substr(0, e);
-  if (mantissa.find('.') != std::string::npos) {
-    while (mantissa.back() == '0') mantissa.pop_back();
-    if (mantissa.back() == '.') mantissa.pop_back();
-  }
-  return mantissa + "e" + std::to_string(std::atoi(text.c_str() + e + 1));
-}
 
 // The free-form values of the method's details (OptimizerSummary::details).
 std::string Text(const json& v) {
@@ -88,25 +72,6 @@ std::string NowUtc() {
 }
 
 // ---- columns ---------------------------------------------------------------------------
-
-struct ColumnInfo {
-  std::string quantity, unit;
-};
-
-// The model's input is a torque (N·m) rather than a voltage (ModelTraits).
-bool InputIsTorque(const std::string& model) {
-  for (const Model* m : ModelRegistry())
-    if (m->name() == model) return m->traits().input_is_torque;
-  return false;
-}
-
-ColumnInfo DescribeColumn(const std::string& column, const std::string& model) {
-  if (column == "i" || column == "ib" || column == "ic") return {"current " + column, "A"};
-  if (column == "w") return {"speed w", "rad/s"};
-  if (column == "theta") return {"angle theta", "rad"};
-  if (column == "u") return {"input u", InputIsTorque(model) ? "N·m" : "V"};
-  return {column, ""};
-}
 
 std::string ParameterUnit(const Config& config, const std::string& name) {
   const ParamInfo* info = config.FindParameterInfo(name);
@@ -155,54 +120,6 @@ summary { cursor: pointer; color: #0b5394; }
 footer { margin-top: 2.5rem; font-size: .8rem; color: #555; border-top: 1px solid #ddd; padding-top: .5rem; }
 @media print { a.zoom { display: none; } .grid { grid-template-columns: 1fr; } }
 )css";
-
-class Page {
- public:
-  explicit Page(const HtmlReportOptions& options) : options_(options) {}
-  std::string& html() { return html_; }
-  const HtmlReportOptions& options() const { return options_; }
-
-  void Section(const std::string& id, const std::string& title) {
-    section_ = id;
-    html_ += "<section id=\"" + id + "\">\n<h2>" + Escape(title) + "</h2>\n";
-  }
-  void EndSection() { html_ += "</section>\n"; }
-
-  // A figure: the plot, a caption, an "enlarge" link to itself and a "close" link back.
-  void Figure(const std::string& kind, const std::string& attributes, const std::string& svg,
-              const std::string& caption_html) {
-    const std::string id = "fig-" + std::to_string(++figures_);
-    html_ += "<figure class=\"plot\" id=\"" + id + "\" data-kind=\"" + kind + "\"" + attributes +
-             ">\n<a class=\"zoom\" href=\"#" + id + "\">enlarge</a><a class=\"close\" href=\"#" +
-             section_ + "\">close</a>\n" + svg + "<figcaption><b>Figure " +
-             std::to_string(figures_) + ".</b> " + caption_html + "</figcaption>\n</figure>\n";
-  }
-  // id_prefix of the next figure's SVG (unique on the page).
-  std::string NextPrefix() const { return "f" + std::to_string(figures_ + 1); }
-
- private:
-  const HtmlReportOptions& options_;
-  std::string html_;
-  std::string section_;
-  int figures_ = 0;
-};
-
-std::string Row(const std::vector<std::string>& cells_html, const std::string& row_attributes = "",
-                const std::vector<bool>& numeric = {}) {
-  std::string out = "<tr" + row_attributes + ">";
-  for (std::size_t k = 0; k < cells_html.size(); ++k) {
-    const bool num = k < numeric.size() && numeric[k];
-    out += num ? "<td class=\"num\">" : "<td>";
-    out += cells_html[k] + "</td>";
-  }
-  return out + "</tr>\n";
-}
-
-std::string HeaderRow(const std::vector<std::string>& names) {
-  std::string out = "<tr>";
-  for (const auto& name : names) out += "<th>" + Escape(name) + "</th>";
-  return out + "</tr>\n";
-}
 
 std::string Card(const std::string& label, const std::string& value, const std::string& sub,
                  bool warn = false) {
@@ -401,6 +318,7 @@ void WriteParameters(Page& page, const IdentReport& report, const FitProblem& pr
          "so "
          "they are optimistic.</p>\n";
   }
+  internal::WriteCorrelation(page, report.final_model.correlation);
   page.EndSection();
 }
 
@@ -1004,6 +922,8 @@ std::string MakeHtmlReport(const HtmlReportInputs& inputs, const HtmlReportOptio
   }
   page.EndSection();
 
+  internal::WriteFrequencyResponse(page, report);
+  internal::WriteStepResponse(page, report);
   if (report.discovery) WriteDiscovery(page, *report.discovery);
   if (report.final_model.validation) WriteValidation(page, *report.final_model.validation);
   WriteMethod(page, report.final_model);

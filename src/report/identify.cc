@@ -109,7 +109,7 @@ IdentOutcome Identify(IdentRequest request) {
     report = FinalModelReport(std::move(headline), report, std::move(block));
   }
   WidenForAmbiguity(&report);
-  report.linear_model = outcome.final_config.model->Linearise(outcome.final_parameters);
+  AddLinearViews(&report, problem, outcome.final_config, outcome.final_parameters);
   if (!request.baseline_path.empty()) {
     report.baseline = CompareWithBaseline(report, request.baseline_path);
   }

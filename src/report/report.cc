@@ -112,6 +112,7 @@ ModelReport MakeModelReport(const ReportInputs& inputs) {
   }
 
   if (fit.errors.ok) model.residual.analysis = AnalyseResidual(problem, result.values);
+  model.correlation = EstimateParameterCorrelation(problem, result);
   // Intervals that take the residuals as white are optimistic when they are not; the HAC
   // sandwich's account for the correlation (docs/uncertainty.md).
   bool any_white_interval = false;
@@ -246,6 +247,13 @@ std::vector<StepParameter> StepParameters(const DiscoveryStep& step) {
   std::vector<StepParameter> parameters;
   for (auto& [name, parameter] : by_name) parameters.push_back(parameter);
   return parameters;
+}
+
+void AddLinearViews(IdentReport* report, const FitProblem& problem, const Config& final_config,
+                    const ParameterSet& final_parameters) {
+  report->linear_model = final_config.model->Linearise(final_parameters);
+  report->frequency_response = MakeFrequencyResponseReport(problem, report->linear_model);
+  report->step_response = MakeStepResponseReport(report->linear_model);
 }
 
 void WidenForAmbiguity(IdentReport* report) {

@@ -111,6 +111,118 @@ json ToJson(const ValidationReport& validation) {
   return out;
 }
 
+json Numbers(const std::vector<double>& values) {
+  json out = json::array();
+  for (double v : values) out.push_back(Number(v));
+  return out;
+}
+
+json CorrelationJson(const ParameterCorrelation& c) {
+  json out = {{"available", c.available}, {"method", c.method}, {"names", c.names}};
+  if (!c.available) {
+    out["reason"] = c.reason;
+    return out;
+  }
+  json matrix = json::array();
+  for (Eigen::Index j = 0; j < c.correlation.rows(); ++j) {
+    json row = json::array();
+    for (Eigen::Index k = 0; k < c.correlation.cols(); ++k)
+      row.push_back(Number(c.correlation(j, k)));
+    matrix.push_back(row);
+  }
+  out["matrix"] = matrix;
+  json pairs = json::array();
+  for (const CorrelatedPair& pair : c.poorly_separable)
+    pairs.push_back({{"parameters", {pair.first, pair.second}}, {"rho", Number(pair.rho)}});
+  out["poorly_separable"] = pairs;
+  return out;
+}
+
+json FrequencyResponseJson(const FrequencyResponseReport& r) {
+  json out = {{"available", r.available}};
+  if (!r.reason.empty()) out["reason"] = r.reason;
+  if (!r.available) return out;
+  out["method"] = "welch_h1";
+  out["window"] = "hann";
+  out["overlap"] = 0.5;
+  out["detrend"] = "linear";
+  out["model_sampling"] = "zero_order_hold";
+  out["input"] = r.input;
+  out["note"] = r.note;
+  out["sample_rate_hz"] = Number(r.sample_rate_hz);
+  out["segment_length"] = r.segment_length;
+  out["averages"] = r.averages;
+  out["equivalent_averages"] = Number(r.equivalent_averages);
+  out["resolution_hz"] = Number(r.resolution_hz);
+  out["traces"] = r.traces;
+  out["bins"] = r.bins;
+  out["bins_with_content"] = r.bins_with_content;
+  out["coherence_threshold"] = r.coherence_threshold;
+  json outputs = json::object();
+  for (const FrequencyResponseOutput& o : r.outputs) {
+    outputs[o.output] = {{"f_hz", Numbers(o.f_hz)},
+                         {"merged_bins", o.merged_bins},
+                         {"model_mag_db", Numbers(o.model_mag_db)},
+                         {"model_phase_deg", Numbers(o.model_phase_deg)},
+                         {"empirical_mag_db", Numbers(o.empirical_mag_db)},
+                         {"empirical_phase_deg", Numbers(o.empirical_phase_deg)},
+                         {"coherence", Numbers(o.coherence)},
+                         {"random_error", Numbers(o.random_error)},
+                         {"low_coherence", o.low_coherence},
+                         {"model_curve",
+                          {{"f_hz", Numbers(o.model_curve.f_hz)},
+                           {"mag_db", Numbers(o.model_curve.magnitude_db)},
+                           {"phase_deg", Numbers(o.model_curve.phase_deg)}}}};
+  }
+  out["outputs"] = outputs;
+  return out;
+}
+
+// Samples of the step response written to the JSON (the figures use every sample).
+constexpr std::size_t kStepJsonPoints = 401;
+
+json StepResponseJson(const StepResponseReport& r) {
+  json out = {{"available", r.available}};
+  if (!r.available) {
+    out["reason"] = r.reason;
+    return out;
+  }
+  const StepResponse& s = r.response;
+  out["input"] = r.input;
+  out["step"] = 1.0;
+  out["settling_band"] = 0.02;
+  out["duration_s"] = Number(s.duration_s);
+  out["dt_s"] = Number(s.dt_s);
+  std::vector<std::size_t> at;  // evenly spread sample indices, first and last included
+  const std::size_t last = s.t_s.size() - 1;
+  for (std::size_t k = 0; k < kStepJsonPoints; ++k) at.push_back(k * last / (kStepJsonPoints - 1));
+  auto pick = [&](const std::vector<double>& v) {
+    json values = json::array();
+    for (std::size_t i : at) values.push_back(Number(v[i]));
+    return values;
+  };
+  out["t_s"] = pick(s.t_s);
+  json outputs = json::object();
+  for (std::size_t k = 0; k < r.outputs.size(); ++k) {
+    const StepFigures& f = s.figures[k];
+    json o = {{"y", pick(s.y[k])}};
+    if (f.ok) {
+      o["final_value"] = Number(f.final_value);
+      o["rise_time_s"] = Number(f.rise_time_s);
+      o["overshoot_percent"] = Number(f.overshoot_percent);
+      o["peak_value"] = Number(f.peak_value);
+      o["peak_time_s"] = Number(f.peak_time_s);
+      o["settling_time_s"] = Number(f.settling_time_s);
+    } else {
+      o["final_value"] = f.final_value != 0.0 ? Number(f.final_value) : json(nullptr);
+      o["reason"] = f.reason;
+    }
+    outputs[r.outputs[k]] = o;
+  }
+  out["outputs"] = outputs;
+  return out;
+}
+
 // The parts of a model's report: the headline's keys, or discovery.before's.
 void ModelJson(const ModelReport& model, json* out) {
   (*out)["method"] = model.method;
@@ -137,6 +249,7 @@ void ModelJson(const ModelReport& model, json* out) {
   (*out)["residual"] = ToJson(model.residual);
   (*out)["intervals_optimistic"] = model.intervals_optimistic;
   if (model.validation) (*out)["validation"] = ToJson(*model.validation);
+  (*out)["correlation"] = CorrelationJson(model.correlation);
 }
 
 json CandidatesJson(const std::vector<CandidateOutcome>& outcomes) {
@@ -326,6 +439,9 @@ void to_json(json& out, const IdentReport& report) {
   if (report.linear_model.available || !report.linear_model.reason.empty()) {
     out["linear_model"] = LinearModelJson(report.linear_model);
   }
+  if (report.frequency_response)
+    out["frequency_response"] = FrequencyResponseJson(*report.frequency_response);
+  if (report.step_response) out["step_response"] = StepResponseJson(*report.step_response);
   if (report.baseline) {
     const BaselineReport& b = *report.baseline;
     json parameters = json::object();

@@ -7,6 +7,7 @@
 #include "blmd/io/config.h"
 #include "blmd/report/report.h"
 #include "blmd/version.h"
+#include "report/html_page.h"
 #include "report/text.h"
 
 namespace blmd {
@@ -185,6 +186,11 @@ std::string HumanSummary(const IdentReport& report) {
   if (model.intervals_optimistic) {
     out << "note: the intervals assume white residuals and are optimistic here\n";
   }
+  for (const CorrelatedPair& pair : model.correlation.poorly_separable) {
+    out << "note: " << pair.first << " and " << pair.second
+        << " are correlated (rho = " << Figure(pair.rho, 3)
+        << "): these traces determine a combination of the two far better than either\n";
+  }
   if (model.validation) {
     out << "validation: NRMSE " << Nrmse(model.validation->errors) << " on "
         << model.validation->traces.size() << " held-out trace(s)\n";
@@ -195,6 +201,18 @@ std::string HumanSummary(const IdentReport& report) {
       if (tf.output != "w") continue;
       out << "linear part: u -> w = " << Polynomial(tf.numerator) << " / ("
           << Polynomial(tf.denominator) << ")  (" << report.linear_model.assumption << ")\n";
+    }
+  }
+  if (report.step_response && report.step_response->available) {
+    const StepResponseReport& step = *report.step_response;
+    for (std::size_t k = 0; k < step.outputs.size(); ++k) {
+      const StepFigures& f = step.response.figures[k];
+      if (step.outputs[k] != "w" || !f.ok) continue;
+      out << "step of u (linear part): w -> " << Figure(f.final_value, 4) << " rad/s per "
+          << internal::DescribeColumn("u", report.model).unit << ", rise "
+          << Figure(f.rise_time_s, 3) << " s (10-90 %), overshoot "
+          << Figure(f.overshoot_percent, 3) << " %, settled (2 %) after "
+          << Figure(f.settling_time_s, 3) << " s\n";
     }
   }
   if (report.baseline) Baseline(*report.baseline, out);

@@ -4,7 +4,9 @@
 Headless Chromium opens the report and
   1. dumps the DOM it built: every expected plot is there (the count is derived from the
      JSON report of the same run, not from the HTML), each an inline <svg> with a drawn
-     curve, and nothing runs (no <script>);
+     curve, and nothing runs (no <script>); the linear views: the correlation table holds
+     the report's matrix, the frequency- and step-response sections are there, and each Bode
+     and coherence plot has the report's number of points;
   2. takes a screenshot of the whole page (kept as an artefact), which must not be blank;
   3. opens each figure alone, enlarged through its #fig-N anchor (the CSS :target zoom), and
      takes a screenshot of it: each must show a plot (enough non-white pixels, many
@@ -68,7 +70,37 @@ def expected_plots(report):
     count = 3 * len(observe) * traces + len(observe) + len(free)
     if discovery and discovery.get("added"):
         count += len(observe) * traces + len(discovery["parameters_after"])
+    # The linear views: Bode magnitude, phase and coherence per output of the frequency
+    # response; a step response per output with a final value.
+    frequency = report.get("frequency_response", {})
+    if frequency.get("available"):
+        count += 3 * len(frequency["outputs"])
+    step = report.get("step_response", {})
+    if step.get("available"):
+        count += sum(1 for o in step["outputs"].values() if "rise_time_s" in o)
     return count
+
+
+def check_linear_views(report, dom):
+    """The correlation table (n x n cells of the report's matrix), the frequency-response and
+    step-response sections, and each Bode plot with as many points as the report has."""
+    correlation = report.get("correlation", {})
+    if correlation.get("available"):
+        n = len(correlation["names"])
+        cells = re.findall(r'<td class="num rho[^"]*" data-rho="([^"]+)"', dom)
+        check(len(cells) == n * n, f"correlation table with {len(cells)} cells (expected {n}x{n})")
+        matrix = [v for row in correlation["matrix"] for v in row]
+        close = all(abs(float(c) - v) <= 1e-5 * max(1.0, abs(v)) for c, v in zip(cells, matrix))
+        check(close, "correlation cells hold the report's matrix")
+    frequency = report.get("frequency_response", {})
+    check(('id="frequency-response"' in dom) == ("frequency_response" in report),
+          "frequency-response section present")
+    check(('id="step-response"' in dom) == ("step_response" in report), "step-response section present")
+    for column, output in frequency.get("outputs", {}).items():
+        for kind in ("bode-magnitude", "bode-phase", "coherence"):
+            found = re.findall(rf'data-kind="{kind}" data-column="{column}" data-points="(\d+)"', dom)
+            check(found == [str(len(output["f_hz"]))],
+                  f"{kind} of {column}: {found} points (expected {len(output['f_hz'])})")
 
 
 def main():
@@ -91,13 +123,14 @@ def main():
     with open(os.path.join(args.out, "dom.html"), "w", encoding="utf-8") as f:
         f.write(dom)
     svgs = re.findall(r"<svg\b.*?</svg>", dom, flags=re.S)
-    figures = re.findall(r'<figure class="plot" id="(fig-\d+)" data-kind="(\w+)"', dom)
+    figures = re.findall(r'<figure class="plot" id="(fig-\d+)" data-kind="([\w-]+)"', dom)
     check(len(svgs) == expected, f"{len(svgs)} <svg> elements in the rendered DOM (expected {expected})")
     check(len(figures) == expected, f"{len(figures)} figures in the rendered DOM (expected {expected})")
     check(source.count("<svg ") == expected, f"{source.count('<svg ')} <svg> in the file (expected {expected})")
     drawn = sum(1 for svg in svgs if re.search(r'<path class="curve" d="M[^"]+"', svg))
     check(drawn == expected, f"{drawn} of {len(svgs)} plots have a drawn curve")
     check("<script" not in dom and "<script" not in source, "no <script> in the page")
+    check_linear_views(report, dom)
     kinds = {}
     for _, kind in figures:
         kinds[kind] = kinds.get(kind, 0) + 1

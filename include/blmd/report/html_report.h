@@ -8,8 +8,10 @@
 // ran, the final model's; a detail of the first transient of each; the residual over time
 // (the fit's, and the final model's on the same scale); its autocorrelation with the 95 %
 // band; the cost along each free parameter through the
-// optimum (a 1-D slice, the others held); the discovery steps with the error before and
-// after; the method's summary.
+// optimum (a 1-D slice, the others held); the empirical frequency response against the
+// model's Bode plot and the model's step response (when the report has them: Identify's
+// AddLinearViews); the discovery steps with the error before and after; the method's
+// summary. The parameter table is followed by the correlation matrix of the estimates.
 //
 // Self-contained: inline SVG (LinePlotSvg, plot.h) and inline CSS, no script, no font,
 // image or stylesheet fetched from anywhere. Enlarging a figure is CSS only (:target).
@@ -17,10 +19,16 @@
 // number of plots, not on the trace length (a 1e6-sample trace gives well under 2 MB).
 //
 // Elements that tests and readers can find:
-//   figure.plot[data-kind]      one per plot: trace | detail | residual | acf | slice;
+//   figure.plot[data-kind]      one per plot: trace | detail | residual | acf | slice |
+//                               bode-magnitude | bode-phase | coherence | step;
 //                               data-column, data-trace (trace index) on plots of a column,
 //                               data-model (fit | after) on residuals and slices,
-//                               data-parameter, data-points, data-centre, data-argmin on slices
+//                               data-parameter, data-points, data-centre, data-argmin on slices,
+//                               data-points, data-low (low-coherence points) on the Bode and
+//                               coherence plots
+//   table.correlation           the correlation matrix: tr[data-row] per parameter,
+//                               td.rho[data-rho] per entry, td.poor where |rho| > 0.95
+//   section#frequency-response, section#step-response (table.step, tr.step-output[data-column])
 //   tr.parameter[data-name]     one row per parameter of the table
 //   tr.discovery-step           one row per effect added by discovery
 #pragma once

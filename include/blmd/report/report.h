@@ -16,8 +16,10 @@
 #include "blmd/ident/discovery.h"
 #include "blmd/ident/errors.h"
 #include "blmd/ident/optimizer.h"
+#include "blmd/ident/parameter_correlation.h"
 #include "blmd/ident/problem.h"
 #include "blmd/ident/units_check.h"
+#include "blmd/report/linear_views.h"
 #include "blmd/sim/linear_model.h"
 
 namespace blmd {
@@ -102,6 +104,9 @@ struct ModelReport {
   ResidualReport residual;
   bool intervals_optimistic = false;
   std::optional<ValidationReport> validation;
+  // The correlation of the free parameters' estimates, from the covariance of the intervals
+  // (ident/parameter_correlation.h): "correlation" in the JSON.
+  ParameterCorrelation correlation;
 };
 
 // A model that discovery could not tell apart from another (issue 19: reported, not hidden).
@@ -170,6 +175,11 @@ struct IdentReport {
   std::vector<Warning> warnings;
   // The final model's linear part and its transfer functions (docs/export.md).
   LinearModel linear_model;
+  // Views of the linear part (report/linear_views.h, docs/report.md): the traces' empirical
+  // frequency response against its Bode plot, and its step response. Set by Identify
+  // (AddLinearViews); absent from a report made by MakeReport alone.
+  std::optional<FrequencyResponseReport> frequency_response;
+  std::optional<StepResponseReport> step_response;
   std::optional<BaselineReport> baseline;  // --baseline
   // Signs that a measured column is in other units than the model's (ident/units_check.h):
   // each becomes a warning units_suspect.
@@ -244,6 +254,11 @@ void WidenForAmbiguity(IdentReport* report);
 // The warnings about the final model (docs/report.md "Warnings"): stable codes, from the
 // report's own figures. Sets report->warnings.
 void AddWarnings(IdentReport* report);
+
+// Sets report->linear_model from `final_config` at `final_parameters`, and the views of it:
+// the frequency response of `problem`'s traces and the step response.
+void AddLinearViews(IdentReport* report, const FitProblem& problem, const Config& final_config,
+                    const ParameterSet& final_parameters);
 
 // Replaces every non-finite number by null (a report never holds NaN or Inf).
 void SanitizeJson(nlohmann::json* value);
