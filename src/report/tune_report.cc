@@ -45,7 +45,7 @@ json GainUnits(const TuneInput& input, const TuneRequest& request) {
   return {{"kp", u + "/rad"}, {"ki", u + "/(rad·s)"}, {"kd", u + "·s/rad"}};
 }
 
-json StepJson(const StepFigures& s) {
+json StepJson(const ClosedLoopStep& s) {
   json out = json::object();
   if (!s.simulated) {
     out["failed"] = s.failure;
@@ -227,7 +227,7 @@ std::string TuneSummary(const TuneInput& input, const TuneRequest& request,
   const Controller& c = result.design.controller;
   const json units = GainUnits(input, request);
   const LoopMargins& m = result.nominal.margins;
-  const StepFigures& s = result.nominal.step;
+  const ClosedLoopStep& s = result.nominal.step;
   const WorstCase& w = result.worst;
   const std::string unit = IsSpeed(request) ? "rad/s" : "rad";
   std::ostringstream out;

@@ -41,9 +41,9 @@ TransferFunction PlantAt(const Model& model, const ParameterSet& values,
 
 // Simulates the step of `experiment` at `values` and reads its figures off the measured
 // column.
-StepFigures SimulateStep(const Config& config, const ParameterSet& values,
+ClosedLoopStep SimulateStep(const Config& config, const ParameterSet& values,
                          const Experiment& experiment, const std::string& measured) {
-  StepFigures figures;
+  ClosedLoopStep figures;
   const std::vector<double> times = experiment.SampleTimes();
   SimulationRequest request;
   request.parameters = &values;
@@ -120,7 +120,7 @@ LoopCheck CheckAt(const TuneInput& input, const TuneRequest& request, const Tune
 // Refuses when the nominal step needs more than the drive gives: the voltage (found by the
 // same step with the limit lifted) or the current.
 void CheckLimits(const TuneInput& input, const TuneRequest& request, TuneResult* result) {
-  const StepFigures& step = result->nominal.step;
+  const ClosedLoopStep& step = result->nominal.step;
   const std::string what = "a " + Text(result->step) + " " + Unit(request) + " step";
   if (!step.simulated) {
     result->refused = true;
@@ -131,7 +131,7 @@ void CheckLimits(const TuneInput& input, const TuneRequest& request, TuneResult*
     const Experiment unlimited =
         StepExperiment(request.design.loop, result->design.controller, 1e12, result->step,
                        result->duration, result->sample_rate);
-    const StepFigures demand =
+    const ClosedLoopStep demand =
         SimulateStep(input.config, input.config.parameters, unlimited, result->plant_output);
     result->demand_peak_u = demand.peak_u;
     result->refused = true;
@@ -168,7 +168,7 @@ void AddToWorst(const LoopCheck& check, int corner, WorstCase* worst) {
     Consider(&worst->gain_margin_db, m.gain_margin_db, corner, false);
   }
   if (!check.poles.stable) ++worst->unstable;
-  const StepFigures& s = check.step;
+  const ClosedLoopStep& s = check.step;
   if (s.simulated) {
     if (s.saturated) ++worst->saturated;
     if (!s.valid) ++worst->invalid;
@@ -262,7 +262,7 @@ void AddStepWarnings(const TuneInput& input, const TuneRequest& request, TuneRes
              ") is discretised: the step may differ from the continuous loop's margins "
              "(reduce simulation.dt)");
   }
-  const StepFigures& nominal = result->nominal.step;
+  const ClosedLoopStep& nominal = result->nominal.step;
   if (std::abs(nominal.steady_state_error) > 0.02 * result->step) {
     warn("steady_state_error",
          "the simulated step ends " + Text(nominal.steady_state_error) + " short of the " +

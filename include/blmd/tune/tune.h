@@ -59,7 +59,7 @@ struct TuneRequest {
 
 // The simulated closed-loop step response (ComputeStepMetrics, run.h) of the loop's measured
 // column (theta, or w), towards its own final value, and what the drive had to give.
-struct StepFigures {
+struct ClosedLoopStep {
   bool simulated = false;  // false: the simulation failed (failure says why)
   std::string failure;
   bool valid = false;  // the metrics exist (the response rose through 10 % and 90 %)
@@ -78,7 +78,7 @@ struct LoopCheck {
   std::vector<std::pair<std::string, double>> values;  // the box parameters at this point
   LoopMargins margins;
   ClosedLoopPoles poles;
-  StepFigures step;
+  ClosedLoopStep step;
 };
 
 // The worst of each figure over the nominal model and the box's corners, with the index of
