@@ -42,7 +42,7 @@ TransferFunction PlantAt(const Model& model, const ParameterSet& values,
 // Simulates the step of `experiment` at `values` and reads its figures off the measured
 // column.
 ClosedLoopStep SimulateStep(const Config& config, const ParameterSet& values,
-                         const Experiment& experiment, const std::string& measured) {
+                            const Experiment& experiment, const std::string& measured) {
   ClosedLoopStep figures;
   const std::vector<double> times = experiment.SampleTimes();
   SimulationRequest request;
