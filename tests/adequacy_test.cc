@@ -4,6 +4,7 @@
 // whole check on traces of the Ganesh servo with a known structure added to the measured
 // speed: nothing flagged on noise alone, the right state named when there is one.
 #include "blmd/ident/adequacy.h"
+#include "blmd/ident/optimizer.h"
 
 #include <gtest/gtest.h>
 
@@ -180,6 +181,75 @@ TEST(ResidualStructure, NamesTheAngleAndTheSpeed) {
   ASSERT_TRUE(speed.ok) << speed.reason;
   ASSERT_FALSE(speed.flagged.empty());
   EXPECT_EQ(speed.flagged.front().state, "w") << speed.StructureMessage();
+}
+
+// The Ganesh servo's square wave with a load torque of TL_first N·m for the first 1 s and
+// TL_second for the second (the state carried across), 1 % noise on i and w; J, B and TL
+// fitted on the whole; then the stability check on its two halves.
+AdequacyReport LoadStability(double tl_first, double tl_second, std::uint64_t seed) {
+  const Config base = LoadConfig(SourcePath("configs/ganesh-square.json"));
+  Trace whole;
+  InitialState state = base.experiment.initial;
+  for (int half = 0; half < 2; ++half) {
+    Config config = base;
+    ParameterSet load;
+    load.Set("TL", half == 0 ? tl_first : tl_second);
+    config.AddEffect("load_torque", load);
+    config.experiment.duration = 1.0;
+    config.experiment.initial = state;
+    Trace part;
+    const SimStatus status = RunExperiment(config, &part);
+    EXPECT_TRUE(status.ok()) << status.message;
+    state.i = part.Column("i").back();
+    state.w = part.Column("w").back();
+    state.theta = part.Column("theta").back();
+    if (half == 0) {
+      whole = part;
+      for (auto* column : {"t", "u", "i", "w", "theta"}) whole.Column(column).pop_back();
+    } else {
+      for (const auto& name : whole.names()) {
+        auto& to = whole.Column(name);
+        const auto& from = part.Column(name);
+        for (double v : from) to.push_back(name == "t" ? v + 1.0 : v);
+      }
+    }
+  }
+  Random random(seed);
+  for (const char* column : {"i", "w"}) {
+    double peak = 0.0;
+    for (double v : whole.Column(column)) peak = std::max(peak, std::abs(v));
+    for (double& v : whole.Column(column)) v += 0.01 * peak * random.Normal();
+  }
+  Config config = base;
+  ParameterSet load;
+  load.Set("TL", 0.5 * (tl_first + tl_second));
+  config.AddEffect("load_torque", load);
+  config.identification.bounds["TL"] = {-0.05, 0.05};
+  std::vector<FitTrace> traces = {RecordedFitTrace(std::move(whole), base.experiment.initial)};
+  const FitProblem problem(config, std::move(traces), {"i", "w"},
+                           MakeFreeParameters(config, {"J", "B", "TL"}));
+  const FitResult fit = FindOptimizer("ceres").Minimize(problem, OptimizerOptions());
+  EXPECT_TRUE(fit.evaluation.ok);
+  AdequacyReport report;
+  CheckEffectStability(problem, fit.values, {"load_torque"}, OptimizerOptions(), AdequacyOptions(),
+                       &report);
+  return report;
+}
+
+TEST(EffectStability, ALoadThatChangesIsUnstableAConstantOneIsNot) {
+  const AdequacyReport constant = LoadStability(0.0015, 0.0015, 7);
+  ASSERT_TRUE(constant.stability_checked) << constant.stability_reason;
+  ASSERT_EQ(constant.stability.size(), 1u);
+  EXPECT_EQ(constant.stability[0].parameter, "TL");
+  EXPECT_TRUE(constant.unstable.empty()) << "z = " << constant.stability[0].z;
+  EXPECT_NEAR(constant.stability[0].first, 0.0015, 0.0002);
+  EXPECT_NEAR(constant.stability[0].second, 0.0015, 0.0002);
+  const AdequacyReport changing = LoadStability(0.0010, 0.0020, 7);
+  ASSERT_TRUE(changing.stability_checked) << changing.stability_reason;
+  EXPECT_EQ(changing.unstable, std::vector<std::string>{"load_torque"})
+      << "first " << changing.stability[0].first << " second " << changing.stability[0].second
+      << " z " << changing.stability[0].z;
+  EXPECT_EQ(changing.parts, "the two halves of the trace");
 }
 
 }  // namespace
