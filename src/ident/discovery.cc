@@ -824,22 +824,35 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
                            options.adequacy, &result.adequacy);
     }
   }
+  // What is left, in words: "unexplained" when the adequacy check finds structure that no
+  // effect of the vocabulary took up.
+  const std::string unexplained = result.adequacy.ok && !result.adequacy.flagged.empty()
+                                      ? "unexplained: " + result.adequacy.StructureMessage() +
+                                            ", and no effect of the vocabulary explains it"
+                                      : std::string();
+  std::string best;
+  if (!result.last_round.empty() && result.last_round.front().fitted) {
+    const CandidateOutcome& top = result.last_round.front();
+    best = " (best candidate " + top.effect + ": BIC " + G(top.delta_bic, 4) +
+           (top.reason.empty() ? std::string() : "; " + top.reason) + ")";
+  }
   if (!result.ambiguous.empty() && result.added.empty()) {
     result.conclusion = "ambiguous: " + result.ambiguity_reason;
   } else if (result.added.empty()) {
-    std::string best;
-    if (!result.last_round.empty() && result.last_round.front().fitted) {
-      best = " (best candidate " + result.last_round.front().effect + ": BIC " +
-             G(result.last_round.front().delta_bic, 4) + ")";
-    }
-    result.conclusion = "nothing missing: no effect lowers BIC by more than " +
-                        G(options.bic_margin) + " with valid parameters" + best;
+    result.conclusion =
+        !unexplained.empty()
+            ? unexplained + best
+            : "nothing missing: no effect lowers BIC by more than " + G(options.bic_margin) +
+                  " with valid parameters, a material share of the residual and a lower error "
+                  "on the data it was not fitted to" +
+                  best;
   } else {
     std::string names;
     for (const auto& n : result.added) names += (names.empty() ? "" : ", ") + n;
     result.conclusion = "added " + names;
     if (!result.ambiguous.empty())
       result.conclusion += "; then ambiguous: " + result.ambiguity_reason;
+    if (!unexplained.empty()) result.conclusion += "; then " + unexplained;
   }
   return result;
 }
