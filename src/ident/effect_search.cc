@@ -7,6 +7,7 @@
 #include "blmd/io/csv.h"
 #include "blmd/sim/effects.h"
 #include "blmd/sim/trace.h"
+#include "ident/jacobian.h"
 
 namespace blmd::internal {
 namespace {
@@ -213,9 +214,10 @@ std::vector<OrderScreen> ScreenCoggingOrders(const FitProblem& problem,
 // Cogging orders of dc_servo and blmd ranked by the linearised response at the measured
 // angle: for each order m, the model's response to a small torque eps sin(m theta_meas)
 // and eps cos(m theta_meas) (the cogging effect at the measured angle, as discovery fits it)
-// gives two sensitivity columns S_s, S_c of the weighted residual; the fall of the
-// residual's sum of squares that a least-squares combination a S_s + b S_c achieves ranks
-// the orders, and (a, b) = Tcog (cos phase, sin phase) is the start. Unlike the raw angle
+// gives two sensitivity columns S_s, S_c of the weighted residual; with the Jacobian of the
+// model's own free parameters (J, B, ...) beside them, the fall of the residual's sum of
+// squares that the m columns add (a Gauss-Newton step on all parameters) ranks the orders,
+// and their coefficients (a, b) = Tcog (cos phase, sin phase) are the start. Unlike the raw angle
 // spectrum of the speed residual (whose ripple falls as 1/m and which a friction misfit
 // fills with low orders and their harmonics), this asks what a cogging torque of each order
 // would do to every observed column through the model's own dynamics (issue 24: orders 40,
@@ -224,10 +226,26 @@ std::vector<OrderScreen> RankOrdersByResponse(const FitProblem& problem,
                                               const std::vector<double>& values,
                                               double torque_scale, int lowest, int highest) {
   std::vector<OrderScreen> ranked;
+  // The current model's residual and its Jacobian in its own free parameters (J, B, ...):
+  // an order is credited only with what they cannot take up (a Gauss-Newton step on all
+  // of them together), or low orders would be ranked on the misfit that J and B absorb.
   std::vector<double> r0;
-  if (!problem.Evaluate(values, &r0).ok) return ranked;
-  double total = 0.0;
-  for (double v : r0) total += v * v;
+  Eigen::MatrixXd jacobian;
+  DifferenceRule rule;
+  rule.central = false;
+  if (!FiniteDifferenceJacobian(problem, ToSearchCoordinates(problem, values), rule, nullptr, &r0,
+                                &jacobian))
+    return ranked;
+  const auto n = static_cast<Eigen::Index>(r0.size());
+  const Eigen::VectorXd r = Eigen::Map<const Eigen::VectorXd>(r0.data(), n);
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(jacobian);
+  const Eigen::MatrixXd basis =
+      qr.householderQ() * Eigen::MatrixXd::Identity(n, jacobian.cols());
+  auto purify = [&](const Eigen::VectorXd& v) -> Eigen::VectorXd {
+    return v - basis * (basis.transpose() * v);
+  };
+  const Eigen::VectorXd y = purify(-r);  // a S_s + b S_c should cancel what is left of r0
+  const double total = y.squaredNorm();
   if (!(total > 0.0)) return ranked;
   const double eps = 1e-3 * torque_scale;
   for (int order = lowest; order <= highest; ++order) {
@@ -249,27 +267,27 @@ std::vector<OrderScreen> RankOrdersByResponse(const FitProblem& problem,
     std::vector<std::vector<double>> residuals;
     const std::vector<Evaluation> evaluations = probe.EvaluateBatch(points, &residuals);
     if (!evaluations[0].ok || !evaluations[1].ok || !evaluations[2].ok) continue;
-    double ss = 0.0, cc = 0.0, sc = 0.0, ys = 0.0, yc = 0.0;
-    for (std::size_t k = 0; k < r0.size(); ++k) {
-      const double s = (residuals[1][k] - residuals[0][k]) / eps;
-      const double c = (residuals[2][k] - residuals[0][k]) / eps;
-      ss += s * s;
-      cc += c * c;
-      sc += s * c;
-      ys -= r0[k] * s;  // a S_s + b S_c should cancel r0
-      yc -= r0[k] * c;
+    Eigen::MatrixXd S(n, 2);
+    for (Eigen::Index k = 0; k < n; ++k) {
+      const auto i = static_cast<std::size_t>(k);
+      S(k, 0) = (residuals[1][i] - residuals[0][i]) / eps;
+      S(k, 1) = (residuals[2][i] - residuals[0][i]) / eps;
     }
-    const double det = ss * cc - sc * sc;
-    if (!(det > 1e-12 * ss * cc) || !std::isfinite(det)) continue;
-    const double a = (cc * ys - sc * yc) / det, b = (ss * yc - sc * ys) / det;
+    S.col(0) = purify(S.col(0));
+    S.col(1) = purify(S.col(1));
+    const Eigen::Matrix2d normal = S.transpose() * S;
+    const Eigen::Vector2d rhs = S.transpose() * y;
+    const double det = normal.determinant();
+    if (!(det > 1e-12 * normal(0, 0) * normal(1, 1)) || !std::isfinite(det)) continue;
+    const Eigen::Vector2d ab = normal.ldlt().solve(rhs);
     OrderScreen screen;
     screen.order = order;
-    screen.reduction = a * ys + b * yc;
+    screen.reduction = ab.dot(rhs);
     screen.share = screen.reduction / total;
     screen.lowest = lowest;
     screen.highest = highest;
-    screen.tcog = std::hypot(a, b);
-    screen.phase = std::atan2(b, a);
+    screen.tcog = std::hypot(ab(0), ab(1));
+    screen.phase = std::atan2(ab(1), ab(0));
     if (std::isfinite(screen.reduction)) ranked.push_back(screen);
   }
   std::stable_sort(ranked.begin(), ranked.end(), [](const OrderScreen& l, const OrderScreen& r) {
