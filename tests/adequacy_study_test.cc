@@ -26,8 +26,8 @@
 //
 // Every trace, config and report is kept in <build>/adequacy-study/ (kind-k.csv, .json,
 // .report.json) and the table in adequacy-study/summary.tsv, to rerun a case by hand:
-//   build/bin/blmd-ident --config build/adequacy-study/spring-0.json \
-//     --trace build/adequacy-study/spring-0.csv --discover
+//   build/bin/blmd-ident --config build/adequacy-study/spring-0.json
+//     --trace build/adequacy-study/spring-0.csv --discover   (one line)
 // STUDY_KINDS=spring,disturbance restricts the kinds; STUDY_THREADS (default 1) is passed
 // to --threads.
 //
@@ -568,8 +568,8 @@ TEST(IndependentServo, AgreesWithTheToolsSimulation) {
     const std::string csv = dir.Write("in.csv", independent::Csv(clean));
     const std::string config = dir.Write("truth.json", FitConfig(c, TruthEffects(c.e), true));
     const std::string out = dir.File("tool.csv");
-    const CommandResult run = Run(BinPath("blmd-sim") + " --config " + config + " --input " + csv +
-                                  " --out " + out + " --quiet");
+    const CommandResult run = blmd::testing::Run(BinPath("blmd-sim") + " --config " + config +
+                                                 " --input " + csv + " --out " + out + " --quiet");
     if (run.exit_code == 2 && (c.e.Ks > 0 || c.e.Tg > 0)) {
       std::printf("%-16s %d (%s): the tool does not know it yet: %s\n", check.kind.c_str(), check.k,
                   c.truth.c_str(), run.err.substr(0, run.err.find('\n')).c_str());
