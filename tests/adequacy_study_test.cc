@@ -101,7 +101,8 @@ Servo DrawServo(Draw& draw) {
 
 Record Simulate(const Servo& m, const Extras& e, double period) {
   const double fs = 2.0 * kHalf / period;
-  return independent::Simulate(m, e, independent::SquareWave(kSamples, kHalf, kVolts), fs);
+  return independent::Simulate(m, e, independent::SquareWave(kSamples, kHalf, kVolts), fs,
+                               Count("STUDY_SUBSTEPS", 64));
 }
 
 double RangeRev(const Record& r) { return independent::PeakToPeak(r.theta) / (2.0 * kPi); }
@@ -244,7 +245,8 @@ Case MakeCase(const std::string& kind, int k) {
 }
 
 // The fit config: the true R, L, K; J and B off (x1.5, x0.7) and free; no effect declared.
-std::string FitConfig(const Case& c, const std::string& effects = "", bool truth_jb = false) {
+std::string FitConfig(const Case& c, const std::string& effects = "", bool truth_jb = false,
+                      double steps_per_sample = 4.0) {
   const double J0 = truth_jb ? c.m.J : 1.5 * c.m.J, B0 = truth_jb ? c.m.B : 0.7 * c.m.B;
   char text[4096];
   std::snprintf(text, sizeof text, R"({
@@ -260,8 +262,8 @@ std::string FitConfig(const Case& c, const std::string& effects = "", bool truth
 }
 )",
                 c.kind.c_str(), c.k, c.m.R, c.m.L, c.m.K, c.m.K, J0, B0, effects.c_str(),
-                0.25 / c.fs, c.period, 2.0 * c.period, c.fs, J0, B0, J0 / 100, J0 * 100, B0 / 100,
-                B0 * 100);
+                1.0 / (steps_per_sample * c.fs), c.period, 2.0 * c.period, c.fs, J0, B0, J0 / 100,
+                J0 * 100, B0 / 100, B0 * 100);
   return text;
 }
 
@@ -551,6 +553,71 @@ TEST_F(AdequacyStudy, EarlierKinds) {
 // input, for every effect the tool's build knows (spring and gravity are skipped, with a
 // note, where blmd-sim refuses them). The worst |difference| relative to the column's peak,
 // i and w.
+// Runs blmd-sim on `clean`'s input with the truth declared at `steps_per_sample` tool steps
+// per sample; the worst |difference| of i and w relative to the column's peak (negative: the
+// tool refused the config, *why says why).
+std::pair<double, double> ToolDeviation(const Case& c, const Record& clean, const TempDir& dir,
+                                        double steps_per_sample, std::string* why) {
+  const std::string csv = dir.Write("in.csv", independent::Csv(clean));
+  const std::string config =
+      dir.Write("truth.json", FitConfig(c, TruthEffects(c.e), true, steps_per_sample));
+  const std::string out = dir.File("tool.csv");
+  const CommandResult run = blmd::testing::Run(BinPath("blmd-sim") + " --config " + config +
+                                               " --input " + csv + " --out " + out + " --quiet");
+  if (run.exit_code != 0) {
+    *why = run.err.substr(0, run.err.find('\n'));
+    return {-1.0, -1.0};
+  }
+  // The tool's CSV: header, then rows; the columns by name.
+  std::ifstream in(out);
+  std::string line;
+  std::getline(in, line);
+  while (!line.empty() && line[0] == '#') std::getline(in, line);
+  std::vector<std::string> header;
+  {
+    std::stringstream cells(line);
+    for (std::string cell; std::getline(cells, cell, ',');) header.push_back(cell);
+  }
+  const auto column = [&](const std::string& name) {
+    return static_cast<std::size_t>(std::find(header.begin(), header.end(), name) - header.begin());
+  };
+  const std::size_t ci = column("i"), cw = column("w"), ct = column("t");
+  EXPECT_LT(ci, header.size());
+  EXPECT_LT(cw, header.size());
+  EXPECT_LT(ct, header.size());
+  if (ci >= header.size() || cw >= header.size() || ct >= header.size()) return {1.0, 1.0};
+  double worst_i = 0, worst_w = 0, peak_i = 0, peak_w = 0;
+  std::size_t row = 0;
+  while (std::getline(in, line) && row < clean.t.size()) {
+    std::vector<double> v;
+    std::stringstream cells(line);
+    for (std::string cell; std::getline(cells, cell, ',');) v.push_back(std::atof(cell.c_str()));
+    EXPECT_NEAR(v[ct], clean.t[row], 1e-9 * (1 + clean.t[row]));
+    worst_i = std::max(worst_i, std::abs(v[ci] - clean.i[row]));
+    if (std::getenv("STUDY_DEBUG") && std::abs(v[cw] - clean.w[row]) > worst_w)
+      std::printf("  row %zu t %.6g u %g w_ind %.6g w_tool %.6g i_ind %.6g theta %.6g\n", row,
+                  clean.t[row], clean.u[row], clean.w[row], v[cw], clean.i[row], clean.theta[row]);
+    worst_w = std::max(worst_w, std::abs(v[cw] - clean.w[row]));
+    peak_i = std::max(peak_i, std::abs(clean.i[row]));
+    peak_w = std::max(peak_w, std::abs(clean.w[row]));
+    ++row;
+  }
+  EXPECT_EQ(row, clean.t.size());
+  return {worst_i / peak_i, worst_w / peak_w};
+}
+
+// The instrument: the independent simulator's noise-free record against the tool's own
+// simulation (blmd-sim --input, the truth's effects declared, true J and B) of the same
+// input, for every effect the tool's build knows (spring and gravity are skipped, with a
+// note, where blmd-sim refuses them; the disturbance has no name). The worst |difference|
+// relative to the column's peak, of i and w, at the studies' tool step (1/4 sample, printed)
+// and at 1/256 sample (STUDY_TOOL_FINE; asserted within 0.5 %: the equations agree, what is
+// left is the tool's step). Measured on main (2026-11-27): single effects agree to 4e-4 of
+// the peak or better at 1/4 sample; Coulomb friction with cogging differs by up to 1.5 % of
+// the peak speed at 1/4 sample and still 1.0 % at 1/32 (a shaft crawling through a detent
+// at a reversal: the tool's stick and breakaway instants are located to within its step),
+// 0.1 % at 1/256. The independent simulator itself changes by < 1e-4 of the peak from 64
+// to 512 substeps (STUDY_SUBSTEPS).
 TEST(IndependentServo, AgreesWithTheToolsSimulation) {
   TempDir dir;
   struct Check {
@@ -561,57 +628,26 @@ TEST(IndependentServo, AgreesWithTheToolsSimulation) {
       {"earlier", 0},         {"earlier", 1},         {"earlier", 2},
       {"earlier", 3},         {"earlier", 4},         {"earlier", 5},
       {"spring", 0},          {"gravity_turning", 0}, {"gravity_swinging", 0},
-      {"coulomb_cogging", 0}, {"coulomb_cogging", 4}};
+      {"coulomb_cogging", 0}, {"coulomb_cogging", 2}, {"coulomb_cogging", 4}};
   for (const auto& check : checks) {
-    Case c = MakeCase(check.kind, check.k);
+    const Case c = MakeCase(check.kind, check.k);
     const Record clean = Simulate(c.m, c.e, c.period);
-    const std::string csv = dir.Write("in.csv", independent::Csv(clean));
-    const std::string config = dir.Write("truth.json", FitConfig(c, TruthEffects(c.e), true));
-    const std::string out = dir.File("tool.csv");
-    const CommandResult run = blmd::testing::Run(BinPath("blmd-sim") + " --config " + config +
-                                                 " --input " + csv + " --out " + out + " --quiet");
-    if (run.exit_code == 2 && (c.e.Ks > 0 || c.e.Tg > 0)) {
-      std::printf("%-16s %d (%s): the tool does not know it yet: %s\n", check.kind.c_str(), check.k,
-                  c.truth.c_str(), run.err.substr(0, run.err.find('\n')).c_str());
+    std::string why;
+    const auto coarse = ToolDeviation(c, clean, dir, 4.0, &why);
+    if (coarse.first < 0) {
+      std::printf("%-16s %d (%s): the tool refuses it: %s\n", check.kind.c_str(), check.k,
+                  c.truth.c_str(), why.c_str());
+      EXPECT_TRUE(c.e.Ks > 0 || c.e.Tg > 0) << why;  // only the effects issue 24 adds
       continue;
     }
-    ASSERT_EQ(run.exit_code, 0) << run.err;
-    // The tool's CSV: header, then rows; read the i and w columns by name.
-    std::ifstream in(out);
-    std::string line;
-    std::getline(in, line);
-    while (!line.empty() && line[0] == '#') std::getline(in, line);
-    std::vector<std::string> header;
-    {
-      std::stringstream cells(line);
-      for (std::string cell; std::getline(cells, cell, ',');) header.push_back(cell);
-    }
-    const auto column = [&](const std::string& name) {
-      return static_cast<std::size_t>(std::find(header.begin(), header.end(), name) -
-                                      header.begin());
-    };
-    const std::size_t ci = column("i"), cw = column("w"), ct = column("t");
-    ASSERT_LT(ci, header.size());
-    ASSERT_LT(cw, header.size());
-    double worst_i = 0, worst_w = 0, peak_i = 0, peak_w = 0;
-    std::size_t row = 0;
-    while (std::getline(in, line) && row < clean.t.size()) {
-      std::vector<double> v;
-      std::stringstream cells(line);
-      for (std::string cell; std::getline(cells, cell, ',');) v.push_back(std::atof(cell.c_str()));
-      EXPECT_NEAR(v[ct], clean.t[row], 1e-9 * (1 + clean.t[row]));
-      worst_i = std::max(worst_i, std::abs(v[ci] - clean.i[row]));
-      worst_w = std::max(worst_w, std::abs(v[cw] - clean.w[row]));
-      peak_i = std::max(peak_i, std::abs(clean.i[row]));
-      peak_w = std::max(peak_w, std::abs(clean.w[row]));
-      ++row;
-    }
-    EXPECT_EQ(row, clean.t.size());
-    std::printf("%-16s %d (%-24s %-30s): worst deviation i %.2e, w %.2e of the peak\n",
-                check.kind.c_str(), check.k, (c.truth + ")").c_str(), c.size.c_str(),
-                worst_i / peak_i, worst_w / peak_w);
-    EXPECT_LT(worst_i / peak_i, 0.01) << c.kind << " " << c.k;
-    EXPECT_LT(worst_w / peak_w, 0.01) << c.kind << " " << c.k;
+    const auto fine = ToolDeviation(c, clean, dir, Count("STUDY_TOOL_FINE", 256), &why);
+    std::printf(
+        "%-16s %d (%-24s %-30s): worst deviation of the peak, tool dt 1/4 sample: i %.2e w "
+        "%.2e; 1/256 sample: i %.2e w %.2e\n",
+        check.kind.c_str(), check.k, (c.truth + ")").c_str(), c.size.c_str(), coarse.first,
+        coarse.second, fine.first, fine.second);
+    EXPECT_LT(fine.first, 0.005) << c.kind << " " << c.k;
+    EXPECT_LT(fine.second, 0.005) << c.kind << " " << c.k;
   }
 }
 
