@@ -26,7 +26,8 @@
 // Tool numerics: simulation.dt = 1/(4 fs), as the random motors of the other studies.
 //
 // Every trace, config and report is kept in <build>/adequacy-study/ (kind-k.csv, .json,
-// .report.json) and the table in adequacy-study/summary.tsv, to rerun a case by hand:
+// .report.json, .oracle.json) and the tables in adequacy-study/summary-<kind>.tsv, to rerun
+// a case by hand:
 //   build/bin/blmd-ident --config build/adequacy-study/spring-0.json
 //     --trace build/adequacy-study/spring-0.csv --discover   (one line)
 // STUDY_KINDS=spring,disturbance restricts the kinds; STUDY_THREADS (default 1) is passed
@@ -43,6 +44,22 @@
 // A second test checks the instrument itself: noise-free records of the independent
 // simulator against `blmd-sim --input` of the same truth (each effect the tool knows),
 // the worst deviation relative to the column's peak.
+//
+// Baseline, main at f8e2175 before issue 24 (2026-11-27, 2 shared cores, --threads 1; the
+// whole binary 5 min 20 s wall, 2.5 min CPU; 1-10 s per blmd-ident --discover):
+//   spring            spring first 0/6 (cogging of order 2-53, load, drag first); median worse
+//                     of |J|, |B| error 6.5 % (B -47 % on two)
+//   gravity_turning   gravity first 0/6, but cogging(1), the same torque, first 6/6, nothing
+//                     after it; J, B within 0.08 % (median 0.06 %); no warning
+//   gravity_swinging  gravity first 0/6 (load_torque or cogging(2) first, 2-3 effects); median
+//                     worse error 9.5 %
+//   disturbance       nothing added 6/6, median |B error| 0.17 %, residual_not_white 6/6,
+//                     unexplained_structure 0/6 (the code does not exist yet)
+//   coulomb_cogging   right 0/6: right order 0/6 (20, 40, 59, 18, 12-after-stribeck or none),
+//                     stribeck on 3; median |B error| 10.5 %; the oracle fits B within 0.7 %
+//   earlier           right first 32/36 (the four misses are coggings, wrong order: 13, 3,
+//                     15, 3; the oracle fits them to the noise), unexplained_structure 0/32
+//   instrument        single effects agree with blmd-sim to <= 4e-4 of the peak
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -477,7 +494,10 @@ std::vector<std::pair<Case, Outcome>> RunKind(const std::string& kind, int cases
   std::printf("%-3s %-26s %8s %7s %-34s %-40s %8s %8s %-44s %-15s %6s  %s\n", "k", "truth", "tau_m",
               "rev", "size", "added", "J err%", "B err%", "warnings", "nrmse", "time",
               "oracle: J err% B err% nrmse");
-  std::ofstream tsv(StudyDir() + "/summary.tsv", std::ios::app);
+  // One table per kind: ctest runs each kind in its own process.
+  std::ofstream tsv(StudyDir() + "/summary-" + kind + ".tsv");
+  tsv << "kind\tk\ttruth\ttau_m\trange_rev\tsize\tadded\tJ_err\tB_err\twarnings\tnrmse_before\t"
+         "nrmse_after\twall_s\texit\toracle_J_err\toracle_B_err\toracle_nrmse\toracle_note\n";
   for (int k = 0; k < cases; ++k) {
     Case c = MakeCase(kind, k);
     const Outcome o = RunDiscovery(c);
@@ -514,32 +534,28 @@ struct Tally {
   bool AtLeastFiveInSix() const { return 6 * hits >= 5 * total; }
 };
 
-class AdequacyStudy : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() {
-    std::filesystem::remove(StudyDir() + "/summary.tsv");
-    std::ofstream(StudyDir() + "/summary.tsv")
-        << "kind\tk\ttruth\ttau_m\trange_rev\tsize\tadded\tJ_err\tB_err\twarnings\tnrmse_"
-           "before\tnrmse_after\twall_s\texit\toracle_J_err\toracle_B_err\toracle_nrmse\toracle_"
-           "note\n";
-  }
-};
+class AdequacyStudy : public ::testing::Test {};
 
 // Spring and gravity: named first on >= 5 of 6, the median of the worse of |J err|, |B err|
 // within 2 %.
 void PositionKind(const std::string& kind, const std::string& effect) {
   if (!KindSelected(kind)) GTEST_SKIP() << "not in STUDY_KINDS";
   const auto rows = RunKind(kind, Count("STUDY_CASES", 6));
-  Tally first;
+  Tally first, order_one;
   std::vector<double> worse;
   for (const auto& [c, o] : rows) {
     first.total++;
     first.hits += o.First(effect);
+    // Gravity's torque Tg sin(theta + phase) is cogging of order 1: the same physics under
+    // another name, counted apart (the bar asks for the name).
+    order_one.hits += !o.added.empty() && o.added.front() == "cogging(1)";
     worse.push_back(o.Worse());
   }
   const double median = Median(worse);
-  std::printf("%s: %s named first %s; median worse of |J|,|B| error %.2f %%\n", kind.c_str(),
-              effect.c_str(), first.Text().c_str(), 100 * median);
+  std::printf(
+      "%s: %s named first %s (cogging of order 1 first: %d); median worse of |J|,|B| error "
+      "%.2f %%\n",
+      kind.c_str(), effect.c_str(), first.Text().c_str(), order_one.hits, 100 * median);
   EXPECT_TRUE(first.AtLeastFiveInSix())
       << kind << ": " << effect << " named first on " << first.Text();
   EXPECT_LE(median, 0.02) << kind << ": median of the worse J/B error";
