@@ -31,7 +31,8 @@
 //   build/bin/blmd-ident --config build/adequacy-study/spring-0.json
 //     --trace build/adequacy-study/spring-0.csv --discover   (one line)
 // STUDY_KINDS=spring,disturbance restricts the kinds; STUDY_THREADS (default 1) is passed
-// to --threads.
+// to --threads; STUDY_BIN_DIR=other/build/bin measures another build's commands and
+// STUDY_OUT_DIR puts the files elsewhere.
 //
 // The oracle column: the same trace fitted with the truth's structure declared (its effect
 // parameters, J and B free from their true values, cogging's periods fixed), no discovery:
@@ -349,12 +350,21 @@ std::string TruthFree(const Extras& e) {
   if (e.Tcog > 0) out += ", \"Tcog\", \"phase\"";
   if (e.Vdt > 0) out += ", \"Vdt\"";
   if (e.Ks > 0) out += ", \"K\", \"theta0\"";
-  if (e.Tg > 0) out += ", \"Tg\", \"phase\"";
+  if (e.Tg > 0) out += ", \"Tg\", \"gravity_phase\"";  // cogging owns the flat "phase"
   return out;
 }
 
+// The command under test: this build's (BinPath), or STUDY_BIN_DIR's, to measure another
+// build's binaries (a branch's) with the same instrument without rebuilding it.
+std::string Tool(const std::string& command) {
+  const char* dir = std::getenv("STUDY_BIN_DIR");
+  return dir && *dir ? std::string(dir) + "/" + command : BinPath(command);
+}
+
 std::string StudyDir() {
-  const std::string dir = std::string(BLMD_BIN_DIR) + "/../adequacy-study";
+  const char* out = std::getenv("STUDY_OUT_DIR");
+  const std::string dir =
+      out && *out ? std::string(out) : std::string(BLMD_BIN_DIR) + "/../adequacy-study";
   std::filesystem::create_directories(dir);
   return dir;
 }
@@ -396,9 +406,9 @@ void Oracle(const Case& c, const std::string& base, Outcome* o) {
   }
   if (!Count("STUDY_ORACLE", 1)) return;
   WriteFile(base + ".oracle.json", FitConfig(c, effects, true, 4.0, TruthFree(c.e)));
-  const CommandResult run = blmd::testing::Run(
-      BinPath("blmd-ident") + " --config " + base + ".oracle.json --trace " + base +
-      ".csv --json --threads " + std::to_string(Count("STUDY_THREADS", 1)));
+  const CommandResult run =
+      blmd::testing::Run(Tool("blmd-ident") + " --config " + base + ".oracle.json --trace " + base +
+                         ".csv --json --threads " + std::to_string(Count("STUDY_THREADS", 1)));
   if (run.exit_code != 0) {
     o->oracle_note = "exit " + std::to_string(run.exit_code);
     if (run.err.find("unknown effect") != std::string::npos) o->oracle_note = "unknown effect";
@@ -421,7 +431,7 @@ Outcome RunDiscovery(const Case& c) {
   Outcome o;
   const auto start = std::chrono::steady_clock::now();
   const CommandResult run =
-      Run(BinPath("blmd-ident") + " --config " + base + ".json --trace " + base +
+      Run(Tool("blmd-ident") + " --config " + base + ".json --trace " + base +
           ".csv --discover --json --threads " + std::to_string(Count("STUDY_THREADS", 1)));
   o.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   o.exit_code = run.exit_code;
@@ -646,7 +656,7 @@ std::pair<double, double> ToolDeviation(const Case& c, const Record& clean, cons
   const std::string config =
       dir.Write("truth.json", FitConfig(c, TruthEffects(c.e), true, steps_per_sample));
   const std::string out = dir.File("tool.csv");
-  const CommandResult run = blmd::testing::Run(BinPath("blmd-sim") + " --config " + config +
+  const CommandResult run = blmd::testing::Run(Tool("blmd-sim") + " --config " + config +
                                                " --input " + csv + " --out " + out + " --quiet");
   if (run.exit_code != 0) {
     *why = run.err.substr(0, run.err.find('\n'));
