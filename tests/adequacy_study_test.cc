@@ -56,11 +56,18 @@
 //                     worse error 9.5 %
 //   disturbance       nothing added 6/6, median |B error| 0.17 %, residual_not_white 6/6,
 //                     unexplained_structure 0/6 (the code does not exist yet)
-//   coulomb_cogging   right 0/6: right order 0/6 (20, 40, 59, 18, 12-after-stribeck or none),
-//                     stribeck on 3; median |B error| 10.5 %; the oracle fits B within 0.7 %
+//   coulomb_cogging   right 0/6: Coulomb and a cogging of the wrong order (20, 40) on 2,
+//                     Coulomb alone on 1, stribeck first on 3 (with 59/rev, 18/rev, and the
+//                     right 12/rev but no Coulomb); median |B error| 10.5 % (B +55, +26, +18 %
+//                     where stribeck is added); the oracle fits B within 0.7 %
 //   earlier           right first 32/36 (the four misses are coggings, wrong order: 13, 3,
 //                     15, 3; the oracle fits them to the noise), unexplained_structure 0/32
 //   instrument        single effects agree with blmd-sim to <= 4e-4 of the peak
+// Preview, branch pos at 3bc819e (spring and gravity, STUDY_BIN_DIR): spring first 6/6,
+// gravity first 6/6 turning and 6/6 swinging, nothing after them, median worse error 0.04 %,
+// 0.06 %, 0.06 % (bars met); the independent simulator agrees with its blmd-sim on spring and
+// gravity to 6e-5 of the peak; coulomb_cogging adds gravity on 2 of 6 (with Coulomb, and after
+// a stribeck); disturbance and the earlier kinds as main (earlier 33/36).
 #include <gtest/gtest.h>
 
 #include <algorithm>
