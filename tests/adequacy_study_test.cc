@@ -30,6 +30,7 @@
 // a case by hand:
 //   build/bin/blmd-ident --config build/adequacy-study/spring-0.json
 //     --trace build/adequacy-study/spring-0.csv --discover   (one line)
+// STUDY_SEED=n draws another set of cases (default 0: the tables below).
 // STUDY_KINDS=spring,disturbance restricts the kinds; STUDY_THREADS (default 1) is passed
 // to --threads; STUDY_BIN_DIR=other/build/bin measures another build's commands and
 // STUDY_OUT_DIR puts the files elsewhere.
@@ -185,7 +186,11 @@ Case MakeCase(const std::string& kind, int k) {
   Case c;
   c.kind = kind;
   c.k = k;
-  Draw draw(salt.at(kind) * 1000003u + static_cast<std::uint64_t>(k) * 7919u + 17u);
+  // STUDY_SEED (default 0) draws another set of cases: a held-out set for rules tuned on
+  // the default one.
+  const auto set = static_cast<std::uint64_t>(Count("STUDY_SEED", 0));
+  Draw draw(salt.at(kind) * 1000003u + static_cast<std::uint64_t>(k) * 7919u + 17u +
+            set * 0x9E3779B97F4A7C15u);
   char text[256];
   for (int attempt = 0; attempt < 10000; ++attempt) {
     c.m = DrawServo(draw);
@@ -274,7 +279,7 @@ Case MakeCase(const std::string& kind, int k) {
     bool finite = true;
     for (double v : c.record.w) finite = finite && std::isfinite(v);
     if (!finite) continue;
-    c.seed = salt.at(kind) * 7777u + static_cast<std::uint64_t>(k);
+    c.seed = salt.at(kind) * 7777u + static_cast<std::uint64_t>(k) + set * 0x9E3779B97F4A7C15u;
     independent::AddNoise(&c.record, 0.01, c.seed);
     return c;
   }
