@@ -64,6 +64,13 @@
 //   earlier           right first 32/36 (the four misses are coggings, wrong order: 13, 3,
 //                     15, 3; the oracle fits them to the noise), unexplained_structure 0/32
 //   instrument        single effects agree with blmd-sim to <= 4e-4 of the peak
+// main's build/bin of 04:58 (the adequacy check of 2d68c81, no spring or gravity): disturbance
+// unexplained_structure 5/6 (the miss: Td 6.6 %, NRMSE at the noise floor), nothing added,
+// median |B| 0.17 % (bar met); earlier right first 34/36, unexplained_structure where found
+// 1/34 (bar met); coulomb_cogging right 1/6 (Coulomb alone on 4, Coulomb + load on 1; no
+// stribeck), median |B| 2.4 %; gravity_turning no longer finds cogging(1): load, cogging(5,
+// 37, 58) or nothing, median worse error 2.2 % (was 0.06 %); spring 0/6, swinging 0/6, with
+// unexplained_structure on 12 of those 12.
 // Preview, branch pos at 3bc819e (spring and gravity, STUDY_BIN_DIR): spring first 6/6,
 // gravity first 6/6 turning and 6/6 swinging, nothing after them, median worse error 0.04 %,
 // 0.06 %, 0.06 % (bars met); the independent simulator agrees with its blmd-sim on spring and
