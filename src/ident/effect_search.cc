@@ -346,15 +346,21 @@ CandidatePlan PlanCogging(const PlanContext& context) {
 }
 
 // The torque balance along the measured motion for the position-dependent candidates
-// (spring, gravity): at every sample with a measured drive torque (rigid_load: Kt u;
-// dc_servo: Kt i from the measured current), the angle, speed and acceleration (central
-// differences over two samples each side, as ScreenCoggingOrders), and
-//   e = T_drive - J a - B w - T_effects(theta, w)
-// of the current model. A missing position torque T(theta) leaves e = dJ a + dB w + T(theta):
-// regressed on [a, w, columns of theta], the last coefficients are a linearised start.
+// (spring, gravity), in integral form. At every sample with a measured drive torque
+// (rigid_load: Kt u; dc_servo: Kt i from the measured current) the current model leaves
+//   e = T_drive - B w - T_effects(theta, w) = J dw/dt + T(theta) + dB w
+// when a position torque T(theta) is missing (dB what B still misses). Integrated from the
+// trace's start, int e dt = J (w - w(0)) + dB int w dt + int T(theta) dt: regressed on
+// [w, int w dt, 1, int of the columns of theta], the last coefficients are a linearised start.
+// The integral form needs no acceleration: differentiated from a speed with 1 % noise at
+// 1 kHz, the acceleration's noise is as large as the signal, and a regression on it put the
+// spring's K at -14 times its value on the DC-servo round trip (tests/position_discovery_test).
 struct TorqueBalance {
-  std::vector<double> theta, w, a, error;
-  double theta_min = 0.0, theta_max = 0.0;  // the measured angle's range, rad
+  struct Sample {
+    std::size_t trace;
+    double t, theta, w, error;
+  };
+  std::vector<Sample> samples;
 };
 
 // The measured angle's range over every trace (false when no trace has an angle).
@@ -379,75 +385,86 @@ bool MeasureTorqueBalance(const FitProblem& problem, const std::vector<double>& 
   const bool torque_input = config.model->traits().input_is_torque;
   if (!torque_input && model != "dc_servo") return false;  // blmd: the torque is a state
   const ParameterSet parameters = problem.Parameters(values);
-  const double J = parameters.Get("J"), B = parameters.Get("B"), Kt = parameters.Get("Kt");
+  const double B = parameters.Get("B"), Kt = parameters.Get("Kt");
   const double i0 = std::find(config.effects.begin(), config.effects.end(), "current_offset") !=
                             config.effects.end()
                         ? parameters.Get("i0")
                         : 0.0;
   const ShaftEffects shaft = ShaftEffects::From(parameters, config.effects, 0.0);
-  constexpr std::size_t h = 2;
-  for (const auto& trace : problem.traces()) {
+  for (std::size_t index = 0; index < problem.traces().size(); ++index) {
+    const FitTrace& trace = problem.traces()[index];
     const std::vector<double> theta = MeasuredAngle(trace);
     const auto& t = trace.trace.Column("t");
     const std::size_t n = theta.size();
-    if (n < 4 * h + 1) continue;
+    if (n < 20) continue;
     if (!torque_input && !trace.trace.Has("i")) continue;
     const std::vector<double>& drive = trace.trace.Column(torque_input ? "u" : "i");
     std::vector<double> w(n, 0.0);
     if (trace.trace.Has("w")) {
       w = trace.trace.Column("w");
     } else {
-      for (std::size_t k = h; k + h < n; ++k)
-        w[k] = (theta[k + h] - theta[k - h]) / (t[k + h] - t[k - h]);
+      for (std::size_t k = 1; k + 1 < n; ++k)
+        w[k] = (theta[k + 1] - theta[k - 1]) / (t[k + 1] - t[k - 1]);
+      w[0] = w[1];
+      w[n - 1] = w[n - 2];
     }
-    for (std::size_t k = 2 * h; k + 2 * h < n; ++k) {
-      const double a = (w[k + h] - w[k - h]) / (t[k + h] - t[k - h]);
+    for (std::size_t k = 0; k < n; ++k) {
       const double torque = torque_input ? Kt * drive[k] : Kt * (drive[k] - i0);
       double friction = 0.0;
       if (shaft.has_friction() && w[k] != 0.0)
         friction = (w[k] > 0.0 ? 1.0 : -1.0) * shaft.FrictionMagnitude(w[k]);
-      const double e = torque - J * a - B * w[k] - shaft.NonFrictionTorque(theta[k]) -
-                       shaft.DragTorque(w[k]) - friction;
-      if (!std::isfinite(e)) continue;
-      balance->theta.push_back(theta[k]);
-      balance->w.push_back(w[k]);
-      balance->a.push_back(a);
-      balance->error.push_back(e);
+      const double e =
+          torque - B * w[k] - shaft.NonFrictionTorque(theta[k]) - shaft.DragTorque(w[k]) - friction;
+      if (!std::isfinite(e) || !std::isfinite(theta[k])) return false;
+      balance->samples.push_back({index, t[k], theta[k], w[k], e});
     }
   }
-  return balance->error.size() >= 20;
+  return balance->samples.size() >= 20;
 }
 
-// Regresses the balance's error on [a, w, extra columns of theta]; the coefficients of the
-// extra columns, and the share of the error's sum of squares (after [a, w]) they explain.
+// Regresses the integrated balance on [w, int w dt, 1, int of each extra column of theta]
+// (trapezoidal integrals from each trace's start); the coefficients of the extra columns,
+// and the share of the sum of squares left by the first three that they explain.
 bool RegressOnAngle(const TorqueBalance& balance,
                     const std::vector<std::function<double(double)>>& columns,
                     std::vector<double>* coefficients, double* share) {
-  const auto n = static_cast<Eigen::Index>(balance.error.size());
+  const auto n = static_cast<Eigen::Index>(balance.samples.size());
   const auto m = static_cast<Eigen::Index>(columns.size());
-  Eigen::MatrixXd design(n, 2 + m);
-  Eigen::VectorXd error(n);
+  Eigen::MatrixXd design(n, 3 + m);
+  Eigen::VectorXd integral(n);
   for (Eigen::Index r = 0; r < n; ++r) {
-    const auto k = static_cast<std::size_t>(r);
-    error(r) = balance.error[k];
-    design(r, 0) = balance.a[k];
-    design(r, 1) = balance.w[k];
-    for (Eigen::Index c = 0; c < m; ++c)
-      design(r, 2 + c) = columns[static_cast<std::size_t>(c)](balance.theta[k]);
+    const auto& s = balance.samples[static_cast<std::size_t>(r)];
+    const bool first = r == 0 || balance.samples[static_cast<std::size_t>(r - 1)].trace != s.trace;
+    design(r, 0) = s.w;
+    design(r, 2) = 1.0;
+    if (first) {
+      integral(r) = 0.0;
+      design(r, 1) = 0.0;
+      for (Eigen::Index c = 0; c < m; ++c) design(r, 3 + c) = 0.0;
+      continue;
+    }
+    const auto& p = balance.samples[static_cast<std::size_t>(r - 1)];
+    const double h = 0.5 * (s.t - p.t);
+    integral(r) = integral(r - 1) + h * (s.error + p.error);
+    design(r, 1) = design(r - 1, 1) + h * (s.w + p.w);
+    for (Eigen::Index c = 0; c < m; ++c) {
+      const auto& column = columns[static_cast<std::size_t>(c)];
+      design(r, 3 + c) = design(r - 1, 3 + c) + h * (column(s.theta) + column(p.theta));
+    }
   }
-  const Eigen::VectorXd base = design.leftCols(2).colPivHouseholderQr().solve(error);
-  const double base_sse = (error - design.leftCols(2) * base).squaredNorm();
-  const Eigen::VectorXd x = design.colPivHouseholderQr().solve(error);
+  const Eigen::VectorXd base = design.leftCols(3).colPivHouseholderQr().solve(integral);
+  const double base_sse = (integral - design.leftCols(3) * base).squaredNorm();
+  const Eigen::VectorXd x = design.colPivHouseholderQr().solve(integral);
   if (!x.allFinite()) return false;
-  coefficients->assign(x.data() + 2, x.data() + 2 + m);
-  *share = base_sse > 0.0 ? (base_sse - (error - design * x).squaredNorm()) / base_sse : 0.0;
+  coefficients->assign(x.data() + 3, x.data() + 3 + m);
+  *share = base_sse > 0.0 ? (base_sse - (integral - design * x).squaredNorm()) / base_sse : 0.0;
   return true;
 }
 
 // spring: T_effects = K (theta - theta0) = K theta - K theta0, linear in (K, K theta0). K is
 // searched up to the stiffness whose torque over the measured angle's range is a few torque
 // scales, theta0 over the range widened by twice its width either side; the start is the
-// torque balance's regression on [theta, 1] (K and -K theta0), then a grid.
+// integrated torque balance's regression on [theta, 1] (K and -K theta0), then a grid.
 CandidatePlan PlanSpring(const PlanContext& context) {
   CandidatePlan plan;
   const double T = context.torque_scale;
@@ -486,9 +503,10 @@ CandidatePlan PlanSpring(const PlanContext& context) {
 }
 
 // gravity: T_effects = Tg sin(theta + phase) = Tg cos(phase) sin(theta) + Tg sin(phase)
-// cos(theta), linear in (Tg cos phase, Tg sin phase): the torque balance regressed on
-// [sin theta, cos theta] (no constant: over a swing of less than a revolution cos theta is
-// nearly one, and a constant would take the torque's mean from it) gives the start. Tg is
+// cos(theta), linear in (Tg cos phase, Tg sin phase): the integrated torque balance
+// regressed on [sin theta, cos theta] (no constant torque: over a swing of less than a
+// revolution cos theta is nearly one, and a constant would take the torque's mean from it)
+// gives the start. Tg is
 // searched up to a few torque scales (a pendulum that only swings may be heavier than the
 // drive), the phase over two turns, as cogging's.
 CandidatePlan PlanGravity(const PlanContext& context) {

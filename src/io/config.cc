@@ -1175,7 +1175,8 @@ void Config::AddEffect(const std::string& effect, const ParameterSet& values) {
   }
   for (const auto& [key, value] : values.entries()) {
     bool known = false;
-    for (const auto& p : info.parameters) known = known || p.config_key() == key;
+    // By its flat name (the library's ParameterSet) or its key inside the effect's object.
+    for (const auto& p : info.parameters) known = known || p.name == key || p.config_key() == key;
     if (!known) {
       std::vector<std::string> valid;
       for (const auto& p : info.parameters) valid.push_back(p.config_key());
@@ -1186,12 +1187,12 @@ void Config::AddEffect(const std::string& effect, const ParameterSet& values) {
     }
   }
   for (const auto& p : info.parameters) {
-    const std::string& key = p.config_key();
-    if (!values.Has(key)) {
+    const std::string& key = p.config_key();  // the name users give it (--effect)
+    if (!values.Has(p.name) && !values.Has(key)) {
       throw InputError("effect '" + effect + "' needs parameter '" + key + "' (" + p.meaning +
                        ", " + p.unit + ")");
     }
-    const double v = values.Get(key);
+    const double v = values.Has(p.name) ? values.Get(p.name) : values.Get(key);
     if ((p.positive && !(v > 0.0)) || (p.non_negative && v < 0.0) || !std::isfinite(v)) {
       throw InputError("effect parameter '" + key + "' must be " + (p.positive ? "> 0" : ">= 0"));
     }
