@@ -118,5 +118,39 @@ TEST(PositionDiscovery, GravityOnASwingOfLessThanARevolution) {
   EXPECT_NEAR(after["gravity_phase"].get<double>(), 0.3, 0.05);
 }
 
+// Gravity declared and its phase free by its flat name: the fit recovers it, and
+// --write-config writes it back as `phase` inside the gravity object, a config blmd-sim runs.
+TEST(PositionDiscovery, GravityPhaseFreeAndWrittenBackAsPhase) {
+  testing::TempDir dir;
+  const std::string body = R"("model": "dc_servo",
+    "parameters": { "R": 12.6, "L": 0.283, "Kt": 0.04, "Kb": 0.04, "J": 2.26e-5, "B": 2.261e-5 },
+    "simulation": { "dt": 1e-5 },
+    "experiment": { "input": { "type": "square", "amplitude": 0.6, "period": 1.0 },
+                    "duration": 2.0, "sample_rate": 1000 },)";
+  const std::string truth = dir.Write(
+      "truth.json", "{" + body + R"( "effects": { "gravity": { "Tg": 0.004, "phase": 0.3 } } })");
+  const std::string start = dir.Write("start.json", "{" + body + R"(
+    "effects": { "gravity": { "Tg": 0.0035, "phase": 0.2 } },
+    "identification": { "free": ["J", "B", "Tg", "gravity_phase"], "observe": ["i", "w"] } })");
+  const std::string trace = dir.File("trace.csv"), back = dir.File("back.json");
+  const testing::CommandResult sim = testing::Run(testing::BinPath("blmd-sim") + " --config " +
+                                                  truth + " --out " + trace + " --quiet");
+  ASSERT_EQ(sim.exit_code, 0) << sim.err;
+  const testing::CommandResult ident =
+      testing::Run(testing::BinPath("blmd-ident") + " --config " + start + " --trace " + trace +
+                   " --write-config " + back + " --json --threads 1");
+  ASSERT_EQ(ident.exit_code, 0) << ident.err;
+  const nlohmann::json report = nlohmann::json::parse(ident.out);
+  EXPECT_NEAR(report["parameters"]["gravity_phase"]["value"].get<double>(), 0.3, 1e-4);
+  EXPECT_NEAR(report["parameters"]["Tg"]["value"].get<double>(), 0.004, 1e-4 * 0.004);
+  const nlohmann::json written = nlohmann::json::parse(testing::Slurp(back));
+  EXPECT_NEAR(written["effects"]["gravity"]["phase"].get<double>(), 0.3, 1e-4);
+  EXPECT_FALSE(written["effects"]["gravity"].contains("gravity_phase"));
+  const testing::CommandResult again =
+      testing::Run(testing::BinPath("blmd-sim") + " --config " + back + " --out " +
+                   dir.File("b.csv") + " --quiet");
+  EXPECT_EQ(again.exit_code, 0) << again.err;
+}
+
 }  // namespace
 }  // namespace blmd
