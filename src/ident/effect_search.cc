@@ -212,6 +212,74 @@ std::vector<OrderScreen> ScreenCoggingOrders(const FitProblem& problem,
   return ranked;
 }
 
+// Cogging orders of dc_servo and blmd ranked by the linearised response at the measured
+// angle: for each order m, the model's response to a small torque eps sin(m theta_meas)
+// and eps cos(m theta_meas) (the cogging effect at the measured angle, as discovery fits it)
+// gives two sensitivity columns S_s, S_c of the weighted residual; the fall of the
+// residual's sum of squares that a least-squares combination a S_s + b S_c achieves ranks
+// the orders, and (a, b) = Tcog (cos phase, sin phase) is the start. Unlike the raw angle
+// spectrum of the speed residual (whose ripple falls as 1/m and which a friction misfit
+// fills with low orders and their harmonics), this asks what a cogging torque of each order
+// would do to every observed column through the model's own dynamics (issue 24: orders 40,
+// 29, 57 had been added for 8, 8, 12). Empty when the traces record no angle.
+std::vector<OrderScreen> RankOrdersByResponse(const FitProblem& problem,
+                                              const std::vector<double>& values,
+                                              double torque_scale, int lowest, int highest) {
+  std::vector<OrderScreen> ranked;
+  std::vector<double> r0;
+  if (!problem.Evaluate(values, &r0).ok) return ranked;
+  double total = 0.0;
+  for (double v : r0) total += v * v;
+  if (!(total > 0.0)) return ranked;
+  const double eps = 1e-3 * torque_scale;
+  for (int order = lowest; order <= highest; ++order) {
+    Config config = problem.config();
+    ParameterSet cogging;
+    cogging.Set("Tcog", 0.0);
+    cogging.Set("periods", static_cast<double>(order));
+    cogging.Set("phase", 0.0);
+    config.AddEffect("cogging", cogging);
+    std::vector<FreeParameter> free = problem.free();
+    free.push_back(Free("Tcog", 0.0, 1.0));
+    free.push_back(Free("phase", -2.0 * kPi, 2.0 * kPi));
+    FitProblem probe(config, problem.traces(), problem.observe(), free);
+    if (!probe.ForceEffectAngle()) return {};
+    std::vector<std::vector<double>> points(3, values);
+    points[0].insert(points[0].end(), {0.0, 0.0});
+    points[1].insert(points[1].end(), {eps, 0.0});
+    points[2].insert(points[2].end(), {eps, 0.5 * kPi});
+    std::vector<std::vector<double>> residuals;
+    const std::vector<Evaluation> evaluations = probe.EvaluateBatch(points, &residuals);
+    if (!evaluations[0].ok || !evaluations[1].ok || !evaluations[2].ok) continue;
+    double ss = 0.0, cc = 0.0, sc = 0.0, ys = 0.0, yc = 0.0;
+    for (std::size_t k = 0; k < r0.size(); ++k) {
+      const double s = (residuals[1][k] - residuals[0][k]) / eps;
+      const double c = (residuals[2][k] - residuals[0][k]) / eps;
+      ss += s * s;
+      cc += c * c;
+      sc += s * c;
+      ys -= r0[k] * s;  // a S_s + b S_c should cancel r0
+      yc -= r0[k] * c;
+    }
+    const double det = ss * cc - sc * sc;
+    if (!(det > 1e-12 * ss * cc) || !std::isfinite(det)) continue;
+    const double a = (cc * ys - sc * yc) / det, b = (ss * yc - sc * ys) / det;
+    OrderScreen screen;
+    screen.order = order;
+    screen.reduction = a * ys + b * yc;
+    screen.share = screen.reduction / total;
+    screen.lowest = lowest;
+    screen.highest = highest;
+    screen.tcog = std::hypot(a, b);
+    screen.phase = std::atan2(b, a);
+    if (std::isfinite(screen.reduction)) ranked.push_back(screen);
+  }
+  std::stable_sort(ranked.begin(), ranked.end(), [](const OrderScreen& l, const OrderScreen& r) {
+    return l.reduction > r.reduction;
+  });
+  return ranked;
+}
+
 CandidatePlan PlanCoulombFriction(const PlanContext& context) {
   CandidatePlan plan;
   const double T = context.torque_scale;
@@ -273,6 +341,16 @@ CandidatePlan PlanStribeck(const PlanContext& context) {
     for (double g : {0.003, 0.01, 0.03, 0.1}) plan.starts.push_back({f * T, g * w_max});
   }
   plan.amplitude = "Ts";
+  // A Stribeck friction is a dip of the friction at low speed: its speed ws must lie well
+  // inside the speeds the record covers (at most a third of the largest), or the curve only
+  // reshapes a Coulomb friction over the whole range (issue 24: ws of 100-270 rad/s named on
+  // traces with Coulomb friction and cogging).
+  plan.constraint = [w_max](const ParameterSet& p) -> std::string {
+    const double ws = p.Get("ws");
+    if (ws <= w_max / 3.0) return "";
+    return "ws = " + G(ws) + " rad/s is not well inside the speed range (at most a third of " +
+           G(w_max) + " rad/s): no Stribeck dip in these data";
+  };
   return plan;
 }
 
@@ -312,11 +390,38 @@ CandidatePlan PlanCogging(const PlanContext& context) {
     }
   }
   if (orders.empty()) {
+    // dc_servo, blmd: the four orders whose linearised response explains most, from 2
+    // (order 1 is gravity's) and completing three periods over the angle travelled.
+    int lowest = 2;
+    double travelled = 0.0;
+    for (const FitTrace& trace : problem.traces()) {
+      const std::vector<double> angle = MeasuredAngle(trace);
+      for (std::size_t r = 1; r < angle.size(); ++r) travelled += std::abs(angle[r] - angle[r - 1]);
+    }
+    if (travelled > 0.0)
+      lowest = std::max(lowest, static_cast<int>(std::ceil(3.0 * 2.0 * kPi / travelled)));
+    const std::vector<OrderScreen> ranked =
+        RankOrdersByResponse(problem, values, T, lowest, DiagnosticsOptions().max_order);
+    for (std::size_t k = 0; k < ranked.size() && k < 4; ++k) {
+      orders.push_back(ranked[k].order);
+      linear_starts.push_back({std::clamp(ranked[k].tcog, 1e-6 * T, 0.9 * T), ranked[k].phase});
+      plan.alternative_evidence.push_back(
+          "linearised response at the measured angle (orders " + std::to_string(lowest) + "-" +
+          std::to_string(ranked[k].highest) + "): order " + std::to_string(ranked[k].order) +
+          " explains " + G(100.0 * ranked[k].share, 3) + " % of the residual (rank " +
+          std::to_string(k + 1) +
+          (k == 0 && ranked.size() > 1 ? "; next: order " + std::to_string(ranked[1].order) + ", " +
+                                             G(100.0 * ranked[1].share, 3) + " %"
+                                       : std::string()) +
+          ")");
+    }
+  }
+  if (orders.empty()) {  // no angle to linearise at: the residual's angle spectrum
     for (const char* column : {"w", "theta", "i"}) {
       for (const auto& d : analysis.columns) {
         if (d.column != column) continue;
         for (const auto& peak : d.angle_peaks) {
-          if (orders.size() < 4 && peak.order >= 2 &&  // order 1 is gravity's
+          if (peak.order >= 2 && orders.size() < 4 &&
               std::find(orders.begin(), orders.end(), peak.order) == orders.end()) {
             orders.push_back(peak.order);
           }
@@ -624,7 +729,8 @@ CandidatePlan PlanCandidate(const std::string& effect, const FitProblem& problem
   return plan;
 }
 
-std::string PointingDiagnostic(const std::string& effect, const ResidualAnalysis& analysis) {
+std::string PointingDiagnostic(const std::string& effect, const ResidualAnalysis& analysis,
+                               int order) {
   std::string text;
   // The diagnostic that points at this effect, from the column where it is strongest.
   const ColumnDiagnostics* strongest = nullptr;
@@ -656,9 +762,23 @@ std::string PointingDiagnostic(const std::string& effect, const ResidualAnalysis
       return d.angle_peaks.empty() ? 0.0 : d.angle_peaks.front().ratio;
     });
     if (strongest) {
-      text += "; " + strongest->column + " residual peaks at " +
-              std::to_string(strongest->angle_peaks.front().order) + " periods/rev (" +
-              G(strongest->angle_peaks.front().ratio, 3) + " x the spectrum's median)";
+      const AnglePeak& top = strongest->angle_peaks.front();
+      const AnglePeak* cited = &top;
+      if (order > 0) {  // the order added: its own peak, where the spectrum lists it
+        cited = nullptr;
+        for (const auto& peak : strongest->angle_peaks) {
+          if (peak.order == order) cited = &peak;
+        }
+      }
+      if (cited) {
+        text += "; " + strongest->column + " residual peaks at " + std::to_string(cited->order) +
+                " periods/rev (" + G(cited->ratio, 3) + " x the spectrum's median)";
+      }
+      if (order > 0 && top.order != order) {
+        text += "; the angle spectrum's strongest peak is at " + std::to_string(top.order) +
+                " periods/rev (" + G(top.ratio, 3) + " x), order " + std::to_string(order) +
+                " was chosen by the refit";
+      }
     }
   } else if (pointer == Pointer::kAngleDependence) {
     // The torque balance's regression on the measured angle, quoted by the plan's evidence
