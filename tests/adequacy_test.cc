@@ -4,7 +4,6 @@
 // whole check on traces of the Ganesh servo with a known structure added to the measured
 // speed: nothing flagged on noise alone, the right state named when there is one.
 #include "blmd/ident/adequacy.h"
-#include "blmd/ident/optimizer.h"
 
 #include <gtest/gtest.h>
 
@@ -12,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "blmd/ident/optimizer.h"
 #include "blmd/ident/problem.h"
 #include "blmd/ident/trace_input.h"
 #include "blmd/io/config.h"

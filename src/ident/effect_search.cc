@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <functional>
 
 #include "blmd/io/csv.h"
 #include "blmd/sim/effects.h"
@@ -153,7 +154,8 @@ std::vector<OrderScreen> ScreenCoggingOrders(const FitProblem& problem,
     }
   }
   if (!(path > kPi) || samples.empty()) return ranked;
-  const int min_order = std::max(1, static_cast<int>(std::ceil(3.0 * 2.0 * kPi / path)));
+  // Order 1 (one period per revolution) is gravity's (PlanGravity), not cogging's.
+  const int min_order = std::max(2, static_cast<int>(std::ceil(3.0 * 2.0 * kPi / path)));
   std::vector<const Sample*> moving;
   for (const auto& sample : samples) {
     if (std::abs(sample.w) > 0.25 * w_max) moving.push_back(&sample);
@@ -239,8 +241,7 @@ std::vector<OrderScreen> RankOrdersByResponse(const FitProblem& problem,
   const auto n = static_cast<Eigen::Index>(r0.size());
   const Eigen::VectorXd r = Eigen::Map<const Eigen::VectorXd>(r0.data(), n);
   const Eigen::HouseholderQR<Eigen::MatrixXd> qr(jacobian);
-  const Eigen::MatrixXd basis =
-      qr.householderQ() * Eigen::MatrixXd::Identity(n, jacobian.cols());
+  const Eigen::MatrixXd basis = qr.householderQ() * Eigen::MatrixXd::Identity(n, jacobian.cols());
   auto purify = [&](const Eigen::VectorXd& v) -> Eigen::VectorXd {
     return v - basis * (basis.transpose() * v);
   };
@@ -466,6 +467,208 @@ CandidatePlan PlanCogging(const PlanContext& context) {
   return plan;
 }
 
+// The torque balance along the measured motion for the position-dependent candidates
+// (spring, gravity), in integral form. At every sample with a measured drive torque
+// (rigid_load: Kt u; dc_servo: Kt i from the measured current) the current model leaves
+//   e = T_drive - B w - T_effects(theta, w) = J dw/dt + T(theta) + dB w
+// when a position torque T(theta) is missing (dB what B still misses). Integrated from the
+// trace's start, int e dt = J (w - w(0)) + dB int w dt + int T(theta) dt: regressed on
+// [w, int w dt, 1, int of the columns of theta], the last coefficients are a linearised start.
+// The integral form needs no acceleration: differentiated from a speed with 1 % noise at
+// 1 kHz, the acceleration's noise is as large as the signal, and a regression on it put the
+// spring's K at -14 times its value on the DC-servo round trip (tests/position_discovery_test).
+struct TorqueBalance {
+  struct Sample {
+    std::size_t trace;
+    double t, theta, w, error;
+  };
+  std::vector<Sample> samples;
+};
+
+// The measured angle's range over every trace (false when no trace has an angle).
+bool MeasuredAngleRange(const FitProblem& problem, double* lowest, double* highest) {
+  bool any = false;
+  for (const auto& trace : problem.traces()) {
+    const std::vector<double> theta = MeasuredAngle(trace);
+    for (double x : theta) {
+      if (!std::isfinite(x)) continue;
+      *lowest = any ? std::min(*lowest, x) : x;
+      *highest = any ? std::max(*highest, x) : x;
+      any = true;
+    }
+  }
+  return any;
+}
+
+bool MeasureTorqueBalance(const FitProblem& problem, const std::vector<double>& values,
+                          TorqueBalance* balance) {
+  const Config& config = problem.config();
+  const std::string model(config.model->name());
+  const bool torque_input = config.model->traits().input_is_torque;
+  if (!torque_input && model != "dc_servo") return false;  // blmd: the torque is a state
+  const ParameterSet parameters = problem.Parameters(values);
+  const double B = parameters.Get("B"), Kt = parameters.Get("Kt");
+  const double i0 = std::find(config.effects.begin(), config.effects.end(), "current_offset") !=
+                            config.effects.end()
+                        ? parameters.Get("i0")
+                        : 0.0;
+  const ShaftEffects shaft = ShaftEffects::From(parameters, config.effects, 0.0);
+  for (std::size_t index = 0; index < problem.traces().size(); ++index) {
+    const FitTrace& trace = problem.traces()[index];
+    const std::vector<double> theta = MeasuredAngle(trace);
+    const auto& t = trace.trace.Column("t");
+    const std::size_t n = theta.size();
+    if (n < 20) continue;
+    if (!torque_input && !trace.trace.Has("i")) continue;
+    const std::vector<double>& drive = trace.trace.Column(torque_input ? "u" : "i");
+    std::vector<double> w(n, 0.0);
+    if (trace.trace.Has("w")) {
+      w = trace.trace.Column("w");
+    } else {
+      for (std::size_t k = 1; k + 1 < n; ++k)
+        w[k] = (theta[k + 1] - theta[k - 1]) / (t[k + 1] - t[k - 1]);
+      w[0] = w[1];
+      w[n - 1] = w[n - 2];
+    }
+    for (std::size_t k = 0; k < n; ++k) {
+      const double torque = torque_input ? Kt * drive[k] : Kt * (drive[k] - i0);
+      double friction = 0.0;
+      if (shaft.has_friction() && w[k] != 0.0)
+        friction = (w[k] > 0.0 ? 1.0 : -1.0) * shaft.FrictionMagnitude(w[k]);
+      const double e =
+          torque - B * w[k] - shaft.NonFrictionTorque(theta[k]) - shaft.DragTorque(w[k]) - friction;
+      if (!std::isfinite(e) || !std::isfinite(theta[k])) return false;
+      balance->samples.push_back({index, t[k], theta[k], w[k], e});
+    }
+  }
+  return balance->samples.size() >= 20;
+}
+
+// Regresses the integrated balance on [w, int w dt, 1, int of each extra column of theta]
+// (trapezoidal integrals from each trace's start); the coefficients of the extra columns,
+// and the share of the sum of squares left by the first three that they explain.
+bool RegressOnAngle(const TorqueBalance& balance,
+                    const std::vector<std::function<double(double)>>& columns,
+                    std::vector<double>* coefficients, double* share) {
+  const auto n = static_cast<Eigen::Index>(balance.samples.size());
+  const auto m = static_cast<Eigen::Index>(columns.size());
+  Eigen::MatrixXd design(n, 3 + m);
+  Eigen::VectorXd integral(n);
+  for (Eigen::Index r = 0; r < n; ++r) {
+    const auto& s = balance.samples[static_cast<std::size_t>(r)];
+    const bool first = r == 0 || balance.samples[static_cast<std::size_t>(r - 1)].trace != s.trace;
+    design(r, 0) = s.w;
+    design(r, 2) = 1.0;
+    if (first) {
+      integral(r) = 0.0;
+      design(r, 1) = 0.0;
+      for (Eigen::Index c = 0; c < m; ++c) design(r, 3 + c) = 0.0;
+      continue;
+    }
+    const auto& p = balance.samples[static_cast<std::size_t>(r - 1)];
+    const double h = 0.5 * (s.t - p.t);
+    integral(r) = integral(r - 1) + h * (s.error + p.error);
+    design(r, 1) = design(r - 1, 1) + h * (s.w + p.w);
+    for (Eigen::Index c = 0; c < m; ++c) {
+      const auto& column = columns[static_cast<std::size_t>(c)];
+      design(r, 3 + c) = design(r - 1, 3 + c) + h * (column(s.theta) + column(p.theta));
+    }
+  }
+  const Eigen::VectorXd base = design.leftCols(3).colPivHouseholderQr().solve(integral);
+  const double base_sse = (integral - design.leftCols(3) * base).squaredNorm();
+  const Eigen::VectorXd x = design.colPivHouseholderQr().solve(integral);
+  if (!x.allFinite()) return false;
+  coefficients->assign(x.data() + 3, x.data() + 3 + m);
+  *share = base_sse > 0.0 ? (base_sse - (integral - design * x).squaredNorm()) / base_sse : 0.0;
+  return true;
+}
+
+// spring: T_effects = K (theta - theta0) = K theta - K theta0, linear in (K, K theta0). K is
+// searched up to the stiffness whose torque over the measured angle's range is a few torque
+// scales, theta0 over the range widened by twice its width either side; the start is the
+// integrated torque balance's regression on [theta, 1] (K and -K theta0), then a grid.
+CandidatePlan PlanSpring(const PlanContext& context) {
+  CandidatePlan plan;
+  const double T = context.torque_scale;
+  double lowest = 0.0, highest = 0.0;
+  if (!MeasuredAngleRange(context.problem, &lowest, &highest) || !(highest - lowest > 1e-6)) {
+    plan.applicable = false;
+    plan.not_applicable = "needs a measured angle that moves (theta or w)";
+    return plan;
+  }
+  const double span = highest - lowest, middle = 0.5 * (lowest + highest);
+  double k_scale = T / span;
+  std::vector<double> linear;
+  TorqueBalance balance;
+  std::vector<double> x;
+  double share = 0.0;
+  if (MeasureTorqueBalance(context.problem, context.values, &balance) &&
+      RegressOnAngle(balance, {[](double theta) { return theta; }, [](double) { return 1.0; }}, &x,
+                     &share) &&
+      x[0] > 0.0) {
+    const double theta0 = std::clamp(-x[1] / x[0], lowest - 2.0 * span, highest + 2.0 * span);
+    linear = {x[0], theta0};
+    k_scale = std::max(k_scale, x[0]);
+    plan.evidence =
+        "torque balance along the measured angle: K (theta - theta0) with K = " + G(x[0]) +
+        " N·m/rad, theta0 = " + G(theta0) + " rad explains " + G(100.0 * share, 3) +
+        " % of its residual";
+  }
+  plan.free = {Free("K", 0.0, 4.0 * k_scale),
+               Free("theta0", lowest - 2.0 * span, highest + 2.0 * span)};
+  if (!linear.empty()) plan.starts.push_back(linear);
+  for (double f : {0.03, 0.1, 0.3, 1.0}) {
+    for (double theta0 : {lowest, middle, highest}) plan.starts.push_back({f * T / span, theta0});
+  }
+  plan.amplitude = "K";
+  return plan;
+}
+
+// gravity: T_effects = Tg sin(theta + phase) = Tg cos(phase) sin(theta) + Tg sin(phase)
+// cos(theta), linear in (Tg cos phase, Tg sin phase): the integrated torque balance
+// regressed on [sin theta, cos theta] (no constant torque: over a swing of less than a
+// revolution cos theta is nearly one, and a constant would take the torque's mean from it)
+// gives the start. Tg is
+// searched up to a few torque scales (a pendulum that only swings may be heavier than the
+// drive), the phase over two turns, as cogging's.
+CandidatePlan PlanGravity(const PlanContext& context) {
+  CandidatePlan plan;
+  const double T = context.torque_scale;
+  double lowest = 0.0, highest = 0.0;
+  if (!MeasuredAngleRange(context.problem, &lowest, &highest) || !(highest - lowest > 1e-3)) {
+    plan.applicable = false;
+    plan.not_applicable = "needs a measured angle that moves (theta or w)";
+    return plan;
+  }
+  double tg_scale = T;
+  std::vector<double> linear;
+  TorqueBalance balance;
+  std::vector<double> x;
+  double share = 0.0;
+  if (MeasureTorqueBalance(context.problem, context.values, &balance) &&
+      RegressOnAngle(balance,
+                     {[](double theta) { return std::sin(theta); },
+                      [](double theta) { return std::cos(theta); }},
+                     &x, &share)) {
+    const double tg = std::hypot(x[0], x[1]), phase = std::atan2(x[1], x[0]);
+    if (tg > 0.0 && std::isfinite(tg)) {
+      linear = {tg, phase};
+      tg_scale = std::max(tg_scale, tg);
+      plan.evidence =
+          "torque balance along the measured angle: Tg sin(theta + phase) with Tg = " + G(tg) +
+          " N·m, phase = " + G(phase, 3) + " rad explains " + G(100.0 * share, 3) +
+          " % of its residual";
+    }
+  }
+  plan.free = {Free("Tg", 0.0, 4.0 * tg_scale), Free("gravity_phase", -2.0 * kPi, 2.0 * kPi)};
+  if (!linear.empty()) plan.starts.push_back(linear);
+  for (double f : {0.03, 0.1, 0.3, 1.0}) {
+    for (int k = 0; k < 8; ++k) plan.starts.push_back({f * T, -kPi + 0.25 * kPi * k});
+  }
+  plan.amplitude = "Tg";
+  return plan;
+}
+
 CandidatePlan PlanDeadTime(const PlanContext& context) {
   CandidatePlan plan;
   const ResidualAnalysis& analysis = context.analysis;
@@ -506,6 +709,8 @@ const std::vector<EffectSearch>& EffectSearchRegistry() {
       {"asymmetric_viscous", PlanAsymmetricViscous, Pointer::kSignOfW},
       {"stribeck", PlanStribeck, Pointer::kSignOfW},
       {"cogging", PlanCogging, Pointer::kAnglePeak},
+      {"spring", PlanSpring, Pointer::kAngleDependence},
+      {"gravity", PlanGravity, Pointer::kAngleDependence},
       {"dead_time", PlanDeadTime, Pointer::kSignOfI},
       {"current_offset", PlanCurrentOffset, Pointer::kResidualMean},
   };
@@ -592,6 +797,9 @@ std::string PointingDiagnostic(const std::string& effect, const ResidualAnalysis
                 " was chosen by the refit";
       }
     }
+  } else if (pointer == Pointer::kAngleDependence) {
+    // The torque balance's regression on the measured angle, quoted by the plan's evidence
+    // (PlanSpring, PlanGravity), says it; the residual's diagnostics have no such statistic.
   } else {
     pick([](const ColumnDiagnostics& d) { return d.rms > 0.0 ? std::abs(d.mean) / d.rms : 0.0; });
     if (strongest)

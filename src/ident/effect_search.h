@@ -47,10 +47,11 @@ struct PlanContext {
 
 // The residual diagnostic that points at an effect, quoted in its evidence line.
 enum class Pointer {
-  kSignOfW,       // the residual's mean differs by the sign of w (friction)
-  kSignOfI,       // ... by the sign of i (dead time)
-  kAnglePeak,     // a peak of the residual's angle spectrum (cogging)
-  kResidualMean,  // the residual's mean (offsets, loads, drag)
+  kSignOfW,          // the residual's mean differs by the sign of w (friction)
+  kSignOfI,          // ... by the sign of i (dead time)
+  kAnglePeak,        // a peak of the residual's angle spectrum (cogging)
+  kAngleDependence,  // the torque balance's dependence on the measured angle (spring, gravity)
+  kResidualMean,     // the residual's mean (offsets, loads, drag)
 };
 
 struct EffectSearch {
