@@ -316,10 +316,18 @@ struct CrossValidation {
 };
 
 CrossValidation BlockCrossValidate(const Config& config, const std::vector<FreeParameter>& free,
+                                   const std::vector<FitTrace>& traces,
                                    const std::vector<std::string>& observe,
-                                   const internal::RecordParts& parts,
+                                   const std::vector<double>& values,
                                    const OptimizerOptions& refit) {
   CrossValidation out;
+  // The parts, the second starting from this model's own state at the cut.
+  const internal::RecordParts parts =
+      internal::SplitRecord(FitProblem(config, traces, observe, free), values);
+  if (!parts.ok) {
+    out.reason = parts.reason;
+    return out;
+  }
   double sum = 0.0;
   for (int fold = 0; fold < 2; ++fold) {
     const std::vector<FitTrace>& fit_on = fold == 0 ? parts.first : parts.second;
@@ -374,7 +382,7 @@ RoundBase MakeRoundBase(const FitProblem& base, const std::vector<double>& value
   round.nrmse = std::sqrt(free_run.Evaluate(values).cost);
   round.floor_nrmse = NoiseFloorNrmse(base);
   const bool held_out = options.held_out && !options.held_out->empty();
-  if (!held_out && options.prewhiten && !base.Evaluate(values, &round.residuals).ok) {
+  if (!held_out && options.prewhiten && !free_run.Evaluate(values, &round.residuals).ok) {
     round.residuals.clear();
   }
   if (held_out) {
@@ -613,6 +621,22 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
           ScreenCandidate(*current_problem, current_fit.values, plans[k], current_bic, progress);
       if (progress) progress->StepDone();
     });
+    // The screening score is the evidence the refit will be judged by: the BIC on
+    // prewhitened residuals (evidence.h) where it can be computed. Counting every sample,
+    // candidates that bend the simulation slowly (an offset, a drag) scored twice what a
+    // cogging ripple did on a trace whose truth is the cogging, and it was never refit
+    // (issue 24: Coulomb friction beside cogging).
+    const RoundBase round_base = MakeRoundBase(*current_problem, current_fit.values, options);
+    if (!round_base.residuals.empty()) {
+      parallel(all, [&](std::size_t k) {
+        CandidateRun& run = runs[k];
+        if (run.screen_values.empty() || !std::isfinite(run.screen_bic)) return;
+        const FitProblem model(run.config, problem.traces(), problem.observe(), run.free);
+        const WhitenedEvidence evidence = PrewhitenedEvidence(
+            round_base.residuals, current_problem->num_free(), model, run.screen_values);
+        if (evidence.ok) run.screen_bic = evidence.delta_bic;
+      });
+    }
     // Refit the most promising candidates by their screening BIC (deterministic order).
     // Only candidates whose screening already lowers BIC are worth a full refit.
     std::vector<std::size_t> screened;
@@ -624,7 +648,6 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     });
     if (screened.size() > static_cast<std::size_t>(options.refits))
       screened.resize(static_cast<std::size_t>(options.refits));
-    const RoundBase round_base = MakeRoundBase(*current_problem, current_fit.values, options);
     if (progress && !screened.empty())
       progress->BeginStage(round_name + ": refits", static_cast<int>(screened.size()));
     parallel(screened, [&](std::size_t k) {
@@ -663,25 +686,22 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     const bool cross_validate =
         options.cross_validate && !(options.held_out && !options.held_out->empty());
     std::optional<CrossValidation> base_cv;
-    internal::RecordParts parts;
     for (std::size_t k : order) {
       CandidateRun& run = runs[k];
       CandidateOutcome& o = run.outcome;
       if (!cross_validate || !passes_evidence(o)) continue;
       if (!base_cv) {
-        parts = internal::SplitRecord(*current_problem, current_fit.values);
-        result.cross_validation_parts = parts.description;
-        base_cv = parts.ok
-                      ? BlockCrossValidate(current_problem->config(),
-                                           StartingAt(current_problem->free(), current_fit.values),
-                                           problem.observe(), parts, options.refit)
-                      : CrossValidation{false, parts.reason, 0.0};
+        result.cross_validation_parts =
+            internal::SplitRecord(*current_problem, current_fit.values).description;
+        base_cv = BlockCrossValidate(
+            current_problem->config(), StartingAt(current_problem->free(), current_fit.values),
+            problem.traces(), problem.observe(), current_fit.values, options.refit);
       }
       if (!base_cv->ok) break;  // nothing to compare with: the evidence alone decides
       if (progress) progress->BeginStage(round_name + ": cross-validating " + o.effect, 0);
       const CrossValidation cv =
-          BlockCrossValidate(run.config, StartingAt(run.free, run.fit.values), problem.observe(),
-                             parts, options.refit);
+          BlockCrossValidate(run.config, StartingAt(run.free, run.fit.values), problem.traces(),
+                             problem.observe(), run.fit.values, options.refit);
       if (!cv.ok) continue;  // the candidate keeps its evidence-only verdict
       o.cross_validated = true;
       o.cv_before = base_cv->nrmse;

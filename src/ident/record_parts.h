@@ -18,9 +18,9 @@ struct RecordParts {
 };
 
 // With two or more traces: the first half of the traces and the rest. With one trace: its
-// first and second halves in time; the second half starts from the state measured at its
-// first sample (i, w, theta where the trace records them; otherwise the model's simulated
-// state at `values`), as a new experiment would. Each part keeps at least 50 samples.
+// first and second halves in time; the second half starts from the model's simulated state
+// at `values` at its first sample (measured i, w, theta only where the model cannot be
+// simulated: the equation error). Each part keeps at least 50 samples.
 RecordParts SplitRecord(const FitProblem& problem, const std::vector<double>& values);
 
 }  // namespace blmd::internal
