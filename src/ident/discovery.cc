@@ -693,6 +693,16 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
             problem.traces(), problem.observe(), current_fit.values, options.refit);
       }
       if (!base_cv->ok) break;  // nothing to compare with: the evidence alone decides
+      // Parts that do not predict each other even with the current model (a cross-validated
+      // NRMSE over twice the fitted one) cannot judge a candidate: the evidence alone decides,
+      // and the report says why (cross_validation_parts).
+      if (!(base_cv->nrmse <= 2.0 * round_base.nrmse)) {
+        result.cross_validation_parts += " (not used in round " + std::to_string(round + 1) +
+                                         ": the parts predict each other with NRMSE " +
+                                         G(base_cv->nrmse) + " against " + G(round_base.nrmse) +
+                                         " fitted)";
+        break;
+      }
       if (progress) progress->BeginStage(round_name + ": cross-validating " + o.effect, 0);
       const CrossValidation cv =
           BlockCrossValidate(run.config, StartingAt(run.free, run.fit.values), problem.traces(),
