@@ -53,7 +53,8 @@ inline double EvalDerivative(const double* c, double x) {
 
 // Refines a root of the quartic g inside [a, b] with g(a) >= 0 > g(b): Newton steps from
 // the regula-falsi point, kept inside the bracket (bisection otherwise), until a step is
-// below the rounding of the root (three steps for the nearly linear functions here).
+// below the rounding of the root (three steps for the nearly linear functions here). The
+// instant returned is past the root (g < 0 there).
 double RefineRoot(const double* g, double a, double ga, double b, double gb) {
   double x = a + (b - a) * (ga / (ga - gb));
   for (int iteration = 0; iteration < 60; ++iteration) {
@@ -65,7 +66,16 @@ double RefineRoot(const double* g, double a, double ga, double b, double gb) {
     }
     double next = x - gx / EvalDerivative<4>(g, x);
     if (!(next >= a && next <= b)) next = 0.5 * (a + b);  // also a zero or NaN slope
-    if (std::abs(next - x) <= 4e-16 * std::abs(x) + 1e-24) return next;
+    if (std::abs(next - x) <= 4e-16 * std::abs(x) + 1e-24) {
+      // Converged: return the first of the next few doubles at which g < 0, so that the
+      // next segment starts past the event (else the bracket's end, where g < 0).
+      double past = next, g_past = Eval<4>(g, past);
+      for (int step = 0; g_past >= 0.0 && step < 8 && past < b; ++step) {
+        past = std::nextafter(past, kNever);
+        g_past = Eval<4>(g, past);
+      }
+      return g_past < 0.0 && past <= b ? past : b;
+    }
     x = next;
   }
   return b;
@@ -139,7 +149,11 @@ struct Constants {
     c.B = values.Get("B");
     c.half_period = 0.5 * c.Tpwm;
     c.carrier_rate = 2.0 * c.Vtri / c.half_period;
-    c.max_step = settings.max_step > 0.0 ? settings.max_step : c.Tpwm / 8.0;
+    // At most one carrier vertex inside a segment; a lag (Tp > 0) is the one fast time
+    // constant inside a segment, and the series resolves it only over a fraction of Tp.
+    c.max_step =
+        std::min(settings.max_step > 0.0 ? settings.max_step : c.half_period, c.half_period);
+    if (c.Tp > 0.0) c.max_step = std::min(c.max_step, c.Tp / 16.0);
     c.lag = c.Tp > 0.0;
     c.lead_direct = c.lag ? c.Tz / c.Tp : 1.0;
     c.lag_input = c.lag ? c.Kp * (1.0 - c.Tz / c.Tp) : 0.0;
@@ -197,8 +211,13 @@ std::string EventsUnsupported(double Tz, double Tp) {
   return {};
 }
 
-SimStatus SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request,
-                             Trace* out) {
+// Compiled for AVX2 (three-operand VEX encoding, no fused multiply-adds: the same bits) and
+// for the x86-64 baseline, the CPU picking the clone at load time (as the fast path).
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+[[gnu::target_clones("avx2", "default")]]
+#endif
+SimStatus
+SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request, Trace* out) {
   if (SimStatus status = model.CheckRequest(request); !status.ok()) return status;
   const ParameterSet& values = *request.parameters;
   const Experiment& experiment = *request.experiment;
@@ -236,7 +255,7 @@ SimStatus SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationReques
   double cos_a = std::cos(p * theta), sin_a = std::sin(p * theta);
   bool upper[3] = {false, false, false};
   double settled_at[3] = {-kNever, -kNever, -kNever};  // s: the commanded switch conducts
-  bool stuck = false;
+  bool stuck = false, breaking_away = false;
   double demand = 0.0, input_edge = -kNever;
   long piece = 0;  // carrier piece: [t_start + piece T/2, t_start + (piece + 1) T/2]
   double piece_start = t_start, piece_end = t_start + c.half_period;
@@ -314,7 +333,10 @@ SimStatus SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationReques
         upper[j] = true;
         settled_at[j] = t + delta;
       } else if ((difference > level_tolerance && !upper[j]) ||
-                 (difference < -level_tolerance && upper[j])) {
+                 (difference < -level_tolerance && upper[j]) ||
+                 (std::abs(u0[j]) > Vtri + level_tolerance && upper[j] != (u0[j] > 0.0))) {
+        // (A control beyond a limit commands that limit's switch for the whole segment, also
+        // when the segment starts on the carrier's vertex at that limit.)
         upper[j] = !upper[j];
         settled_at[j] = t + delta;
       }
@@ -419,7 +441,7 @@ SimStatus SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationReques
     // --- Taylor series, unrolled: order 3 for the currents, speed and cosines, 4 for the
     // angle. Coefficient k + 1 of each state from coefficients up to k of its derivative.
     const double w0 = w;
-    double effect_torque = 0.0, friction_sign = 0.0;
+    double effect_torque = 0.0, friction_sign = 0.0, non_friction_torque = 0.0;
     for (int j = 0; j < 3; ++j) ic[j][0] = conducting[j] ? current[j] : 0.0;
     const double Te0 = Ke * (ic[0][0] * cc[0][0] + ic[1][0] * cc[1][0] + ic[2][0] * cc[2][0]);
     if (c.plain_shaft) {
@@ -430,8 +452,15 @@ SimStatus SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationReques
       const double theta_effects = effect_angle.At(t, theta);
       const double non_friction = shaft.NonFrictionTorque(theta_effects) + shaft.DragTorque(w0);
       bool now_stuck = false;
-      const double friction = shaft.StepFriction(w0, Te0 - non_friction, &now_stuck);
+      double friction = shaft.StepFriction(w0, Te0 - non_friction, &now_stuck);
+      if (now_stuck && breaking_away) {  // the breakaway event just passed (rounding aside)
+        now_stuck = false;
+        const double breakaway = shaft.FrictionMagnitude(0.0);
+        friction = Te0 - non_friction > 0.0 ? breakaway : -breakaway;
+      }
+      breaking_away = false;
       stuck = now_stuck;
+      non_friction_torque = non_friction;
       friction_sign = w0 > 0.0 ? 1.0 : (w0 < 0.0 ? -1.0 : (friction > 0.0 ? 1.0 : -1.0));
       effect_torque = non_friction + friction;
     }
@@ -547,7 +576,15 @@ SimStatus SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationReques
     // --- The segment's end: the known instants first. The end of a blanking time ends the
     // segment only when the leg voltage changes there (the diode's rail is not the one the
     // switch now turning on ties the leg to).
-    double T = std::min({piece_end - t, input_edge - t, c.max_step, times.back() - t});
+    // A carrier vertex ends the segment only when a control is pinned at +Vtri there (the
+    // top vertex's pulse, above); otherwise the comparators see the carrier's two pieces.
+    const double vertex = piece_end - t;
+    double T = std::min({input_edge - t, c.max_step, times.back() - t});
+    if (rising && vertex <= T) {
+      for (int j = 0; j < 3; ++j) {
+        if (u0[j] >= Vtri - level_tolerance) T = vertex;
+      }
+    }
     double blank_end[3];
     for (int j = 0; j < 3; ++j) {
       blank_end[j] = blanked[j] ? settled_at[j] - t : 0.0;
@@ -563,15 +600,28 @@ SimStatus SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationReques
     bool cross_ends[3] = {false, false, false};   // it ends the segment
     double cross2[3] = {kNever, kNever, kNever};  // a second crossing after a quiet one
     double g[5];
+    // The carrier after the vertex, as a polynomial in tau: v_tri(vertex) - slope (tau - vertex).
+    const double carrier_after0 = (rising ? Vtri : -Vtri) + carrier_slope * vertex;
+    // The first tau in (lo, hi] at which s (u_j - v_tri) < 0: leg j's comparator leaves the
+    // command s.
+    auto first_crossing = [&](int j, double s, double lo, double hi) {
+      double h[5] = {s * (uc[j][0] - carrier0), s * (uc[j][1] - carrier_slope), s * uc[j][2],
+                     s * uc[j][3], s * uc[j][4]};
+      if (vertex < hi) {
+        if (vertex > lo) {
+          const double tau = FirstNegative(h, lo, vertex);
+          if (tau != kNever) return tau;
+          lo = vertex;
+        }
+        h[0] = s * (uc[j][0] - carrier_after0);
+        h[1] = s * (uc[j][1] + carrier_slope);
+      }
+      return FirstNegative(h, lo, hi);
+    };
     for (int j = 0; j < 3; ++j) {
       if (std::abs(u0[j]) > Vtri + level_tolerance) continue;  // clamped: no crossing
       const double s = upper[j] ? 1.0 : -1.0;
-      g[0] = s * (uc[j][0] - carrier0);
-      g[1] = s * (uc[j][1] - carrier_slope);
-      g[2] = s * uc[j][2];
-      g[3] = s * uc[j][3];
-      g[4] = s * uc[j][4];
-      const double tau = FirstNegative(g, 0.0, T);
+      const double tau = first_crossing(j, s, 0.0, T);
       if (tau == kNever) continue;
       cross[j] = tau;
       // The leg voltage after the edge: the diode of the current's sign during blanking.
@@ -582,8 +632,7 @@ SimStatus SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationReques
         T = std::min(T, tau);
       } else {
         T = std::min(T, tau + delta);
-        for (int k = 0; k <= 4; ++k) g[k] = -g[k];
-        cross2[j] = FirstNegative(g, tau, T);
+        cross2[j] = first_crossing(j, -s, tau, T);
         T = std::min(T, cross2[j]);
       }
     }
@@ -643,6 +692,26 @@ SimStatus SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationReques
       // A limit event right at the start is the classification's own boundary: skip it.
       if (event > 1e-12 * c.Tpwm) T = std::min(T, event);
     }
+    // Friction: a stuck shaft breaking away (the drive torque, a cubic in tau while the angle
+    // holds, leaving the band of the breakaway torque around the other torques).
+    if (stuck) {
+      const double breakaway = shaft.FrictionMagnitude(0.0);
+      const double other = non_friction_torque;
+      double torque[4];
+      for (int k = 0; k <= 3; ++k) {
+        torque[k] = Ke * (cc[0][0] * ic[0][k] + cc[1][0] * ic[1][k] + cc[2][0] * ic[2][k]);
+      }
+      for (const double side : {1.0, -1.0}) {
+        g[0] = breakaway - side * (torque[0] - other);
+        for (int k = 1; k <= 3; ++k) g[k] = -side * torque[k];
+        g[4] = 0.0;
+        const double tau = FirstNegative(g, 0.0, T);
+        if (tau <= T) {
+          T = tau;
+          breaking_away = true;
+        }
+      }
+    }
     // Friction: the shaft stopping.
     bool stops = false;
     if (sticking_friction && !stuck && w0 != 0.0) {
@@ -655,8 +724,8 @@ SimStatus SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationReques
         stops = true;
       }
     }
-    if (!(T > 0.0)) {
-      T = 0.0;
+    if (!(T > 1e-12 * c.Tpwm)) {
+      T = std::max(T, 0.0);
       if (++stalled > 1000) {
         return {SimStatus::Code::kDiverged,
                 "the events integrator made no progress (switching without end)", t};

@@ -142,7 +142,7 @@ struct SimulationSettings {
   double dt = 1e-5;  // s, fixed integration step
   SimulationMethod method = SimulationMethod::kFixedEuler;
   // s, events method: the longest stretch one Taylor series spans between switching events
-  // (its accuracy knob: the local error is O(max_step^4)); 0 means the default, Tpwm/8.
+  // (its accuracy knob: the local error is O(max_step^4)); 0 means the default, Tpwm/2.
   double max_step = 0.0;
   bool regula_falsi = true;           // blmd: locate PWM crossings inside a step
   double friction_smoothing_w = 0.0;  // rad/s; > 0 replaces sign(w) by tanh(w/eps)
