@@ -4,7 +4,8 @@
 // run. Each benchmark's counters give the relative RMS error of the sampled phase current
 // (err_i) and speed (err_w) against the converged reference, the same model at the fixed
 // step dt = 0.02 µs (8 million steps; computed once and cached in the build folder,
-// events-reference-d31x.bin), and the number of segments or steps.
+// events-reference-d31x.bin), and (err_i_x, err_w_x) against Richardson's extrapolation
+// 2 x(0.02 µs) - x(0.04 µs) of the first-order fixed step.
 //
 //   build/bin/blmd_bench --benchmark_filter=BM_BlmdWorkPrecision \
 //       --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
@@ -42,40 +43,51 @@ blmd::Trace Run(const blmd::Config& config, const blmd::SimulationSettings& sett
 }
 
 struct Reference {
-  std::vector<double> i, w;
+  std::vector<double> i, w;  // dt = 0.02 µs
+  // Richardson's extrapolation of the first-order fixed step, 2 x(0.02 µs) - x(0.04 µs): its
+  // O(dt) error term removed (a closer view of the events method's own error).
+  std::vector<double> i_extrapolated, w_extrapolated;
 };
 
-// The dt = 0.02 µs run, from the cache when it is there (a binary file of the sample count
-// and the i and w columns), else computed (a few seconds) and cached.
+// The dt = 0.02 µs and 0.04 µs runs, from the cache when it is there (a binary file of the
+// sample count and the four columns), else computed (a few seconds) and cached.
 const Reference& ReferenceRun() {
   static const Reference reference = [] {
     Reference r;
-    const std::string path = std::string(BLMD_BIN_DIR) + "/../events-reference-d31x.bin";
     const blmd::Config config = BundledStep();
     const std::size_t n = config.experiment.SampleTimes().size();
+    std::vector<std::vector<double>*> columns = {&r.i, &r.w, &r.i_extrapolated, &r.w_extrapolated};
+    const std::string path = std::string(BLMD_BIN_DIR) + "/../events-reference-d31x.bin";
     std::ifstream in(path, std::ios::binary);
     std::size_t stored = 0;
     if (in && in.read(reinterpret_cast<char*>(&stored), sizeof stored) && stored == n) {
-      r.i.resize(n);
-      r.w.resize(n);
-      in.read(reinterpret_cast<char*>(r.i.data()),
-              static_cast<std::streamsize>(n * sizeof(double)));
-      in.read(reinterpret_cast<char*>(r.w.data()),
-              static_cast<std::streamsize>(n * sizeof(double)));
+      for (std::vector<double>* column : columns) {
+        column->resize(n);
+        in.read(reinterpret_cast<char*>(column->data()),
+                static_cast<std::streamsize>(n * sizeof(double)));
+      }
       if (in) return r;
     }
     blmd::SimulationSettings settings = config.simulation;
     settings.method = blmd::SimulationMethod::kFixedEuler;
     settings.dt = kReferenceDt;
-    const blmd::Trace trace = Run(config, settings);
-    r.i = trace.Column("i");
-    r.w = trace.Column("w");
+    const blmd::Trace fine = Run(config, settings);
+    settings.dt = 2.0 * kReferenceDt;
+    const blmd::Trace coarse = Run(config, settings);
+    r.i = fine.Column("i");
+    r.w = fine.Column("w");
+    r.i_extrapolated = r.i;
+    r.w_extrapolated = r.w;
+    for (std::size_t k = 0; k < n; ++k) {
+      r.i_extrapolated[k] = 2.0 * r.i[k] - coarse.Column("i")[k];
+      r.w_extrapolated[k] = 2.0 * r.w[k] - coarse.Column("w")[k];
+    }
     std::ofstream cache(path, std::ios::binary);
     cache.write(reinterpret_cast<const char*>(&n), sizeof n);
-    cache.write(reinterpret_cast<const char*>(r.i.data()),
-                static_cast<std::streamsize>(n * sizeof(double)));
-    cache.write(reinterpret_cast<const char*>(r.w.data()),
-                static_cast<std::streamsize>(n * sizeof(double)));
+    for (const std::vector<double>* column : columns) {
+      cache.write(reinterpret_cast<const char*>(column->data()),
+                  static_cast<std::streamsize>(n * sizeof(double)));
+    }
     return r;
   }();
   return reference;
@@ -107,6 +119,8 @@ void BM_BlmdWorkPrecision(benchmark::State& state) {
   const blmd::Trace first = Run(config, settings);
   state.counters["err_i"] = RelativeRms(first.Column("i"), reference.i);
   state.counters["err_w"] = RelativeRms(first.Column("w"), reference.w);
+  state.counters["err_i_x"] = RelativeRms(first.Column("i"), reference.i_extrapolated);
+  state.counters["err_w_x"] = RelativeRms(first.Column("w"), reference.w_extrapolated);
   const std::vector<double> times = config.experiment.SampleTimes();
   blmd::SimulationRequest request;
   request.parameters = &config.parameters;

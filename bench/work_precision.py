@@ -30,19 +30,22 @@ def rows(path):
             "ms": b["cpu_time"],
             "err_i": b["err_i"],
             "err_w": b["err_w"],
+            "err_i_x": b.get("err_i_x", float("nan")),
+            "err_w_x": b.get("err_w_x", float("nan")),
         })
     return out
 
 
 def table(data):
     fixed_1us = next(r for r in data if not r["events"] and r["step_ns"] == 1000)
-    print("| method | step | CPU time per 160 ms run (median) | vs fixed 1 µs | error i (rel. RMS) | error w (rel. RMS) |")
-    print("|---|---|---|---|---|---|")
+    print("| method | step | CPU time per 160 ms run (median) | vs fixed 1 µs | error i (rel. RMS) | error w (rel. RMS) | i vs extrapolated | w vs extrapolated |")
+    print("|---|---|---|---|---|---|---|---|")
     for r in data:
         step = (f"max_step = {r['step_ns'] / 1000:g} µs" if r["events"]
                 else f"dt = {r['step_ns'] / 1000:g} µs")
         print(f"| {'events' if r['events'] else 'fixed_euler'} | {step} | {r['ms']:.3g} ms | "
-              f"{fixed_1us['ms'] / r['ms']:.2f}× | {r['err_i']:.3g} | {r['err_w']:.3g} |")
+              f"{fixed_1us['ms'] / r['ms']:.2f}× | {r['err_i']:.3g} | {r['err_w']:.3g} | "
+              f"{r['err_i_x']:.3g} | {r['err_w_x']:.3g} |")
 
 
 def svg(data, path):

@@ -19,8 +19,10 @@
 // instants (dense output) without ending a segment. The run is deterministic: the same
 // request gives the same bits.
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <limits>
 #include <vector>
 
@@ -41,12 +43,14 @@ constexpr double kNever = std::numeric_limits<double>::infinity();
 template <int N>
 inline double Eval(const double* c, double x) {
   double value = c[N];
+#pragma GCC unroll 5
   for (int k = N - 1; k >= 0; --k) value = value * x + c[k];
   return value;
 }
 template <int N>
 inline double EvalDerivative(const double* c, double x) {
   double value = N * c[N];
+#pragma GCC unroll 5
   for (int k = N - 1; k >= 1; --k) value = value * x + k * c[k];
   return value;
 }
@@ -58,20 +62,26 @@ inline double EvalDerivative(const double* c, double x) {
 double RefineRoot(const double* g, double a, double ga, double b, double gb) {
   double x = a + (b - a) * (ga / (ga - gb));
   for (int iteration = 0; iteration < 60; ++iteration) {
-    const double gx = Eval<4>(g, x);
+    // g(x) and g'(x) in one Horner pass.
+    double gx = g[4], slope = 0.0;
+    for (int k = 3; k >= 0; --k) {
+      slope = slope * x + gx;
+      gx = gx * x + g[k];
+    }
     if (gx < 0.0) {
       b = x;
     } else {
       a = x;
     }
-    double next = x - gx / EvalDerivative<4>(g, x);
+    double next = x - gx / slope;
     if (!(next >= a && next <= b)) next = 0.5 * (a + b);  // also a zero or NaN slope
     if (std::abs(next - x) <= 4e-16 * std::abs(x) + 1e-24) {
       // Converged: return the first of the next few doubles at which g < 0, so that the
-      // next segment starts past the event (else the bracket's end, where g < 0).
+      // next segment starts past the event (else the bracket's end, where g < 0). The
+      // instants are positive: the next double up is the next bit pattern.
       double past = next, g_past = Eval<4>(g, past);
-      for (int step = 0; g_past >= 0.0 && step < 8 && past < b; ++step) {
-        past = std::nextafter(past, kNever);
+      for (int step = 0; g_past >= 0.0 && step < 8 && past < b && past > 0.0; ++step) {
+        past = std::bit_cast<double>(std::bit_cast<std::uint64_t>(past) + 1);
         g_past = Eval<4>(g, past);
       }
       return g_past < 0.0 && past <= b ? past : b;
@@ -264,8 +274,9 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
   long stalled = 0;
 
   // The segment's series (coefficient k multiplies tau^k).
-  double ic[3][4], uc[3][5], yc[3][4], ec[3][4], cc[3][4], zc[3][4], icoef[3][5];
-  double wc[4], thc[5];
+  double ic[3][4] = {}, uc[3][5] = {}, yc[3][4] = {}, ec[3][4] = {}, cc[3][4] = {}, zc[3][4] = {},
+         icoef[3][5] = {};
+  double wc[4] = {}, thc[5] = {};
   double phase_voltage[3], neutral = 0.0;
   bool conducting[3];
 
@@ -313,6 +324,7 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
     cc[2][0] = -0.5 * cos_a - kHalfSqrt3 * sin_a;
     const double demand_current = Kc * demand;
     double error0[3], u0[3];
+#pragma GCC unroll 5
     for (int j = 0; j < 3; ++j) {
       error0[j] = demand_current * cc[j][0] - Kf * current[j];
       u0[j] = Kp * c.lead_direct * error0[j] + lag_state[j] + integral[j];
@@ -323,6 +335,7 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
     // control pinned at +Vtri meets the carrier there, so the upper switch turns off and on
     // again and waits the blanking time, as the fixed-step model does in the limit.
     const bool top_vertex = !first && !rising && t == piece_start;
+#pragma GCC unroll 5
     for (int j = 0; j < 3; ++j) {
       const double control = std::clamp(u0[j], -Vtri, Vtri);
       const double difference = control - carrier0;
@@ -348,6 +361,7 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
     double leg_voltage[3];
     bool blanked[3], undecided[3];
     int num_undecided = 0;
+#pragma GCC unroll 5
     for (int j = 0; j < 3; ++j) {
       blanked[j] = t < settled_at[j];
       undecided[j] = false;
@@ -366,20 +380,24 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
     }
     const double emf_w = Ke * w;
     double emf0[3];
+#pragma GCC unroll 5
     for (int j = 0; j < 3; ++j) emf0[j] = emf_w * cc[j][0];
     if (num_undecided > 0) {
       // Blanked phases at zero current: try each diode state (lower, upper, open) of each,
       // first open, and keep the first that is consistent: a conducting diode's current
       // moves away from zero in its direction, an open terminal floats within [0, Ud].
-      int undecided_index[3], n = 0;
+      int undecided_index[3] = {0, 0, 0}, n = 0;
+#pragma GCC unroll 5
       for (int j = 0; j < 3; ++j) {
         if (undecided[j]) undecided_index[n++] = j;
       }
       int combinations = 1;
+#pragma GCC unroll 5
       for (int k = 0; k < n; ++k) combinations *= 3;
       for (int code = 0; code < combinations; ++code) {
         int rest = code;
         int state[3] = {0, 0, 0};  // 0 open, 1 lower, 2 upper
+#pragma GCC unroll 5
         for (int k = 0; k < n; ++k) {
           state[undecided_index[k]] = rest % 3;
           rest /= 3;
@@ -387,6 +405,7 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
         bool on[3];
         int num_on = 0;
         double sum_v = 0.0, sum_e = 0.0;
+#pragma GCC unroll 5
         for (int j = 0; j < 3; ++j) {
           on[j] = !undecided[j] || state[j] != 0;
           if (undecided[j] && state[j] != 0) leg_voltage[j] = state[j] == 2 ? Ud : 0.0;
@@ -399,6 +418,7 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
         bool consistent = true;
         if (num_on >= 2) {
           const double star = (sum_v - sum_e) / num_on;
+#pragma GCC unroll 5
           for (int j = 0; j < 3 && consistent; ++j) {
             if (!undecided[j]) continue;
             if (state[j] == 0) {
@@ -410,10 +430,12 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
             }
           }
         } else {
-          // At most one phase could conduct: no current flows; every terminal floats.
+// At most one phase could conduct: no current flows; every terminal floats.
+#pragma GCC unroll 5
           for (int j = 0; j < 3; ++j) on[j] = false;
         }
         if (consistent || code + 1 == combinations) {
+#pragma GCC unroll 5
           for (int j = 0; j < 3; ++j) conducting[j] = num_on >= 2 ? on[j] : false;
           break;
         }
@@ -421,6 +443,7 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
     }
     int num_conducting = 0;
     double sum_v = 0.0;
+#pragma GCC unroll 5
     for (int j = 0; j < 3; ++j) {
       if (conducting[j]) {
         ++num_conducting;
@@ -433,6 +456,7 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
     const bool none = num_conducting < 2;
     neutral = none ? 0.0 : sum_v / num_conducting;
     int open_phase = 0;
+#pragma GCC unroll 5
     for (int j = 0; j < 3; ++j) {
       if (!conducting[j]) open_phase = j;
       if (none) conducting[j] = false;
@@ -442,6 +466,7 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
     // angle. Coefficient k + 1 of each state from coefficients up to k of its derivative.
     const double w0 = w;
     double effect_torque = 0.0, friction_sign = 0.0, non_friction_torque = 0.0;
+#pragma GCC unroll 5
     for (int j = 0; j < 3; ++j) ic[j][0] = conducting[j] ? current[j] : 0.0;
     const double Te0 = Ke * (ic[0][0] * cc[0][0] + ic[1][0] * cc[1][0] + ic[2][0] * cc[2][0]);
     if (c.plain_shaft) {
@@ -468,6 +493,7 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
     const double B_J = B * inv_J, Ke_J = Ke * inv_J;
     // Phase voltages (constant over the segment) and the star point's emf share.
     const double share_weight = one_open ? 0.5 : 0.0;
+#pragma GCC unroll 5
     for (int j = 0; j < 3; ++j) phase_voltage[j] = conducting[j] ? leg_voltage[j] - neutral : 0.0;
     auto rotate = [&](int k, double Ck, double Sk) {
       cc[0][k] = Ck;
@@ -477,12 +503,14 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
     };
     auto next_currents = [&](int k, double share) {  // ic[.][k + 1] from ec[.][k]
       const double scale = inv_Ls / (k + 1);
+#pragma GCC unroll 5
       for (int j = 0; j < 3; ++j) {
         const double drive = (k == 0 ? phase_voltage[j] : 0.0) - share - ec[j][k] - Rs * ic[j][k];
         ic[j][k + 1] = conducting[j] ? drive * scale : 0.0;
       }
     };
-    // Order 0 -> 1.
+// Order 0 -> 1.
+#pragma GCC unroll 5
     for (int j = 0; j < 3; ++j) ec[j][0] = emf0[j];
     const double share0 = share_weight * ec[open_phase][0];
     next_currents(0, share0);
@@ -493,6 +521,7 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
     rotate(1, C1, S1);
     // Order 1 -> 2.
     double Te1 = 0.0;
+#pragma GCC unroll 5
     for (int j = 0; j < 3; ++j) {
       ec[j][1] = Ke * (w0 * cc[j][1] + wc[1] * cc[j][0]);
       Te1 += ic[j][0] * cc[j][1] + ic[j][1] * cc[j][0];
@@ -504,6 +533,7 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
     rotate(2, C2, S2);
     // Order 2 -> 3.
     double Te2 = 0.0;
+#pragma GCC unroll 5
     for (int j = 0; j < 3; ++j) {
       ec[j][2] = Ke * (w0 * cc[j][2] + wc[1] * cc[j][1] + wc[2] * cc[j][0]);
       Te2 += ic[j][0] * cc[j][2] + ic[j][1] * cc[j][1] + ic[j][2] * cc[j][0];
@@ -527,16 +557,21 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
     Integrator mode[3];
     double sign_limit[3];
     double errc[3][4];
+#pragma GCC unroll 5
     for (int j = 0; j < 3; ++j) {
       double* e = errc[j];
+#pragma GCC unroll 5
       for (int k = 0; k <= 3; ++k) e[k] = demand_current * cc[j][k] - Kf * ic[j][k];
       if (c.lag) {
         zc[j][0] = lag_state[j];
+#pragma GCC unroll 5
         for (int k = 0; k < 3; ++k) {
           zc[j][k + 1] = (c.lag_input * e[k] - zc[j][k]) / (c.Tp * (k + 1));
         }
+#pragma GCC unroll 5
         for (int k = 0; k <= 3; ++k) yc[j][k] = Kp * c.lead_direct * e[k] + zc[j][k];
       } else {
+#pragma GCC unroll 5
         for (int k = 0; k <= 3; ++k) yc[j][k] = Kp * e[k];
       }
       const double u = yc[j][0] + integral[j];
@@ -569,6 +604,7 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
         icoef[j][3] = -yc[j][3];
         icoef[j][4] = 0.0;
       }
+#pragma GCC unroll 5
       for (int k = 0; k <= 3; ++k) uc[j][k] = yc[j][k] + icoef[j][k];
       uc[j][4] = icoef[j][4];
     }
@@ -581,11 +617,13 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
     const double vertex = piece_end - t;
     double T = std::min({input_edge - t, c.max_step, times.back() - t});
     if (rising && vertex <= T) {
+#pragma GCC unroll 5
       for (int j = 0; j < 3; ++j) {
         if (u0[j] >= Vtri - level_tolerance) T = vertex;
       }
     }
     double blank_end[3];
+#pragma GCC unroll 5
     for (int j = 0; j < 3; ++j) {
       blank_end[j] = blanked[j] ? settled_at[j] - t : 0.0;
       if (blanked[j] && (!conducting[j] || leg_voltage[j] != (upper[j] ? Ud : 0.0))) {
@@ -618,6 +656,7 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
       }
       return FirstNegative(h, lo, hi);
     };
+#pragma GCC unroll 5
     for (int j = 0; j < 3; ++j) {
       if (std::abs(u0[j]) > Vtri + level_tolerance) continue;  // clamped: no crossing
       const double s = upper[j] ? 1.0 : -1.0;
@@ -638,6 +677,7 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
     }
     // Blanked phases reaching zero current (their diode turns off), within their blanking.
     double zero[3] = {kNever, kNever, kNever};
+#pragma GCC unroll 5
     for (int j = 0; j < 3; ++j) {
       if (!conducting[j]) continue;
       double from = kNever, to = 0.0;
@@ -653,7 +693,8 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
       zero[j] = FirstNegative(g, from, to);
       T = std::min(T, zero[j]);
     }
-    // Compensator limits.
+// Compensator limits.
+#pragma GCC unroll 5
     for (int j = 0; j < 3; ++j) {
       const double s = sign_limit[j];
       double event = kNever;
@@ -666,6 +707,7 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
         if (reach < Vtri) continue;
         for (const double side : {1.0, -1.0}) {
           g[0] = Vtri - side * u[0];
+#pragma GCC unroll 5
           for (int k = 1; k <= 4; ++k) g[k] = -side * u[k];
           event = std::min(event, FirstNegative(g, 0.0, T));
         }
@@ -673,17 +715,21 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
         // Outside or at the limit: back inside, or the error's sign changes (the integrator
         // starts or stops).
         g[0] = s * u[0] - Vtri;
+#pragma GCC unroll 5
         for (int k = 1; k <= 4; ++k) g[k] = s * u[k];
         event = FirstNegative(g, 0.0, T);
         const double toward = mode[j] == Integrator::kHeld ? s : -s;
+#pragma GCC unroll 5
         for (int k = 0; k <= 3; ++k) g[k] = toward * errc[j][k];
         g[4] = 0.0;
         event = std::min(event, FirstNegative(g, 0.0, T));
       } else {
-        // Sliding ends when y' turns outward or y' + Ki e turns inward.
+// Sliding ends when y' turns outward or y' + Ki e turns inward.
+#pragma GCC unroll 5
         for (int k = 0; k < 3; ++k) g[k] = -s * (k + 1) * yc[j][k + 1];
         g[3] = g[4] = 0.0;
         event = FirstNegative(g, 0.0, T);
+#pragma GCC unroll 5
         for (int k = 0; k < 3; ++k) g[k] = s * ((k + 1) * yc[j][k + 1] + Ki * errc[j][k]);
         g[3] = s * Ki * errc[j][3];
         g[4] = 0.0;
@@ -698,11 +744,13 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
       const double breakaway = shaft.FrictionMagnitude(0.0);
       const double other = non_friction_torque;
       double torque[4];
+#pragma GCC unroll 5
       for (int k = 0; k <= 3; ++k) {
         torque[k] = Ke * (cc[0][0] * ic[0][k] + cc[1][0] * ic[1][k] + cc[2][0] * ic[2][k]);
       }
       for (const double side : {1.0, -1.0}) {
         g[0] = breakaway - side * (torque[0] - other);
+#pragma GCC unroll 5
         for (int k = 1; k <= 3; ++k) g[k] = -side * torque[k];
         g[4] = 0.0;
         const double tau = FirstNegative(g, 0.0, T);
@@ -716,6 +764,7 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
     bool stops = false;
     if (sticking_friction && !stuck && w0 != 0.0) {
       const double s = w0 > 0.0 ? 1.0 : -1.0;
+#pragma GCC unroll 5
       for (int k = 0; k <= 3; ++k) g[k] = s * wc[k];
       g[4] = 0.0;
       const double tau = FirstNegative(g, 0.0, T);
@@ -758,7 +807,8 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
       write_sample(tau, w_shift, theta_shift);
     }
 
-    // --- Advance to t + T and apply the events that end the segment there.
+// --- Advance to t + T and apply the events that end the segment there.
+#pragma GCC unroll 5
     for (int j = 0; j < 3; ++j) {
       current[j] = conducting[j] ? Eval<3>(ic[j], T) : 0.0;
       integral[j] = Eval<4>(icoef[j], T);
@@ -770,7 +820,8 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
       w = stops ? 0.0 : Eval<3>(wc, T) + w_shift * T;
       theta = Eval<4>(thc, T) + theta_shift * T * T;
     }
-    // Commands: a quiet crossing before the end, a crossing at the end, a second one.
+// Commands: a quiet crossing before the end, a crossing at the end, a second one.
+#pragma GCC unroll 5
     for (int j = 0; j < 3; ++j) {
       if (cross[j] <= T) {
         upper[j] = !upper[j];
@@ -801,6 +852,7 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
     if (T == piece_end - t) t_next = piece_end;
     if (T == input_edge - t) t_next = input_edge;
     if (T == times.back() - t) t_next = times.back();
+#pragma GCC unroll 5
     for (int j = 0; j < 3; ++j) {
       if (blanked[j] && T == blank_end[j]) t_next = settled_at[j];
     }
