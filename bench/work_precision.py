@@ -1,12 +1,12 @@
 #!/usr/bin/env python3
-"""Work-precision diagram of the blmd integrators (docs/performance.md §8).
+"""Work-precision diagram of the blmd integrators (docs/performance.md §7).
 
 Reads the JSON of
     build/bin/blmd_bench --benchmark_filter=BM_BlmdWorkPrecision --benchmark_repetitions=5 \
         --benchmark_report_aggregates_only=true --benchmark_format=json > wp.json
 and writes an SVG (log-log: relative RMS error of the phase current, and of the speed,
 against the median CPU time of the 160 ms run) and prints the Markdown table of
-docs/performance.md §8. Standard library only.
+docs/performance.md §7. Standard library only.
 
     bench/work_precision.py wp.json docs/figures/work-precision.svg
 """
