@@ -225,6 +225,25 @@ TEST(BlmdEvents, IsReproducibleBitForBitAloneAndInABatch) {
   EXPECT_EQ(outs[0].Column("i"), first.Column("i"));
 }
 
+// A recorded demand (the zero-order hold of a trace's u column, what an identification
+// replays) reproduces the run that made it: a square demand (edges every 5 ms) replayed from
+// its own 50 kHz trace, bit for bit: the recorded input's edges are its sample instants,
+// those where the value changes, the same doubles as the square's t0 + k T/2 here.
+TEST(BlmdEvents, RecordedDemandReplaysASquareRun) {
+  Config square = Bundled(0.02);
+  square.experiment.input.kind = InputSignal::Kind::kSquare;
+  square.experiment.input.period = 0.01;
+  const Trace original = SimulateWith(square, Events(square));
+  Config replay = square;
+  replay.experiment.input.kind = InputSignal::Kind::kRecorded;
+  replay.experiment.input.times = original.Column("t");
+  replay.experiment.input.values = original.Column("u");
+  const Trace replayed = SimulateWith(replay, Events(replay));
+  for (const char* column : {"u", "i", "ib", "ic", "w", "theta"}) {
+    EXPECT_EQ(original.Column(column), replayed.Column(column)) << column;
+  }
+}
+
 // The paper's 1 V step (Figs. 6-7) with the events method: the speed ramps up without a
 // pause, and ends where the fixed step's does.
 TEST(BlmdEvents, OneVoltStepIsAVelocityRampEndingWhereTheFixedStepEnds) {

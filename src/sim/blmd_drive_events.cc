@@ -182,9 +182,10 @@ struct Constants {
 // continuous-time limit of the fixed-step integrator's alternation).
 enum class Integrator { kIntegrating, kHeld, kSliding };
 
-// The next edge of a square wave or PRBS after t (their NextChange returns a time within a
-// snapping window before the edge), or the input's own next change.
-double NextInputEdge(const InputSignal& signal, InputCursor* cursor, double t) {
+// The next edge after t at which the input leaves `value` (the value in force at t): a
+// square wave's or PRBS's computed exactly (their NextChange returns a time within a
+// snapping window before the edge), otherwise the input's own next change that changes it.
+double NextInputEdge(const InputSignal& signal, InputCursor* cursor, double t, double value) {
   switch (signal.kind) {
     case InputSignal::Kind::kSquare: {
       if (signal.period <= 0.0) return kNever;
@@ -206,8 +207,13 @@ double NextInputEdge(const InputSignal& signal, InputCursor* cursor, double t) {
     }
     case InputSignal::Kind::kChirp:
       return kNever;  // continuous: read at each segment's start (max_step bounds the error)
-    default:
-      return cursor->NextChange(t);
+    default: {
+      // A recorded input (what an identification replays) may change at every sample: its
+      // samples that repeat the value in force are no edge, so a segment does not end there.
+      double edge = cursor->NextChange(t);
+      while (std::isfinite(edge) && cursor->At(edge) == value) edge = cursor->NextChange(edge);
+      return edge;
+    }
   }
 }
 
@@ -306,7 +312,7 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
       demand = input.At(t);
     } else if (t >= input_edge) {
       demand = input.At(t);
-      input_edge = NextInputEdge(experiment.input, &input, t);
+      input_edge = NextInputEdge(experiment.input, &input, t, demand);
     }
     while (t >= piece_end) {
       ++piece;
