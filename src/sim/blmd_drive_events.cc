@@ -74,8 +74,11 @@ double RefineRoot(const double* g, double a, double ga, double b, double gb) {
       a = x;
     }
     double next = x - gx / slope;
-    if (!(next >= a && next <= b)) next = 0.5 * (a + b);  // also a zero or NaN slope
-    if (std::abs(next - x) <= 4e-16 * std::abs(x) + 1e-24) {
+    const bool newton = next >= a && next <= b;
+    if (!newton) next = 0.5 * (a + b);  // also a zero or NaN slope
+    // Converged when a Newton step is below 1e-9 of x: Newton's error is then squared, below
+    // the rounding of x, without another evaluation.
+    if (std::abs(next - x) <= (newton ? 1e-9 : 4e-16) * std::abs(x) + 1e-24) {
       // Converged: return the first of the next few doubles at which g < 0, so that the
       // next segment starts past the event (else the bracket's end, where g < 0). The
       // instants are positive: the next double up is the next bit pattern.
@@ -125,6 +128,11 @@ double RefineRoot(const double* g, double a, double ga, double b, double gb) {
 // FindDip looks.
 inline double FirstNegative(const double* g, double lo, double hi) {
   if (!(hi > lo)) return kNever;
+  if (lo == 0.0) {  // |g - g(0)| <= this bound over [0, hi]: no root when g(0) exceeds it
+    const double drift =
+        hi * (std::abs(g[1]) + hi * (std::abs(g[2]) + hi * (std::abs(g[3]) + hi * std::abs(g[4]))));
+    if (g[0] > drift) return kNever;
+  }
   const double g_lo = std::max(0.0, lo == 0.0 ? g[0] : Eval<4>(g, lo));
   const double g_hi = Eval<4>(g, hi);
   if (g_hi < 0.0) return RefineRoot(g, lo, g_lo, hi, g_hi);
