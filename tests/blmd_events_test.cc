@@ -186,6 +186,26 @@ TEST(BlmdEvents, EveryFeatureIsCloserToTheFineFixedStepThanTheDefaultStep) {
       // Small currents: a 0.1 V demand keeps the phases near zero current, so blanked phases
       // open often.
       {"small_demand", [](Config* c) { c->experiment.input.amplitude = 0.1; }},
+      // A chirp 10 Hz -> 1 kHz over 30 ms (a continuous demand, linear over a segment).
+      {"chirp",
+       [](Config* c) {
+         InputSignal& input = c->experiment.input;
+         input.kind = InputSignal::Kind::kChirp;
+         input.amplitude = 1.0;
+         input.f0 = 10.0;
+         input.f1 = 1000.0;
+         input.sweep = 0.03;
+       }},
+      // A PRBS of 1 ms bits (order 7): edges at computed instants.
+      {"prbs",
+       [](Config* c) {
+         InputSignal& input = c->experiment.input;
+         input.kind = InputSignal::Kind::kPrbs;
+         input.amplitude = 1.0;
+         input.clock = 1e-3;
+         input.order = 7;
+         input.seed = 1;
+       }},
   };
   for (const Case& c : cases) CheckAgainstFineFixedStep(c);
 }

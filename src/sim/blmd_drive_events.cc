@@ -24,6 +24,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <numbers>
 #include <vector>
 
 #include "blmd/sim/blmd_drive.h"
@@ -269,6 +270,11 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
   InputCursor input(experiment.input);
   EffectAngle effect_angle(request.sample_times, settings.effect_angle);
   const bool chirp = experiment.input.kind == InputSignal::Kind::kChirp;
+  // A chirp's demand is linear over a segment (its value and slope at the start): segments
+  // of at most 1/200 of its fastest period bound the curvature left out.
+  const double chirp_step =
+      chirp ? 1.0 / (200.0 * std::max({experiment.input.f0, experiment.input.f1, 1e-9})) : kNever;
+  double demand_slope = 0.0;  // V/s, chirp only
 
   // State.
   const double t_start = times.front();
@@ -280,7 +286,7 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
   bool upper[3] = {false, false, false};
   double settled_at[3] = {-kNever, -kNever, -kNever};  // s: the commanded switch conducts
   bool stuck = false, breaking_away = false;
-  double demand = 0.0, input_edge = -kNever;
+  double demand = 0.0, input_edge = chirp ? kNever : -kNever;  // a chirp has no edge
   long piece = 0;  // carrier piece: [t_start + piece T/2, t_start + (piece + 1) T/2]
   double piece_start = t_start, piece_end = t_start + c.half_period;
   int until_resync = 64;
@@ -318,6 +324,11 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
     // --- The segment starts at t. Input, carrier piece.
     if (chirp) {
       demand = input.At(t);
+      const InputSignal& chirp_input = experiment.input;
+      demand_slope = t >= chirp_input.t0
+                         ? chirp_input.amplitude * std::cos(chirp_input.ChirpPhase(t)) * 2.0 *
+                               std::numbers::pi * chirp_input.ChirpFrequency(t)
+                         : 0.0;
     } else if (t >= input_edge) {
       demand = input.At(t);
       input_edge = NextInputEdge(experiment.input, &input, t, demand);
@@ -576,6 +587,9 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
       double* e = errc[j];
 #pragma GCC unroll 5
       for (int k = 0; k <= 3; ++k) e[k] = demand_current * cc[j][k] - Kf * ic[j][k];
+      if (chirp) {  // (Td0 + Td1 tau) c_j(tau)
+        for (int k = 1; k <= 3; ++k) e[k] += Kc * demand_slope * cc[j][k - 1];
+      }
       if (c.lag) {
         zc[j][0] = lag_state[j];
 #pragma GCC unroll 5
@@ -629,7 +643,7 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
     // A carrier vertex ends the segment only when a control is pinned at +Vtri there (the
     // top vertex's pulse, above); otherwise the comparators see the carrier's two pieces.
     const double vertex = piece_end - t;
-    double T = std::min({input_edge - t, c.max_step, times.back() - t});
+    double T = std::min({input_edge - t, c.max_step, chirp_step, times.back() - t});
     if (rising && vertex <= T) {
 #pragma GCC unroll 5
       for (int j = 0; j < 3; ++j) {
