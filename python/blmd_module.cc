@@ -358,6 +358,7 @@ PYBIND11_MODULE(_blmd, m) {
       .def_readwrite("verbose", &blmd::IdentSettings::verbose)
       .def_readwrite("discover", &blmd::IdentSettings::discover)
       .def_readwrite("bic_margin", &blmd::IdentSettings::bic_margin)
+      .def_readwrite("min_share", &blmd::IdentSettings::min_share)
       .def_readwrite("max_effects", &blmd::IdentSettings::max_effects)
       .def_readwrite("error", &blmd::IdentSettings::error)
       .def_readwrite("preparation", &blmd::IdentSettings::preparation);

@@ -343,6 +343,26 @@ TEST(HtmlReport, ShowsTheModelBeforeAndAfterDiscovery) {
   }
   EXPECT_EQ(after_slices, 3);
   EXPECT_EQ(after_residuals, 2);
+  // The adequacy check (docs/discovery.md §7): adequate, Tc stable across the halves.
+  EXPECT_EQ(Count(html, "data-adequate=\"true\""), 1u);
+  EXPECT_EQ(Count(html, "<table class=\"stability\">"), 1u);
+  EXPECT_EQ(Count(html, "<td>Tc</td>"), 1u);
+  // The first fit's residual, which still holds the friction, as the final model's: the
+  // check names the structure, the page plots the residual against each flagged state and
+  // lists the warning.
+  report.discovery->adequacy = CheckResidualStructure(*f.problem, f.result.values);
+  ASSERT_FALSE(report.discovery->adequacy.flagged.empty());
+  AddWarnings(&report);
+  const std::string flagged =
+      MakeHtmlReport({&report, f.problem.get(), &f.result, &discovery}, html_options);
+  ExpectSelfContained(flagged);
+  EXPECT_EQ(Count(flagged, "data-adequate=\"false\""), 1u);
+  std::size_t adequacy_plots = 0;
+  for (const auto& figure : Figures(flagged))
+    adequacy_plots += Attribute(figure, "data-kind") == "adequacy";
+  EXPECT_EQ(adequacy_plots, report.discovery->adequacy.flagged.size());
+  EXPECT_EQ(Count(html, "data-code=\"unexplained_structure\""), 0u);
+  EXPECT_EQ(Count(flagged, "data-code=\"unexplained_structure\""), 1u);
 }
 
 // The linear views (docs/report.md): with Identify's AddLinearViews the page gains, per

@@ -34,6 +34,7 @@ struct IdentFlags {
   bool json = false, quiet = false, discover = false, verbose = false;
   bool progress = false, no_progress = false;
   double bic_margin = 10.0;
+  double min_share = 0.10;
   int max_effects = 3;
   std::string candidates_text;
   double fail_above = -1.0;
@@ -59,6 +60,10 @@ struct IdentFlags {
     app.add_option("--bic-margin", bic_margin,
                    "discovery: BIC fall needed to add an effect (default 10)")
         ->check(blmd::app::PositiveNumber());
+    app.add_option("--min-share", min_share,
+                   "discovery: share of the residual above the noise floor an effect must "
+                   "explain (default 0.1)")
+        ->check(CLI::Range(0.0, 1.0));
     app.add_option("--max-effects", max_effects, "discovery: most effects to add (default 3)")
         ->check(CLI::Range(1, 20));
     app.add_option("--candidates", candidates_text,
@@ -113,6 +118,7 @@ blmd::IdentSettings Settings(const CLI::App& app, const IdentFlags& f) {
   settings.verbose = f.verbose;
   settings.discover = f.discover;
   settings.bic_margin = f.bic_margin;
+  settings.min_share = f.min_share;
   settings.max_effects = f.max_effects;
   settings.error = f.error_flags;
   settings.preparation = f.trace_flags;

@@ -165,6 +165,13 @@ def _positive(value, flag):
     return float(value)
 
 
+def _share(value, flag):
+    ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
+    if not ok or not (0.0 <= float(value) <= 1.0):
+        raise InputError(f"{flag}: must be a number in [0, 1], not {value}")
+    return float(value)
+
+
 def _threads(value):
     threads = _whole(value, "--threads")
     if threads > _MAX_THREADS:
@@ -242,7 +249,7 @@ def simulate(config, input=None, noise=None, seed=1, *, effects=None, delimiter=
 
 def identify(config, traces, method=None, discover=False, candidates=None, observe=None,
              validate=None, seed=1, threads=0, *, free=None, initial=None, max_evaluations=0,
-             bic_margin=10.0, max_effects=3, error=None, filter_hz=None, decimate=None,
+             bic_margin=10.0, min_share=0.1, max_effects=3, error=None, filter_hz=None, decimate=None,
              columns=None, scales=None, derive=None, select=None, split=None,
              initial_state="config", delimiter=None, duplicate_time=None, verbose=False,
              **options):
@@ -270,6 +277,7 @@ def identify(config, traces, method=None, discover=False, candidates=None, obser
     settings.threads = _threads(threads)
     settings.max_evaluations = _integer(max_evaluations, "--max-evaluations")
     settings.bic_margin = _positive(bic_margin, "--bic-margin")
+    settings.min_share = _share(min_share, "--min-share")
     settings.max_effects = _whole(max_effects, "--max-effects", 1, 20)
     settings.verbose = bool(verbose)
     _error_settings(settings.error, error, filter_hz, decimate)

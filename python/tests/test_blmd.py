@@ -222,6 +222,8 @@ def test_surface_equals_blmd_surface(tmp_path):
      ["--config", NOLOAD, "--trace", NOLOAD_STEP, "--select", "t=2:3"]),
     (lambda: blmd.identify(NOLOAD, NOLOAD_STEP, bic_margin=-1),
      ["--config", NOLOAD, "--trace", NOLOAD_STEP, "--bic-margin", "-1"]),
+    (lambda: blmd.identify(NOLOAD, NOLOAD_STEP, min_share=1.5),
+     ["--config", NOLOAD, "--trace", NOLOAD_STEP, "--min-share", "1.5"]),
     (lambda: blmd.identify(NOLOAD, NOLOAD_STEP, max_effects=25),
      ["--config", NOLOAD, "--trace", NOLOAD_STEP, "--max-effects", "25"]),
     (lambda: blmd.identify(NOLOAD, NOLOAD_STEP, max_evaluations=1.5),

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <optional>
 
 #include "blmd/ident/evidence.h"
 #include "blmd/io/csv.h"
@@ -12,6 +13,7 @@
 #include "ident/counting_cost.h"
 #include "ident/effect_search.h"
 #include "ident/jacobian.h"
+#include "ident/record_parts.h"
 #include "parallel.h"
 
 namespace blmd {
@@ -273,6 +275,94 @@ CandidateRun ScreenCandidate(const FitProblem& base, const std::vector<double>& 
   return run;
 }
 
+// The noise floor in the cost's units: sqrt of the mean over observed columns of
+// sigma_c^2 / Var_c, sigma_c^2 from the measured column's second differences
+// (NoiseFloorVariance, adequacy.h), pooled over the traces by their sample counts.
+double NoiseFloorNrmse(const FitProblem& problem) {
+  const std::size_t columns = problem.observe().size();
+  if (columns == 0) return 0.0;
+  double total = 0.0;
+  for (std::size_t c = 0; c < columns; ++c) {
+    double weighted = 0.0, count = 0.0;
+    for (std::size_t k = 0; k < problem.traces().size(); ++k) {
+      const Trace& measured = problem.measured(k);
+      const auto n = static_cast<double>(measured.rows());
+      weighted +=
+          n * NoiseFloorVariance(measured.Column("t"), measured.Column(problem.observe()[c]));
+      count += n;
+    }
+    if (count > 0.0 && problem.variance()[c] > 0.0)
+      total += weighted / count / problem.variance()[c];
+  }
+  return std::sqrt(total / static_cast<double>(columns));
+}
+
+// The share of what `before` leaves above the noise floor that `after` explains (all in
+// NRMSE units); 0 when the model before is already at the floor.
+double ExplainedShare(double before, double after, double floor) {
+  const double above = before * before - floor * floor;
+  if (!(above > 0.0)) return 0.0;
+  return (before * before - after * after) / above;
+}
+
+// Block cross-validation (docs/discovery.md §3b): `config` with `free` (initial values: the
+// full fit's) fitted on each part of the record and scored on the other; the pooled NRMSE,
+// sqrt of the mean of the two held-out costs. Each part's score is its own NRMSE (its
+// columns' own variances). Fits run free (the simulated angle), from the full fit.
+struct CrossValidation {
+  bool ok = false;
+  std::string reason;
+  double nrmse = 0.0;
+};
+
+CrossValidation BlockCrossValidate(const Config& config, const std::vector<FreeParameter>& free,
+                                   const std::vector<FitTrace>& traces,
+                                   const std::vector<std::string>& observe,
+                                   const std::vector<double>& values,
+                                   const OptimizerOptions& refit) {
+  CrossValidation out;
+  // The parts, the second starting from this model's own state at the cut.
+  const internal::RecordParts parts =
+      internal::SplitRecord(FitProblem(config, traces, observe, free), values);
+  if (!parts.ok) {
+    out.reason = parts.reason;
+    return out;
+  }
+  double sum = 0.0;
+  for (int fold = 0; fold < 2; ++fold) {
+    const std::vector<FitTrace>& fit_on = fold == 0 ? parts.first : parts.second;
+    const std::vector<FitTrace>& score_on = fold == 0 ? parts.second : parts.first;
+    const FitProblem fit_problem(config, fit_on, observe, free);
+    OptimizerOptions options = refit;
+    options.method_options = nlohmann::json::object();
+    options.method_options["max_iterations"] = 20;
+    const FitResult fit = FindOptimizer("ceres").Minimize(fit_problem, options);
+    if (!fit.evaluation.ok) {
+      out.reason = "a fold's fit failed: " + fit.evaluation.reason;
+      return out;
+    }
+    const FitProblem score_problem(config, score_on, observe, free);
+    const Evaluation score = score_problem.Evaluate(fit.values);
+    if (!score.ok) {
+      out.reason = "a fold's prediction failed: " + score.reason;
+      return out;
+    }
+    sum += score.cost;
+  }
+  out.ok = true;
+  out.nrmse = std::sqrt(0.5 * sum);
+  return out;
+}
+
+// The free parameters of `problem` starting at `values`.
+std::vector<FreeParameter> StartingAt(const std::vector<FreeParameter>& free,
+                                      const std::vector<double>& values) {
+  std::vector<FreeParameter> out = free;
+  for (std::size_t k = 0; k < out.size() && k < values.size(); ++k)
+    out[k].initial = std::clamp(values[k], out[k].lower, out[k].upper);
+  return out;
+}
+
 // Full refit (Ceres, all free parameters) from the screening point, and the verdict.
 // What every candidate of a round is compared with, computed once per round: the current
 // model's residuals on the fit traces (for the prewhitened evidence) or its error on the
@@ -280,13 +370,19 @@ CandidateRun ScreenCandidate(const FitProblem& base, const std::vector<double>& 
 struct RoundBase {
   std::vector<double> residuals;  // empty when its evaluation failed
   Evaluation held_out;            // ok only with held-out traces that simulate
+  double nrmse = 0.0;             // the current model's
+  double floor_nrmse = 0.0;       // the noise floor (NoiseFloorNrmse)
 };
 
 RoundBase MakeRoundBase(const FitProblem& base, const std::vector<double>& values,
                         const DiscoveryOptions& options) {
   RoundBase round;
+  // The free-running model's error, as every candidate's is scored.
+  const FitProblem free_run(base.config(), base.traces(), base.observe(), base.free());
+  round.nrmse = std::sqrt(free_run.Evaluate(values).cost);
+  round.floor_nrmse = NoiseFloorNrmse(base);
   const bool held_out = options.held_out && !options.held_out->empty();
-  if (!held_out && options.prewhiten && !base.Evaluate(values, &round.residuals).ok) {
+  if (!held_out && options.prewhiten && !free_run.Evaluate(values, &round.residuals).ok) {
     round.residuals.clear();
   }
   if (held_out) {
@@ -376,6 +472,8 @@ void RefitCandidate(const FitProblem& base, const RoundBase& round, const Candid
     }
   }
   run->outcome.nrmse = std::sqrt(run->fit.evaluation.cost);
+  run->outcome.explained_share = ExplainedShare(round.nrmse, run->outcome.nrmse, round.floor_nrmse);
+  run->outcome.material = run->outcome.explained_share >= options.min_explained_share;
   const std::size_t offset = base.num_free();
   for (std::size_t k = 0; k < plan.free.size(); ++k) {
     run->outcome.parameters[plan.free[k].name] = run->fit.values[offset + k];
@@ -420,6 +518,11 @@ void RefitCandidate(const FitProblem& base, const RoundBase& round, const Candid
   }
   if (run->outcome.valid && !(run->outcome.delta_bic < -options.bic_margin)) {
     run->outcome.reason = "BIC does not fall by more than " + G(options.bic_margin);
+  } else if (run->outcome.valid && !run->outcome.material) {
+    run->outcome.reason = "tried, not needed: explains " +
+                          G(100.0 * run->outcome.explained_share, 2) +
+                          " % of the residual above the noise floor (needs " +
+                          G(100.0 * options.min_explained_share, 2) + " %)";
   } else if (run->outcome.valid && !run->outcome.held_out_better) {
     run->outcome.reason = run->outcome.has_held_out
                               ? "the held-out NRMSE does not fall by more than " +
@@ -431,7 +534,7 @@ void RefitCandidate(const FitProblem& base, const RoundBase& round, const Candid
 }
 
 std::string Evidence(const std::string& effect, const ResidualAnalysis& analysis,
-                     const CandidateOutcome& outcome, double nrmse_before) {
+                     const CandidateOutcome& outcome, double nrmse_before, int order) {
   std::string text =
       "BIC " + G(outcome.delta_bic, 5) +
       (outcome.evidence_rule == "prewhitened_bic" &&
@@ -442,7 +545,12 @@ std::string Evidence(const std::string& effect, const ResidualAnalysis& analysis
       (outcome.has_held_out
            ? ", held-out NRMSE " + G(outcome.held_out_before) + " -> " + G(outcome.held_out_after)
            : std::string());
-  text += PointingDiagnostic(effect, analysis);
+  if (outcome.explained_share >= 0.0)
+    text += ", explains " + G(100.0 * outcome.explained_share, 3) +
+            " % of the residual above the noise floor";
+  if (outcome.cross_validated)
+    text += ", cross-validated NRMSE " + G(outcome.cv_before) + " -> " + G(outcome.cv_after);
+  text += PointingDiagnostic(effect, analysis, order);
   return text;
 }
 
@@ -513,6 +621,22 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
           ScreenCandidate(*current_problem, current_fit.values, plans[k], current_bic, progress);
       if (progress) progress->StepDone();
     });
+    // The screening score is the evidence the refit will be judged by: the BIC on
+    // prewhitened residuals (evidence.h) where it can be computed. Counting every sample,
+    // candidates that bend the simulation slowly (an offset, a drag) scored twice what a
+    // cogging ripple did on a trace whose truth is the cogging, and it was never refit
+    // (issue 24: Coulomb friction beside cogging).
+    const RoundBase round_base = MakeRoundBase(*current_problem, current_fit.values, options);
+    if (!round_base.residuals.empty()) {
+      parallel(all, [&](std::size_t k) {
+        CandidateRun& run = runs[k];
+        if (run.screen_values.empty() || !std::isfinite(run.screen_bic)) return;
+        const FitProblem model(run.config, problem.traces(), problem.observe(), run.free);
+        const WhitenedEvidence evidence = PrewhitenedEvidence(
+            round_base.residuals, current_problem->num_free(), model, run.screen_values);
+        if (evidence.ok) run.screen_bic = evidence.delta_bic;
+      });
+    }
     // Refit the most promising candidates by their screening BIC (deterministic order).
     // Only candidates whose screening already lowers BIC are worth a full refit.
     std::vector<std::size_t> screened;
@@ -524,7 +648,6 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     });
     if (screened.size() > static_cast<std::size_t>(options.refits))
       screened.resize(static_cast<std::size_t>(options.refits));
-    const RoundBase round_base = MakeRoundBase(*current_problem, current_fit.values, options);
     if (progress && !screened.empty())
       progress->BeginStage(round_name + ": refits", static_cast<int>(screened.size()));
     parallel(screened, [&](std::size_t k) {
@@ -554,15 +677,81 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
         return runs[l].screen_bic < runs[r].screen_bic;
       return a.effect < b.effect;
     });
-    std::vector<CandidateOutcome> outcomes;
-    outcomes.reserve(order.size());
-    for (std::size_t k : order) outcomes.push_back(runs[k].outcome);
+    // The stopping rule (docs/discovery.md §3b): the evidence, physically valid, material,
+    // and generalising to the part of the record it was not fitted to.
+    auto passes_evidence = [&](const CandidateOutcome& o) {
+      return o.fitted && o.valid && o.held_out_better && o.delta_bic < -options.bic_margin &&
+             o.material;
+    };
+    const bool cross_validate =
+        options.cross_validate && !(options.held_out && !options.held_out->empty());
+    std::optional<CrossValidation> base_cv;
+    for (std::size_t k : order) {
+      CandidateRun& run = runs[k];
+      CandidateOutcome& o = run.outcome;
+      if (!cross_validate || !passes_evidence(o)) continue;
+      if (!base_cv) {
+        result.cross_validation_parts =
+            internal::SplitRecord(*current_problem, current_fit.values).description;
+        base_cv = BlockCrossValidate(
+            current_problem->config(), StartingAt(current_problem->free(), current_fit.values),
+            problem.traces(), problem.observe(), current_fit.values, options.refit);
+      }
+      if (!base_cv->ok) break;  // nothing to compare with: the evidence alone decides
+      if (progress) progress->BeginStage(round_name + ": cross-validating " + o.effect, 0);
+      const CrossValidation cv =
+          BlockCrossValidate(run.config, StartingAt(run.free, run.fit.values), problem.traces(),
+                             problem.observe(), run.fit.values, options.refit);
+      if (!cv.ok) continue;  // the candidate keeps its evidence-only verdict
+      o.cross_validated = true;
+      o.cv_before = base_cv->nrmse;
+      o.cv_after = cv.nrmse;
+      o.generalises = cv.nrmse < (1.0 - options.held_out_margin) * base_cv->nrmse;
+      if (!o.generalises) {
+        o.reason = "tried, not needed: does not generalise (cross-validated NRMSE " +
+                   G(o.cv_before) + " -> " + G(o.cv_after) + ", needs a fall of more than " +
+                   G(100.0 * options.held_out_margin) + " %)";
+      }
+    }
     std::vector<std::size_t> qualifying;
     for (std::size_t k : order) {
       const auto& o = runs[k].outcome;
-      if (o.fitted && o.valid && o.held_out_better && o.delta_bic < -options.bic_margin)
-        qualifying.push_back(k);
+      if (passes_evidence(o) && o.generalises) qualifying.push_back(k);
     }
+    // Parsimony: an effect with more parameters than another qualifying one must predict
+    // the data it was not fitted to better (by the margin), or the simpler one is added
+    // (a Stribeck curve must show its dip, not reshape a Coulomb friction).
+    auto out_of_sample = [&](const CandidateOutcome& o) {
+      if (o.cross_validated) return o.cv_after;
+      if (o.has_held_out) return o.held_out_after;
+      return std::numeric_limits<double>::quiet_NaN();
+    };
+    if (qualifying.size() > 1) {
+      const std::size_t first = qualifying.front();
+      for (std::size_t q = 1; q < qualifying.size(); ++q) {
+        const std::size_t simpler = qualifying[q];
+        const double complex_score = out_of_sample(runs[first].outcome);
+        const double simple_score = out_of_sample(runs[simpler].outcome);
+        if (plans[simpler].free.size() >= plans[first].free.size() ||
+            !std::isfinite(complex_score) || !std::isfinite(simple_score))
+          continue;
+        if (complex_score < (1.0 - options.held_out_margin) * simple_score) continue;
+        runs[first].outcome.reason =
+            "tried, not needed: its " + std::to_string(plans[first].free.size()) +
+            " parameters do not predict the data they were not fitted to better than " +
+            runs[simpler].outcome.effect + "'s " + std::to_string(plans[simpler].free.size()) +
+            " (" + G(complex_score) + " against " + G(simple_score) + ")";
+        qualifying.erase(qualifying.begin());
+        std::stable_sort(qualifying.begin(), qualifying.end(), [&](std::size_t l, std::size_t r) {
+          if (l == simpler) return r != simpler;
+          return false;
+        });
+        break;
+      }
+    }
+    std::vector<CandidateOutcome> outcomes;
+    outcomes.reserve(order.size());
+    for (std::size_t k : order) outcomes.push_back(runs[k].outcome);
     if (qualifying.empty()) {
       result.last_round = outcomes;
       break;
@@ -570,7 +759,7 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     const CandidateRun& best = runs[qualifying.front()];
     std::vector<std::string> tied = {best.outcome.effect};
     for (std::size_t q = 1; q < qualifying.size(); ++q) {
-      if (runs[qualifying[q]].outcome.bic - best.outcome.bic < options.ambiguity_margin) {
+      if (std::abs(runs[qualifying[q]].outcome.bic - best.outcome.bic) < options.ambiguity_margin) {
         tied.push_back(runs[qualifying[q]].outcome.effect);
       }
     }
@@ -580,13 +769,22 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
       result.ambiguous.push_back(tied);
       std::string names;
       for (const auto& n : tied) names += (names.empty() ? "" : " and ") + n;
+      // The hint names what would separate these effects: the direction of motion only
+      // when one of them is a friction (sign of w) and another a constant torque.
+      bool friction = false, constant = false;
+      for (const auto& n : tied) {
+        const internal::EffectSearch* search = internal::FindEffectSearch(n);
+        friction = friction || (search && search->pointer == internal::Pointer::kSignOfW);
+        constant = constant || (search && search->pointer == internal::Pointer::kResidualMean);
+      }
       result.ambiguity_reason =
           names + " explain the residual equally well (BIC within " + G(options.ambiguity_margin) +
           ")" +
-          (analysis.w_changes_sign ? ""
-                                   : "; w never changes sign on this data, "
-                                     "so friction and a constant load look alike") +
-          ": record motion in both directions to tell them apart";
+          (!analysis.w_changes_sign && friction && constant
+               ? "; w never changes sign on this data, so friction and a constant load look "
+                 "alike: record motion in both directions to tell them apart"
+               : ": an experiment that drives them differently (other speeds, amplitudes or "
+                 "directions; blmd-design) would tell them apart");
       result.last_round = outcomes;
       break;
     }
@@ -602,9 +800,20 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     for (std::size_t k = offset; k < best.fit.estimates.size(); ++k) {
       step.effect_parameters.push_back(best.fit.estimates[k]);
     }
-    step.evidence = Evidence(step.effect, analysis, best.outcome, step.nrmse_before);
-    if (!plans[qualifying.front()].evidence.empty())
-      step.evidence += "; " + plans[qualifying.front()].evidence;
+    // The alternative added (cogging: its order), whose own evidence the line cites.
+    const CandidatePlan& best_plan = plans[qualifying.front()];
+    int added_order = 0;
+    std::string alternative_evidence;
+    for (std::size_t a = 0; a < best_plan.fixed_alternatives.size(); ++a) {
+      if (best_plan.fixed_alternatives[a] != best.fixed) continue;
+      const auto periods = best.fixed.find("periods");
+      if (periods != best.fixed.end()) added_order = static_cast<int>(std::lround(periods->second));
+      if (a < best_plan.alternative_evidence.size())
+        alternative_evidence = best_plan.alternative_evidence[a];
+    }
+    step.evidence = Evidence(step.effect, analysis, best.outcome, step.nrmse_before, added_order);
+    if (!best_plan.evidence.empty()) step.evidence += "; " + best_plan.evidence;
+    if (!alternative_evidence.empty()) step.evidence += "; " + alternative_evidence;
     result.steps.push_back(step);
     result.added.push_back(step.effect);
     // The winner becomes the current model, its fitted values its parameters.
@@ -622,22 +831,48 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
   for (const auto& p : current_problem->free()) result.final_free.push_back(p.name);
   result.final_free_parameters = current_problem->free();
   result.final_fit = current_fit;
+  result.noise_floor_nrmse = NoiseFloorNrmse(problem);
+  if (options.check_adequacy) {
+    // On the free-running model, whose scores the report gives.
+    ProgressObserver* const progress = options.refit.progress;
+    if (progress) progress->BeginStage("adequacy check", 0);
+    const FitProblem final_problem(current_problem->config(), problem.traces(), problem.observe(),
+                                   current_problem->free());
+    result.adequacy = CheckResidualStructure(final_problem, current_fit.values, options.adequacy);
+    if (!result.added.empty()) {
+      CheckEffectStability(final_problem, current_fit.values, result.added, options.refit,
+                           options.adequacy, &result.adequacy);
+    }
+  }
+  // What is left, in words: "unexplained" when the adequacy check finds structure that no
+  // effect of the vocabulary took up.
+  const std::string unexplained = result.adequacy.ok && !result.adequacy.flagged.empty()
+                                      ? "unexplained: " + result.adequacy.StructureMessage() +
+                                            ", and no effect of the vocabulary explains it"
+                                      : std::string();
+  std::string best;
+  if (!result.last_round.empty() && result.last_round.front().fitted) {
+    const CandidateOutcome& top = result.last_round.front();
+    best = " (best candidate " + top.effect + ": BIC " + G(top.delta_bic, 4) +
+           (top.reason.empty() ? std::string() : "; " + top.reason) + ")";
+  }
   if (!result.ambiguous.empty() && result.added.empty()) {
     result.conclusion = "ambiguous: " + result.ambiguity_reason;
   } else if (result.added.empty()) {
-    std::string best;
-    if (!result.last_round.empty() && result.last_round.front().fitted) {
-      best = " (best candidate " + result.last_round.front().effect + ": BIC " +
-             G(result.last_round.front().delta_bic, 4) + ")";
-    }
-    result.conclusion = "nothing missing: no effect lowers BIC by more than " +
-                        G(options.bic_margin) + " with valid parameters" + best;
+    result.conclusion =
+        !unexplained.empty()
+            ? unexplained + best
+            : "nothing missing: no effect lowers BIC by more than " + G(options.bic_margin) +
+                  " with valid parameters, a material share of the residual and a lower error "
+                  "on the data it was not fitted to" +
+                  best;
   } else {
     std::string names;
     for (const auto& n : result.added) names += (names.empty() ? "" : ", ") + n;
     result.conclusion = "added " + names;
     if (!result.ambiguous.empty())
       result.conclusion += "; then ambiguous: " + result.ambiguity_reason;
+    if (!unexplained.empty()) result.conclusion += "; then " + unexplained;
   }
   return result;
 }

@@ -3,10 +3,12 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <functional>
 
 #include "blmd/io/csv.h"
 #include "blmd/sim/effects.h"
 #include "blmd/sim/trace.h"
+#include "ident/jacobian.h"
 
 namespace blmd::internal {
 namespace {
@@ -152,7 +154,8 @@ std::vector<OrderScreen> ScreenCoggingOrders(const FitProblem& problem,
     }
   }
   if (!(path > kPi) || samples.empty()) return ranked;
-  const int min_order = std::max(1, static_cast<int>(std::ceil(3.0 * 2.0 * kPi / path)));
+  // Order 1 (one period per revolution) is gravity's (PlanGravity), not cogging's.
+  const int min_order = std::max(2, static_cast<int>(std::ceil(3.0 * 2.0 * kPi / path)));
   std::vector<const Sample*> moving;
   for (const auto& sample : samples) {
     if (std::abs(sample.w) > 0.25 * w_max) moving.push_back(&sample);
@@ -203,6 +206,90 @@ std::vector<OrderScreen> ScreenCoggingOrders(const FitProblem& problem,
     screen.tcog = std::hypot(x(4), x(5));
     screen.phase = std::atan2(x(5), x(4));
     ranked.push_back(screen);
+  }
+  std::stable_sort(ranked.begin(), ranked.end(), [](const OrderScreen& l, const OrderScreen& r) {
+    return l.reduction > r.reduction;
+  });
+  return ranked;
+}
+
+// Cogging orders of dc_servo and blmd ranked by the linearised response at the measured
+// angle: for each order m, the model's response to a small torque eps sin(m theta_meas)
+// and eps cos(m theta_meas) (the cogging effect at the measured angle, as discovery fits it)
+// gives two sensitivity columns S_s, S_c of the weighted residual; with the Jacobian of the
+// model's own free parameters (J, B, ...) beside them, the fall of the residual's sum of
+// squares that the m columns add (a Gauss-Newton step on all parameters) ranks the orders,
+// and their coefficients (a, b) = Tcog (cos phase, sin phase) are the start. Unlike the raw angle
+// spectrum of the speed residual (whose ripple falls as 1/m and which a friction misfit
+// fills with low orders and their harmonics), this asks what a cogging torque of each order
+// would do to every observed column through the model's own dynamics (issue 24: orders 40,
+// 29, 57 had been added for 8, 8, 12). Empty when the traces record no angle.
+std::vector<OrderScreen> RankOrdersByResponse(const FitProblem& problem,
+                                              const std::vector<double>& values,
+                                              double torque_scale, int lowest, int highest) {
+  std::vector<OrderScreen> ranked;
+  // The current model's residual and its Jacobian in its own free parameters (J, B, ...):
+  // an order is credited only with what they cannot take up (a Gauss-Newton step on all
+  // of them together), or low orders would be ranked on the misfit that J and B absorb.
+  std::vector<double> r0;
+  Eigen::MatrixXd jacobian;
+  DifferenceRule rule;
+  rule.central = false;
+  if (!FiniteDifferenceJacobian(problem, ToSearchCoordinates(problem, values), rule, nullptr, &r0,
+                                &jacobian))
+    return ranked;
+  const auto n = static_cast<Eigen::Index>(r0.size());
+  const Eigen::VectorXd r = Eigen::Map<const Eigen::VectorXd>(r0.data(), n);
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(jacobian);
+  const Eigen::MatrixXd basis = qr.householderQ() * Eigen::MatrixXd::Identity(n, jacobian.cols());
+  auto purify = [&](const Eigen::VectorXd& v) -> Eigen::VectorXd {
+    return v - basis * (basis.transpose() * v);
+  };
+  const Eigen::VectorXd y = purify(-r);  // a S_s + b S_c should cancel what is left of r0
+  const double total = y.squaredNorm();
+  if (!(total > 0.0)) return ranked;
+  const double eps = 1e-3 * torque_scale;
+  for (int order = lowest; order <= highest; ++order) {
+    Config config = problem.config();
+    ParameterSet cogging;
+    cogging.Set("Tcog", 0.0);
+    cogging.Set("periods", static_cast<double>(order));
+    cogging.Set("phase", 0.0);
+    config.AddEffect("cogging", cogging);
+    std::vector<FreeParameter> free = problem.free();
+    free.push_back(Free("Tcog", 0.0, 1.0));
+    free.push_back(Free("phase", -2.0 * kPi, 2.0 * kPi));
+    FitProblem probe(config, problem.traces(), problem.observe(), free);
+    if (!probe.ForceEffectAngle()) return {};
+    std::vector<std::vector<double>> points(3, values);
+    points[0].insert(points[0].end(), {0.0, 0.0});
+    points[1].insert(points[1].end(), {eps, 0.0});
+    points[2].insert(points[2].end(), {eps, 0.5 * kPi});
+    std::vector<std::vector<double>> residuals;
+    const std::vector<Evaluation> evaluations = probe.EvaluateBatch(points, &residuals);
+    if (!evaluations[0].ok || !evaluations[1].ok || !evaluations[2].ok) continue;
+    Eigen::MatrixXd S(n, 2);
+    for (Eigen::Index k = 0; k < n; ++k) {
+      const auto i = static_cast<std::size_t>(k);
+      S(k, 0) = (residuals[1][i] - residuals[0][i]) / eps;
+      S(k, 1) = (residuals[2][i] - residuals[0][i]) / eps;
+    }
+    S.col(0) = purify(S.col(0));
+    S.col(1) = purify(S.col(1));
+    const Eigen::Matrix2d normal = S.transpose() * S;
+    const Eigen::Vector2d rhs = S.transpose() * y;
+    const double det = normal.determinant();
+    if (!(det > 1e-12 * normal(0, 0) * normal(1, 1)) || !std::isfinite(det)) continue;
+    const Eigen::Vector2d ab = normal.ldlt().solve(rhs);
+    OrderScreen screen;
+    screen.order = order;
+    screen.reduction = ab.dot(rhs);
+    screen.share = screen.reduction / total;
+    screen.lowest = lowest;
+    screen.highest = highest;
+    screen.tcog = std::hypot(ab(0), ab(1));
+    screen.phase = std::atan2(ab(1), ab(0));
+    if (std::isfinite(screen.reduction)) ranked.push_back(screen);
   }
   std::stable_sort(ranked.begin(), ranked.end(), [](const OrderScreen& l, const OrderScreen& r) {
     return l.reduction > r.reduction;
@@ -271,6 +358,16 @@ CandidatePlan PlanStribeck(const PlanContext& context) {
     for (double g : {0.003, 0.01, 0.03, 0.1}) plan.starts.push_back({f * T, g * w_max});
   }
   plan.amplitude = "Ts";
+  // A Stribeck friction is a dip of the friction at low speed: its speed ws must lie well
+  // inside the speeds the record covers (at most a third of the largest), or the curve only
+  // reshapes a Coulomb friction over the whole range (issue 24: ws of 100-270 rad/s named on
+  // traces with Coulomb friction and cogging).
+  plan.constraint = [w_max](const ParameterSet& p) -> std::string {
+    const double ws = p.Get("ws");
+    if (ws <= w_max / 3.0) return "";
+    return "ws = " + G(ws) + " rad/s is not well inside the speed range (at most a third of " +
+           G(w_max) + " rad/s): no Stribeck dip in these data";
+  };
   return plan;
 }
 
@@ -310,11 +407,38 @@ CandidatePlan PlanCogging(const PlanContext& context) {
     }
   }
   if (orders.empty()) {
+    // dc_servo, blmd: the four orders whose linearised response explains most, from 2
+    // (order 1 is gravity's) and completing three periods over the angle travelled.
+    int lowest = 2;
+    double travelled = 0.0;
+    for (const FitTrace& trace : problem.traces()) {
+      const std::vector<double> angle = MeasuredAngle(trace);
+      for (std::size_t r = 1; r < angle.size(); ++r) travelled += std::abs(angle[r] - angle[r - 1]);
+    }
+    if (travelled > 0.0)
+      lowest = std::max(lowest, static_cast<int>(std::ceil(3.0 * 2.0 * kPi / travelled)));
+    const std::vector<OrderScreen> ranked =
+        RankOrdersByResponse(problem, values, T, lowest, DiagnosticsOptions().max_order);
+    for (std::size_t k = 0; k < ranked.size() && k < 4; ++k) {
+      orders.push_back(ranked[k].order);
+      linear_starts.push_back({std::clamp(ranked[k].tcog, 1e-6 * T, 0.9 * T), ranked[k].phase});
+      plan.alternative_evidence.push_back(
+          "linearised response at the measured angle (orders " + std::to_string(lowest) + "-" +
+          std::to_string(ranked[k].highest) + "): order " + std::to_string(ranked[k].order) +
+          " explains " + G(100.0 * ranked[k].share, 3) + " % of the residual (rank " +
+          std::to_string(k + 1) +
+          (k == 0 && ranked.size() > 1 ? "; next: order " + std::to_string(ranked[1].order) + ", " +
+                                             G(100.0 * ranked[1].share, 3) + " %"
+                                       : std::string()) +
+          ")");
+    }
+  }
+  if (orders.empty()) {  // no angle to linearise at: the residual's angle spectrum
     for (const char* column : {"w", "theta", "i"}) {
       for (const auto& d : analysis.columns) {
         if (d.column != column) continue;
         for (const auto& peak : d.angle_peaks) {
-          if (orders.size() < 4 &&
+          if (peak.order >= 2 && orders.size() < 4 &&
               std::find(orders.begin(), orders.end(), peak.order) == orders.end()) {
             orders.push_back(peak.order);
           }
@@ -340,6 +464,208 @@ CandidatePlan PlanCogging(const PlanContext& context) {
     for (int k = 0; k < 8; ++k) plan.starts.push_back({f * T, -kPi + 0.25 * kPi * k});
   }
   plan.amplitude = "Tcog";
+  return plan;
+}
+
+// The torque balance along the measured motion for the position-dependent candidates
+// (spring, gravity), in integral form. At every sample with a measured drive torque
+// (rigid_load: Kt u; dc_servo: Kt i from the measured current) the current model leaves
+//   e = T_drive - B w - T_effects(theta, w) = J dw/dt + T(theta) + dB w
+// when a position torque T(theta) is missing (dB what B still misses). Integrated from the
+// trace's start, int e dt = J (w - w(0)) + dB int w dt + int T(theta) dt: regressed on
+// [w, int w dt, 1, int of the columns of theta], the last coefficients are a linearised start.
+// The integral form needs no acceleration: differentiated from a speed with 1 % noise at
+// 1 kHz, the acceleration's noise is as large as the signal, and a regression on it put the
+// spring's K at -14 times its value on the DC-servo round trip (tests/position_discovery_test).
+struct TorqueBalance {
+  struct Sample {
+    std::size_t trace;
+    double t, theta, w, error;
+  };
+  std::vector<Sample> samples;
+};
+
+// The measured angle's range over every trace (false when no trace has an angle).
+bool MeasuredAngleRange(const FitProblem& problem, double* lowest, double* highest) {
+  bool any = false;
+  for (const auto& trace : problem.traces()) {
+    const std::vector<double> theta = MeasuredAngle(trace);
+    for (double x : theta) {
+      if (!std::isfinite(x)) continue;
+      *lowest = any ? std::min(*lowest, x) : x;
+      *highest = any ? std::max(*highest, x) : x;
+      any = true;
+    }
+  }
+  return any;
+}
+
+bool MeasureTorqueBalance(const FitProblem& problem, const std::vector<double>& values,
+                          TorqueBalance* balance) {
+  const Config& config = problem.config();
+  const std::string model(config.model->name());
+  const bool torque_input = config.model->traits().input_is_torque;
+  if (!torque_input && model != "dc_servo") return false;  // blmd: the torque is a state
+  const ParameterSet parameters = problem.Parameters(values);
+  const double B = parameters.Get("B"), Kt = parameters.Get("Kt");
+  const double i0 = std::find(config.effects.begin(), config.effects.end(), "current_offset") !=
+                            config.effects.end()
+                        ? parameters.Get("i0")
+                        : 0.0;
+  const ShaftEffects shaft = ShaftEffects::From(parameters, config.effects, 0.0);
+  for (std::size_t index = 0; index < problem.traces().size(); ++index) {
+    const FitTrace& trace = problem.traces()[index];
+    const std::vector<double> theta = MeasuredAngle(trace);
+    const auto& t = trace.trace.Column("t");
+    const std::size_t n = theta.size();
+    if (n < 20) continue;
+    if (!torque_input && !trace.trace.Has("i")) continue;
+    const std::vector<double>& drive = trace.trace.Column(torque_input ? "u" : "i");
+    std::vector<double> w(n, 0.0);
+    if (trace.trace.Has("w")) {
+      w = trace.trace.Column("w");
+    } else {
+      for (std::size_t k = 1; k + 1 < n; ++k)
+        w[k] = (theta[k + 1] - theta[k - 1]) / (t[k + 1] - t[k - 1]);
+      w[0] = w[1];
+      w[n - 1] = w[n - 2];
+    }
+    for (std::size_t k = 0; k < n; ++k) {
+      const double torque = torque_input ? Kt * drive[k] : Kt * (drive[k] - i0);
+      double friction = 0.0;
+      if (shaft.has_friction() && w[k] != 0.0)
+        friction = (w[k] > 0.0 ? 1.0 : -1.0) * shaft.FrictionMagnitude(w[k]);
+      const double e =
+          torque - B * w[k] - shaft.NonFrictionTorque(theta[k]) - shaft.DragTorque(w[k]) - friction;
+      if (!std::isfinite(e) || !std::isfinite(theta[k])) return false;
+      balance->samples.push_back({index, t[k], theta[k], w[k], e});
+    }
+  }
+  return balance->samples.size() >= 20;
+}
+
+// Regresses the integrated balance on [w, int w dt, 1, int of each extra column of theta]
+// (trapezoidal integrals from each trace's start); the coefficients of the extra columns,
+// and the share of the sum of squares left by the first three that they explain.
+bool RegressOnAngle(const TorqueBalance& balance,
+                    const std::vector<std::function<double(double)>>& columns,
+                    std::vector<double>* coefficients, double* share) {
+  const auto n = static_cast<Eigen::Index>(balance.samples.size());
+  const auto m = static_cast<Eigen::Index>(columns.size());
+  Eigen::MatrixXd design(n, 3 + m);
+  Eigen::VectorXd integral(n);
+  for (Eigen::Index r = 0; r < n; ++r) {
+    const auto& s = balance.samples[static_cast<std::size_t>(r)];
+    const bool first = r == 0 || balance.samples[static_cast<std::size_t>(r - 1)].trace != s.trace;
+    design(r, 0) = s.w;
+    design(r, 2) = 1.0;
+    if (first) {
+      integral(r) = 0.0;
+      design(r, 1) = 0.0;
+      for (Eigen::Index c = 0; c < m; ++c) design(r, 3 + c) = 0.0;
+      continue;
+    }
+    const auto& p = balance.samples[static_cast<std::size_t>(r - 1)];
+    const double h = 0.5 * (s.t - p.t);
+    integral(r) = integral(r - 1) + h * (s.error + p.error);
+    design(r, 1) = design(r - 1, 1) + h * (s.w + p.w);
+    for (Eigen::Index c = 0; c < m; ++c) {
+      const auto& column = columns[static_cast<std::size_t>(c)];
+      design(r, 3 + c) = design(r - 1, 3 + c) + h * (column(s.theta) + column(p.theta));
+    }
+  }
+  const Eigen::VectorXd base = design.leftCols(3).colPivHouseholderQr().solve(integral);
+  const double base_sse = (integral - design.leftCols(3) * base).squaredNorm();
+  const Eigen::VectorXd x = design.colPivHouseholderQr().solve(integral);
+  if (!x.allFinite()) return false;
+  coefficients->assign(x.data() + 3, x.data() + 3 + m);
+  *share = base_sse > 0.0 ? (base_sse - (integral - design * x).squaredNorm()) / base_sse : 0.0;
+  return true;
+}
+
+// spring: T_effects = K (theta - theta0) = K theta - K theta0, linear in (K, K theta0). K is
+// searched up to the stiffness whose torque over the measured angle's range is a few torque
+// scales, theta0 over the range widened by twice its width either side; the start is the
+// integrated torque balance's regression on [theta, 1] (K and -K theta0), then a grid.
+CandidatePlan PlanSpring(const PlanContext& context) {
+  CandidatePlan plan;
+  const double T = context.torque_scale;
+  double lowest = 0.0, highest = 0.0;
+  if (!MeasuredAngleRange(context.problem, &lowest, &highest) || !(highest - lowest > 1e-6)) {
+    plan.applicable = false;
+    plan.not_applicable = "needs a measured angle that moves (theta or w)";
+    return plan;
+  }
+  const double span = highest - lowest, middle = 0.5 * (lowest + highest);
+  double k_scale = T / span;
+  std::vector<double> linear;
+  TorqueBalance balance;
+  std::vector<double> x;
+  double share = 0.0;
+  if (MeasureTorqueBalance(context.problem, context.values, &balance) &&
+      RegressOnAngle(balance, {[](double theta) { return theta; }, [](double) { return 1.0; }}, &x,
+                     &share) &&
+      x[0] > 0.0) {
+    const double theta0 = std::clamp(-x[1] / x[0], lowest - 2.0 * span, highest + 2.0 * span);
+    linear = {x[0], theta0};
+    k_scale = std::max(k_scale, x[0]);
+    plan.evidence =
+        "torque balance along the measured angle: K (theta - theta0) with K = " + G(x[0]) +
+        " N·m/rad, theta0 = " + G(theta0) + " rad explains " + G(100.0 * share, 3) +
+        " % of its residual";
+  }
+  plan.free = {Free("K", 0.0, 4.0 * k_scale),
+               Free("theta0", lowest - 2.0 * span, highest + 2.0 * span)};
+  if (!linear.empty()) plan.starts.push_back(linear);
+  for (double f : {0.03, 0.1, 0.3, 1.0}) {
+    for (double theta0 : {lowest, middle, highest}) plan.starts.push_back({f * T / span, theta0});
+  }
+  plan.amplitude = "K";
+  return plan;
+}
+
+// gravity: T_effects = Tg sin(theta + phase) = Tg cos(phase) sin(theta) + Tg sin(phase)
+// cos(theta), linear in (Tg cos phase, Tg sin phase): the integrated torque balance
+// regressed on [sin theta, cos theta] (no constant torque: over a swing of less than a
+// revolution cos theta is nearly one, and a constant would take the torque's mean from it)
+// gives the start. Tg is
+// searched up to a few torque scales (a pendulum that only swings may be heavier than the
+// drive), the phase over two turns, as cogging's.
+CandidatePlan PlanGravity(const PlanContext& context) {
+  CandidatePlan plan;
+  const double T = context.torque_scale;
+  double lowest = 0.0, highest = 0.0;
+  if (!MeasuredAngleRange(context.problem, &lowest, &highest) || !(highest - lowest > 1e-3)) {
+    plan.applicable = false;
+    plan.not_applicable = "needs a measured angle that moves (theta or w)";
+    return plan;
+  }
+  double tg_scale = T;
+  std::vector<double> linear;
+  TorqueBalance balance;
+  std::vector<double> x;
+  double share = 0.0;
+  if (MeasureTorqueBalance(context.problem, context.values, &balance) &&
+      RegressOnAngle(balance,
+                     {[](double theta) { return std::sin(theta); },
+                      [](double theta) { return std::cos(theta); }},
+                     &x, &share)) {
+    const double tg = std::hypot(x[0], x[1]), phase = std::atan2(x[1], x[0]);
+    if (tg > 0.0 && std::isfinite(tg)) {
+      linear = {tg, phase};
+      tg_scale = std::max(tg_scale, tg);
+      plan.evidence =
+          "torque balance along the measured angle: Tg sin(theta + phase) with Tg = " + G(tg) +
+          " N·m, phase = " + G(phase, 3) + " rad explains " + G(100.0 * share, 3) +
+          " % of its residual";
+    }
+  }
+  plan.free = {Free("Tg", 0.0, 4.0 * tg_scale), Free("gravity_phase", -2.0 * kPi, 2.0 * kPi)};
+  if (!linear.empty()) plan.starts.push_back(linear);
+  for (double f : {0.03, 0.1, 0.3, 1.0}) {
+    for (int k = 0; k < 8; ++k) plan.starts.push_back({f * T, -kPi + 0.25 * kPi * k});
+  }
+  plan.amplitude = "Tg";
   return plan;
 }
 
@@ -383,6 +709,8 @@ const std::vector<EffectSearch>& EffectSearchRegistry() {
       {"asymmetric_viscous", PlanAsymmetricViscous, Pointer::kSignOfW},
       {"stribeck", PlanStribeck, Pointer::kSignOfW},
       {"cogging", PlanCogging, Pointer::kAnglePeak},
+      {"spring", PlanSpring, Pointer::kAngleDependence},
+      {"gravity", PlanGravity, Pointer::kAngleDependence},
       {"dead_time", PlanDeadTime, Pointer::kSignOfI},
       {"current_offset", PlanCurrentOffset, Pointer::kResidualMean},
   };
@@ -418,7 +746,8 @@ CandidatePlan PlanCandidate(const std::string& effect, const FitProblem& problem
   return plan;
 }
 
-std::string PointingDiagnostic(const std::string& effect, const ResidualAnalysis& analysis) {
+std::string PointingDiagnostic(const std::string& effect, const ResidualAnalysis& analysis,
+                               int order) {
   std::string text;
   // The diagnostic that points at this effect, from the column where it is strongest.
   const ColumnDiagnostics* strongest = nullptr;
@@ -450,10 +779,27 @@ std::string PointingDiagnostic(const std::string& effect, const ResidualAnalysis
       return d.angle_peaks.empty() ? 0.0 : d.angle_peaks.front().ratio;
     });
     if (strongest) {
-      text += "; " + strongest->column + " residual peaks at " +
-              std::to_string(strongest->angle_peaks.front().order) + " periods/rev (" +
-              G(strongest->angle_peaks.front().ratio, 3) + " x the spectrum's median)";
+      const AnglePeak& top = strongest->angle_peaks.front();
+      const AnglePeak* cited = &top;
+      if (order > 0) {  // the order added: its own peak, where the spectrum lists it
+        cited = nullptr;
+        for (const auto& peak : strongest->angle_peaks) {
+          if (peak.order == order) cited = &peak;
+        }
+      }
+      if (cited) {
+        text += "; " + strongest->column + " residual peaks at " + std::to_string(cited->order) +
+                " periods/rev (" + G(cited->ratio, 3) + " x the spectrum's median)";
+      }
+      if (order > 0 && top.order != order) {
+        text += "; the angle spectrum's strongest peak is at " + std::to_string(top.order) +
+                " periods/rev (" + G(top.ratio, 3) + " x), order " + std::to_string(order) +
+                " was chosen by the refit";
+      }
     }
+  } else if (pointer == Pointer::kAngleDependence) {
+    // The torque balance's regression on the measured angle, quoted by the plan's evidence
+    // (PlanSpring, PlanGravity), says it; the residual's diagnostics have no such statistic.
   } else {
     pick([](const ColumnDiagnostics& d) { return d.rms > 0.0 ? std::abs(d.mean) / d.rms : 0.0; });
     if (strongest)

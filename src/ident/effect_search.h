@@ -30,6 +30,9 @@ struct CandidatePlan {
   // when valid, else why not.
   std::function<std::string(const ParameterSet&)> constraint;
   std::string evidence;  // what chose the plan's set-up (cogging: the order), for the report
+  // Per alternative (cogging: per order), what chose it, for the evidence line of the one
+  // added ("" when the plan's `evidence` says it all).
+  std::vector<std::string> alternative_evidence;
 };
 
 // What a plan is made from: the current model's fit and its residual's diagnostics.
@@ -44,10 +47,11 @@ struct PlanContext {
 
 // The residual diagnostic that points at an effect, quoted in its evidence line.
 enum class Pointer {
-  kSignOfW,       // the residual's mean differs by the sign of w (friction)
-  kSignOfI,       // ... by the sign of i (dead time)
-  kAnglePeak,     // a peak of the residual's angle spectrum (cogging)
-  kResidualMean,  // the residual's mean (offsets, loads, drag)
+  kSignOfW,          // the residual's mean differs by the sign of w (friction)
+  kSignOfI,          // ... by the sign of i (dead time)
+  kAnglePeak,        // a peak of the residual's angle spectrum (cogging)
+  kAngleDependence,  // the torque balance's dependence on the measured angle (spring, gravity)
+  kResidualMean,     // the residual's mean (offsets, loads, drag)
 };
 
 struct EffectSearch {
@@ -68,6 +72,9 @@ CandidatePlan PlanCandidate(const std::string& effect, const FitProblem& problem
 
 // "; w residual mean differs by sign of w (t = -17.2)": the diagnostic that points at
 // `effect`, from the column where it is strongest ("" when none does).
-std::string PointingDiagnostic(const std::string& effect, const ResidualAnalysis& analysis);
+// For a periodic effect, `order` is the periods per revolution of the alternative added: the
+// line cites that order's peak, and says so when the spectrum's strongest peak differs.
+std::string PointingDiagnostic(const std::string& effect, const ResidualAnalysis& analysis,
+                               int order = 0);
 
 }  // namespace blmd::internal

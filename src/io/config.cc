@@ -719,18 +719,21 @@ void ReadEffects(const Reader& reader, const json& root, Config* out) {
                                  " (only to " + Join(info->models) + ")");
       }
       reader.RequireObject(effect_values, pointer);
+      // Keys inside the effect's object (ParamInfo::config_key: gravity's `phase` is the flat
+      // parameter gravity_phase).
       std::vector<std::string> effect_params;
-      for (const auto& p : info->parameters) effect_params.push_back(p.name);
+      for (const auto& p : info->parameters) effect_params.push_back(p.config_key());
       reader.CheckKeys(effect_values, pointer, effect_params);
       for (const auto& p : info->parameters) {
-        if (!effect_values.contains(p.name)) {
-          reader.Fail(pointer, "effect '" + effect_name + "' needs parameter '" + p.name + "' (" +
+        const std::string& key = p.config_key();
+        if (!effect_values.contains(key)) {
+          reader.Fail(pointer, "effect '" + effect_name + "' needs parameter '" + key + "' (" +
                                    p.meaning + ", " + p.unit + ")");
         }
-        const double v = reader.Number(effect_values[p.name], pointer + "/" + p.name);
+        const double v = reader.Number(effect_values[key], pointer + "/" + key);
         if ((p.positive && !(v > 0.0)) || (p.non_negative && v < 0.0)) {
-          reader.Fail(pointer + "/" + p.name,
-                      "effect parameter '" + p.name + "' must be " + (p.positive ? "> 0" : ">= 0"));
+          reader.Fail(pointer + "/" + key,
+                      "effect parameter '" + key + "' must be " + (p.positive ? "> 0" : ">= 0"));
         }
         config.parameters.Set(p.name, v);
       }
@@ -985,6 +988,16 @@ void ReadIdentification(const Reader& reader, const json& root, Config* out) {
     for (const auto& [name, value] : config.parameters.entries()) known.push_back(name);
     auto check_known = [&](const std::string& name, const std::string& pointer) {
       if (config.parameters.Has(name)) return;
+      // An effect parameter named by its key inside the effect's object where its flat name
+      // differs (gravity's `phase` is gravity_phase outside the object).
+      for (const auto& declared : config.effects) {
+        for (const auto& p : FindEffect(declared).parameters) {
+          if (p.config_key() == name && p.name != name) {
+            reader.Fail(pointer, "parameter '" + name + "' of effect '" + declared + "' is '" +
+                                     p.name + "' outside the effect's object");
+          }
+        }
+      }
       std::string effect;
       if (IsEffectParameter(name, &effect)) {
         reader.Fail(pointer, "parameter '" + name + "' belongs to effect '" + effect +
@@ -1188,10 +1201,11 @@ void Config::AddEffect(const std::string& effect, const ParameterSet& values) {
   }
   for (const auto& [key, value] : values.entries()) {
     bool known = false;
-    for (const auto& p : info.parameters) known = known || p.name == key;
+    // By its flat name (the library's ParameterSet) or its key inside the effect's object.
+    for (const auto& p : info.parameters) known = known || p.name == key || p.config_key() == key;
     if (!known) {
       std::vector<std::string> valid;
-      for (const auto& p : info.parameters) valid.push_back(p.name);
+      for (const auto& p : info.parameters) valid.push_back(p.config_key());
       const std::string near = NearestName(key, valid);
       throw InputError("effect '" + effect + "' has no parameter '" + key + "'" +
                        (near.empty() ? "" : " (did you mean '" + near + "'?)") +
@@ -1199,14 +1213,14 @@ void Config::AddEffect(const std::string& effect, const ParameterSet& values) {
     }
   }
   for (const auto& p : info.parameters) {
-    if (!values.Has(p.name)) {
-      throw InputError("effect '" + effect + "' needs parameter '" + p.name + "' (" + p.meaning +
+    const std::string& key = p.config_key();  // the name users give it (--effect)
+    if (!values.Has(p.name) && !values.Has(key)) {
+      throw InputError("effect '" + effect + "' needs parameter '" + key + "' (" + p.meaning +
                        ", " + p.unit + ")");
     }
-    const double v = values.Get(p.name);
+    const double v = values.Has(p.name) ? values.Get(p.name) : values.Get(key);
     if ((p.positive && !(v > 0.0)) || (p.non_negative && v < 0.0) || !std::isfinite(v)) {
-      throw InputError("effect parameter '" + p.name + "' must be " +
-                       (p.positive ? "> 0" : ">= 0"));
+      throw InputError("effect parameter '" + key + "' must be " + (p.positive ? "> 0" : ">= 0"));
     }
     parameters.Set(p.name, v);
   }

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "blmd/error.h"
+#include "blmd/sim/effects.h"
 
 namespace blmd {
 double ParseNumber(const std::string& text, const std::string& context) {
@@ -32,6 +33,32 @@ std::pair<std::string, double> ParseAssignment(const std::string& text, const st
   return {name, ParseNumber(value, flag + " " + name)};
 }
 
+namespace {
+
+// The flat parameter name (ParamInfo::name) of `key`, the name inside effect `effect`'s
+// object (ParamInfo::config_key: gravity's `phase` is gravity_phase). Keys that are no
+// parameter of the effect, and unknown effects, pass unchanged for Config::AddEffect to
+// refuse; a flat name that differs from its key is refused here, naming the key.
+std::string EffectParameterName(const std::string& effect, const std::string& key) {
+  for (const auto& info : EffectRegistry()) {
+    if (info.name != effect) continue;
+    std::vector<std::string> keys;
+    for (const auto& p : info.parameters) keys.push_back(p.config_key());
+    for (const auto& p : info.parameters) {
+      if (p.config_key() == key) return p.name;
+      if (p.name == key) {
+        std::string valid;
+        for (const auto& k : keys) valid += (valid.empty() ? "" : ", ") + k;
+        throw InputError("effect '" + effect + "' has no parameter '" + key + "' (did you mean '" +
+                         p.config_key() + "'?); valid: " + valid);
+      }
+    }
+  }
+  return key;
+}
+
+}  // namespace
+
 std::pair<std::string, ParameterSet> ParseEffectSpec(const std::string& text) {
   const auto colon = text.find(':');
   const std::string name = text.substr(0, colon);
@@ -45,7 +72,7 @@ std::pair<std::string, ParameterSet> ParseEffectSpec(const std::string& text) {
       const std::string item =
           rest.substr(start, comma == std::string::npos ? rest.npos : comma - start);
       const auto [key, value] = ParseAssignment(item, "--effect " + name);
-      values.Set(key, value);
+      values.Set(EffectParameterName(name, key), value);
       if (comma == std::string::npos) break;
       start = comma + 1;
     }

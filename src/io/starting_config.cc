@@ -84,7 +84,7 @@ ordered_json EffectNotes(const Model& model) {
       continue;
     ordered_json parameters = ordered_json::object();
     for (const ParamInfo& info : effect.parameters) {
-      parameters[info.name] = info.unit + ", " + info.meaning;
+      parameters[info.config_key()] = info.unit + ", " + info.meaning;
     }
     effects[effect.name] = parameters;
   }

@@ -93,7 +93,7 @@ json ModelConfigJson(const Config& config, const ParameterSet& values,
   json effects = json::object();
   for (const auto& name : config.effects) {
     json effect = json::object();
-    for (const auto& p : FindEffect(name).parameters) effect[p.name] = values.Get(p.name);
+    for (const auto& p : FindEffect(name).parameters) effect[p.config_key()] = values.Get(p.name);
     effects[name] = effect;
   }
   if (effects.empty()) {

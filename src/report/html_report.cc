@@ -606,7 +606,79 @@ void WriteSlices(Page& page, const FitProblem& problem, const std::vector<double
   h += "</div>\n";
 }
 
-void WriteDiscovery(Page& page, const DiscoveryReport& discovery) {
+// The final model's adequacy (docs/discovery.md §7): what the residual still depends on,
+// with the residual's mean against each flagged state, and the effects' stability.
+void WriteAdequacy(Page& page, const DiscoveryReport& discovery, const std::string& model) {
+  if (!discovery.has_adequacy) return;
+  const AdequacyReport& a = discovery.adequacy;
+  std::string& h = page.html();
+  h += "<h3 id=\"adequacy\">Is the final model adequate?</h3>\n";
+  if (!a.ok) {
+    h += "<p>The check could not run: " + Escape(a.reason) + "</p>\n";
+    return;
+  }
+  h += "<p class=\"adequacy\" data-adequate=\"" + std::string(a.adequate() ? "true" : "false") +
+       "\">" +
+       (a.flagged.empty()
+            ? "No structure explaining " + G(100.0 * a.min_share, 2) +
+                  " % or more of the residual's variance depends on θ, w, sign(w), u or t "
+                  "(family-wise level " +
+                  G(a.family_level, 2) + ")."
+            : "<b>" + Escape(a.StructureMessage()) + "</b>.") +
+       "</p>\n";
+  if (!a.flagged.empty()) {
+    h += "<div class=\"grid\">\n";
+    for (const StructureTest& test : a.flagged) {
+      if (test.bin_x.empty()) continue;
+      const ColumnInfo info = DescribeColumn(test.column, model);
+      LinePlotOptions plot;
+      plot.title = info.quantity + ": residual against " + test.Describe();
+      plot.x_label = test.x_label;
+      plot.x_unit = test.x_unit;
+      plot.y_label = "mean of " + test.column + " measured − simulated";
+      plot.y_unit = info.unit;
+      plot.width = page.options().plot_width;
+      plot.height = page.options().plot_height;
+      plot.id_prefix = page.NextPrefix();
+      plot.bands.push_back({"", false, 0.0, 0.0, "#444444", 1.0, ""});
+      Series means =
+          Line("residual mean per bin", test.bin_x, test.bin_mean, kAfterColour, "", 1.5);
+      means.marker_radius = 3.0;
+      page.Figure(
+          "adequacy",
+          " data-column=\"" + Escape(test.column) + "\" data-state=\"" + Escape(test.state) + "\"",
+          LinePlotSvg(plot, {means}),
+          "Mean residual of " + Escape(info.quantity) + " in bins of " + Escape(test.x_label) +
+              ": it explains " + G(100.0 * test.share, 3) +
+              " % of the residual's variance (p = " + G(test.p_value, 2) + ").");
+    }
+    h += "</div>\n";
+  }
+  h +=
+      "<details><summary>Every test of the residual</summary>\n<table class=\"adequacy-tests\">\n" +
+      HeaderRow({"column", "state", "share of variance", "p (family-wise)", "AR order", "flagged"});
+  for (const StructureTest& test : a.tests) {
+    h += Row({Escape(test.column), Escape(test.Describe()), G(100.0 * test.share, 3) + " %",
+              G(test.p_value, 3), std::to_string(test.ar_order), test.flagged ? "yes" : "no"},
+             "", {false, false, true, true, true, false});
+  }
+  h += "</table>\n</details>\n";
+  if (a.stability_checked) {
+    h += "<p>Effects across " + Escape(a.parts) + ": " +
+         (a.unstable.empty() ? std::string("stable")
+                             : "<b>unstable: " + Escape(Join(a.unstable)) + "</b>") +
+         "</p>\n<table class=\"stability\">\n" +
+         HeaderRow({"effect", "parameter", "first part", "second part", "z", "limit"});
+    for (const EffectStability& s : a.stability) {
+      h += Row({Escape(s.effect), Escape(s.parameter), G(s.first, 4), G(s.second, 4), G(s.z, 3),
+                G(s.limit, 3)},
+               s.unstable ? " class=\"unstable\"" : "", {false, false, true, true, true, true});
+    }
+    h += "</table>\n";
+  }
+}
+
+void WriteDiscovery(Page& page, const DiscoveryReport& discovery, const std::string& model) {
   std::string& h = page.html();
   page.Section("discovery", "Discovery");
   h += "<p><b>Conclusion:</b> " + Escape(discovery.conclusion) + "</p>\n";
@@ -668,6 +740,7 @@ void WriteDiscovery(Page& page, const DiscoveryReport& discovery) {
     candidates_table(steps[k].candidates, "Candidates of step " + std::to_string(k + 1));
   }
   candidates_table(discovery.last_round, "Candidates of the last round (nothing added)");
+  WriteAdequacy(page, discovery, model);
   page.EndSection();
 }
 
@@ -924,7 +997,7 @@ std::string MakeHtmlReport(const HtmlReportInputs& inputs, const HtmlReportOptio
 
   internal::WriteFrequencyResponse(page, report);
   internal::WriteStepResponse(page, report);
-  if (report.discovery) WriteDiscovery(page, *report.discovery);
+  if (report.discovery) WriteDiscovery(page, *report.discovery, report.model);
   if (report.final_model.validation) WriteValidation(page, *report.final_model.validation);
   WriteMethod(page, report.final_model);
   h += "<footer>Written by blmd-ident " + Escape(kVersion) + " on " + Escape(date) +

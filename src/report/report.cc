@@ -207,6 +207,10 @@ DiscoveryReport MakeDiscoveryReport(const FitProblem& problem, const FitResult& 
   report.ambiguous = AmbiguousGroups(result);
   report.last_round = result.last_round;
   report.conclusion = result.conclusion;
+  report.noise_floor_nrmse = result.noise_floor_nrmse;
+  report.cross_validation_parts = result.cross_validation_parts;
+  report.has_adequacy = result.adequacy.ok || !result.adequacy.reason.empty();
+  report.adequacy = result.adequacy;
   const FitProblem final_problem(result.final_config, problem.traces(), problem.observe(),
                                  NamedFreeParameters(result.final_free));
   const std::vector<double>& values = result.final_fit.values;
@@ -384,6 +388,23 @@ void AddWarnings(IdentReport* report) {
         "discovery could not tell " + effects + " apart and added neither (" + group.reason +
             "); the competing models: " + (models.empty() ? "see discovery.ambiguous" : models) +
             "; the intervals cover them");
+  }
+  if (discovery.has_adequacy && discovery.adequacy.ok && !discovery.adequacy.flagged.empty()) {
+    add("unexplained_structure",
+        discovery.adequacy.StructureMessage() +
+            ": the final model misses something that no effect of the vocabulary explains; the "
+            "values may be biased by it (discovery.adequacy)");
+  }
+  for (const std::string& effect : discovery.adequacy.unstable) {
+    std::string detail;
+    for (const auto& s : discovery.adequacy.stability) {
+      if (s.effect != effect || !s.unstable) continue;
+      detail += (detail.empty() ? "" : "; ") + s.parameter + " " + Figure(s.first, 4) +
+                " against " + Figure(s.second, 4) + " (z = " + Figure(s.z, 3) + ")";
+    }
+    add("effect_unstable", effect + "'s parameters differ between " + discovery.adequacy.parts +
+                               " beyond their intervals (" + detail +
+                               "): it may stand in for something that changes over the record");
   }
   const ErrorFigures& before = discovery.validation_before;
   const ErrorFigures& after = discovery.validation_after;

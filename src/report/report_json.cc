@@ -272,6 +272,11 @@ json CandidatesJson(const std::vector<CandidateOutcome>& outcomes) {
         c["noise_model"] = noise;
       }
       c["nrmse"] = Number(o.nrmse);
+      if (o.explained_share >= 0.0) c["explained_share"] = Number(o.explained_share);
+      if (o.cross_validated) {
+        c["cross_validated_nrmse"] = {{"before", Number(o.cv_before)},
+                                      {"after", Number(o.cv_after)}};
+      }
       c["parameters"] = NumberMap(o.parameters);
     }
     if (!o.reason.empty()) c["reason"] = o.reason;
@@ -372,6 +377,58 @@ void to_json(json& out, const ResidualAnalysis& analysis) {
   out["columns"] = columns;
 }
 
+json AdequacyJson(const AdequacyReport& a) {
+  json out = json::object();
+  out["ok"] = a.ok;
+  if (!a.ok) {
+    out["failed"] = a.reason;
+    return out;
+  }
+  out["adequate"] = a.adequate();
+  out["family_level"] = Number(a.family_level);
+  out["min_share"] = Number(a.min_share);
+  auto test_json = [](const StructureTest& t) {
+    json j = {{"state", t.state},       {"column", t.column},     {"regressors", t.regressors},
+              {"f", Number(t.f)},       {"p", Number(t.p_value)}, {"share", Number(t.share)},
+              {"ar_order", t.ar_order}, {"flagged", t.flagged}};
+    if (t.state == "t (periodic)") {
+      j["frequency_hz"] = Number(t.frequency_hz);
+      if (t.input_harmonic > 0) j["input_harmonic"] = t.input_harmonic;
+    }
+    if (t.state == "theta (periodic)") j["order_per_rev"] = t.order;
+    return j;
+  };
+  json tests = json::array();
+  for (const auto& t : a.tests) tests.push_back(test_json(t));
+  out["tests"] = tests;
+  json flagged = json::array();
+  for (const auto& t : a.flagged) flagged.push_back(t.Describe());
+  out["depends_on"] = flagged;
+  json stability = json::object();
+  stability["checked"] = a.stability_checked;
+  if (!a.stability_checked) {
+    stability["reason"] = a.stability_reason;
+  } else {
+    stability["parts"] = a.parts;
+    json parameters = json::array();
+    for (const auto& s : a.stability) {
+      parameters.push_back({{"effect", s.effect},
+                            {"parameter", s.parameter},
+                            {"first", Number(s.first)},
+                            {"second", Number(s.second)},
+                            {"first_std", Number(s.first_std)},
+                            {"second_std", Number(s.second_std)},
+                            {"z", Number(s.z)},
+                            {"limit", Number(s.limit)},
+                            {"unstable", s.unstable}});
+    }
+    stability["parameters"] = parameters;
+    stability["unstable"] = a.unstable;
+  }
+  out["stability"] = stability;
+  return out;
+}
+
 void to_json(json& out, const DiscoveryReport& d) {
   out = json::object();
   out["added"] = d.added;
@@ -399,6 +456,9 @@ void to_json(json& out, const DiscoveryReport& d) {
   out["intervals_after"] = Intervals(d.parameters_after);
   out["effects_after"] = d.effects_after;
   out["residual_after"] = d.residual_after;
+  out["noise_floor"] = Number(d.noise_floor_nrmse);
+  if (!d.cross_validation_parts.empty()) out["cross_validation_parts"] = d.cross_validation_parts;
+  if (d.has_adequacy) out["adequacy"] = AdequacyJson(d.adequacy);
   if (d.has_validation) {
     out["validation"] = {{"before", d.validation_before}, {"after", d.validation_after}};
     if (d.equation_error)

@@ -223,6 +223,7 @@ IdentRequest MakeIdentRequest(Config config_in, const std::string& config_path,
   options.verbose = settings.verbose;
   request.discover = settings.discover;
   request.discovery.bic_margin = settings.bic_margin;
+  request.discovery.min_explained_share = settings.min_share;
   request.discovery.max_effects = settings.max_effects;
   return request;
 }

@@ -120,6 +120,31 @@ void Discovery(const IdentReport& report, std::ostringstream& out) {
     }
     out << "\n";
   }
+  // What is left: the final residual's whiteness and the adequacy check (docs/discovery.md §7).
+  const ResidualAnalysis& left = d.residual_after;
+  if (left.ok && std::isfinite(left.whiteness_p)) {
+    out << "  final residual: Ljung-Box p = " << Figure(left.whiteness_p, 3)
+        << (left.white ? " (white)" : " (not white)");
+    if (d.has_adequacy && d.adequacy.ok) {
+      out << "; adequacy: "
+          << (d.adequacy.flagged.empty()
+                  ? "no structure above " + Figure(100.0 * d.adequacy.min_share, 2) +
+                        " % of its variance depends on theta, w, sign(w), "
+                        "u or t"
+                  : d.adequacy.StructureMessage());
+    }
+    out << "\n";
+  }
+  if (d.has_adequacy && d.adequacy.stability_checked) {
+    out << "  effects across " << d.adequacy.parts << ": "
+        << (d.adequacy.unstable.empty() ? std::string("stable")
+                                        : "UNSTABLE: " + Join(d.adequacy.unstable))
+        << "\n";
+  }
+  for (const auto& o : d.last_round) {
+    if (o.reason.rfind("tried, not needed", 0) == 0)
+      out << "  " << o.effect << ": " << o.reason << "\n";
+  }
   if (!d.added.empty()) {
     out << "  parameters before discovery:";
     for (const auto& [name, p] : before.parameters)

@@ -277,7 +277,7 @@ json ClosedLoopConfigJson(const TuneInput& input, const TuneRequest& request,
   for (const auto& name : config.effects) {
     json effect = json::object();
     for (const auto& p : FindEffect(name).parameters)
-      effect[p.name] = config.parameters.Get(p.name);
+      effect[p.config_key()] = config.parameters.Get(p.name);
     effects[name] = effect;
   }
   if (effects.empty()) {

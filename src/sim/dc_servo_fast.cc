@@ -178,9 +178,9 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
   double record_at = next_record_time();
 
   bool linear = plain_shaft && drive.Vdt == 0.0 && !closed_loop;  // macro steps allowed
-  // Coulomb friction alone (no Stribeck, smoothing, drag or cogging), open loop, no dead time:
-  // while the shaft turns one way the friction is the constant +-Tc, the model linear again,
-  // and macro steps apply over any stretch in which w provably keeps its sign. The proof
+  // Coulomb friction alone (no Stribeck, smoothing, drag, cogging, spring or gravity), open loop,
+  // no dead time: while the shaft turns one way the friction is the constant +-Tc, the model linear
+  // again, and macro steps apply over any stretch in which w provably keeps its sign. The proof
   // needs the (i, w) block's eigenvalues real and positive (an overdamped armature-shaft
   // pair; Ad = exp(A dt) of real eigenvalues): then w's step-to-step change under a constant
   // input is c1 l1^k + c2 l2^k, which changes sign at most once, so when the first and last
@@ -188,7 +188,7 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
   // stretch having the start's sign means every step in between has it too.
   const double block_trace = a00 + a11, block_det = a00 * a11 - a01 * a10;
   bool coulomb_macro = shaft.Tc > 0.0 && shaft.Ts == 0.0 && shaft.smoothing_w <= 0.0 &&
-                       shaft.Tcog == 0.0 && shaft.Cd == 0.0 && shaft.dB == 0.0 &&
+                       !shaft.position_dependent() && shaft.Cd == 0.0 && shaft.dB == 0.0 &&
                        drive.Vdt == 0.0 && !closed_loop && theta_decoupled && block_trace > 0.0 &&
                        block_det > 0.0 && block_trace * block_trace - 4.0 * block_det >= 0.0;
   const long total_steps = std::lround((times.back() - t_start) / dt) + 1;

@@ -8,8 +8,9 @@ namespace blmd {
 namespace {
 
 ParamInfo P(std::string name, std::string unit, std::string meaning, bool positive,
-            bool non_negative, double lower, double upper) {
+            bool non_negative, double lower, double upper, std::string key = "") {
   ParamInfo info;
+  info.key = std::move(key);
   info.name = std::move(name);
   info.unit = std::move(unit);
   info.meaning = std::move(meaning);
@@ -49,6 +50,16 @@ std::vector<EffectInfo> MakeRegistry() {
        {P("Vdt", "V", "drive voltage lost to inverter blanking", false, true, 0.0, 50.0)},
        "u_eff = u - Vdt sign(i)",
        {"dc_servo"}},
+      // The flat name of gravity's phase is gravity_phase: cogging owns `phase`. Inside the
+      // gravity object of a config and in --effect it is `phase` (ParamInfo::key).
+      {"gravity",
+       {P("Tg", "N·m", "gravity torque amplitude (unbalanced arm or pendulum: m g l)", false, true,
+          0.0, 100.0),
+        P("gravity_phase", "rad", "gravity phase (stable equilibrium at theta = -phase)", false,
+          false, -3.14159265358979, 3.14159265358979, "phase")},
+       "T = -Tg sin(theta + phase) on the shaft (T_effects = Tg sin(theta + phase))",
+       all,
+       /*position_dependent=*/true},
       {"load_torque",
        {P("TL", "N·m", "constant load torque opposing positive motion", false, false, -100.0,
           100.0)},
@@ -58,6 +69,12 @@ std::vector<EffectInfo> MakeRegistry() {
        {P("Cd", "N·m·s²/rad²", "quadratic (fan, windage) drag coefficient", false, true, 0.0, 1.0)},
        "T = Cd w |w|",
        all},
+      {"spring",
+       {P("K", "N·m/rad", "torsional spring stiffness", false, true, 0.0, 1e4),
+        P("theta0", "rad", "spring rest angle", false, false, -1e4, 1e4)},
+       "T = -K (theta - theta0) on the shaft (T_effects = K (theta - theta0))",
+       all,
+       /*position_dependent=*/true},
       {"stribeck",
        {P("Ts", "N·m", "extra breakaway friction at rest", false, true, 0.0, 10.0),
         P("ws", "rad/s", "Stribeck velocity", true, false, 1e-3, 1e3)},
@@ -114,6 +131,14 @@ ShaftEffects ShaftEffects::From(const ParameterSet& values, const std::vector<st
     shaft.Tcog = values.Get("Tcog");
     shaft.cog_periods = values.Get("periods");
     shaft.cog_phase = values.Get("phase");
+  }
+  if (on("spring")) {
+    shaft.K = values.Get("K");
+    shaft.theta0 = values.Get("theta0");
+  }
+  if (on("gravity")) {
+    shaft.Tg = values.Get("Tg");
+    shaft.gravity_phase = values.Get("gravity_phase");
   }
   return shaft;
 }

@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "blmd/ident/adequacy.h"
 #include "blmd/ident/diagnostics.h"
 #include "blmd/ident/optimizer.h"
 #include "blmd/ident/problem.h"
@@ -49,6 +50,19 @@ struct DiscoveryOptions {
   // for comparison in the studies of docs/discovery.md).
   bool prewhiten = true;
   double held_out_margin = 0.01;
+  // The stopping rule (docs/discovery.md §3b). Materiality: a candidate must explain at
+  // least this share of what the current model leaves above the noise floor,
+  //   (NRMSE_before^2 - NRMSE_after^2) / (NRMSE_before^2 - floor^2),
+  // the floor from the measured columns' second differences (NoiseFloor, adequacy.h).
+  double min_explained_share = 0.10;
+  // Generalisation without held-out traces: the record is cut in two (record_parts.h), the
+  // model with and without the candidate fitted on each part and scored on the other; the
+  // pooled cross-validated NRMSE must fall by more than `held_out_margin`. false: skip it
+  // (the evidence alone decides, as before version 0.3).
+  bool cross_validate = true;
+  // The model-adequacy check on the final model (adequacy.h); false: skip it.
+  bool check_adequacy = true;
+  AdequacyOptions adequacy;
 };
 
 struct CandidateOutcome {
@@ -70,6 +84,17 @@ struct CandidateOutcome {
   bool held_out_better = true;
   std::string evidence_rule;  // "prewhitened_bic" or "held_out" (docs/discovery.md)
   double nrmse = 0.0;
+  // The stopping rule: the share of what was left above the noise floor that the candidate
+  // explains (negative: not computed), and whether it clears DiscoveryOptions'
+  // min_explained_share.
+  double explained_share = -1.0;
+  bool material = true;
+  // Block cross-validation (when computed): the pooled NRMSE on the part not fitted, of
+  // the current model and of the model with the candidate, and whether it fell by more
+  // than the margin.
+  bool cross_validated = false;
+  double cv_before = 0.0, cv_after = 0.0;
+  bool generalises = true;
   std::map<std::string, double> parameters;  // the effect's fitted parameters
   // Every free parameter of the model with this effect (J, B, ... and the effect's), as
   // refit: what an ambiguous round reports for each competing model.
@@ -99,6 +124,13 @@ struct DiscoveryResult {
   std::vector<FreeParameter> final_free_parameters;  // with the bounds discovery fitted them in
   FitResult final_fit;
   double bic_initial = 0.0;
+  // The noise floor of the measured columns in NRMSE units (sqrt of the mean over columns
+  // of sigma_c^2 / Var_c; NoiseFloor), what the stopping rule measures shares against.
+  double noise_floor_nrmse = 0.0;
+  std::string cross_validation_parts;  // how the record was cut for the cross-validation
+  // The final model's adequacy: what its residual still depends on, and whether the added
+  // effects' parameters hold still across the record (adequacy.h).
+  AdequacyReport adequacy;
 };
 
 // BIC of `evaluation` for `k` free parameters (see above).

@@ -47,6 +47,8 @@ struct Config {
   nlohmann::json document;
 
   // Adds an effect that the config does not declare (blmd-sim --effect); throws InputError.
+  // `values` holds all its parameters by their flat names or by their keys inside the
+  // effect's object (gravity_phase or `phase` for gravity).
   void AddEffect(const std::string& effect, const ParameterSet& values);
   // Lower/upper bound of a parameter: explicit, else the documented default.
   std::pair<double, double> Bounds(const std::string& parameter) const;

@@ -18,7 +18,8 @@ std::pair<std::string, double> ParseAssignment(const std::string& text, const st
 // "NAME=TEXT"; throws InputError naming the flag.
 std::pair<std::string, std::string> ParseTextAssignment(const std::string& text,
                                                         const std::string& flag);
-// "coulomb_friction:Tc=0.01[,KEY=VALUE...]" -> effect name and its values.
+// "coulomb_friction:Tc=0.01[,KEY=VALUE...]" -> effect name and its values, keyed by the
+// parameters' flat names ("gravity:Tg=1,phase=0.3" sets Tg and gravity_phase).
 std::pair<std::string, ParameterSet> ParseEffectSpec(const std::string& text);
 // "J,B" -> {"J","B"} (empty items rejected).
 std::vector<std::string> ParseNameList(const std::string& text, const std::string& flag);

@@ -138,6 +138,12 @@ struct DiscoveryReport {
   bool equation_error = false;
   std::optional<SimulatedFit> simulated_after, validation_simulated_after;
   ModelReport before;  // the first fit (the headline is the final model)
+  // The stopping rule's noise floor (NRMSE units) and how the record was cut for its
+  // cross-validation; the final model's adequacy (adequacy.h).
+  double noise_floor_nrmse = 0.0;
+  std::string cross_validation_parts;
+  bool has_adequacy = false;
+  AdequacyReport adequacy;
 };
 
 struct Warning {

@@ -91,6 +91,7 @@ struct IdentSettings {
   int max_evaluations = 0;  // 0: the method's default
   bool verbose = false, discover = false;
   double bic_margin = 10.0;
+  double min_share = 0.10;  // discovery's stopping rule (DiscoveryOptions::min_explained_share)
   int max_effects = 3;
   ErrorSettings error;
   TraceSettings preparation;

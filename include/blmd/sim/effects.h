@@ -9,6 +9,14 @@
 //             + Cd w |w|                                  (quadratic_drag)
 //             + dB |w|                                    (asymmetric_viscous)
 //             + Tcog sin(periods theta + phase)           (cogging)
+//             + K (theta - theta0)                        (spring: the torque -K (theta - theta0))
+//             + Tg sin(theta + gravity_phase)             (gravity: the torque -Tg sin(...))
+//
+// spring and gravity act on the shaft as -K (theta - theta0) and -Tg sin(theta + phase):
+// restoring torques, so their T_effects (subtracted) are the opposite signs above. A spring
+// pulls the shaft back to theta0; gravity (an unbalanced arm, a pendulum) to the angle where
+// theta + phase = 0 (its stable equilibrium). Both act at rest too; static friction can hold
+// them like a load.
 //
 // asymmetric_viscous makes the viscous damping depend on the direction: with B w it gives
 // B+ = B + dB turning forwards (w > 0) and B- = B - dB backwards (physically valid while
@@ -38,8 +46,8 @@ struct EffectInfo {
   std::vector<ParamInfo> parameters;
   std::string equation;             // as in docs/effects.md
   std::vector<std::string> models;  // models that support it
-  // Its torque depends on the shaft angle (cogging): discovery fits it at the measured angle
-  // (docs/discovery.md, "Cogging: the measured angle").
+  // Its torque depends on the shaft angle (cogging, spring, gravity): discovery fits it at the
+  // measured angle (docs/discovery.md, "Cogging: the measured angle").
   bool position_dependent = false;
 };
 
@@ -51,26 +59,35 @@ bool IsEffectParameter(const std::string& parameter, std::string* effect_name = 
 
 // Hot-loop view of the enabled shaft effects, unpacked once per simulation.
 struct ShaftEffects {
-  double Tc = 0.0;           // Coulomb friction, N·m
-  double Ts = 0.0;           // Stribeck extra breakaway torque, N·m
-  double ws = 1.0;           // Stribeck velocity, rad/s
-  double TL = 0.0;           // constant load torque, N·m (opposes positive motion)
-  double Cd = 0.0;           // quadratic drag, N·m·s²/rad²
-  double dB = 0.0;           // direction-dependent viscous damping, N·m·s/rad (B± = B ± dB)
-  double Tcog = 0.0;         // cogging amplitude, N·m
-  double cog_periods = 0.0;  // cogging periods per shaft revolution
-  double cog_phase = 0.0;    // cogging phase, rad
-  double smoothing_w = 0.0;  // rad/s; > 0: tanh(w/eps) friction without sticking
+  double Tc = 0.0;             // Coulomb friction, N·m
+  double Ts = 0.0;             // Stribeck extra breakaway torque, N·m
+  double ws = 1.0;             // Stribeck velocity, rad/s
+  double TL = 0.0;             // constant load torque, N·m (opposes positive motion)
+  double Cd = 0.0;             // quadratic drag, N·m·s²/rad²
+  double dB = 0.0;             // direction-dependent viscous damping, N·m·s/rad (B± = B ± dB)
+  double Tcog = 0.0;           // cogging amplitude, N·m
+  double cog_periods = 0.0;    // cogging periods per shaft revolution
+  double cog_phase = 0.0;      // cogging phase, rad
+  double K = 0.0;              // spring stiffness, N·m/rad
+  double theta0 = 0.0;         // spring rest angle, rad
+  double Tg = 0.0;             // gravity torque amplitude (arm's m g l), N·m
+  double gravity_phase = 0.0;  // gravity phase, rad (stable equilibrium at theta = -phase)
+  double smoothing_w = 0.0;    // rad/s; > 0: tanh(w/eps) friction without sticking
 
   bool has_friction() const { return Tc > 0.0 || Ts > 0.0; }
 
   static ShaftEffects From(const ParameterSet& values, const std::vector<std::string>& enabled,
                            double smoothing_w);
 
-  // Torques other than friction (load, cogging), in the T_effects sense.
+  // True when a torque depends on the shaft angle (cogging, spring, gravity).
+  bool position_dependent() const { return Tcog != 0.0 || K != 0.0 || Tg != 0.0; }
+
+  // Torques other than friction (load, cogging, spring, gravity), in the T_effects sense.
   double NonFrictionTorque(double theta) const {
     double torque = TL;
     if (Tcog != 0.0) torque += Tcog * std::sin(cog_periods * theta + cog_phase);
+    if (K != 0.0) torque += K * (theta - theta0);
+    if (Tg != 0.0) torque += Tg * std::sin(theta + gravity_phase);
     return torque;
   }
   // Speed-dependent torques besides B w: quadratic drag and the asymmetric viscous part.

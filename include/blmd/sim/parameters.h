@@ -23,6 +23,12 @@ struct ParamInfo {
   // A plausible value, in `unit`, for a model's starting config (blmd-sim --init-config,
   // io/starting_config.h); 0 for effects' parameters, which carry none.
   double typical = 0.0;
+  // An effect's parameter: its name inside the effect's config object and in blmd-sim
+  // --effect when that differs from `name`, the flat name used everywhere else (free,
+  // initial, bounds, reports). Gravity's `phase` is `gravity_phase` in the flat namespace,
+  // where cogging owns `phase` (docs/effects.md). Empty: the same as `name`.
+  std::string key;
+  const std::string& config_key() const { return key.empty() ? name : key; }
 };
 
 // Ordered name -> value map. Small (tens of entries): linear look-up is fine,
