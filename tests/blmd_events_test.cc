@@ -186,6 +186,17 @@ TEST(BlmdEvents, EveryFeatureIsCloserToTheFineFixedStepThanTheDefaultStep) {
       // Small currents: a 0.1 V demand keeps the phases near zero current, so blanked phases
       // open often.
       {"small_demand", [](Config* c) { c->experiment.input.amplitude = 0.1; }},
+      // The angle-dependent effects of issue 24 (spring and gravity) through ShaftEffects:
+      // the shaft swings about the spring's and the arm's equilibrium.
+      {"spring_gravity",
+       [](Config* c) {
+         c->effects.push_back("spring");
+         c->parameters.Set("K", 0.5);
+         c->parameters.Set("theta0", 0.2);
+         c->effects.push_back("gravity");
+         c->parameters.Set("Tg", 0.3);
+         c->parameters.Set("gravity_phase", 0.4);
+       }},
       // A chirp 10 Hz -> 1 kHz over 30 ms (a continuous demand, linear over a segment).
       {"chirp",
        [](Config* c) {
