@@ -621,22 +621,7 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
           ScreenCandidate(*current_problem, current_fit.values, plans[k], current_bic, progress);
       if (progress) progress->StepDone();
     });
-    // The screening score is the evidence the refit will be judged by: the BIC on
-    // prewhitened residuals (evidence.h) where it can be computed. Counting every sample,
-    // candidates that bend the simulation slowly (an offset, a drag) scored twice what a
-    // cogging ripple did on a trace whose truth is the cogging, and it was never refit
-    // (issue 24: Coulomb friction beside cogging).
     const RoundBase round_base = MakeRoundBase(*current_problem, current_fit.values, options);
-    if (!round_base.residuals.empty()) {
-      parallel(all, [&](std::size_t k) {
-        CandidateRun& run = runs[k];
-        if (run.screen_values.empty() || !std::isfinite(run.screen_bic)) return;
-        const FitProblem model(run.config, problem.traces(), problem.observe(), run.free);
-        const WhitenedEvidence evidence = PrewhitenedEvidence(
-            round_base.residuals, current_problem->num_free(), model, run.screen_values);
-        if (evidence.ok) run.screen_bic = evidence.delta_bic;
-      });
-    }
     // Refit the most promising candidates by their screening BIC (deterministic order).
     // Only candidates whose screening already lowers BIC are worth a full refit.
     std::vector<std::size_t> screened;
@@ -646,8 +631,18 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     std::stable_sort(screened.begin(), screened.end(), [&](std::size_t l, std::size_t r) {
       return runs[l].screen_bic < runs[r].screen_bic;
     });
-    if (screened.size() > static_cast<std::size_t>(options.refits))
-      screened.resize(static_cast<std::size_t>(options.refits));
+    // The best `refits`, and every position-dependent candidate (cogging, gravity, spring)
+    // whose screening lowers BIC: their screening is the least reliable (a narrow
+    // free-running basin around the measured-angle fit), and behind slow candidates that
+    // bend the simulation a little everywhere a cogging ripple was never refit (issue 24:
+    // Coulomb friction beside cogging, gravity added in its place).
+    std::vector<std::size_t> refit;
+    for (std::size_t q = 0; q < screened.size(); ++q) {
+      if (q < static_cast<std::size_t>(options.refits) ||
+          FindEffect(plans[screened[q]].effect).position_dependent)
+        refit.push_back(screened[q]);
+    }
+    screened = refit;
     if (progress && !screened.empty())
       progress->BeginStage(round_name + ": refits", static_cast<int>(screened.size()));
     parallel(screened, [&](std::size_t k) {
@@ -698,6 +693,16 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
             problem.traces(), problem.observe(), current_fit.values, options.refit);
       }
       if (!base_cv->ok) break;  // nothing to compare with: the evidence alone decides
+      // Parts that do not predict each other even with the current model (a cross-validated
+      // NRMSE over twice the fitted one) cannot judge a candidate: the evidence alone decides,
+      // and the report says why (cross_validation_parts).
+      if (!(base_cv->nrmse <= 2.0 * round_base.nrmse)) {
+        result.cross_validation_parts += " (not used in round " + std::to_string(round + 1) +
+                                         ": the parts predict each other with NRMSE " +
+                                         G(base_cv->nrmse) + " against " + G(round_base.nrmse) +
+                                         " fitted)";
+        break;
+      }
       if (progress) progress->BeginStage(round_name + ": cross-validating " + o.effect, 0);
       const CrossValidation cv =
           BlockCrossValidate(run.config, StartingAt(run.free, run.fit.values), problem.traces(),

@@ -358,15 +358,16 @@ CandidatePlan PlanStribeck(const PlanContext& context) {
     for (double g : {0.003, 0.01, 0.03, 0.1}) plan.starts.push_back({f * T, g * w_max});
   }
   plan.amplitude = "Ts";
-  // A Stribeck friction is a dip of the friction at low speed: its speed ws must lie well
-  // inside the speeds the record covers (at most a third of the largest), or the curve only
-  // reshapes a Coulomb friction over the whole range (issue 24: ws of 100-270 rad/s named on
-  // traces with Coulomb friction and cogging).
+  // A Stribeck friction is a dip of the friction at low speed: the record must show the
+  // friction settle on its Coulomb plateau after it, exp(-(w_max/ws)^2) <= exp(-4) (the
+  // Stribeck part below 2 % of Ts at the top speed), i.e. ws <= w_max / 2; a larger ws only
+  // reshapes a Coulomb friction over the whole range (issue 24: ws of 0.54-0.63 w_max named
+  // on traces with Coulomb friction and cogging).
   plan.constraint = [w_max](const ParameterSet& p) -> std::string {
     const double ws = p.Get("ws");
-    if (ws <= w_max / 3.0) return "";
-    return "ws = " + G(ws) + " rad/s is not well inside the speed range (at most a third of " +
-           G(w_max) + " rad/s): no Stribeck dip in these data";
+    if (ws <= 0.5 * w_max) return "";
+    return "ws = " + G(ws) + " is not well inside the speed range (at most half of " + G(w_max) +
+           ", where the curve reaches its Coulomb plateau): no Stribeck dip in these data";
   };
   return plan;
 }

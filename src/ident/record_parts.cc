@@ -24,11 +24,13 @@ RecordParts SplitRecord(const FitProblem& problem, const std::vector<double>& va
   RecordParts parts;
   const std::vector<FitTrace>& traces = problem.traces();
   if (traces.size() >= 2) {
-    const std::size_t half = traces.size() / 2;
-    parts.first.assign(traces.begin(), traces.begin() + static_cast<long>(half));
-    parts.second.assign(traces.begin() + static_cast<long>(half), traces.end());
-    parts.description = "traces 1-" + std::to_string(half) + " and " + std::to_string(half + 1) +
-                        "-" + std::to_string(traces.size());
+    // Alternate traces: runs are often recorded in order of speed or direction, and each
+    // part should span them (the first half against the second asked the model to
+    // extrapolate: on the ODrive spin-ups the cross-validated NRMSE was 19 against 0.78 fitted).
+    for (std::size_t k = 0; k < traces.size(); ++k) {
+      (k % 2 == 0 ? parts.first : parts.second).push_back(traces[k]);
+    }
+    parts.description = "the odd and the even traces";
     parts.ok = true;
     return parts;
   }

@@ -17,7 +17,8 @@ struct RecordParts {
   std::vector<FitTrace> first, second;
 };
 
-// With two or more traces: the first half of the traces and the rest. With one trace: its
+// With two or more traces: the odd and the even traces (1, 3, 5, ... and 2, 4, ...). With one
+// trace: its
 // first and second halves in time; the second half starts from the model's simulated state
 // at `values` at its first sample (measured i, w, theta only where the model cannot be
 // simulated: the equation error). Each part keeps at least 50 samples.
