@@ -750,10 +750,36 @@ void ReadSimulation(const Reader& reader, const json& root, Config* out) {
   if (root.contains("simulation")) {
     const json& sim = root["simulation"];
     reader.RequireObject(sim, "/simulation");
-    reader.CheckKeys(
-        sim, "/simulation",
-        {"dt", "regula_falsi", "friction_smoothing_w", "diagnostics", "divergence_limit"});
+    reader.CheckKeys(sim, "/simulation",
+                     {"dt", "method", "max_step", "regula_falsi", "friction_smoothing_w",
+                      "diagnostics", "divergence_limit"});
     if (sim.contains("dt")) config.simulation.dt = reader.Positive(sim["dt"], "/simulation/dt");
+    if (sim.contains("method")) {
+      const std::string name = reader.String(sim["method"], "/simulation/method");
+      std::string valid;
+      bool found = false;
+      for (const auto& [method_name, method] : SimulationMethods()) {
+        valid += (valid.empty() ? "" : ", ") + method_name;
+        if (method_name == name) {
+          config.simulation.method = method;
+          found = true;
+        }
+      }
+      if (!found) {
+        reader.Fail("/simulation/method",
+                    "unknown simulation method '" + name + "' (valid: " + valid + ")");
+      }
+      if (config.simulation.method == SimulationMethod::kEvents &&
+          !model.traits().event_integrator) {
+        reader.Fail("/simulation/method",
+                    "simulation method 'events' is implemented for model "
+                    "blmd only (valid for " +
+                        std::string(model.name()) + ": fixed_euler)");
+      }
+    }
+    if (sim.contains("max_step")) {
+      config.simulation.max_step = reader.Positive(sim["max_step"], "/simulation/max_step");
+    }
     if (sim.contains("regula_falsi")) {
       config.simulation.regula_falsi = reader.Bool(sim["regula_falsi"], "/simulation/regula_falsi");
     }

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "blmd/sim/effects.h"
+#include "sim/blmd_events.h"
 #include "sim/blmd_legs.h"
 #include "sim/sampler.h"
 
@@ -250,6 +251,7 @@ ModelTraits BlmdDriveModel::traits() const {
   traits.default_duration = 0.16;
   traits.default_sample_rate = 50000.0;
   traits.default_observe = {"i"};
+  traits.event_integrator = true;
   return traits;
 }
 
@@ -262,6 +264,9 @@ std::string BlmdDriveModel::Validate(const ParameterSet& values,
     return "Tpwm/2 must be a whole number (>= 2) of simulation steps dt";
   }
   if (values.Get("delta") >= half_period) return "delta must be shorter than Tpwm/2";
+  if (settings.method == SimulationMethod::kEvents) {
+    return internal::EventsUnsupported(values.Get("Tz"), values.Get("Tp"));
+  }
   return {};
 }
 

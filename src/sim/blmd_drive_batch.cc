@@ -129,6 +129,7 @@ bool SameRun(const SimulationRequest& a, const SimulationRequest& b) {
          a.settings.regula_falsi == b.settings.regula_falsi &&
          a.settings.friction_smoothing_w == b.settings.friction_smoothing_w &&
          a.settings.diagnostics == b.settings.diagnostics &&
+         a.settings.method == b.settings.method && a.settings.max_step == b.settings.max_step &&
          a.settings.divergence_limit == b.settings.divergence_limit &&
          a.settings.effect_angle == nullptr && b.settings.effect_angle == nullptr;
 }
@@ -193,7 +194,10 @@ void BlmdDriveModel::SimulateBatch(const SimulationRequest* requests, std::size_
                                    Trace* outs, SimStatus* statuses) const {
   bool shared = count > 1;
   for (std::size_t k = 1; shared && k < count; ++k) shared = SameRun(requests[0], requests[k]);
+  // The events method (docs/model-blmd.md §9) runs each point on its own: its segments end
+  // at each point's own switching instants, so points cannot share a lock-step.
   if (!shared || requests[0].sample_times->empty() ||
+      requests[0].settings.method == SimulationMethod::kEvents ||
       internal::ChosenBatchIsa() == internal::BatchIsa::kScalar) {
     Model::SimulateBatch(requests, count, outs, statuses);
     return;

@@ -15,6 +15,7 @@
 
 #include "blmd/sim/blmd_drive.h"
 #include "blmd/sim/effects.h"
+#include "sim/blmd_events.h"
 #include "sim/blmd_legs.h"
 #include "sim/plain_shaft.h"
 #include "sim/sampler.h"
@@ -289,6 +290,9 @@ SimulateFast(const BlmdDriveModel& model, const SimulationRequest& request, Trac
 }  // namespace
 
 SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out) const {
+  if (request.settings.method == SimulationMethod::kEvents) {
+    return internal::SimulateBlmdEvents(*this, request, out);
+  }
   if (internal::ForcedEffectAngle(request.settings)) return SimulateReference(request, out);
   return SimulateFast(*this, request, out);
 }

@@ -51,6 +51,9 @@ struct ModelTraits {
   // A config's experiment without a duration (s) or sample rate (Hz) gets these.
   double default_duration = 1.0;
   double default_sample_rate = 10000.0;
+  // simulation.method "events" (the switching instants located, docs/model-blmd.md §9) is
+  // implemented; otherwise only "fixed_euler".
+  bool event_integrator = false;
   // The observed columns when the config's identification names none.
   std::vector<std::string> default_observe;
 };
