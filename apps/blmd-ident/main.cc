@@ -63,7 +63,7 @@ struct IdentFlags {
     app.add_option("--min-share", min_share,
                    "discovery: share of the residual above the noise floor an effect must "
                    "explain (default 0.1)")
-        ->check(CLI::Range(0.0, 1.0));
+        ->check(blmd::app::ShareNumber());
     app.add_option("--max-effects", max_effects, "discovery: most effects to add (default 3)")
         ->check(CLI::Range(1, 20));
     app.add_option("--candidates", candidates_text,

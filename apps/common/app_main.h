@@ -85,6 +85,24 @@ inline CLI::Validator PositiveNumber() {
       "X>0");
 }
 
+// A share: a number in [0, 1], the message as the Python package's.
+inline CLI::Validator ShareNumber() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        std::size_t used = 0;
+        double value = 0.0;
+        try {
+          value = std::stod(text, &used);
+        } catch (const std::exception&) {
+        }
+        if (used != text.size() || !(value >= 0.0 && value <= 1.0)) {
+          return "must be a number in [0, 1], not " + text;
+        }
+        return {};
+      },
+      "0<=X<=1");
+}
+
 // What went to standard output (the summary, --json, --help) must have arrived: a full disk
 // or a closed pipe is a failure, not a success (issue 18). Returns `code`, or kExitFailed
 // with one line on stderr.

@@ -353,7 +353,7 @@ CandidatePlan PlanAsymmetricViscous(const PlanContext& context) {
 CandidatePlan PlanStribeck(const PlanContext& context) {
   CandidatePlan plan;
   const double T = context.torque_scale, w_max = context.w_max;
-  plan.free = {Free("Ts", 0.0, T), Free("ws", 1e-3 * w_max, 0.5 * w_max, true)};
+  plan.free = {Free("Ts", 0.0, T), Free("ws", 1e-3 * w_max, w_max, true)};
   for (double f : {0.01, 0.03, 0.1, 0.3}) {
     for (double g : {0.003, 0.01, 0.03, 0.1}) plan.starts.push_back({f * T, g * w_max});
   }
