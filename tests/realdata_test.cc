@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 #include <string>
 #include <tuple>
@@ -190,12 +191,12 @@ TEST_F(Emps, MassAndViscousFrictionAloneAbsorbTheFriction) {
 }
 
 TEST_F(Emps, MassWithinTwoPercentOfTheReference) {
-  // Measured: 94.110 kg (-1.05 %) with the benchmark's structure, 93.229 kg (-1.98 %) with
-  // what open discovery adds; with the asymmetric viscous friction 93.084 kg (-2.13 %, see
+  // Measured: 94.110 kg (-1.05 %) with the benchmark's structure, 93.280 kg (-1.93 %) with
+  // what open discovery adds; with the asymmetric viscous friction 93.000 kg (-2.22 %, see
   // Emps.OneModelMeetsTheMassAndViscousCriteriaTogether).
   EXPECT_NEAR(After(*idm_, "J"), 94.110, 0.1);
-  EXPECT_NEAR(After(*open_, "J"), 93.229, 0.1);
-  EXPECT_NEAR(After(*asym_, "J"), 93.084, 0.1);
+  EXPECT_NEAR(After(*open_, "J"), 93.280, 0.1);
+  EXPECT_NEAR(After(*asym_, "J"), 93.000, 0.1);
   for (const nlohmann::json* report : {idm_, open_}) {
     EXPECT_LE(std::abs(After(*report, "J") / kEmpsM - 1.0), 0.02);
     ExpectIntervalAround(*report, "J");
@@ -301,21 +302,26 @@ TEST_F(Emps, DiscoveryAddsCoulombFrictionAndTheOffset) {
   }
 }
 
-TEST_F(Emps, OpenDiscoveryByEquationErrorPrefersStribeckFrictionToo) {
-  // Over the whole vocabulary the equation error makes the output error's choice: a friction
-  // fading with speed (Stribeck, ws = 0.124 m/s) beats Coulomb friction in round 1 by 29.7
-  // (BIC), and the asymmetric viscous friction follows; the constant force is then not
-  // significant. Its simulated w NRMSE is 0.018 (fit) and 0.055 (pulses record), against
-  // 0.050 and 0.073 for the benchmark's structure.
+TEST_F(Emps, OpenDiscoveryByEquationErrorRefusesAStribeckCurveWithoutAPlateau) {
+  // Over the whole vocabulary the equation error's Stribeck friction fades over the whole speed
+  // range (ws = 0.124 m/s of 0.127): it reshapes a Coulomb friction instead of showing a dip
+  // with its plateau, which issue 24's rule refuses (docs/discovery.md §2, §3b). Coulomb friction
+  // and the asymmetric viscous friction are added: the benchmark's structure with its
+  // asymmetry. Simulated w NRMSE 0.0187 (fit) and 0.0550 (pulses record), against 0.018 and
+  // 0.055 with the Stribeck curve before the rule and 0.050 and 0.073 for the benchmark's
+  // structure.
   const auto& d = (*idim_open_)["discovery"];
-  EXPECT_EQ(d["added"], nlohmann::json::array({"stribeck", "asymmetric_viscous"}));
-  const auto& round1 = d["steps"][0]["candidates"];
-  ASSERT_GE(round1.size(), 2u);
-  EXPECT_EQ(round1[1]["effect"], "coulomb_friction");
-  EXPECT_NEAR(Value(round1[1]["delta_bic"]) - Value(round1[0]["delta_bic"]), 29.7, 1.0);
-  EXPECT_NEAR(After(*idim_open_, "ws"), 0.1235, 0.001);
-  EXPECT_NEAR(Value(d["simulated_after"]["nrmse"]), 0.01817, 0.0002);
-  EXPECT_NEAR(Value(d["validation"]["simulated_after"]["nrmse"]), 0.05526, 0.0002);
+  EXPECT_EQ(d["added"], nlohmann::json::array({"coulomb_friction", "asymmetric_viscous"}));
+  bool stribeck_refused = false;
+  for (const auto& c : d["steps"][0]["candidates"]) {
+    if (c["effect"] != "stribeck") continue;
+    stribeck_refused =
+        !c["valid"].get<bool>() &&
+        c.value("reason", "").find("not well inside the speed range") != std::string::npos;
+  }
+  EXPECT_TRUE(stribeck_refused) << d["steps"][0]["candidates"].dump();
+  EXPECT_NEAR(Value(d["simulated_after"]["nrmse"]), 0.01869, 0.0002);
+  EXPECT_NEAR(Value(d["validation"]["simulated_after"]["nrmse"]), 0.05495, 0.0002);
 }
 
 TEST_F(Emps, EquationErrorValidationErrorFallsAfterDiscovery) {
@@ -336,20 +342,23 @@ TEST_F(Emps, EquationErrorValidationErrorFallsAfterDiscovery) {
 }
 
 TEST_F(Emps, OpenDiscoveryPrefersStribeckFriction) {
-  // What open discovery does add (measured): Stribeck friction, the asymmetric viscous
-  // friction, a small offset; by BIC the data prefer it to the benchmark's structure, with
-  // or without the asymmetry (docs/real-data.md).
+  // What open discovery does add (measured): Stribeck friction (ws = 0.061 m/s when added,
+  // within half the top speed of 0.139: the curve reaches its plateau), then the asymmetric
+  // viscous friction, whose refit moves ws to 0.110; the offset of earlier versions explains
+  // 2.2 % of what is left above the noise floor and is no longer added (issue 24, §3b). By
+  // BIC the data prefer it to the benchmark's structure (docs/real-data.md).
   const auto& d = (*open_)["discovery"];
-  EXPECT_EQ(d["added"], nlohmann::json::array({"stribeck", "asymmetric_viscous", "load_torque"}));
-  EXPECT_NEAR(After(*open_, "Ts"), 18.696, 0.1);
-  EXPECT_NEAR(After(*open_, "ws"), 0.10789, 0.001);
-  EXPECT_NEAR(After(*open_, "dB"), -38.18, 0.3);
-  EXPECT_NEAR(Value(d["error_after"]["nrmse"]), 0.013845, 0.0002);
+  EXPECT_EQ(d["added"], nlohmann::json::array({"stribeck", "asymmetric_viscous"}));
+  EXPECT_NEAR(Value(d["steps"][0]["parameters"]["ws"]), 0.0610, 0.001);
+  EXPECT_NEAR(After(*open_, "Ts"), 18.544, 0.1);
+  EXPECT_NEAR(After(*open_, "ws"), 0.1100, 0.001);
+  EXPECT_NEAR(After(*open_, "dB"), -39.735, 0.3);
+  EXPECT_NEAR(Value(d["error_after"]["nrmse"]), 0.014001, 0.0002);
   const double bic_open = Value(d["steps"].back()["bic_after"]);
   const double bic_idm = Value((*idm_)["discovery"]["steps"].back()["bic_after"]);
   const double bic_asym = Value((*asym_)["discovery"]["steps"].back()["bic_after"]);
-  EXPECT_NEAR(bic_idm - bic_open, 59380.0, 100.0);
-  EXPECT_NEAR(bic_asym - bic_open, 916.0, 50.0);  // 420 when asym_ also had the offset
+  EXPECT_NEAR(bic_idm - bic_open, 58840.0, 100.0);
+  EXPECT_NEAR(bic_asym - bic_open, 370.0, 50.0);  // 916 when open_ also had the offset
 }
 
 TEST_F(Emps, CoulombAndOffsetWithTheBenchmarkCandidates) {
@@ -386,11 +395,11 @@ TEST_F(Emps, CoulombAndAsymmetricViscousButNoOffset) {
 
 TEST_F(Emps, ValidationErrorFallsAfterDiscovery) {
   // Pulses record: 0.1834 -> 0.0662 (benchmark structure), -> 0.0488 (with the asymmetric
-  // viscous friction), -> 0.0469 (open discovery).
+  // viscous friction), -> 0.0474 (open discovery; 0.0469 with the offset it no longer adds).
   for (const auto& [report, after_fit, after_validation] :
        {std::tuple<const nlohmann::json*, double, double>{idm_, 0.04577, 0.06622},
         {asym_, 0.014108, 0.04881},
-        {open_, 0.013845, 0.04686}}) {
+        {open_, 0.014001, 0.04742}}) {
     const auto& d = (*report)["discovery"];
     EXPECT_NEAR(Value(d["error_before"]["nrmse"]), 0.1809, 0.0005);
     EXPECT_NEAR(Value(d["error_after"]["nrmse"]), after_fit, 0.0005);
@@ -605,9 +614,13 @@ TEST(DynoCoastdown, DiscoverySearchesTheLossesOnAPureCoastDown) {
   // With no input the torque scale of the search boxes is B max|w| of the J, B fit
   // (3.554e-3 x 118 rad/s = 0.42 N m), not Kt max|u| = 0 (which made every box [0, 1e-12]
   // and discovery add nothing). Measured: round 1 refits Coulomb friction to Tc = 0.070382,
-  // the declared fit's value (dyno-coastdown-coulomb.json, 0.070371), but a Stribeck friction
-  // fading over the whole speed range (ws = 101 rad/s of 118) lowers BIC more, and lowers
-  // the held-out coast's NRMSE more (0.1485 -> 0.02785, Coulomb: 0.02880). A negative
+  // the declared fit's value (dyno-coastdown-coulomb.json, 0.070371). A Stribeck friction
+  // fading over the whole speed range (ws = 101 rad/s of 118) lowers BIC more, and the
+  // held-out coast's NRMSE a little more (0.1485 -> 0.02785, Coulomb: 0.02880), but it has no
+  // plateau inside the record and is refused since issue 24 (docs/discovery.md §2): Coulomb
+  // friction is added, and the report warns that the loss still depends on w
+  // (unexplained_structure) and that Tc differs between the fast and the slow half of the
+  // coast (effect_unstable): a speed-dependent loss the vocabulary has no word for. A negative
   // constant torque followed before the held-out evidence of issue 19; it raises the
   // held-out NRMSE (0.02785 -> 0.0297) and is no longer added.
   // Round 2 is not asserted beyond the rule: whether cogging (39/rev) passes screening there
@@ -620,10 +633,13 @@ TEST(DynoCoastdown, DiscoverySearchesTheLossesOnAPureCoastDown) {
   ASSERT_TRUE(report.contains("discovery"));
   const auto& d = report["discovery"];
   ASSERT_GE(d["added"].size(), 1u);
-  EXPECT_EQ(d["added"][0], "stribeck");
+  EXPECT_EQ(d["added"][0], "coulomb_friction");
   const auto& round1 = d["steps"][0]["candidates"];
   ASSERT_GE(round1.size(), 2u);
   EXPECT_EQ(round1[0]["effect"], "stribeck");
+  EXPECT_FALSE(round1[0]["valid"].get<bool>());
+  EXPECT_NE(round1[0]["reason"].get<std::string>().find("not well inside the speed range"),
+            std::string::npos);
   EXPECT_NEAR(Value(round1[0]["delta_bic"]), -218628.5, 5.0);
   EXPECT_EQ(round1[0]["evidence_rule"], "held_out");
   EXPECT_NEAR(Value(round1[0]["held_out_nrmse"]["after"]), 0.02785, 0.0002);
@@ -632,10 +648,13 @@ TEST(DynoCoastdown, DiscoverySearchesTheLossesOnAPureCoastDown) {
   EXPECT_NEAR(Value(round1[1]["parameters"]["Tc"]), 0.070371, 1e-3 * 0.070371);
   EXPECT_NEAR(Value(round1[1]["nrmse"]), 0.01059, 0.0001);
   EXPECT_NEAR(Value(round1[1]["held_out_nrmse"]["after"]), 0.02880, 0.0002);
-  const auto& stribeck = d["steps"][0]["parameters"];
-  EXPECT_NEAR(Value(stribeck["Ts"]), 0.06391, 0.0005);
-  EXPECT_NEAR(Value(stribeck["ws"]), 101.16, 0.1);
-  EXPECT_NEAR(Value(d["steps"][0]["nrmse_after"]), 0.006594, 0.00005);
+  EXPECT_NEAR(Value(round1[0]["parameters"]["Ts"]), 0.06391, 0.0005);
+  EXPECT_NEAR(Value(round1[0]["parameters"]["ws"]), 101.16, 0.1);
+  EXPECT_NEAR(Value(d["steps"][0]["nrmse_after"]), 0.01059, 0.0001);
+  std::set<std::string> codes;
+  for (const auto& w : report["warnings"]) codes.insert(w["code"].get<std::string>());
+  EXPECT_EQ(codes.count("unexplained_structure"), 1u);
+  EXPECT_EQ(codes.count("effect_unstable"), 1u);
   EXPECT_NEAR(Value(d["error_before"]["nrmse"]), 0.1603, 0.0005);
   EXPECT_NEAR(Value(d["validation"]["before"]["nrmse"]), 0.1485, 0.0005);
   // Every later round's addition passed the held-out rule (a fall of more than 1 %), and
@@ -788,48 +807,57 @@ TEST_F(OdriveCogging, MapDominantOrderAndAmplitude) {
 
 TEST_F(OdriveCogging, DiscoveryFindsCoggingOnUncompensatedRunsAtTheMapsDominantOrder) {
   // With the evidence on prewhitened residuals (issue 19, docs/discovery.md §3a): cogging
-  // first (dBIC -433 whitened, -4335 counting every sample), then a Stribeck friction; the
-  // Coulomb friction and load that followed with the plain BIC (NRMSE 0.0793) are no longer
-  // supported once the residual's correlation is counted.
+  // first (dBIC -433 whitened, -4335 counting every sample); a gravity torque (1/rev) comes
+  // close by BIC (-400) but predicts the other half of the runs worse (cross-validated NRMSE
+  // 1.01 -> 2.53, cogging 1.01 -> 0.81; issue 24, §3b). The Stribeck friction that followed
+  // before has ws = 35.9 rad/s of a top speed of 69.9 (no plateau in the record) and is
+  // refused; Coulomb friction does not generalise (0.81 -> 1.08). What is left depends on t
+  // (unexplained_structure): the spin-ups' speed-dependent losses.
   const auto& d = (*nocomp_)["discovery"];
-  EXPECT_EQ(d["added"], nlohmann::json::array({"cogging", "stribeck"}));
+  EXPECT_EQ(d["added"], nlohmann::json::array({"cogging"}));
   const nlohmann::json step = AddedStep(*nocomp_, "cogging");
   ASSERT_FALSE(step.is_null()) << "no cogging added on the uncompensated runs";
   const std::vector<double> map = CoggingMapHarmonics("iq_hold_A_a16");
   const auto map_order = std::max_element(map.begin(), map.end()) - map.begin();
   EXPECT_EQ(Value(step["parameters"]["periods"]), static_cast<double>(map_order));  // 7
-  // Measured: Tcog = 0.04777 N m, -0.3 % from the map's 7/rev 0.0479 N m.
+  // Measured: Tcog = 0.05907 N m, +23 % from the map's 7/rev 0.0479 N m (0.04777, -0.3 %,
+  // once the Stribeck friction was beside it).
   const double Tcog = Value(d["parameters_after"]["Tcog"]);
-  EXPECT_NEAR(Tcog, 0.04777, 0.0005);
-  EXPECT_NEAR(Tcog / (map[map_order] * kOdriveKt), 1.0, 0.15);
+  EXPECT_NEAR(Tcog, 0.05907, 0.0005);
+  EXPECT_NEAR(Tcog / (map[map_order] * kOdriveKt), 1.0, 0.25);
   EXPECT_EQ(step["candidates"][0]["evidence_rule"], "prewhitened_bic");
   EXPECT_NEAR(Value(d["error_before"]["nrmse"]), 0.9148, 0.002);
-  EXPECT_NEAR(Value(d["error_after"]["nrmse"]), 0.3916, 0.002);
+  EXPECT_NEAR(Value(d["error_after"]["nrmse"]), 0.7442, 0.002);
 }
 
 TEST_F(OdriveCogging, DominantOrderMatchesTheMapOnTheUncompensatedFilesWhereItIsFound) {
   // The order comes from the torque balance along the measured motion (docs/effects.md):
-  // 7/rev on spinup_4 and 5. On spinup_6 nothing is added: its J, B fit is degenerate (B at
+  // 7/rev on spinup_4. On spinup_5 the 7/rev cogging is screened and refit (BIC -532 whitened)
+  // but predicts the other half of the runs worse (cross-validated NRMSE 1.12 -> 2.18; issue
+  // 24): its J, B fit is degenerate (B at its bound) and only Coulomb friction is added, with
+  // the warnings that say so. On spinup_6 nothing is added: its J, B fit is degenerate (B at
   // its bound 1e-3, NRMSE 0.89) and no candidate's whitened evidence is negative (Coulomb
   // friction +22 whitened, -3122 counting every sample): the report's warnings say so
   // (residual_not_white, parameter_at_bound). docs/real-data.md, ODrive.
   const std::vector<double> map = CoggingMapHarmonics("iq_hold_A_a16");
   const auto map_order = std::max_element(map.begin(), map.end()) - map.begin();
-  for (const nlohmann::json* report : {nocomp_, nocomp5_}) {
-    const nlohmann::json step = AddedStep(*report, "cogging");
-    ASSERT_FALSE(step.is_null()) << (*report)["discovery"]["conclusion"];
-    EXPECT_EQ(Value(step["parameters"]["periods"]), static_cast<double>(map_order));
+  const nlohmann::json step = AddedStep(*nocomp_, "cogging");
+  ASSERT_FALSE(step.is_null()) << (*nocomp_)["discovery"]["conclusion"];
+  EXPECT_EQ(Value(step["parameters"]["periods"]), static_cast<double>(map_order));
+  EXPECT_EQ((*nocomp5_)["discovery"]["added"], nlohmann::json::array({"coulomb_friction"}));
+  for (const auto& c : (*nocomp5_)["discovery"]["steps"][0]["candidates"]) {
+    if (c["effect"] != "cogging") continue;
+    EXPECT_EQ(Value(c["parameters"]["periods"]), static_cast<double>(map_order));
+    EXPECT_GT(Value(c["cross_validated_nrmse"]["after"]),
+              Value(c["cross_validated_nrmse"]["before"]));
   }
   EXPECT_TRUE((*nocomp6_)["discovery"]["added"].empty());
   EXPECT_TRUE((*nocomp6_)["discovery"]["before"]["parameters"]["B"]["at_bound"].get<bool>());
-  // The amplitude is not robust: on spinup_5 cogging is added while J and B are still
-  // degenerate (B near its bound), and the fit that follows does not converge: Tcog was
-  // 0.0720 (+50 % from the map) on the machine that made docs/real-data and is 0.0367
-  // (-23 %) on an AMD EPYC machine, each with an interval of about +-1 % (docs/real-data.md,
-  // ODrive). What holds on both: the report says the fit did not converge.
-  bool not_converged = false;
-  for (const auto& w : (*nocomp5_)["warnings"]) not_converged |= w["code"] == "not_converged";
-  EXPECT_TRUE(not_converged) << (*nocomp5_)["warnings"].dump();
+  // The report says the spinup_5 fit is degenerate and that structure is left.
+  std::set<std::string> codes;
+  for (const auto& w : (*nocomp5_)["warnings"]) codes.insert(w["code"].get<std::string>());
+  EXPECT_EQ(codes.count("parameter_at_bound"), 1u) << (*nocomp5_)["warnings"].dump();
+  EXPECT_EQ(codes.count("unexplained_structure"), 1u) << (*nocomp5_)["warnings"].dump();
 }
 
 TEST_F(OdriveCogging, CoggingAmplitudeSmallerOnCompensatedRuns) {
@@ -848,7 +876,7 @@ TEST_F(OdriveCogging, CoggingAmplitudeSmallerOnCompensatedRuns) {
   EXPECT_EQ((*comp_)["discovery"]["added"], nlohmann::json::array({"coulomb_friction", "cogging"}));
   EXPECT_NEAR(with_feed_forward, 0.04505, 0.0005);
   EXPECT_LT(left, with_feed_forward);
-  EXPECT_LT(with_feed_forward, nocomp);  // 0.0451 vs 0.0478
+  EXPECT_LT(with_feed_forward, nocomp);  // 0.0451 vs 0.0591
 }
 
 // ---------------------------------------------------------------------------------------
@@ -875,23 +903,32 @@ TEST(Hslu, BrakeRecordAddsNothingAndSaysWhyTheDeadBandIsRefused) {
   EXPECT_TRUE(d["added"].empty());
   EXPECT_NEAR(Value(report["parameters"]["B"]["value"]), 0.06705, 0.0001);
   EXPECT_NEAR(Value(report["fit"]["nrmse"]), 0.08716, 0.0001);
-  bool cogging_added = false, coulomb_seen = false;
+  // Since issue 24 the same dead band is refit as a constant torque (load_torque, TL = 0.876,
+  // the same torque on a record whose speed never changes sign) with the same verdict: its
+  // whitened evidence is +76.9. Whether Coulomb friction is refit too depends on the order of
+  // the screening's near-equal scores; when it is, its evidence is positive as well.
+  bool cogging_added = false, dead_band_seen = false;
   for (const auto& c : d["last_round"]) {
     cogging_added = cogging_added || (c["effect"] == "cogging" && c["valid"].get<bool>());
-    if (c["effect"] != "coulomb_friction") continue;
-    coulomb_seen = true;
+    if (c["effect"] != "coulomb_friction" && c["effect"] != "load_torque") continue;
+    if (!c["fitted"].get<bool>()) continue;
+    dead_band_seen = true;
     EXPECT_EQ(c["evidence_rule"], "prewhitened_bic");
-    EXPECT_NEAR(Value(c["parameters"]["Tc"]), 0.8757, 0.002);
+    EXPECT_NEAR(std::abs(Value(c["parameters"].begin().value())), 0.8757, 0.002);
     EXPECT_NEAR(Value(c["nrmse"]), 0.05507, 0.0002);
     EXPECT_NEAR(Value(c["delta_bic"]), 76.8, 1.0);
     EXPECT_NEAR(Value(c["delta_bic_white"]), -1004.0, 2.0);
     EXPECT_LT(Value(c["noise_model"]["w"]["innovation_ratio"]), 0.003);
   }
-  EXPECT_TRUE(coulomb_seen);
+  EXPECT_TRUE(dead_band_seen);
   EXPECT_FALSE(cogging_added);
-  bool warned = false;
-  for (const auto& w : report["warnings"]) warned = warned || w["code"] == "residual_not_white";
-  EXPECT_TRUE(warned);
+  // The report says what is left: a residual that is not white and depends on t (issue 24:
+  // "unexplained: residual depends on t ... , also on u"; the brake is not linear in speed).
+  std::set<std::string> codes;
+  for (const auto& w : report["warnings"]) codes.insert(w["code"].get<std::string>());
+  EXPECT_EQ(codes.count("residual_not_white"), 1u);
+  EXPECT_EQ(codes.count("unexplained_structure"), 1u);
+  EXPECT_EQ(d["conclusion"].get<std::string>().rfind("unexplained: ", 0), 0u) << d["conclusion"];
 }
 
 TEST(Hslu, HeldOutSpeedLoopRecordRefusesEveryCandidate) {
@@ -907,14 +944,18 @@ TEST(Hslu, HeldOutSpeedLoopRecordRefusesEveryCandidate) {
   const auto& d = report["discovery"];
   EXPECT_TRUE(d["added"].empty());
   EXPECT_NEAR(Value(report["validation"]["nrmse"]), 1.889, 0.002);
+  // Every candidate refit either raises the held-out error or is not valid: the cogging
+  // (refit since issue 24, as every position-dependent candidate whose screening lowers BIC)
+  // lowers it 1.889 -> 1.863 with Tcog on its search bound.
   int held_out = 0;
   for (const auto& c : d["last_round"]) {
     if (!c.contains("held_out_nrmse")) continue;
     ++held_out;
+    if (!c["valid"].get<bool>()) continue;
     EXPECT_GT(Value(c["held_out_nrmse"]["after"]), Value(c["held_out_nrmse"]["before"]))
         << c["effect"];
   }
-  EXPECT_EQ(held_out, 3);  // the three candidates refit (Stribeck, Coulomb, load)
+  EXPECT_GE(held_out, 3);  // measured 4: spring, Stribeck, load, cogging
   bool warned = false;
   for (const auto& w : report["warnings"]) warned = warned || w["code"] == "nrmse_at_least_one";
   EXPECT_TRUE(warned);
