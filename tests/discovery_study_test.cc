@@ -76,6 +76,11 @@ std::vector<std::string> Discover(const Config& fit_config, FitTrace trace, bool
   discovery.prewhiten = prewhiten;
   const DiscoveryResult result = blmd::Discover(problem, fit, discovery);
   if (unexplained) *unexplained = result.adequacy.ok && !result.adequacy.flagged.empty();
+  if (unexplained && *unexplained) {
+    for (const auto& t : result.adequacy.flagged)
+      std::printf("  flagged %s %s share %.3f p %.3g ar %d\n", t.column.c_str(),
+                  t.Describe().c_str(), t.share, t.p_value, t.ar_order);
+  }
   return result.added;
 }
 

@@ -68,39 +68,31 @@ inline int CapThreads(int requested) {
   }
   return requested;
 }
-inline CLI::Validator PositiveNumber() {
+// A number for which `accept` holds; otherwise "must be <what>, not TEXT" (the Python
+// package's messages).
+template <typename Accept>
+CLI::Validator NumberValidator(Accept accept, const std::string& what, const std::string& label) {
   return CLI::Validator(
-      [](std::string& text) -> std::string {
+      [accept, what](std::string& text) -> std::string {
         std::size_t used = 0;
         double value = 0.0;
         try {
           value = std::stod(text, &used);
         } catch (const std::exception&) {
         }
-        if (used != text.size() || !(value > 0.0) || !std::isfinite(value)) {
-          return "must be a number > 0, not " + text;
-        }
+        if (used != text.size() || !accept(value)) return "must be " + what + ", not " + text;
         return {};
       },
-      "X>0");
+      label);
 }
-
-// A share: a number in [0, 1], the message as the Python package's.
+inline CLI::Validator PositiveNumber() {
+  return NumberValidator([](double v) { return v > 0.0 && std::isfinite(v); }, "a number > 0",
+                         "X>0");
+}
+// A share: a number in [0, 1].
 inline CLI::Validator ShareNumber() {
-  return CLI::Validator(
-      [](std::string& text) -> std::string {
-        std::size_t used = 0;
-        double value = 0.0;
-        try {
-          value = std::stod(text, &used);
-        } catch (const std::exception&) {
-        }
-        if (used != text.size() || !(value >= 0.0 && value <= 1.0)) {
-          return "must be a number in [0, 1], not " + text;
-        }
-        return {};
-      },
-      "0<=X<=1");
+  return NumberValidator([](double v) { return v >= 0.0 && v <= 1.0; }, "a number in [0, 1]",
+                         "0<=X<=1");
 }
 
 // What went to standard output (the summary, --json, --help) must have arrived: a full disk

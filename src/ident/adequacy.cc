@@ -51,9 +51,13 @@ bool Gather(const FitProblem& problem, const std::vector<double>& values, Pooled
     }
     pooled->segments.push_back(pooled->t.size());
     const auto& t = measured.Column("t");
+    // The states the residual is tested against: the simulated ones where the model gives
+    // them. A measured speed carries the very noise whose residual is tested: binned on
+    // measured w, AR(1) noise of 0.95 "depended on w" in 11 of 40 controls (p down to 1e-42).
+    // Measured only under the equation error, whose simulation gives the input.
     auto state = [&](const char* name) -> const std::vector<double>* {
-      if (measured.Has(name)) return &measured.Column(name);
       if (simulated.Has(name)) return &simulated.Column(name);
+      if (measured.Has(name)) return &measured.Column(name);
       return nullptr;
     };
     const std::vector<double>* w = state("w");

@@ -7,7 +7,8 @@
 // This check is run on the final model whatever was added, and says what is left:
 //
 // Residual structure. For every observed column c, the residual r = measured - simulated
-// (every trace, pooled) is regressed on one basis per state at a time:
+// (every trace, pooled) is regressed on one basis per state at a time (the states as the
+// model simulates them: a measured state carries the noise under test):
 //   theta            theta (centred, scaled), sin theta, cos theta  (springs, gravity)
 //   theta (periodic) sin m theta, cos m theta for the best m in 2..max_order (cogging-like)
 //   w                indicators of `bins` quantile bins of w          (speed-shaped losses)
