@@ -70,6 +70,9 @@ def expected_plots(report):
     count = 3 * len(observe) * traces + len(observe) + len(free)
     if discovery and discovery.get("added"):
         count += len(observe) * traces + len(discovery["parameters_after"])
+    # The adequacy check (docs/discovery.md §7): the residual against each flagged state.
+    if discovery and discovery.get("adequacy", {}).get("ok"):
+        count += len(discovery["adequacy"].get("depends_on", []))
     # The linear views: Bode magnitude, phase and coherence per output of the frequency
     # response; a step response per output with a final value.
     frequency = report.get("frequency_response", {})
