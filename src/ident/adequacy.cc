@@ -395,14 +395,14 @@ AdequacyReport CheckResidualStructure(const FitProblem& problem, const std::vect
     for (std::size_t s = 0; s < traces; ++s) {
       const std::size_t begin = pooled.segments[s], end = segment_end(s);
       const double t0 = pooled.t[begin], t1 = pooled.t[end - 1];
-      for (int d = 1; d <= options.legendre_degree; ++d) {
-        std::vector<double> column(n, 0.0);
-        for (std::size_t r = begin; r < end; ++r) {
-          const double x = t1 > t0 ? 2.0 * (pooled.t[r] - t0) / (t1 - t0) - 1.0 : 0.0;
-          column[r] = Legendre(x, options.legendre_degree)[static_cast<std::size_t>(d)];
-        }
-        t.columns.push_back(std::move(column));
+      std::vector<std::vector<double>> columns(static_cast<std::size_t>(options.legendre_degree),
+                                               std::vector<double>(n, 0.0));
+      for (std::size_t r = begin; r < end; ++r) {
+        const double x = t1 > t0 ? 2.0 * (pooled.t[r] - t0) / (t1 - t0) - 1.0 : 0.0;
+        const std::vector<double> p = Legendre(x, options.legendre_degree);
+        for (std::size_t d = 1; d < p.size(); ++d) columns[d - 1][r] = p[d];
       }
+      for (auto& column : columns) t.columns.push_back(std::move(column));
     }
     bases.push_back(std::move(t));
   }
@@ -445,8 +445,10 @@ AdequacyReport CheckResidualStructure(const FitProblem& problem, const std::vect
         for (std::size_t r = pooled.segments[s] + 1; r < segment_end(s); ++r)
           travelled += std::abs(pooled.theta[r] - pooled.theta[r - 1]);
       }
-      const int lowest =
-          std::max(2, static_cast<int>(std::ceil(3.0 * 2.0 * kPi / std::max(travelled, 1e-300))));
+      // (in double first: a shaft that hardly turns would overflow the int)
+      const double fewest = std::ceil(3.0 * 2.0 * kPi / std::max(travelled, 1e-300));
+      const int lowest = fewest > options.max_order ? options.max_order + 1
+                                                    : std::max(2, static_cast<int>(fewest));
       std::vector<double> centred(n);
       for (std::size_t s = 0; s < traces; ++s) {
         double mean = 0.0;

@@ -416,8 +416,10 @@ CandidatePlan PlanCogging(const PlanContext& context) {
       const std::vector<double> angle = MeasuredAngle(trace);
       for (std::size_t r = 1; r < angle.size(); ++r) travelled += std::abs(angle[r] - angle[r - 1]);
     }
-    if (travelled > 0.0)
-      lowest = std::max(lowest, static_cast<int>(std::ceil(3.0 * 2.0 * kPi / travelled)));
+    // (in double first: a shaft that hardly turns would overflow the int)
+    const double fewest = travelled > 0.0 ? std::ceil(3.0 * 2.0 * kPi / travelled) : 1e300;
+    lowest = fewest > DiagnosticsOptions().max_order ? DiagnosticsOptions().max_order + 1
+                                                     : std::max(lowest, static_cast<int>(fewest));
     const std::vector<OrderScreen> ranked =
         RankOrdersByResponse(problem, values, T, lowest, DiagnosticsOptions().max_order);
     for (std::size_t k = 0; k < ranked.size() && k < 4; ++k) {
