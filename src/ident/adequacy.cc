@@ -201,6 +201,26 @@ std::vector<double> Periodogram(const std::vector<double>& x,
   return power;
 }
 
+// The fall of the sum of squares of y over rows [begin, end) that the least-squares
+// a sin(x_r) + b cos(x_r) achieves, x_r = phase(r); negative when the two are collinear.
+template <typename Phase>
+double SinCosReduction(const std::vector<double>& y, std::size_t begin, std::size_t end,
+                       Phase phase) {
+  double ys = 0.0, yc = 0.0, ss = 0.0, cc = 0.0, sc = 0.0;
+  for (std::size_t r = begin; r < end; ++r) {
+    const double x = phase(r);
+    const double si = std::sin(x), co = std::cos(x);
+    ys += y[r] * si;
+    yc += y[r] * co;
+    ss += si * si;
+    cc += co * co;
+    sc += si * co;
+  }
+  const double det = ss * cc - sc * sc;
+  if (!(det > 1e-12 * ss * cc)) return -1.0;
+  return (cc * ys * ys - 2.0 * sc * ys * yc + ss * yc * yc) / det;
+}
+
 // The residual of column c in 20 bins of the test's state (periodic: of the phase).
 void BinResidual(const Pooled& pooled, std::size_t c, StructureTest* test) {
   const std::size_t n = pooled.t.size();
@@ -437,6 +457,14 @@ AdequacyReport CheckResidualStructure(const FitProblem& problem, const std::vect
   for (std::size_t c = 0; c < problem.observe().size(); ++c) {
     const std::vector<double>& y = pooled.residual[c];
     std::vector<Basis> column_bases = bases;
+    // The residual about each trace's mean, what the periodic searches fit.
+    std::vector<double> centred(n);
+    for (std::size_t s = 0; s < traces; ++s) {
+      double mean = 0.0;
+      for (std::size_t r = pooled.segments[s]; r < segment_end(s); ++r) mean += y[r];
+      mean /= static_cast<double>(segment_end(s) - pooled.segments[s]);
+      for (std::size_t r = pooled.segments[s]; r < segment_end(s); ++r) centred[r] = y[r] - mean;
+    }
     // theta (periodic): the order whose sin/cos explain most of the residual (about each
     // trace's mean), among those completing at least three periods over the angle travelled.
     if (pooled.has_theta) {
@@ -449,30 +477,14 @@ AdequacyReport CheckResidualStructure(const FitProblem& problem, const std::vect
       const double fewest = std::ceil(3.0 * 2.0 * kPi / std::max(travelled, 1e-300));
       const int lowest = fewest > options.max_order ? options.max_order + 1
                                                     : std::max(2, static_cast<int>(fewest));
-      std::vector<double> centred(n);
-      for (std::size_t s = 0; s < traces; ++s) {
-        double mean = 0.0;
-        for (std::size_t r = pooled.segments[s]; r < segment_end(s); ++r) mean += y[r];
-        mean /= static_cast<double>(segment_end(s) - pooled.segments[s]);
-        for (std::size_t r = pooled.segments[s]; r < segment_end(s); ++r) centred[r] = y[r] - mean;
-      }
       int best_order = 0;
       double best_reduction = 0.0;
       int searched = 0;
       for (int m = lowest; m <= options.max_order; ++m) {
-        double ys = 0.0, yc = 0.0, ss = 0.0, cc = 0.0, sc = 0.0;
-        for (std::size_t r = 0; r < n; ++r) {
-          const double s = std::sin(m * pooled.theta[r]), co = std::cos(m * pooled.theta[r]);
-          ys += centred[r] * s;
-          yc += centred[r] * co;
-          ss += s * s;
-          cc += co * co;
-          sc += s * co;
-        }
-        const double det = ss * cc - sc * sc;
-        if (!(det > 1e-12 * ss * cc)) continue;
+        const double reduction =
+            SinCosReduction(centred, 0, n, [&](std::size_t r) { return m * pooled.theta[r]; });
+        if (reduction < 0.0) continue;
         ++searched;
-        const double reduction = (cc * ys * ys - 2.0 * sc * ys * yc + ss * yc * yc) / det;
         if (reduction > best_reduction) {
           best_reduction = reduction;
           best_order = m;
@@ -504,23 +516,9 @@ AdequacyReport CheckResidualStructure(const FitProblem& problem, const std::vect
         if (!(trial > 0.0)) continue;
         double reduction = 0.0;
         for (std::size_t s = 0; s < traces; ++s) {
-          double mean = 0.0;
-          const std::size_t begin = pooled.segments[s], end = segment_end(s);
-          for (std::size_t r = begin; r < end; ++r) mean += y[r];
-          mean /= static_cast<double>(end - begin);
-          double ys = 0.0, yc = 0.0, ss = 0.0, cc = 0.0, sc = 0.0;
-          for (std::size_t r = begin; r < end; ++r) {
-            const double angle = 2.0 * kPi * trial * pooled.t[r];
-            const double si = std::sin(angle), co = std::cos(angle), v = y[r] - mean;
-            ys += v * si;
-            yc += v * co;
-            ss += si * si;
-            cc += co * co;
-            sc += si * co;
-          }
-          const double det = ss * cc - sc * sc;
-          if (det > 1e-12 * ss * cc)
-            reduction += (cc * ys * ys - 2.0 * sc * ys * yc + ss * yc * yc) / det;
+          reduction += std::max(
+              0.0, SinCosReduction(centred, pooled.segments[s], segment_end(s),
+                                   [&](std::size_t r) { return 2.0 * kPi * trial * pooled.t[r]; }));
         }
         if (reduction > best_reduction) {
           best_reduction = reduction;

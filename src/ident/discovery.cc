@@ -315,6 +315,7 @@ struct CrossValidation {
   bool ok = false;
   std::string reason;
   double nrmse = 0.0;
+  std::string parts;  // how the record was cut (RecordParts::description)
 };
 
 CrossValidation BlockCrossValidate(const Config& config, const std::vector<FreeParameter>& free,
@@ -326,6 +327,7 @@ CrossValidation BlockCrossValidate(const Config& config, const std::vector<FreeP
   // The parts, the second starting from this model's own state at the cut.
   const internal::RecordParts parts =
       internal::SplitRecord(FitProblem(config, traces, observe, free), values);
+  out.parts = parts.description;
   if (!parts.ok) {
     out.reason = parts.reason;
     return out;
@@ -377,12 +379,12 @@ struct RoundBase {
 };
 
 RoundBase MakeRoundBase(const FitProblem& base, const std::vector<double>& values,
-                        const DiscoveryOptions& options) {
+                        double floor_nrmse, const DiscoveryOptions& options) {
   RoundBase round;
   // The free-running model's error, as every candidate's is scored.
   const FitProblem free_run(base.config(), base.traces(), base.observe(), base.free());
   round.nrmse = std::sqrt(free_run.Evaluate(values).cost);
-  round.floor_nrmse = NoiseFloorNrmse(base);
+  round.floor_nrmse = floor_nrmse;
   const bool held_out = options.held_out && !options.held_out->empty();
   if (!held_out && options.prewhiten && !free_run.Evaluate(values, &round.residuals).ok) {
     round.residuals.clear();
@@ -598,6 +600,8 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     result.final_fit = initial;
     return result;
   }
+  // The measured columns' noise floor: the same for every round.
+  result.noise_floor_nrmse = NoiseFloorNrmse(problem);
   for (int round = 0; round < options.max_effects; ++round) {
     const ResidualAnalysis analysis = AnalyseResidual(*current_problem, current_fit.values);
     std::vector<CandidatePlan> plans;
@@ -623,7 +627,8 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
           ScreenCandidate(*current_problem, current_fit.values, plans[k], current_bic, progress);
       if (progress) progress->StepDone();
     });
-    const RoundBase round_base = MakeRoundBase(*current_problem, current_fit.values, options);
+    const RoundBase round_base =
+        MakeRoundBase(*current_problem, current_fit.values, result.noise_floor_nrmse, options);
     // Refit the most promising candidates by their screening BIC (deterministic order).
     // Only candidates whose screening already lowers BIC are worth a full refit.
     std::vector<std::size_t> screened;
@@ -688,11 +693,10 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
       CandidateOutcome& o = run.outcome;
       if (!cross_validate || !passes_evidence(o)) continue;
       if (!base_cv) {
-        result.cross_validation_parts =
-            internal::SplitRecord(*current_problem, current_fit.values).description;
         base_cv = BlockCrossValidate(
             current_problem->config(), StartingAt(current_problem->free(), current_fit.values),
             problem.traces(), problem.observe(), current_fit.values, options.refit);
+        result.cross_validation_parts = base_cv->parts;
       }
       if (!base_cv->ok) break;  // nothing to compare with: the evidence alone decides
       // Parts that do not predict each other even with the current model (a cross-validated
@@ -838,7 +842,6 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
   for (const auto& p : current_problem->free()) result.final_free.push_back(p.name);
   result.final_free_parameters = current_problem->free();
   result.final_fit = current_fit;
-  result.noise_floor_nrmse = NoiseFloorNrmse(problem);
   if (options.check_adequacy) {
     // On the free-running model, whose scores the report gives.
     ProgressObserver* const progress = options.refit.progress;

@@ -39,8 +39,7 @@ struct Leg {
 
 // A run's constants of the reference step: the parameters, the backward-Euler coefficients
 // and the carrier.
-struct ReferenceConstants {
-  double Ud, Rs, Ls, Ke, p, Kc, Kf, Kp, Ki, Tz, Tp, Vtri, Tpwm, delta, J, B;
+struct ReferenceConstants : internal::BlmdParameters {
   double current_gain;  // i+ = (i + dt/Ls (v - e)) * current_gain
   double speed_gain;    // w+ = (w + dt/J (T)) * speed_gain
   // Lead-lag part: y_k (1 + Tp/dt) - (Tp/dt) y_{k-1} = Kp [(1 + Tz/dt) e_k - (Tz/dt) e_{k-1}]
@@ -60,12 +59,7 @@ struct ReferenceConstants {
                                  const SimulationSettings& settings) {
     const double dt = settings.dt;
     ReferenceConstants c;
-    c.Ud = values.Get("Ud"), c.Rs = values.Get("Rs"), c.Ls = values.Get("Ls");
-    c.Ke = values.Get("Ke"), c.p = values.Get("p"), c.Kc = values.Get("Kc");
-    c.Kf = values.Get("Kf"), c.Kp = values.Get("Kp"), c.Ki = values.Get("Ki");
-    c.Tz = values.Get("Tz"), c.Tp = values.Get("Tp"), c.Vtri = values.Get("Vtri");
-    c.Tpwm = values.Get("Tpwm"), c.delta = values.Get("delta"), c.J = values.Get("J");
-    c.B = values.Get("B");
+    static_cast<BlmdParameters&>(c) = BlmdParameters::From(values);
     c.shaft = ShaftEffects::From(values, effects, settings.friction_smoothing_w);
     c.drive = DriveEffects::From(values, effects);
     c.current_gain = 1.0 / (1.0 + dt * c.Rs / c.Ls);

@@ -145,8 +145,7 @@ inline double FirstNegative(const double* g, double lo, double hi) {
 }
 
 // The run's constants.
-struct Constants {
-  double Ud, Rs, Ls, Ke, p, Kc, Kf, Kp, Ki, Tz, Tp, Vtri, Tpwm, delta, J, B;
+struct Constants : BlmdParameters {
   double half_period;   // s, Tpwm / 2
   double carrier_rate;  // V/s, |dv_tri/dt|
   double max_step;      // s
@@ -160,12 +159,7 @@ struct Constants {
   static Constants From(const ParameterSet& values, const std::vector<std::string>& effects,
                         const SimulationSettings& settings) {
     Constants c;
-    c.Ud = values.Get("Ud"), c.Rs = values.Get("Rs"), c.Ls = values.Get("Ls");
-    c.Ke = values.Get("Ke"), c.p = values.Get("p"), c.Kc = values.Get("Kc");
-    c.Kf = values.Get("Kf"), c.Kp = values.Get("Kp"), c.Ki = values.Get("Ki");
-    c.Tz = values.Get("Tz"), c.Tp = values.Get("Tp"), c.Vtri = values.Get("Vtri");
-    c.Tpwm = values.Get("Tpwm"), c.delta = values.Get("delta"), c.J = values.Get("J");
-    c.B = values.Get("B");
+    static_cast<BlmdParameters&>(c) = BlmdParameters::From(values);
     c.half_period = 0.5 * c.Tpwm;
     c.carrier_rate = 2.0 * c.Vtri / c.half_period;
     // At most one carrier vertex inside a segment; a lag (Tp > 0) is the one fast time

@@ -22,6 +22,22 @@ inline std::vector<std::string> BlmdOutputNames(bool diagnostics) {
   return names;
 }
 
+// The drive's parameters as a run reads them (docs/model-blmd.md §2), in their units.
+struct BlmdParameters {
+  double Ud, Rs, Ls, Ke, p, Kc, Kf, Kp, Ki, Tz, Tp, Vtri, Tpwm, delta, J, B;
+
+  static BlmdParameters From(const ParameterSet& values) {
+    BlmdParameters c;
+    c.Ud = values.Get("Ud"), c.Rs = values.Get("Rs"), c.Ls = values.Get("Ls");
+    c.Ke = values.Get("Ke"), c.p = values.Get("p"), c.Kc = values.Get("Kc");
+    c.Kf = values.Get("Kf"), c.Kp = values.Get("Kp"), c.Ki = values.Get("Ki");
+    c.Tz = values.Get("Tz"), c.Tp = values.Get("Tp"), c.Vtri = values.Get("Vtri");
+    c.Tpwm = values.Get("Tpwm"), c.delta = values.Get("delta"), c.J = values.Get("J");
+    c.B = values.Get("B");
+    return c;
+  }
+};
+
 // A run's constants of the fast step (backward-Euler gains, carrier), as the scalar fast
 // path (blmd_drive_fast.cc) and the batched kernel (blmd_batch_kernel.inc) both use them:
 // one computation, so the two round alike and the lanes equal Simulate() bit for bit.
