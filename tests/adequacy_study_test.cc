@@ -76,6 +76,11 @@
 // 0.06 %, 0.06 % (bars met); the independent simulator agrees with its blmd-sim on spring and
 // gravity to 6e-5 of the peak; coulomb_cogging adds gravity on 2 of 6 (with Coulomb, and after
 // a stribeck); disturbance and the earlier kinds as main (earlier 33/36).
+// main after the Nyquist order in angle, the equal-size held-out rule and eight refit orders
+// (2026-11-27, second session): spring, gravity turning, swinging 6/6 (0.04, 0.06, 0.06 %);
+// disturbance nothing added, unexplained_structure 5/6, B 0.17 %; coulomb_cogging 6/6, B 0.35 %
+// (STUDY_SEED=1, 2: 5/6 each, the miss a cogging that Coulomb alone fits to the oracle's
+// NRMSE); earlier 36/36, unexplained_structure 0/36.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -615,10 +620,11 @@ TEST_F(AdequacyStudy, Disturbance) {
 }
 
 // Coulomb friction with cogging: both named, no stribeck, the right order; B within 2 %
-// (median). Issue 24's bar is 5 of 6 and is NOT met: measured 4 of 6 (docs/discovery.md §8:
-// the two misses are cases whose cogging barely shows after the Coulomb friction). The test
-// holds what is measured, 4 of 6 (2 of 6 before the position-dependent refits, 0 of 6 before
-// issue 24), so that a regression shows; raise it to the issue's bar when the bar is met.
+// (median), on >= 5 of 6 (issue 24's bar). Measured 4 of 6 before the cogging orders were
+// limited to the samples' Nyquist order in angle (62/rev had been added for 8/rev sampled 35
+// times per revolution) and before a candidate with as many parameters that predicts the
+// held-out blocks better displaced the best by BIC (gravity had been added for a 12/rev
+// cogging); 2 of 6 before the position-dependent refits, 0 of 6 before issue 24.
 TEST_F(AdequacyStudy, CoulombWithCogging) {
   if (!KindSelected("coulomb_cogging")) GTEST_SKIP() << "not in STUDY_KINDS";
   const auto rows = RunKind("coulomb_cogging", Count("STUDY_CASES", 6));
@@ -634,8 +640,7 @@ TEST_F(AdequacyStudy, CoulombWithCogging) {
   std::printf(
       "coulomb_cogging: both named, no stribeck, the right order %s; median |B error| %.2f %%\n",
       right.Text().c_str(), 100 * median);
-  EXPECT_GE(6 * right.hits, 4 * right.total)
-      << "coulomb_cogging: right on " << right.Text() << " (measured 4/6; the issue's bar is 5/6)";
+  EXPECT_TRUE(right.AtLeastFiveInSix()) << "coulomb_cogging: right on " << right.Text();
   EXPECT_LE(median, 0.02) << "coulomb_cogging: median |B error|";
 }
 

@@ -47,6 +47,38 @@ std::vector<std::vector<double>> SlowBasis(std::size_t n) {
   return {p1, p2};
 }
 
+// The samples' Nyquist order in angle: a shaft at 100 rad/s sampled every 1 ms advances
+// 0.1 rad per sample, so orders up to floor(pi / 0.1) = 31 are resolved; the samples at rest
+// (a quarter of the run, |dtheta| = 0) and a slower stretch below a quarter of the fastest
+// step do not count; a w column alone gives the same (its trapezoidal angle); no angle: 0.
+TEST(AngleNyquistOrder, PiOverTheAngleStepInMotion) {
+  FitTrace trace;
+  std::vector<double> t, theta, w;
+  double angle = 0.0;
+  for (int k = 0; k < 4000; ++k) {
+    const double speed = k < 1000 ? 0.0 : (k < 1500 ? 10.0 : 100.0);  // rad/s
+    t.push_back(1e-3 * k);
+    w.push_back(speed);
+    theta.push_back(angle);
+    angle += speed * 1e-3;
+  }
+  trace.trace.Set("t", t);
+  trace.trace.Set("theta", theta);
+  EXPECT_EQ(AngleNyquistOrder({trace}), 31);
+  FitTrace speed_only;
+  speed_only.trace.Set("t", t);
+  std::vector<double> w_steady(w.size(), 100.0);
+  speed_only.trace.Set("w", w_steady);
+  EXPECT_EQ(AngleNyquistOrder({speed_only}), 31);
+  FitTrace no_angle;
+  no_angle.trace.Set("t", t);
+  EXPECT_EQ(AngleNyquistOrder({no_angle}), 0);
+  FitTrace at_rest;
+  at_rest.trace.Set("t", t);
+  at_rest.trace.Set("theta", std::vector<double>(t.size(), 0.3));
+  EXPECT_EQ(AngleNyquistOrder({at_rest}), 0);
+}
+
 TEST(FglsFTest, FalseAlarmRateOnWhiteAndColouredNoise) {
   Random random(11);
   constexpr int kRuns = 400;

@@ -820,14 +820,26 @@ TEST_F(OdriveCogging, DiscoveryFindsCoggingOnUncompensatedRunsAtTheMapsDominantO
   const std::vector<double> map = CoggingMapHarmonics("iq_hold_A_a16");
   const auto map_order = std::max_element(map.begin(), map.end()) - map.begin();
   EXPECT_EQ(Value(step["parameters"]["periods"]), static_cast<double>(map_order));  // 7
-  // Measured: Tcog = 0.05907 N m, +23 % from the map's 7/rev 0.0479 N m (0.04777, -0.3 %,
-  // once the Stribeck friction was beside it).
+  // When added (the refit's 20 free-running iterations): Tcog = 0.05907 N m, +23 % from the
+  // map's 7/rev 0.0479 N m, NRMSE 0.7442. The final model is then fitted to convergence
+  // (48 iterations, docs/discovery.md §3b): NRMSE 0.5245, J 2.91e-4 kg m^2 (the repo's rough
+  // figure: ~2.5e-4; 4.13e-4 before discovery), and Tcog 0.0930, 1.94 times the map: the
+  // amplitude takes up part of what the model misses (the residual depends on t), and the
+  // report says so: cogging is unstable between the odd and the even runs (Tcog 0.0822
+  // against 0.0994, z = 9.0) and the structure left is unexplained.
+  EXPECT_NEAR(Value(step["parameters"]["Tcog"]), 0.05907, 0.0005);
+  EXPECT_NEAR(Value(step["nrmse_after"]), 0.7442, 0.002);
   const double Tcog = Value(d["parameters_after"]["Tcog"]);
-  EXPECT_NEAR(Tcog, 0.05907, 0.0005);
-  EXPECT_NEAR(Tcog / (map[map_order] * kOdriveKt), 1.0, 0.25);
+  EXPECT_NEAR(Tcog, 0.0930, 0.0005);
+  EXPECT_NEAR(Value(d["parameters_after"]["J"]), 2.91e-4, 0.01e-4);
+  EXPECT_EQ(d["adequacy"]["stability"]["unstable"], nlohmann::json::array({"cogging"}));
+  std::vector<std::string> codes;
+  for (const auto& w : (*nocomp_)["warnings"]) codes.push_back(w["code"]);
+  EXPECT_NE(std::find(codes.begin(), codes.end(), "effect_unstable"), codes.end());
+  EXPECT_NE(std::find(codes.begin(), codes.end(), "unexplained_structure"), codes.end());
   EXPECT_EQ(step["candidates"][0]["evidence_rule"], "prewhitened_bic");
   EXPECT_NEAR(Value(d["error_before"]["nrmse"]), 0.9148, 0.002);
-  EXPECT_NEAR(Value(d["error_after"]["nrmse"]), 0.7442, 0.002);
+  EXPECT_NEAR(Value(d["error_after"]["nrmse"]), 0.5245, 0.002);
 }
 
 TEST_F(OdriveCogging, DominantOrderMatchesTheMapOnTheUncompensatedFilesWhereItIsFound) {

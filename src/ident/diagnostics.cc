@@ -251,14 +251,19 @@ std::vector<AnglePeak> LargestPeaks(const std::vector<double>& amplitude, int mi
 // whole order and keeps the slow drift out (transients after a step or a reversal would
 // otherwise smear all orders alike). Orders that complete fewer than three periods over the
 // whole rotation are not resolved; the spectrum needs at least half a revolution.
+// Orders above the samples' Nyquist order in angle (AngleNyquistOrder) are aliased and left
+// out too.
 void AngleSpectrum(const std::vector<double>& e, const PooledSignals& pooled, double theta_span,
-                   double w_max, const DiagnosticsOptions& options, double pole_pairs,
-                   ColumnDiagnostics& d) {
+                   double w_max, int nyquist_order, const DiagnosticsOptions& all_options,
+                   double pole_pairs, ColumnDiagnostics& d) {
   d.shaft_turned = theta_span > M_PI;
   // A shaft that barely turned (a locked rotor: theta_span ~ 0) gives a huge ratio.
   const int min_order = std::max(
       1, internal::SaturatingCast<int>(std::ceil(3.0 * 2.0 * M_PI / std::max(theta_span, 1e-9))));
   if (!d.shaft_turned) return;
+  DiagnosticsOptions options = all_options;
+  if (nyquist_order > 0) options.max_order = std::min(options.max_order, nyquist_order);
+  if (options.max_order < min_order) return;
   std::vector<char> use;
   std::size_t moving = 0;
   const std::vector<double> detrended = DetrendOverRevolution(e, pooled, w_max, use, moving);
@@ -285,6 +290,7 @@ ResidualAnalysis AnalyseResidual(const FitProblem& problem, const std::vector<do
     theta_span += std::abs(pooled.theta[k] - pooled.theta[k - 1]);
   }
 
+  const int nyquist_order = AngleNyquistOrder(problem.traces());
   const auto& observe = problem.observe();
   const std::size_t columns = observe.size();
   double min_p = 1.0;
@@ -297,7 +303,7 @@ ResidualAnalysis AnalyseResidual(const FitProblem& problem, const std::vector<do
     CorrelateWithInput(e, pooled.u, ResidualLags(e, options), d);
     d.sign_w = SplitBySign(e, pooled.w, 0.01 * analysis.w_max);
     d.sign_i = SplitBySign(e, pooled.current, 0.01 * analysis.i_max);
-    AngleSpectrum(e, pooled, theta_span, analysis.w_max, options, pole_pairs, d);
+    AngleSpectrum(e, pooled, theta_span, analysis.w_max, nyquist_order, options, pole_pairs, d);
     analysis.columns.push_back(d);
   }
   analysis.whiteness_p = std::min(1.0, min_p * static_cast<double>(columns));

@@ -729,9 +729,12 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
       const auto& o = runs[k].outcome;
       if (passes_evidence(o) && o.generalises) qualifying.push_back(k);
     }
-    // Parsimony: an effect with more parameters than another qualifying one must predict
-    // the data it was not fitted to better (by the margin), or the simpler one is added
-    // (a Stribeck curve must show its dip, not reshape a Coulomb friction).
+    // Parsimony and generalisation: the best candidate by BIC gives way to another
+    // qualifying one with fewer parameters unless it predicts the data they were not fitted
+    // to better (by the margin: a Stribeck curve must show its dip, not reshape a Coulomb
+    // friction), and to one with as many parameters that predicts those data better by the
+    // margin (issue 24: gravity's one period per revolution ahead of a cogging ripple by BIC,
+    // the cogging 2 % better on the held-out blocks).
     auto out_of_sample = [&](const CandidateOutcome& o) {
       if (o.cross_validated) return o.cv_after;
       if (o.has_held_out) return o.held_out_after;
@@ -740,21 +743,33 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     if (qualifying.size() > 1) {
       const std::size_t first = qualifying.front();
       for (std::size_t q = 1; q < qualifying.size(); ++q) {
-        const std::size_t simpler = qualifying[q];
-        const double complex_score = out_of_sample(runs[first].outcome);
-        const double simple_score = out_of_sample(runs[simpler].outcome);
-        if (plans[simpler].free.size() >= plans[first].free.size() ||
-            !std::isfinite(complex_score) || !std::isfinite(simple_score))
+        const std::size_t other = qualifying[q];
+        const double first_score = out_of_sample(runs[first].outcome);
+        const double other_score = out_of_sample(runs[other].outcome);
+        const std::size_t first_size = plans[first].free.size();
+        const std::size_t other_size = plans[other].free.size();
+        if (other_size > first_size || !std::isfinite(first_score) ||
+            !std::isfinite(other_score))
           continue;
-        if (complex_score < (1.0 - options.held_out_margin) * simple_score) continue;
+        const bool simpler = other_size < first_size;
+        const bool gives_way = simpler
+                                   ? !(first_score < (1.0 - options.held_out_margin) * other_score)
+                                   : other_score < (1.0 - options.held_out_margin) * first_score;
+        if (!gives_way) continue;
         runs[first].outcome.reason =
-            "tried, not needed: its " + std::to_string(plans[first].free.size()) +
-            " parameters do not predict the data they were not fitted to better than " +
-            runs[simpler].outcome.effect + "'s " + std::to_string(plans[simpler].free.size()) +
-            " (" + G(complex_score) + " against " + G(simple_score) + ")";
+            simpler ? "tried, not needed: its " + std::to_string(first_size) +
+                          " parameters do not predict the data they were not fitted to better "
+                          "than " +
+                          runs[other].outcome.effect + "'s " + std::to_string(other_size) +
+                          " (" + G(first_score) + " against " + G(other_score) + ")"
+                    : "tried, not needed: " + runs[other].outcome.effect +
+                          ", with as many parameters, predicts the data they were not fitted "
+                          "to better by more than " +
+                          G(100.0 * options.held_out_margin) + " % (" + G(other_score) +
+                          " against " + G(first_score) + ")";
         qualifying.erase(qualifying.begin());
         std::stable_sort(qualifying.begin(), qualifying.end(), [&](std::size_t l, std::size_t r) {
-          if (l == simpler) return r != simpler;
+          if (l == other) return r != other;
           return false;
         });
         break;
@@ -837,6 +852,23 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
         MakeProblem(config, problem.traces(), problem.observe(), free));
     current_fit = best.fit;
     current_bic = best.outcome.bic;
+  }
+  if (!result.added.empty() && !current_fit.summary.converged) {
+    // The winner's refit stops after a few iterations (its free-running polish, 20): the
+    // final model, which heads the report, is fitted to convergence from there (a
+    // free-running cogging fit creeps along a narrow valley: 3 of 6 Coulomb + cogging cases
+    // of the adequacy study stopped at 20 iterations, their answers right, the report saying
+    // "not converged").
+    ProgressObserver* const progress = options.refit.progress;
+    if (progress) progress->BeginStage("final model: fitted to convergence", 0);
+    std::vector<FreeParameter> free = current_problem->free();
+    for (std::size_t k = 0; k < free.size(); ++k) free[k].initial = current_fit.values[k];
+    const FitProblem free_run(current_problem->config(), problem.traces(), problem.observe(),
+                              free);
+    // (the user's Ceres options, else Ceres's own iteration limit, 100)
+    FitResult converged = FindOptimizer("ceres").Minimize(free_run, options.refit);
+    if (converged.evaluation.ok && converged.evaluation.cost <= current_fit.evaluation.cost)
+      current_fit = std::move(converged);
   }
   result.final_config = current_problem->config();
   for (const auto& p : current_problem->free()) result.final_free.push_back(p.name);

@@ -1,7 +1,9 @@
 #include "blmd/ident/problem.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 
 #include "blmd/error.h"
 #include "blmd/io/csv.h"
@@ -189,6 +191,26 @@ std::vector<double> MeasuredAngle(const FitTrace& fit_trace) {
     theta[r] = theta[r - 1] + 0.5 * (w[r] + w[r - 1]) * (t[r] - t[r - 1]);
   }
   return theta;
+}
+
+int AngleNyquistOrder(const std::vector<FitTrace>& traces) {
+  std::vector<double> limits;
+  for (const FitTrace& trace : traces) {
+    const std::vector<double> theta = MeasuredAngle(trace);
+    double largest = 0.0;
+    for (std::size_t r = 1; r < theta.size(); ++r)
+      largest = std::max(largest, std::abs(theta[r] - theta[r - 1]));
+    if (!(largest > 0.0) || !std::isfinite(largest)) continue;
+    for (std::size_t r = 1; r < theta.size(); ++r) {
+      const double step = std::abs(theta[r] - theta[r - 1]);
+      if (step > 0.25 * largest) limits.push_back(std::numbers::pi / step);
+    }
+  }
+  if (limits.empty()) return 0;
+  const auto middle = limits.begin() + static_cast<long>(limits.size() / 2);
+  std::nth_element(limits.begin(), middle, limits.end());
+  // (in double first: a slowly turning shaft resolves orders beyond any int)
+  return *middle >= 1e9 ? 1000000000 : static_cast<int>(std::floor(*middle));
 }
 
 bool FitProblem::Compare(std::size_t k, const Trace& simulated, std::vector<double>* sum_sq,

@@ -143,6 +143,14 @@ class FitProblem {
 // trapezoidal integral of its w from the initial angle; empty when it has neither.
 std::vector<double> MeasuredAngle(const FitTrace& trace);
 
+// The highest order (periods per revolution) of a ripple in the shaft angle that the traces'
+// samples resolve (Shannon): a ripple of order m advances m |dtheta| radians between two
+// samples and, once that passes pi, is aliased to a lower order at the samples (at a steady
+// speed it is indistinguishable from it). The median of pi / |dtheta| over the samples in
+// motion (|dtheta| above a quarter of its largest in the trace), from the measured angle;
+// 0 when no trace records an angle or the shaft does not move.
+int AngleNyquistOrder(const std::vector<FitTrace>& traces);
+
 // Builds the free-parameter list from the config (bounds, initial values, log scale).
 // Throws InputError for an unknown parameter or an initial value outside its bounds.
 // Free parameters by name only (no bounds, no start), for a problem that is evaluated at
