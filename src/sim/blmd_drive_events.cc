@@ -305,7 +305,8 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
   double demand = 0.0, input_edge = chirp ? kNever : -kNever;  // a chirp has no edge
   long piece = 0;  // carrier piece: [t_start + piece T/2, t_start + (piece + 1) T/2]
   double piece_start = t_start, piece_end = t_start + c.half_period;
-  int until_resync = 64;
+  constexpr int kResync = 256;
+  int until_resync = kResync;
   bool first = true;
   long stalled = 0;
 
@@ -882,17 +883,22 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
         }
       }
     }
-    // The electrical angle: rotated by x = p (theta_new - theta_old) (a Taylor series exact to
-    // rounding for |x| < 0.01), resynchronised with std::cos/std::sin every 64 segments.
+    // The electrical angle: rotated by x = p (theta_new - theta_old) (Taylor series exact to
+    // rounding for |x| < 0.05: the first terms left out, x^10/10! and x^11/11!, are below
+    // 3e-20; the segments of the bundled step at full speed turn by up to 0.04), and
+    // resynchronised with std::cos/std::sin every kResync = 256 segments (a rotation's
+    // rounding, ~1e-16, adds up to ~1e-14 in between).
     const double x = p * (theta - theta_old);
-    if (--until_resync == 0 || stops || !(std::abs(x) < 0.01)) {
+    if (--until_resync == 0 || stops || !(std::abs(x) < 0.05)) {
       cos_a = std::cos(p * theta);
       sin_a = std::sin(p * theta);
-      until_resync = 64;
+      until_resync = kResync;
     } else {
       const double x2 = x * x;
-      const double cos_x = 1.0 - x2 * (0.5 - x2 * (1.0 / 24.0 - x2 * (1.0 / 720.0)));
-      const double sin_x = x * (1.0 - x2 * (1.0 / 6.0 - x2 * (1.0 / 120.0)));
+      const double cos_x =
+          1.0 - x2 * (0.5 - x2 * (1.0 / 24.0 - x2 * (1.0 / 720.0 - x2 * (1.0 / 40320.0))));
+      const double sin_x =
+          x * (1.0 - x2 * (1.0 / 6.0 - x2 * (1.0 / 120.0 - x2 * (1.0 / 5040.0 - x2 * (1.0 / 362880.0)))));
       const double rotated = cos_a * cos_x - sin_a * sin_x;
       sin_a = sin_a * cos_x + cos_a * sin_x;
       cos_a = rotated;
@@ -917,8 +923,15 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
   out->Set("t", times);
   std::vector<double>& u_column = columns[0];
   InputCursor u_cursor(experiment.input);
+  // The input is read again only where it may have changed (InputCursor::NextChange).
+  double u_value = 0.0, u_next = -kNever;
   for (std::size_t k = 0; k < times.size(); ++k) {
-    u_column[k] = u_cursor.At(times[k] + 0.5 * settings.dt);
+    const double at = times[k] + 0.5 * settings.dt;
+    if (at >= u_next) {
+      u_value = u_cursor.At(at);
+      u_next = u_cursor.NextChange(at);
+    }
+    u_column[k] = u_value;
   }
   for (std::size_t k = 0; k < names.size(); ++k) out->Set(names[k], std::move(columns[k]));
   return SimStatus::Ok();
