@@ -4,9 +4,10 @@
 // is constant and the drive is smooth, so one Taylor series in the time tau since the
 // segment's start, of order 2 for the phase currents, the cosines of the electrical angle and
 // the compensators' errors (order 3 for the integrators and the compensator outputs), of
-// order 3 for the speed and 4 for the angle, represents the state (kOrder below). The series is built by the standard recursion (coefficient k + 1 from the
-// coefficients up to k of the right-hand side; Moore 1966, Corliss & Chang 1982): the
-// products w·cos and i·cos are Cauchy products. The events are roots of these polynomials:
+// order 3 for the speed and 4 for the angle, represents the state (kOrder below). The series is
+// built by the standard recursion (coefficient k + 1 from the coefficients up to k of the
+// right-hand side; Moore 1966, Corliss & Chang 1982): the products w·cos and i·cos are Cauchy
+// products. The events are roots of these polynomials:
 //   - a comparator crossing: v_c,j(tau) - v_tri(tau) = 0 (carrier linear between vertices);
 //   - a blanked phase's current reaching zero (its diode turns off: the phase opens);
 //   - a compensator output reaching or leaving +-Vtri, an error changing sign while it is
@@ -68,8 +69,8 @@ inline double EvalDerivative(const double* c, double x) {
   return value;
 }
 
-// Refines a root of the polynomial g (degree kDegree) inside [a, b] with g(a) >= 0 > g(b): Newton steps from
-// the regula-falsi point, kept inside the bracket (bisection otherwise), until a step is
+// Refines a root of the polynomial g (degree kDegree) inside [a, b] with g(a) >= 0 > g(b): Newton
+// steps from the regula-falsi point, kept inside the bracket (bisection otherwise), until a step is
 // below the rounding of the root (three steps for the nearly linear functions here). The
 // instant returned is past the root (g < 0 there).
 double RefineRoot(const double* g, double a, double ga, double b, double gb) {
@@ -312,8 +313,8 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
 
   // The segment's series (coefficient k multiplies tau^k).
   constexpr int N = kOrder, D = kDegree;
-  double ic[3][N + 1] = {}, uc[3][D + 1] = {}, yc[3][N + 1] = {}, ec[3][N + 1] = {},
-         cc[3][N + 1] = {}, zc[3][N + 1] = {}, icoef[3][D + 1] = {};
+  double ic[3][N + 1] = {}, yc[3][N + 1] = {}, ec[3][N + 1] = {}, cc[3][N + 1] = {};
+  double zc[3][N + 1] = {}, uc[3][D + 1] = {}, icoef[3][D + 1] = {};
   constexpr int NS = kSpeedOrder;
   double wc[NS + 1] = {}, thc[NS + 2] = {};
   double phase_voltage[3], neutral = 0.0;
@@ -898,7 +899,8 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
       const double cos_x =
           1.0 - x2 * (0.5 - x2 * (1.0 / 24.0 - x2 * (1.0 / 720.0 - x2 * (1.0 / 40320.0))));
       const double sin_x =
-          x * (1.0 - x2 * (1.0 / 6.0 - x2 * (1.0 / 120.0 - x2 * (1.0 / 5040.0 - x2 * (1.0 / 362880.0)))));
+          x * (1.0 -
+               x2 * (1.0 / 6.0 - x2 * (1.0 / 120.0 - x2 * (1.0 / 5040.0 - x2 * (1.0 / 362880.0)))));
       const double rotated = cos_a * cos_x - sin_a * sin_x;
       sin_a = sin_a * cos_x + cos_a * sin_x;
       cos_a = rotated;
