@@ -2,11 +2,12 @@
 // docs/model-blmd.md §9). The drive is integrated in segments between the instants at which
 // a leg voltage or a compensator's saturation changes; within a segment every leg voltage
 // is constant and the drive is smooth, so one Taylor series in the time tau since the
-// segment's start, of order 3 for the phase currents, the speed, the cosine of the electrical
-// angle and the compensators (order 4 for the angle and the integrators), represents the
-// state. The series is built by the standard recursion (coefficient k + 1 from the
-// coefficients up to k of the right-hand side; Moore 1966, Corliss & Chang 1982): the
-// products w·cos and i·cos are Cauchy products. The events are roots of these polynomials:
+// segment's start, of order 2 for the phase currents, the cosines of the electrical angle and
+// the compensators' errors (order 3 for the integrators and the compensator outputs), of
+// order 3 for the speed and 4 for the angle, represents the state (kOrder below). The series is
+// built by the standard recursion (coefficient k + 1 from the coefficients up to k of the
+// right-hand side; Moore 1966, Corliss & Chang 1982): the products w·cos and i·cos are Cauchy
+// products. The events are roots of these polynomials:
 //   - a comparator crossing: v_c,j(tau) - v_tri(tau) = 0 (carrier linear between vertices);
 //   - a blanked phase's current reaching zero (its diode turns off: the phase opens);
 //   - a compensator output reaching or leaving +-Vtri, an error changing sign while it is
@@ -39,6 +40,18 @@ namespace {
 
 constexpr double kHalfSqrt3 = 0.86602540378443864676;  // sin(2 pi/3)
 constexpr double kNever = std::numeric_limits<double>::infinity();
+// The series' order: the phase currents, the speed, the angle's cosines and the
+// compensators' errors are polynomials of degree kOrder in tau within a segment; their
+// integrals (the angle, the integrators) and hence the compensator outputs of degree
+// kDegree = kOrder + 1, the degree of every event function below.
+constexpr int kOrder = 2;
+constexpr int kDegree = kOrder + 1;
+// The speed's series is of order 3 whatever kOrder (the angle's of order 4): its truncation
+// error accumulates over the run (the torque's cubic term left out has a nonzero mean over
+// a carrier period), while the currents' is corrected at every period by the loop.
+constexpr int kSpeedOrder = 3;
+static_assert(kSpeedOrder <= kDegree, "the friction stop's polynomial fits an event function");
+constexpr double kInverse[] = {0.0, 1.0, 0.5, 1.0 / 3.0, 0.25};  // 1/k
 
 // p(x) = c[0] + c[1] x + ... + c[n] x^n (Horner).
 template <int N>
@@ -56,16 +69,16 @@ inline double EvalDerivative(const double* c, double x) {
   return value;
 }
 
-// Refines a root of the quartic g inside [a, b] with g(a) >= 0 > g(b): Newton steps from
-// the regula-falsi point, kept inside the bracket (bisection otherwise), until a step is
+// Refines a root of the polynomial g (degree kDegree) inside [a, b] with g(a) >= 0 > g(b): Newton
+// steps from the regula-falsi point, kept inside the bracket (bisection otherwise), until a step is
 // below the rounding of the root (three steps for the nearly linear functions here). The
 // instant returned is past the root (g < 0 there).
 double RefineRoot(const double* g, double a, double ga, double b, double gb) {
   double x = a + (b - a) * (ga / (ga - gb));
   for (int iteration = 0; iteration < 60; ++iteration) {
     // g(x) and g'(x) in one Horner pass.
-    double gx = g[4], slope = 0.0;
-    for (int k = 3; k >= 0; --k) {
+    double gx = g[kDegree], slope = 0.0;
+    for (int k = kDegree - 1; k >= 0; --k) {
       slope = slope * x + gx;
       gx = gx * x + g[k];
     }
@@ -83,10 +96,10 @@ double RefineRoot(const double* g, double a, double ga, double b, double gb) {
       // Converged: return the first of the next few doubles at which g < 0, so that the
       // next segment starts past the event (else the bracket's end, where g < 0). The
       // instants are positive: the next double up is the next bit pattern.
-      double past = next, g_past = Eval<4>(g, past);
+      double past = next, g_past = Eval<kDegree>(g, past);
       for (int step = 0; g_past >= 0.0 && step < 8 && past < b && past > 0.0; ++step) {
         past = std::bit_cast<double>(std::bit_cast<std::uint64_t>(past) + 1);
-        g_past = Eval<4>(g, past);
+        g_past = Eval<kDegree>(g, past);
       }
       return g_past < 0.0 && past <= b ? past : b;
     }
@@ -100,21 +113,28 @@ double RefineRoot(const double* g, double a, double ga, double b, double gb) {
 // case) the minimum is where g' = 0, found by Newton's method; otherwise sixteen
 // sub-intervals are scanned.
 [[gnu::noinline]] double FindDip(const double* g, double lo, double g_lo, double hi) {
-  const double variation = hi * (6.0 * std::abs(g[3]) + hi * 12.0 * std::abs(g[4]));
+  // |g''(x) - 2 g[2]| over [0, hi].
+  double variation = 0.0;
+#pragma GCC unroll 5
+  for (int k = kDegree; k >= 3; --k) variation = variation * hi + k * (k - 1) * std::abs(g[k]);
+  variation *= hi;
   if (variation < 2.0 * std::abs(g[2])) {
     if (g[2] <= 0.0) return kNever;  // concave: the minimum is at an end
-    const double minus_slope[5] = {-g[1], -2.0 * g[2], -3.0 * g[3], -4.0 * g[4], 0.0};
-    const double s_lo = Eval<4>(minus_slope, lo), s_hi = Eval<4>(minus_slope, hi);
+    double minus_slope[kDegree + 1];
+#pragma GCC unroll 5
+    for (int k = 0; k < kDegree; ++k) minus_slope[k] = -(k + 1) * g[k + 1];
+    minus_slope[kDegree] = 0.0;
+    const double s_lo = Eval<kDegree>(minus_slope, lo), s_hi = Eval<kDegree>(minus_slope, hi);
     if (!(s_lo > 0.0 && s_hi < 0.0)) return kNever;  // monotone
     const double critical = RefineRoot(minus_slope, lo, s_lo, hi, s_hi);
-    const double g_critical = Eval<4>(g, critical);
+    const double g_critical = Eval<kDegree>(g, critical);
     return g_critical < 0.0 ? RefineRoot(g, lo, g_lo, critical, g_critical) : kNever;
   }
   const double span = hi - lo;
   double a = lo, ga = g_lo;
   for (int piece = 1; piece <= 16; ++piece) {
     const double b = piece == 16 ? hi : lo + span * (piece / 16.0);
-    const double gb = Eval<4>(g, b);
+    const double gb = Eval<kDegree>(g, b);
     if (gb < 0.0) return RefineRoot(g, a, ga, b, gb);
     a = b;
     ga = gb;
@@ -122,7 +142,7 @@ double RefineRoot(const double* g, double a, double ga, double b, double gb) {
   return kNever;
 }
 
-// The first tau in (lo, hi] at which the quartic g is negative, given g(lo) >= 0 (a value
+// The first tau in (lo, hi] at which the polynomial g is negative, given g(lo) >= 0 (a value
 // below zero at lo is rounding just past an event already handled, and taken as zero);
 // kNever when g stays >= 0. A sign change between the ends is refined at once; otherwise a
 // bound on the curvature shows that g cannot dip below zero in between (the usual case), or
@@ -130,16 +150,19 @@ double RefineRoot(const double* g, double a, double ga, double b, double gb) {
 inline double FirstNegative(const double* g, double lo, double hi) {
   if (!(hi > lo)) return kNever;
   if (lo == 0.0) {  // |g - g(0)| <= this bound over [0, hi]: no root when g(0) exceeds it
-    const double drift =
-        hi * (std::abs(g[1]) + hi * (std::abs(g[2]) + hi * (std::abs(g[3]) + hi * std::abs(g[4]))));
+    double drift = std::abs(g[kDegree]) * hi;
+#pragma GCC unroll 5
+    for (int k = kDegree - 1; k >= 1; --k) drift = (drift + std::abs(g[k])) * hi;
     if (g[0] > drift) return kNever;
   }
-  const double g_lo = std::max(0.0, lo == 0.0 ? g[0] : Eval<4>(g, lo));
-  const double g_hi = Eval<4>(g, hi);
+  const double g_lo = std::max(0.0, lo == 0.0 ? g[0] : Eval<kDegree>(g, lo));
+  const double g_hi = Eval<kDegree>(g, hi);
   if (g_hi < 0.0) return RefineRoot(g, lo, g_lo, hi, g_hi);
   const double span = hi - lo;
-  const double curvature =
-      2.0 * std::abs(g[2]) + hi * (6.0 * std::abs(g[3]) + hi * 12.0 * std::abs(g[4]));
+  // |g''| <= curvature over [0, hi].
+  double curvature = kDegree * (kDegree - 1) * std::abs(g[kDegree]);
+#pragma GCC unroll 5
+  for (int k = kDegree - 1; k >= 2; --k) curvature = curvature * hi + k * (k - 1) * std::abs(g[k]);
   if (std::min(g_lo, g_hi) > 0.125 * curvature * span * span) return kNever;
   return FindDip(g, lo, g_lo, hi);
 }
@@ -283,32 +306,35 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
   double demand = 0.0, input_edge = chirp ? kNever : -kNever;  // a chirp has no edge
   long piece = 0;  // carrier piece: [t_start + piece T/2, t_start + (piece + 1) T/2]
   double piece_start = t_start, piece_end = t_start + c.half_period;
-  int until_resync = 64;
+  constexpr int kResync = 256;
+  int until_resync = kResync;
   bool first = true;
   long stalled = 0;
 
   // The segment's series (coefficient k multiplies tau^k).
-  double ic[3][4] = {}, uc[3][5] = {}, yc[3][4] = {}, ec[3][4] = {}, cc[3][4] = {}, zc[3][4] = {},
-         icoef[3][5] = {};
-  double wc[4] = {}, thc[5] = {};
+  constexpr int N = kOrder, D = kDegree;
+  double ic[3][N + 1] = {}, yc[3][N + 1] = {}, ec[3][N + 1] = {}, cc[3][N + 1] = {};
+  double zc[3][N + 1] = {}, uc[3][D + 1] = {}, icoef[3][D + 1] = {};
+  constexpr int NS = kSpeedOrder;
+  double wc[NS + 1] = {}, thc[NS + 2] = {};
   double phase_voltage[3], neutral = 0.0;
   bool conducting[3];
 
   // Diagnostics at a sample: the segment's phase voltages and neutral, Te from the series.
   auto write_sample = [&](double tau, double w_shift, double theta_shift) {
     const std::size_t k = next_sample;
-    const double ia = Eval<3>(ic[0], tau), ib = Eval<3>(ic[1], tau), icc = Eval<3>(ic[2], tau);
+    const double ia = Eval<N>(ic[0], tau), ib = Eval<N>(ic[1], tau), icc = Eval<N>(ic[2], tau);
     columns[1][k] = ia + c.drive.i0;
     columns[2][k] = ib;
     columns[3][k] = icc;
-    columns[4][k] = Eval<3>(wc, tau) + w_shift * tau;
-    columns[5][k] = Eval<4>(thc, tau) + theta_shift * tau * tau;
+    columns[4][k] = Eval<NS>(wc, tau) + w_shift * tau;
+    columns[5][k] = Eval<NS + 1>(thc, tau) + theta_shift * tau * tau;
     if (diagnostics) {
       columns[6][k] = phase_voltage[0];
       columns[7][k] = phase_voltage[1];
       columns[8][k] = phase_voltage[2];
       columns[9][k] =
-          Ke * (ia * Eval<3>(cc[0], tau) + ib * Eval<3>(cc[1], tau) + icc * Eval<3>(cc[2], tau));
+          Ke * (ia * Eval<N>(cc[0], tau) + ib * Eval<N>(cc[1], tau) + icc * Eval<N>(cc[2], tau));
       columns[10][k] = neutral;
     }
     ++next_sample;
@@ -481,8 +507,9 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
       if (none) conducting[j] = false;
     }
 
-    // --- Taylor series, unrolled: order 3 for the currents, speed and cosines, 4 for the
-    // angle. Coefficient k + 1 of each state from coefficients up to k of its derivative.
+    // --- Taylor series, unrolled: order N = kOrder for the currents, speed and cosines,
+    // D = N + 1 for the angle. Coefficient k + 1 of each state from coefficients up to k of
+    // its derivative.
     const double w0 = w;
     double effect_torque = 0.0, friction_sign = 0.0, non_friction_torque = 0.0;
 #pragma GCC unroll 5
@@ -547,26 +574,27 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
     }
     next_currents(1, share_weight * ec[open_phase][1]);
     wc[2] = moving * 0.5 * (Ke_J * Te1 - B_J * wc[1]);
-    const double om2 = p * wc[2];
+    [[maybe_unused]] const double om2 = p * wc[2];
     const double C2 = -0.5 * (om0 * S1 + om1 * sin_a), S2 = 0.5 * (om0 * C1 + om1 * cos_a);
     rotate(2, C2, S2);
-    // Order 2 -> 3.
+    // Order 2 -> 3: the speed's, and with kOrder = 3 the currents' and cosines'.
     double Te2 = 0.0;
 #pragma GCC unroll 5
     for (int j = 0; j < 3; ++j) {
-      ec[j][2] = Ke * (w0 * cc[j][2] + wc[1] * cc[j][1] + wc[2] * cc[j][0]);
+      if constexpr (N >= 3) ec[j][2] = Ke * (w0 * cc[j][2] + wc[1] * cc[j][1] + wc[2] * cc[j][0]);
       Te2 += ic[j][0] * cc[j][2] + ic[j][1] * cc[j][1] + ic[j][2] * cc[j][0];
     }
-    next_currents(2, share_weight * ec[open_phase][2]);
     wc[3] = moving * (1.0 / 3.0) * (Ke_J * Te2 - B_J * wc[2]);
-    const double C3 = -(1.0 / 3.0) * (om0 * S2 + om1 * S1 + om2 * sin_a);
-    const double S3 = (1.0 / 3.0) * (om0 * C2 + om1 * C1 + om2 * cos_a);
-    rotate(3, C3, S3);
+    if constexpr (N >= 3) {
+      next_currents(2, share_weight * ec[open_phase][std::min(2, N)]);
+      const double C3 = -(1.0 / 3.0) * (om0 * S2 + om1 * S1 + om2 * sin_a);
+      const double S3 = (1.0 / 3.0) * (om0 * C2 + om1 * C1 + om2 * cos_a);
+      rotate(std::min(3, N), C3, S3);
+    }
+    static_assert(N == 2 || N == 3, "the recursion is unrolled for orders 2 and 3");
     thc[0] = theta;
-    thc[1] = wc[0];
-    thc[2] = 0.5 * wc[1];
-    thc[3] = (1.0 / 3.0) * wc[2];
-    thc[4] = 0.25 * wc[3];
+#pragma GCC unroll 5
+    for (int k = 0; k <= NS; ++k) thc[k + 1] = kInverse[k + 1] * wc[k];
     if (one_open) {  // the open terminal floats at v_sg + e_k: its phase voltage is e_k
       phase_voltage[open_phase] = ec[open_phase][0];
       neutral += share0;
@@ -575,26 +603,26 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
     // --- Compensators: errors, lead-lag, integrators, outputs u_j (series).
     Integrator mode[3];
     double sign_limit[3];
-    double errc[3][4];
+    double errc[3][N + 1];
 #pragma GCC unroll 5
     for (int j = 0; j < 3; ++j) {
       double* e = errc[j];
 #pragma GCC unroll 5
-      for (int k = 0; k <= 3; ++k) e[k] = demand_current * cc[j][k] - Kf * ic[j][k];
+      for (int k = 0; k <= N; ++k) e[k] = demand_current * cc[j][k] - Kf * ic[j][k];
       if (chirp) {  // (Td0 + Td1 tau) c_j(tau)
-        for (int k = 1; k <= 3; ++k) e[k] += Kc * demand_slope * cc[j][k - 1];
+        for (int k = 1; k <= N; ++k) e[k] += Kc * demand_slope * cc[j][k - 1];
       }
       if (c.lag) {
         zc[j][0] = lag_state[j];
 #pragma GCC unroll 5
-        for (int k = 0; k < 3; ++k) {
+        for (int k = 0; k < N; ++k) {
           zc[j][k + 1] = (c.lag_input * e[k] - zc[j][k]) / (c.Tp * (k + 1));
         }
 #pragma GCC unroll 5
-        for (int k = 0; k <= 3; ++k) yc[j][k] = Kp * c.lead_direct * e[k] + zc[j][k];
+        for (int k = 0; k <= N; ++k) yc[j][k] = Kp * c.lead_direct * e[k] + zc[j][k];
       } else {
 #pragma GCC unroll 5
-        for (int k = 0; k <= 3; ++k) yc[j][k] = Kp * e[k];
+        for (int k = 0; k <= N; ++k) yc[j][k] = Kp * e[k];
       }
       const double u = yc[j][0] + integral[j];
       const double s = u >= 0.0 ? 1.0 : -1.0;
@@ -617,18 +645,19 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
         icoef[j][1] = Ki * e[0];
         icoef[j][2] = 0.5 * Ki * e[1];
         icoef[j][3] = (1.0 / 3.0) * Ki * e[2];
-        icoef[j][4] = 0.25 * Ki * e[3];
+        if constexpr (N >= 3) icoef[j][4] = 0.25 * Ki * e[3];
       } else if (m == Integrator::kHeld) {
-        icoef[j][1] = icoef[j][2] = icoef[j][3] = icoef[j][4] = 0.0;
+        icoef[j][1] = icoef[j][2] = icoef[j][3] = 0.0;
+        if constexpr (N >= 3) icoef[j][4] = 0.0;
       } else {
         icoef[j][1] = -yc[j][1];
         icoef[j][2] = -yc[j][2];
-        icoef[j][3] = -yc[j][3];
-        icoef[j][4] = 0.0;
+        if constexpr (N >= 3) icoef[j][3] = -yc[j][std::min(3, N)];
+        icoef[j][D] = 0.0;
       }
 #pragma GCC unroll 5
-      for (int k = 0; k <= 3; ++k) uc[j][k] = yc[j][k] + icoef[j][k];
-      uc[j][4] = icoef[j][4];
+      for (int k = 0; k <= N; ++k) uc[j][k] = yc[j][k] + icoef[j][k];
+      uc[j][D] = icoef[j][D];
     }
 
     // --- The segment's end: the known instants first. The end of a blanking time ends the
@@ -659,14 +688,15 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
     double cross[3] = {kNever, kNever, kNever};   // first crossing (tau)
     bool cross_ends[3] = {false, false, false};   // it ends the segment
     double cross2[3] = {kNever, kNever, kNever};  // a second crossing after a quiet one
-    double g[5];
+    double g[D + 1];
     // The carrier after the vertex, as a polynomial in tau: v_tri(vertex) - slope (tau - vertex).
     const double carrier_after0 = (rising ? Vtri : -Vtri) + carrier_slope * vertex;
     // The first tau in (lo, hi] at which s (u_j - v_tri) < 0: leg j's comparator leaves the
     // command s.
     auto first_crossing = [&](int j, double s, double lo, double hi) {
-      double h[5] = {s * (uc[j][0] - carrier0), s * (uc[j][1] - carrier_slope), s * uc[j][2],
-                     s * uc[j][3], s * uc[j][4]};
+      double h[D + 1] = {s * (uc[j][0] - carrier0), s * (uc[j][1] - carrier_slope)};
+#pragma GCC unroll 5
+      for (int k = 2; k <= D; ++k) h[k] = s * uc[j][k];
       if (vertex < hi) {
         if (vertex > lo) {
           const double tau = FirstNegative(h, lo, vertex);
@@ -686,7 +716,7 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
       if (tau == kNever) continue;
       cross[j] = tau;
       // The leg voltage after the edge: the diode of the current's sign during blanking.
-      const double i_at = Eval<3>(ic[j], tau);
+      const double i_at = Eval<N>(ic[j], tau);
       const double after = i_at > 0.0 ? 0.0 : Ud;
       cross_ends[j] = !conducting[j] || i_at == 0.0 || after != leg_voltage[j];
       if (cross_ends[j]) {
@@ -707,11 +737,12 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
       if (cross[j] < T && !cross_ends[j]) from = std::min(from, cross[j]), to = cross[j] + delta;
       to = std::min(to, T);
       if (!(to > from)) continue;
-      const double i_from = from == 0.0 ? ic[j][0] : Eval<3>(ic[j], from);
+      const double i_from = from == 0.0 ? ic[j][0] : Eval<N>(ic[j], from);
       const double s = i_from > 0.0 ? 1.0 : (i_from < 0.0 ? -1.0 : 0.0);
       if (s == 0.0) continue;
-      g[0] = s * ic[j][0], g[1] = s * ic[j][1], g[2] = s * ic[j][2], g[3] = s * ic[j][3];
-      g[4] = 0.0;
+#pragma GCC unroll 5
+      for (int k = 0; k <= N; ++k) g[k] = s * ic[j][k];
+      g[D] = 0.0;
       zero[j] = FirstNegative(g, from, to);
       T = std::min(T, zero[j]);
     }
@@ -723,14 +754,14 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
       const double* u = uc[j];
       if (mode[j] == Integrator::kIntegrating && std::abs(u0[j]) <= Vtri + level_tolerance) {
         // Reaching either limit; none when |u| cannot reach Vtri within T (a bound).
-        const double reach =
-            std::abs(u[0]) +
-            T * (std::abs(u[1]) + T * (std::abs(u[2]) + T * (std::abs(u[3]) + T * std::abs(u[4]))));
+        double reach = 0.0;
+#pragma GCC unroll 5
+        for (int k = D; k >= 0; --k) reach = reach * T + std::abs(u[k]);
         if (reach < Vtri) continue;
         for (const double side : {1.0, -1.0}) {
           g[0] = Vtri - side * u[0];
 #pragma GCC unroll 5
-          for (int k = 1; k <= 4; ++k) g[k] = -side * u[k];
+          for (int k = 1; k <= D; ++k) g[k] = -side * u[k];
           event = std::min(event, FirstNegative(g, 0.0, T));
         }
       } else if (mode[j] == Integrator::kIntegrating || mode[j] == Integrator::kHeld) {
@@ -738,23 +769,23 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
         // starts or stops).
         g[0] = s * u[0] - Vtri;
 #pragma GCC unroll 5
-        for (int k = 1; k <= 4; ++k) g[k] = s * u[k];
+        for (int k = 1; k <= D; ++k) g[k] = s * u[k];
         event = FirstNegative(g, 0.0, T);
         const double toward = mode[j] == Integrator::kHeld ? s : -s;
 #pragma GCC unroll 5
-        for (int k = 0; k <= 3; ++k) g[k] = toward * errc[j][k];
-        g[4] = 0.0;
+        for (int k = 0; k <= N; ++k) g[k] = toward * errc[j][k];
+        g[D] = 0.0;
         event = std::min(event, FirstNegative(g, 0.0, T));
       } else {
 // Sliding ends when y' turns outward or y' + Ki e turns inward.
 #pragma GCC unroll 5
-        for (int k = 0; k < 3; ++k) g[k] = -s * (k + 1) * yc[j][k + 1];
-        g[3] = g[4] = 0.0;
+        for (int k = 0; k < N; ++k) g[k] = -s * (k + 1) * yc[j][k + 1];
+        g[N] = g[D] = 0.0;
         event = FirstNegative(g, 0.0, T);
 #pragma GCC unroll 5
-        for (int k = 0; k < 3; ++k) g[k] = s * ((k + 1) * yc[j][k + 1] + Ki * errc[j][k]);
-        g[3] = s * Ki * errc[j][3];
-        g[4] = 0.0;
+        for (int k = 0; k < N; ++k) g[k] = s * ((k + 1) * yc[j][k + 1] + Ki * errc[j][k]);
+        g[N] = s * Ki * errc[j][N];
+        g[D] = 0.0;
         event = std::min(event, FirstNegative(g, 0.0, T));
       }
       // A limit event right at the start is the classification's own boundary: skip it.
@@ -765,16 +796,16 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
     if (stuck) {
       const double breakaway = shaft.FrictionMagnitude(0.0);
       const double other = non_friction_torque;
-      double torque[4];
+      double torque[N + 1];
 #pragma GCC unroll 5
-      for (int k = 0; k <= 3; ++k) {
+      for (int k = 0; k <= N; ++k) {
         torque[k] = Ke * (cc[0][0] * ic[0][k] + cc[1][0] * ic[1][k] + cc[2][0] * ic[2][k]);
       }
       for (const double side : {1.0, -1.0}) {
         g[0] = breakaway - side * (torque[0] - other);
 #pragma GCC unroll 5
-        for (int k = 1; k <= 3; ++k) g[k] = -side * torque[k];
-        g[4] = 0.0;
+        for (int k = 1; k <= N; ++k) g[k] = -side * torque[k];
+        g[D] = 0.0;
         const double tau = FirstNegative(g, 0.0, T);
         if (tau <= T) {
           T = tau;
@@ -787,8 +818,7 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
     if (sticking_friction && !stuck && w0 != 0.0) {
       const double s = w0 > 0.0 ? 1.0 : -1.0;
 #pragma GCC unroll 5
-      for (int k = 0; k <= 3; ++k) g[k] = s * wc[k];
-      g[4] = 0.0;
+      for (int k = 0; k <= D; ++k) g[k] = k <= NS ? s * wc[std::min(k, NS)] : 0.0;
       const double tau = FirstNegative(g, 0.0, T);
       if (tau <= T) {
         T = tau;
@@ -809,7 +839,7 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
     double w_shift = 0.0, theta_shift = 0.0;
     if (!c.plain_shaft && !stuck) {
       const double mid = 0.5 * T;
-      const double w_mid = Eval<3>(wc, mid), theta_mid = Eval<4>(thc, mid);
+      const double w_mid = Eval<NS>(wc, mid), theta_mid = Eval<NS + 1>(thc, mid);
       const double theta_mid_effects =
           settings.effect_angle ? effect_angle.At(t + mid, theta_mid) : theta_mid;
       double torque_mid = shaft.NonFrictionTorque(theta_mid_effects) + shaft.DragTorque(w_mid);
@@ -832,15 +862,15 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
 // --- Advance to t + T and apply the events that end the segment there.
 #pragma GCC unroll 5
     for (int j = 0; j < 3; ++j) {
-      current[j] = conducting[j] ? Eval<3>(ic[j], T) : 0.0;
-      integral[j] = Eval<4>(icoef[j], T);
-      if (c.lag) lag_state[j] = Eval<3>(zc[j], T);
+      current[j] = conducting[j] ? Eval<N>(ic[j], T) : 0.0;
+      integral[j] = Eval<D>(icoef[j], T);
+      if (c.lag) lag_state[j] = Eval<N>(zc[j], T);
       if (zero[j] == T) current[j] = 0.0;
     }
     const double theta_old = theta;
     if (!stuck) {
-      w = stops ? 0.0 : Eval<3>(wc, T) + w_shift * T;
-      theta = Eval<4>(thc, T) + theta_shift * T * T;
+      w = stops ? 0.0 : Eval<NS>(wc, T) + w_shift * T;
+      theta = Eval<NS + 1>(thc, T) + theta_shift * T * T;
     }
 // Commands: a quiet crossing before the end, a crossing at the end, a second one.
 #pragma GCC unroll 5
@@ -854,17 +884,23 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
         }
       }
     }
-    // The electrical angle: rotated by x = p (theta_new - theta_old) (a Taylor series exact to
-    // rounding for |x| < 0.01), resynchronised with std::cos/std::sin every 64 segments.
+    // The electrical angle: rotated by x = p (theta_new - theta_old) (Taylor series exact to
+    // rounding for |x| < 0.05: the first terms left out, x^10/10! and x^11/11!, are below
+    // 3e-20; the segments of the bundled step at full speed turn by up to 0.04), and
+    // resynchronised with std::cos/std::sin every kResync = 256 segments (a rotation's
+    // rounding, ~1e-16, adds up to ~1e-14 in between).
     const double x = p * (theta - theta_old);
-    if (--until_resync == 0 || stops || !(std::abs(x) < 0.01)) {
+    if (--until_resync == 0 || stops || !(std::abs(x) < 0.05)) {
       cos_a = std::cos(p * theta);
       sin_a = std::sin(p * theta);
-      until_resync = 64;
+      until_resync = kResync;
     } else {
       const double x2 = x * x;
-      const double cos_x = 1.0 - x2 * (0.5 - x2 * (1.0 / 24.0 - x2 * (1.0 / 720.0)));
-      const double sin_x = x * (1.0 - x2 * (1.0 / 6.0 - x2 * (1.0 / 120.0)));
+      const double cos_x =
+          1.0 - x2 * (0.5 - x2 * (1.0 / 24.0 - x2 * (1.0 / 720.0 - x2 * (1.0 / 40320.0))));
+      const double sin_x =
+          x * (1.0 -
+               x2 * (1.0 / 6.0 - x2 * (1.0 / 120.0 - x2 * (1.0 / 5040.0 - x2 * (1.0 / 362880.0)))));
       const double rotated = cos_a * cos_x - sin_a * sin_x;
       sin_a = sin_a * cos_x + cos_a * sin_x;
       cos_a = rotated;
@@ -889,8 +925,15 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
   out->Set("t", times);
   std::vector<double>& u_column = columns[0];
   InputCursor u_cursor(experiment.input);
+  // The input is read again only where it may have changed (InputCursor::NextChange).
+  double u_value = 0.0, u_next = -kNever;
   for (std::size_t k = 0; k < times.size(); ++k) {
-    u_column[k] = u_cursor.At(times[k] + 0.5 * settings.dt);
+    const double at = times[k] + 0.5 * settings.dt;
+    if (at >= u_next) {
+      u_value = u_cursor.At(at);
+      u_next = u_cursor.NextChange(at);
+    }
+    u_column[k] = u_value;
   }
   for (std::size_t k = 0; k < names.size(); ++k) out->Set(names[k], std::move(columns[k]));
   return SimStatus::Ok();
