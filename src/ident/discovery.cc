@@ -748,8 +748,7 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
         const double other_score = out_of_sample(runs[other].outcome);
         const std::size_t first_size = plans[first].free.size();
         const std::size_t other_size = plans[other].free.size();
-        if (other_size > first_size || !std::isfinite(first_score) ||
-            !std::isfinite(other_score))
+        if (other_size > first_size || !std::isfinite(first_score) || !std::isfinite(other_score))
           continue;
         const bool simpler = other_size < first_size;
         const bool gives_way = simpler
@@ -760,8 +759,8 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
             simpler ? "tried, not needed: its " + std::to_string(first_size) +
                           " parameters do not predict the data they were not fitted to better "
                           "than " +
-                          runs[other].outcome.effect + "'s " + std::to_string(other_size) +
-                          " (" + G(first_score) + " against " + G(other_score) + ")"
+                          runs[other].outcome.effect + "'s " + std::to_string(other_size) + " (" +
+                          G(first_score) + " against " + G(other_score) + ")"
                     : "tried, not needed: " + runs[other].outcome.effect +
                           ", with as many parameters, predicts the data they were not fitted "
                           "to better by more than " +
@@ -863,8 +862,7 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     if (progress) progress->BeginStage("final model: fitted to convergence", 0);
     std::vector<FreeParameter> free = current_problem->free();
     for (std::size_t k = 0; k < free.size(); ++k) free[k].initial = current_fit.values[k];
-    const FitProblem free_run(current_problem->config(), problem.traces(), problem.observe(),
-                              free);
+    const FitProblem free_run(current_problem->config(), problem.traces(), problem.observe(), free);
     // (the user's Ceres options, else Ceres's own iteration limit, 100)
     FitResult converged = FindOptimizer("ceres").Minimize(free_run, options.refit);
     if (converged.evaluation.ok && converged.evaluation.cost <= current_fit.evaluation.cost)

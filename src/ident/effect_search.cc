@@ -425,7 +425,8 @@ CandidatePlan PlanCogging(const PlanContext& context) {
     int highest = DiagnosticsOptions().max_order;
     if (const int nyquist = AngleNyquistOrder(problem.traces()); nyquist > 0)
       highest = std::min(highest, nyquist);
-    const std::vector<OrderScreen> ranked = RankOrdersByResponse(problem, values, T, lowest, highest);
+    const std::vector<OrderScreen> ranked =
+        RankOrdersByResponse(problem, values, T, lowest, highest);
     // The eight best are refit (the refit chooses among them by BIC): the ranking linearises
     // a response that a cogging field makes nonlinear at low speed, and the right order came
     // 5th-8th on two of twelve held-out Coulomb + cogging cases (STUDY_SEED 1 and 2) when
