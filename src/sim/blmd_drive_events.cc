@@ -69,15 +69,23 @@ inline double EvalDerivative(const double* c, double x) {
   return value;
 }
 
-// Refines a root of the polynomial g (degree kDegree) inside [a, b] with g(a) >= 0 > g(b): Newton
-// steps from the regula-falsi point, kept inside the bracket (bisection otherwise), until a step is
-// below the rounding of the root (three steps for the nearly linear functions here). The
-// instant returned is past the root (g < 0 there).
+// Refines a root of the polynomial g (degree kDegree) inside [a, b] with g(a) >= 0 > g(b), 0 <= a:
+// Newton steps from the regula-falsi point, kept inside the bracket (bisection otherwise), until
+// the next Newton iterate's error is below a quarter of the root's rounding. Newton's error
+// after a step d from x is at most M d^2 / (2 |g'(x)|), M a bound on |g''| over [0, b]
+// (2 |g2| + 6 |g3| b), so the test needs no further evaluation (two steps for the nearly
+// linear functions here). The instant returned is the first double past the root (g < 0 there).
 double RefineRoot(const double* g, double a, double ga, double b, double gb) {
   double x = a + (b - a) * (ga / (ga - gb));
+  double curvature = 0.0;  // M = max |g''| over [0, b]
+#pragma GCC unroll 5
+  for (int k = kDegree; k >= 2; --k) curvature = curvature * b + k * (k - 1) * std::abs(g[k]);
+  // Converged when M d^2 / (2 |g'|) <= 2^-55 |x|, a quarter of x's rounding unit (2^-53).
+  constexpr double tolerance = 0x1p-54;
   for (int iteration = 0; iteration < 60; ++iteration) {
     // g(x) and g'(x) in one Horner pass.
     double gx = g[kDegree], slope = 0.0;
+#pragma GCC unroll 5
     for (int k = kDegree - 1; k >= 0; --k) {
       slope = slope * x + gx;
       gx = gx * x + g[k];
@@ -87,16 +95,23 @@ double RefineRoot(const double* g, double a, double ga, double b, double gb) {
     } else {
       a = x;
     }
-    double next = x - gx / slope;
+    const double step = gx / slope;
+    double next = x - step;
     const bool newton = next >= a && next <= b;
     if (!newton) next = 0.5 * (a + b);  // also a zero or NaN slope
-    // Converged when a Newton step is below 1e-9 of x: Newton's error is then squared, below
-    // the rounding of x, without another evaluation.
-    if (std::abs(next - x) <= (newton ? 1e-9 : 4e-16) * std::abs(x) + 1e-24) {
-      // Converged: return the first of the next few doubles at which g < 0, so that the
-      // next segment starts past the event (else the bracket's end, where g < 0). The
-      // instants are positive: the next double up is the next bit pattern.
-      double past = next, g_past = Eval<kDegree>(g, past);
+    // Converged when the Newton iterate is within a quarter ulp of the root (bound above), or
+    // the bisection's bracket below the rounding.
+    if (newton ? curvature * step * step <= tolerance * std::abs(slope) * std::abs(x) + 1e-300
+               : std::abs(next - x) <= 4e-16 * std::abs(x) + 1e-24) {
+      // Converged: the root lies within a quarter ulp of `next` (a Newton iterate; a few ulps
+      // for bisection), so the double after it is past the root but for g's own rounding:
+      // return the first of the next few doubles from there at which g < 0, so that the next
+      // segment starts past the event (else the bracket's end, where g < 0). The instants are
+      // positive: the next double up is the next bit pattern.
+      double past = next > 0.0 ? std::bit_cast<double>(std::bit_cast<std::uint64_t>(next) + 1)
+                               : next;
+      if (!(past <= b)) past = b;
+      double g_past = Eval<kDegree>(g, past);
       for (int step = 0; g_past >= 0.0 && step < 8 && past < b && past > 0.0; ++step) {
         past = std::bit_cast<double>(std::bit_cast<std::uint64_t>(past) + 1);
         g_past = Eval<kDegree>(g, past);
