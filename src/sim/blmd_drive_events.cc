@@ -108,8 +108,8 @@ double RefineRoot(const double* g, double a, double ga, double b, double gb) {
       // return the first of the next few doubles from there at which g < 0, so that the next
       // segment starts past the event (else the bracket's end, where g < 0). The instants are
       // positive: the next double up is the next bit pattern.
-      double past = next > 0.0 ? std::bit_cast<double>(std::bit_cast<std::uint64_t>(next) + 1)
-                               : next;
+      double past =
+          next > 0.0 ? std::bit_cast<double>(std::bit_cast<std::uint64_t>(next) + 1) : next;
       if (!(past <= b)) past = b;
       double g_past = Eval<kDegree>(g, past);
       for (int step = 0; g_past >= 0.0 && step < 8 && past < b && past > 0.0; ++step) {

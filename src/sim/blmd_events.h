@@ -12,7 +12,8 @@ namespace blmd::internal {
 // the blanking times, the diode turn-offs (a blanked phase's current reaching zero), the
 // carrier's vertices, the compensators' saturation limits and the input's edges located to
 // rounding, and between them a Taylor series of the smooth drive (second order for the
-// windings and compensators, third for the shaft); samples are read from the series at their exact instants.
+// windings and compensators, third for the shaft); samples are read from the series at
+// their exact instants.
 SimStatus SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request,
                              Trace* out);
 
