@@ -70,6 +70,13 @@ TEST(AngleNyquistOrder, PiOverTheAngleStepInMotion) {
   std::vector<double> w_steady(w.size(), 100.0);
   speed_only.trace.Set("w", w_steady);
   EXPECT_EQ(AngleNyquistOrder({speed_only}), 31);
+  // A glitch (an encoder's wrap of 2 pi) does not set the scale of the steps in motion.
+  FitTrace wrapped = trace;
+  std::vector<double> theta_wrapped = theta;
+  for (std::size_t k = 3000; k < theta_wrapped.size(); ++k)
+    theta_wrapped[k] -= 2.0 * 3.141592653589793;
+  wrapped.trace.Set("theta", theta_wrapped);
+  EXPECT_EQ(AngleNyquistOrder({wrapped}), 31);
   FitTrace no_angle;
   no_angle.trace.Set("t", t);
   EXPECT_EQ(AngleNyquistOrder({no_angle}), 0);

@@ -197,13 +197,18 @@ int AngleNyquistOrder(const std::vector<FitTrace>& traces) {
   std::vector<double> limits;
   for (const FitTrace& trace : traces) {
     const std::vector<double> theta = MeasuredAngle(trace);
-    double largest = 0.0;
-    for (std::size_t r = 1; r < theta.size(); ++r)
-      largest = std::max(largest, std::abs(theta[r] - theta[r - 1]));
-    if (!(largest > 0.0) || !std::isfinite(largest)) continue;
-    for (std::size_t r = 1; r < theta.size(); ++r) {
-      const double step = std::abs(theta[r] - theta[r - 1]);
-      if (step > 0.25 * largest) limits.push_back(std::numbers::pi / step);
+    if (theta.size() < 2) continue;
+    std::vector<double> steps(theta.size() - 1);
+    for (std::size_t r = 1; r < theta.size(); ++r) steps[r - 1] = std::abs(theta[r] - theta[r - 1]);
+    // The fast steps' scale: the 99th percentile, so that a glitch or an encoder's wrap in a
+    // measured angle does not set it.
+    std::vector<double> sorted = steps;
+    const auto high = sorted.begin() + static_cast<long>((sorted.size() - 1) * 99 / 100);
+    std::nth_element(sorted.begin(), high, sorted.end());
+    const double fast = *high;
+    if (!(fast > 0.0) || !std::isfinite(fast)) continue;
+    for (const double step : steps) {
+      if (step > 0.25 * fast) limits.push_back(std::numbers::pi / step);
     }
   }
   if (limits.empty()) return 0;

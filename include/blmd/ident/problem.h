@@ -147,7 +147,8 @@ std::vector<double> MeasuredAngle(const FitTrace& trace);
 // samples resolve (Shannon): a ripple of order m advances m |dtheta| radians between two
 // samples and, once that passes pi, is aliased to a lower order at the samples (at a steady
 // speed it is indistinguishable from it). The median of pi / |dtheta| over the samples in
-// motion (|dtheta| above a quarter of its largest in the trace), from the measured angle;
+// motion (|dtheta| above a quarter of its 99th percentile in the trace, so that a glitch or
+// an encoder's wrap does not set the scale), from the measured angle;
 // 0 when no trace records an angle or the shaft does not move.
 int AngleNyquistOrder(const std::vector<FitTrace>& traces);
 
