@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <utility>
 #include <vector>
@@ -386,6 +387,28 @@ TEST_F(BlmdEventsIdentification, FsdOnCurrentPowellOnVelocityAndCeresFindJ) {
   EXPECT_LT(JError(fsd.values[0]), 0.01);
   EXPECT_LT(JError(powell.values[0]), 0.01);
   EXPECT_LT(JError(ceres.values[0]), 0.01);
+}
+
+// The report says how the model was integrated (config.simulation): the method, dt, and for
+// events the max_step, so that its numbers can be reproduced bit for bit per method.
+TEST(BlmdEvents, ReportRecordsTheMethod) {
+  nlohmann::json config =
+      nlohmann::json::parse(testing::Slurp(testing::SourcePath("configs/blmd-d31x.json")));
+  const testing::TempDir dir;
+  const std::string trace = testing::SourcePath("testdata/blmd-d31x-step.csv");
+  auto report = [&](const nlohmann::json& c) {
+    const std::string path = dir.Write("config.json", c.dump());
+    const testing::CommandResult r =
+        testing::Run(testing::BinPath("blmd-ident") + " --config " + path + " --trace " + trace +
+                     " --observe w --json");
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return nlohmann::json::parse(r.out)["config"]["simulation"];
+  };
+  const double dt = config["simulation"]["dt"].get<double>();
+  EXPECT_EQ(report(config), (nlohmann::json{{"method", "fixed_euler"}, {"dt", dt}}));
+  config["simulation"]["method"] = "events";
+  config["simulation"]["max_step"] = 5e-5;
+  EXPECT_EQ(report(config), (nlohmann::json{{"method", "events"}, {"dt", dt}, {"max_step", 5e-5}}));
 }
 
 TEST(BlmdEvents, ConfigSelectsTheMethodAndRejectsAPureDerivative) {

@@ -192,6 +192,9 @@ IdentReport MakeReport(const ReportInputs& inputs) {
   report.config_path = inputs.config_path;
   report.config_name = config.name;
   report.config_effects = config.effects;
+  report.simulation_method = config.simulation.method;
+  report.simulation_dt = config.simulation.dt;
+  report.simulation_max_step = config.simulation.max_step;
   report.traces = Traces(*inputs.problem, inputs.result->evaluation);
   report.final_model = MakeModelReport(inputs);
   return report;

@@ -477,9 +477,17 @@ void to_json(json& out, const IdentReport& report) {
   out["version"] = kVersion;
   out["schema_version"] = kReportSchemaVersion;
   out["model"] = report.model;
+  std::string method_name;
+  for (const auto& [name, value] : SimulationMethods()) {
+    if (value == report.simulation_method) method_name = name;
+  }
+  json simulation = {{"method", method_name}, {"dt", report.simulation_dt}};
+  if (report.simulation_method == SimulationMethod::kEvents)
+    simulation["max_step"] = report.simulation_max_step;
   out["config"] = {{"path", report.config_path},
                    {"name", report.config_name},
-                   {"effects", report.config_effects}};
+                   {"effects", report.config_effects},
+                   {"simulation", simulation}};
   json traces = json::array();
   for (const auto& t : report.traces) {
     json entry = {{"path", t.path}, {"samples", t.samples}, {"sha256", t.sha256}};

@@ -175,6 +175,11 @@ struct IdentReport {
   std::string model;  // the model's registry name
   std::string config_path, config_name;
   std::vector<std::string> config_effects;  // as the input config declared them
+  // How the model was integrated (config simulation.*): what reproduces the numbers bit for
+  // bit, per method.
+  SimulationMethod simulation_method = SimulationMethod::kFixedEuler;
+  double simulation_dt = 0.0;        // s, the fixed step (fixed_euler)
+  double simulation_max_step = 0.0;  // s, events: the longest segment (0: the default Tpwm/2)
   std::vector<TraceReport> traces;
   ModelReport final_model;  // the headline: the final model (the first fit without discovery)
   std::optional<DiscoveryReport> discovery;

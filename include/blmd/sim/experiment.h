@@ -127,7 +127,8 @@ struct Experiment {
 // How a model's equations are integrated (docs/model-blmd.md §5 and §9).
 //   kFixedEuler  backward Euler at the fixed step dt (every model; the default)
 //   kEvents      blmd only: the PWM and diode switching instants located to rounding, a
-//                third-order Taylor series of the smooth drive between them, samples read
+//                Taylor series of the smooth drive between them (second order for the
+//                windings and compensators, third for the speed), samples read
 //                from the series at their exact instants (docs/model-blmd.md §9)
 enum class SimulationMethod { kEvents, kFixedEuler };
 
@@ -142,7 +143,8 @@ struct SimulationSettings {
   double dt = 1e-5;  // s, fixed integration step
   SimulationMethod method = SimulationMethod::kFixedEuler;
   // s, events method: the longest stretch one Taylor series spans between switching events
-  // (its accuracy knob: the local error is O(max_step^4)); 0 means the default, Tpwm/2.
+  // (its accuracy knob: the local error is O(max_step^3) in the currents, O(max_step^4) in
+  // the speed); 0 means the default, Tpwm/2.
   double max_step = 0.0;
   bool regula_falsi = true;           // blmd: locate PWM crossings inside a step
   double friction_smoothing_w = 0.0;  // rad/s; > 0 replaces sign(w) by tanh(w/eps)
