@@ -290,7 +290,7 @@ ResidualAnalysis AnalyseResidual(const FitProblem& problem, const std::vector<do
     theta_span += std::abs(pooled.theta[k] - pooled.theta[k - 1]);
   }
 
-  const int nyquist_order = AngleNyquistOrder(problem.traces());
+  analysis.angle_nyquist_order = AngleNyquistOrder(problem.traces());
   const auto& observe = problem.observe();
   const std::size_t columns = observe.size();
   double min_p = 1.0;
@@ -303,7 +303,8 @@ ResidualAnalysis AnalyseResidual(const FitProblem& problem, const std::vector<do
     CorrelateWithInput(e, pooled.u, ResidualLags(e, options), d);
     d.sign_w = SplitBySign(e, pooled.w, 0.01 * analysis.w_max);
     d.sign_i = SplitBySign(e, pooled.current, 0.01 * analysis.i_max);
-    AngleSpectrum(e, pooled, theta_span, analysis.w_max, nyquist_order, options, pole_pairs, d);
+    AngleSpectrum(e, pooled, theta_span, analysis.w_max, analysis.angle_nyquist_order, options,
+                  pole_pairs, d);
     analysis.columns.push_back(d);
   }
   analysis.whiteness_p = std::min(1.0, min_p * static_cast<double>(columns));

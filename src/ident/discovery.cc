@@ -852,19 +852,19 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     current_fit = best.fit;
     current_bic = best.outcome.bic;
   }
+  // The final model as it runs free (its free parameters start at the winner's values), the
+  // model the report scores: fitted to convergence and checked for adequacy.
+  const FitProblem final_problem(current_problem->config(), problem.traces(), problem.observe(),
+                                 current_problem->free());
+  ProgressObserver* const progress = options.refit.progress;
   if (!result.added.empty() && !current_fit.summary.converged) {
     // The winner's refit stops after a few iterations (its free-running polish, 20): the
     // final model, which heads the report, is fitted to convergence from there (a
     // free-running cogging fit creeps along a narrow valley: 3 of 6 Coulomb + cogging cases
     // of the adequacy study stopped at 20 iterations, their answers right, the report saying
-    // "not converged").
-    ProgressObserver* const progress = options.refit.progress;
+    // "not converged"). The user's Ceres options, else Ceres's own iteration limit, 100.
     if (progress) progress->BeginStage("final model: fitted to convergence", 0);
-    std::vector<FreeParameter> free = current_problem->free();
-    for (std::size_t k = 0; k < free.size(); ++k) free[k].initial = current_fit.values[k];
-    const FitProblem free_run(current_problem->config(), problem.traces(), problem.observe(), free);
-    // (the user's Ceres options, else Ceres's own iteration limit, 100)
-    FitResult converged = FindOptimizer("ceres").Minimize(free_run, options.refit);
+    FitResult converged = FindOptimizer("ceres").Minimize(final_problem, options.refit);
     if (converged.evaluation.ok && converged.evaluation.cost <= current_fit.evaluation.cost)
       current_fit = std::move(converged);
   }
@@ -873,11 +873,7 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
   result.final_free_parameters = current_problem->free();
   result.final_fit = current_fit;
   if (options.check_adequacy) {
-    // On the free-running model, whose scores the report gives.
-    ProgressObserver* const progress = options.refit.progress;
     if (progress) progress->BeginStage("adequacy check", 0);
-    const FitProblem final_problem(current_problem->config(), problem.traces(), problem.observe(),
-                                   current_problem->free());
     result.adequacy = CheckResidualStructure(final_problem, current_fit.values, options.adequacy);
     if (!result.added.empty()) {
       CheckEffectStability(final_problem, current_fit.values, result.added, options.refit,

@@ -423,8 +423,7 @@ CandidatePlan PlanCogging(const PlanContext& context) {
     // Orders above the samples' Nyquist order in angle are aliased onto lower ones (issue 24:
     // 62/rev chosen for 8/rev sampled 35 times per revolution): not ranked.
     int highest = DiagnosticsOptions().max_order;
-    if (const int nyquist = AngleNyquistOrder(problem.traces()); nyquist > 0)
-      highest = std::min(highest, nyquist);
+    if (analysis.angle_nyquist_order > 0) highest = std::min(highest, analysis.angle_nyquist_order);
     const std::vector<OrderScreen> ranked =
         RankOrdersByResponse(problem, values, T, lowest, highest);
     // The eight best are refit (the refit chooses among them by BIC): the ranking linearises

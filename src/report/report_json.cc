@@ -477,11 +477,8 @@ void to_json(json& out, const IdentReport& report) {
   out["version"] = kVersion;
   out["schema_version"] = kReportSchemaVersion;
   out["model"] = report.model;
-  std::string method_name;
-  for (const auto& [name, value] : SimulationMethods()) {
-    if (value == report.simulation_method) method_name = name;
-  }
-  json simulation = {{"method", method_name}, {"dt", report.simulation_dt}};
+  json simulation = {{"method", SimulationMethodName(report.simulation_method)},
+                     {"dt", report.simulation_dt}};
   if (report.simulation_method == SimulationMethod::kEvents)
     simulation["max_step"] = report.simulation_max_step;
   out["config"] = {{"path", report.config_path},

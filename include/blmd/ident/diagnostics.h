@@ -50,6 +50,7 @@ struct ResidualAnalysis {
   double w_max = 0.0;           // max |simulated w|, rad/s
   double i_max = 0.0;           // max |simulated i|, A
   double u_max = 0.0;           // max |u|
+  int angle_nyquist_order = 0;  // the traces' AngleNyquistOrder (problem.h); 0: no angle
 };
 
 struct DiagnosticsOptions {

@@ -139,6 +139,15 @@ inline const std::vector<std::pair<std::string, SimulationMethod>>& SimulationMe
   return methods;
 }
 
+// A method's name in the config (the registry's entry for it).
+inline const std::string& SimulationMethodName(SimulationMethod method) {
+  const auto& methods = SimulationMethods();
+  for (const auto& entry : methods) {
+    if (entry.second == method) return entry.first;
+  }
+  return methods.back().first;  // not reached: every method is in the registry
+}
+
 struct SimulationSettings {
   double dt = 1e-5;  // s, fixed integration step
   SimulationMethod method = SimulationMethod::kFixedEuler;
