@@ -8,7 +8,7 @@
 
 #include <string>
 
-#include "blmd/ident/design.h"
+#include "blmd/ident/experiment_design/experiment_design.h"
 #include "blmd/io/config.h"
 
 namespace {
@@ -20,8 +20,8 @@ blmd::DesignProblem Ganesh() {
   return problem;
 }
 
-blmd::DesignOptions Options(int threads) {
-  blmd::DesignOptions options;
+blmd::ExperimentDesignOptions Options(int threads) {
+  blmd::ExperimentDesignOptions options;
   options.duration = 2.0;
   options.sample_rate = 2000.0;
   options.input_limit = 12.0;
@@ -48,7 +48,7 @@ void BM_DesignSearch(benchmark::State& state) {
   const blmd::DesignProblem problem = Ganesh();
   long evaluated = 0;
   for (auto _ : state) {
-    const blmd::DesignResult result =
+    const blmd::ExperimentDesignResult result =
         blmd::SearchDesign(problem, Options(static_cast<int>(state.range(0))));
     evaluated = result.evaluated;
     benchmark::DoNotOptimize(result.best.criterion);

@@ -18,7 +18,7 @@
 #include <vector>
 
 #include "blmd/io/config.h"
-#include "blmd/sim/blmd_drive.h"
+#include "blmd/sim/blmd/blmd_drive.h"
 
 namespace {
 

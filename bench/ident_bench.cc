@@ -12,9 +12,9 @@
 #include <iterator>
 #include <string>
 
-#include "blmd/ident/problem.h"
-#include "blmd/ident/surface.h"
-#include "blmd/ident/trace_input.h"
+#include "blmd/ident/fit/problem.h"
+#include "blmd/ident/fit/surface.h"
+#include "blmd/ident/fit/trace_input.h"
 #include "blmd/io/config.h"
 
 namespace {

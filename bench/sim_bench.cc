@@ -13,9 +13,9 @@
 #include <string>
 
 #include "blmd/io/config.h"
-#include "blmd/sim/blmd_drive.h"
-#include "blmd/sim/dc_servo.h"
-#include "sim/blmd_batch.h"
+#include "blmd/sim/blmd/blmd_drive.h"
+#include "blmd/sim/dc_servo/dc_servo.h"
+#include "sim/blmd/blmd_batch.h"
 
 namespace {
 

@@ -1,5 +1,5 @@
 // _blmd: the C++ side of the Python package `blmd` (docs/python.md). It builds the requests
-// through the library's request layer (blmd/report/request.h, as the commands do), runs
+// through the library's request layer (app/request.h, as the commands do), runs
 // Identify, Sweep or a simulation with the GIL released, and hands back plain values: the
 // report as JSON text, traces and surfaces as NumPy arrays. python/blmd/__init__.py turns
 // Python arguments into the settings' text forms and the results into the documented API.
@@ -20,16 +20,16 @@
 #include <utility>
 #include <vector>
 
+#include "app/request.h"
+#include "blmd/app/identify.h"
+#include "blmd/app/sweep.h"
 #include "blmd/error.h"
 #include "blmd/io/config.h"
 #include "blmd/io/csv.h"
 #include "blmd/io/files.h"
-#include "blmd/io/flags.h"
-#include "blmd/report/identify.h"
-#include "blmd/report/request.h"
-#include "blmd/report/sweep.h"
 #include "blmd/run.h"
 #include "blmd/version.h"
+#include "io/flags.h"
 
 namespace py = pybind11;
 

@@ -6,10 +6,10 @@
 
 #include "../common/app_main.h"
 #include "../common/trace_flags.h"
+#include "app/experiment_design_run.h"
 #include "blmd/io/config.h"
 #include "blmd/io/csv.h"
 #include "blmd/io/files.h"
-#include "blmd/report/design_report.h"
 
 namespace {
 

@@ -1,6 +1,6 @@
 // blmd-ident: identify the free parameters of a config's model from measured traces.
-// Flags -> IdentSettings -> blmd::MakeIdentRequest (report/request.h) -> blmd::Identify
-// (report/identify.h) -> the report, summary, HTML and exit code (docs/cli.md).
+// Flags -> IdentSettings -> blmd::MakeIdentRequest (app/request.h) -> blmd::Identify
+// (app/identify.h) -> the report, summary, HTML and exit code (docs/cli.md).
 #include <sys/ioctl.h>
 #include <unistd.h>
 
@@ -13,14 +13,14 @@
 #include "../common/app_main.h"
 #include "../common/error_flags.h"
 #include "../common/trace_flags.h"
+#include "app/request.h"
+#include "blmd/app/identify.h"
 #include "blmd/io/config.h"
 #include "blmd/io/files.h"
 #include "blmd/report/export.h"
-#include "blmd/report/html_report.h"
-#include "blmd/report/identify.h"
+#include "blmd/report/html/html_report.h"
 #include "blmd/report/progress.h"
 #include "blmd/report/report.h"
-#include "blmd/report/request.h"
 
 namespace {
 
@@ -100,7 +100,7 @@ struct IdentFlags {
   }
 };
 
-// The flags as the library's settings (report/request.h): --observe, --free and --candidates
+// The flags as the library's settings (app/request.h): --observe, --free and --candidates
 // given empty are refused there, with the valid choices.
 blmd::IdentSettings Settings(const CLI::App& app, const IdentFlags& f) {
   blmd::IdentSettings settings;
@@ -172,7 +172,7 @@ void PrintOutputs(const IdentFlags& f, const blmd::IdentOutcome& outcome,
   }
 }
 
-// The exit code (interface.md): 1 when the fit did not converge, 3 when a gate fails.
+// The exit code (docs/errors.md): 1 when the fit did not converge, 3 when a gate fails.
 int ExitCode(const IdentFlags& f, const blmd::IdentOutcome& outcome) {
   const blmd::IdentReport& report = outcome.report;
   if (!outcome.converged()) {

@@ -5,13 +5,13 @@
 
 #include "../common/app_main.h"
 #include "../common/trace_flags.h"
+#include "app/request.h"
 #include "blmd/io/config.h"
 #include "blmd/io/csv.h"
 #include "blmd/io/files.h"
-#include "blmd/io/flags.h"
 #include "blmd/io/starting_config.h"
-#include "blmd/report/request.h"
 #include "blmd/run.h"
+#include "io/flags.h"
 
 namespace {
 

@@ -7,9 +7,9 @@
 
 #include "../common/app_main.h"
 #include "blmd/io/files.h"
-#include "blmd/io/flags.h"
 #include "blmd/report/tune_report.h"
 #include "blmd/tune/tune.h"
+#include "io/flags.h"
 
 namespace {
 

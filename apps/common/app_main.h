@@ -1,5 +1,5 @@
 // What every command's main() shares: CLI11 parsing with one-line errors, the mapping of
-// error channels to exit codes (interface.md), --version, and the --help footer (help.h).
+// error channels to exit codes (docs/errors.md), --version, and the --help footer (help.h).
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -96,7 +96,7 @@ inline CLI::Validator ShareNumber() {
 }
 
 // What went to standard output (the summary, --json, --help) must have arrived: a full disk
-// or a closed pipe is a failure, not a success (issue 18). Returns `code`, or kExitFailed
+// or a closed pipe is a failure, not a success. Returns `code`, or kExitFailed
 // with one line on stderr.
 // `earlier_errno`: the cause of a write that failed before this flush, when the caller knows it
 // (PrintAndFinish).

@@ -1,13 +1,13 @@
 // --error, --filter-hz and --decimate, shared by blmd-ident and blmd-surface: how the model
 // meets the trace (docs/identification.md §8). What they mean (ErrorSettings::Apply) is the
-// library's (report/request.h); this adds them to a command line.
+// library's (app/request.h); this adds them to a command line.
 #pragma once
 
 #include <CLI/CLI.hpp>
 #include <string>
 
+#include "app/request.h"
 #include "app_main.h"
-#include "blmd/report/request.h"
 
 namespace blmd::app {
 

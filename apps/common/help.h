@@ -1,6 +1,6 @@
 // The end of every command's --help (docs/cli.md): the exit codes with what each means for
 // that command, and worked examples. The examples run as written from the repository root
-// with the commands on PATH (tests/help_test.cc runs every one). The layout is the one
+// with the commands on PATH (tests/cli/help_test.cc runs every one). The layout is the one
 // help2man reads (cmake/man-page.cmake): "Exit status:" becomes the man page's EXIT STATUS
 // section, "Examples:" its EXAMPLES section, each "$ " line a verbatim command (indented
 // deeper than the sentence above it, which help2man would otherwise join to it).

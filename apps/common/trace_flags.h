@@ -2,12 +2,12 @@
 // the dialect of a logger's CSV (--delimiter, --duplicate-time, docs/trace-format.md) and
 // the mapping, scaling, derivation, selection and splitting of its columns, and where each
 // experiment starts (--initial-state). What they mean (TraceSettings::Options, RowsLine) is
-// the library's (report/request.h); this adds them to a command line.
+// the library's (app/request.h); this adds them to a command line.
 #pragma once
 
 #include <CLI/CLI.hpp>
 
-#include "blmd/report/request.h"
+#include "app/request.h"
 
 namespace blmd::app {
 

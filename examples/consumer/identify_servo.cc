@@ -8,9 +8,9 @@
 #include <exception>
 
 #include "blmd/error.h"
-#include "blmd/ident/optimizer.h"
-#include "blmd/ident/problem.h"
-#include "blmd/ident/trace_input.h"
+#include "blmd/ident/fit/problem.h"
+#include "blmd/ident/fit/trace_input.h"
+#include "blmd/ident/optimizers/optimizer.h"
 #include "blmd/io/config.h"
 #include "blmd/random.h"
 #include "blmd/run.h"

@@ -39,7 +39,7 @@ class OutputError : public std::runtime_error {
       : std::runtime_error(InputError::OneLine(message)) {}
 };
 
-// Exit codes of every command (interface.md).
+// Exit codes of every command (docs/errors.md §1).
 enum ExitCode : int {
   kExitOk = 0,
   kExitFailed = 1,    // the work failed: a diverged simulation, a fit that did not converge

@@ -42,7 +42,7 @@ class FitError(RuntimeError):
 _MAX_THREADS = 256
 
 
-# ---- Python values -> the flags' text forms (report/request.h reads those) ----
+# ---- Python values -> the flags' text forms (app/request.h reads those) ----
 
 def _number_text(value):
     """A number as a flag would take it; floats round-trip exactly (repr)."""

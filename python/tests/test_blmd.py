@@ -73,7 +73,7 @@ def test_simulate_config_dict_equals_path():
 
 def test_simulate_diverged_is_fit_error(tmp_path):
     # A strong quadratic drag with a coarse step: the explicit step overshoots and diverges
-    # (tests/numerical_faults_test.cc).
+    # (tests/cli/numerical_faults_test.cc).
     config = load_json(NOLOAD)
     config["effects"] = {"quadratic_drag": {"Cd": 0.1}}
     config["simulation"]["dt"] = 0.001

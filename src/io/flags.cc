@@ -1,4 +1,4 @@
-#include "blmd/io/flags.h"
+#include "io/flags.h"
 
 #include <charconv>
 #include <cmath>

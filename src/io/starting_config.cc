@@ -14,7 +14,7 @@ using nlohmann::ordered_json;
 
 // What a model's starting config runs and fits besides its parameters: an experiment that
 // excites the shaft enough to tell J from B, the observed columns, the method. Every model
-// of the registry should have one (tests/starting_config_test.cc simulates and fits each);
+// of the registry should have one (tests/unit/starting_config_test.cc simulates and fits each);
 // a model without one gets a 1 s unit step and the loader's defaults.
 struct StartingSetup {
   std::string_view model;

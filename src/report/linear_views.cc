@@ -6,7 +6,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "blmd/ident/spectral.h"
+#include "blmd/ident/residual/spectral.h"
 #include "blmd/io/config.h"
 
 namespace blmd {

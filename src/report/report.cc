@@ -345,13 +345,8 @@ void AddWarnings(IdentReport* report) {
     }
   }
   if (!no_interval.empty()) {
-    const nlohmann::json& details = model.summary.details;
-    std::string reason;
-    if (details.is_object() && details.contains("interval") && details["interval"].is_object() &&
-        details["interval"].contains("unavailable") &&
-        details["interval"]["unavailable"].is_string()) {
-      reason = ": " + details["interval"]["unavailable"].get<std::string>();
-    }
+    const std::string& unavailable = model.summary.interval_unavailable;
+    const std::string reason = unavailable.empty() ? "" : ": " + unavailable;
     add("interval_unavailable", "no interval for " + no_interval + reason);
   }
   for (const UnitsHint& hint : report->units_hints) {

@@ -1,4 +1,4 @@
-// The report as JSON (interface.md "Report JSON", docs/report.md): to_json of IdentReport
+// The report as JSON (docs/report.md): to_json of IdentReport
 // and its parts. Rendering only: every figure was computed when the report was built.
 #include <cmath>
 

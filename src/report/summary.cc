@@ -7,7 +7,7 @@
 #include "blmd/io/config.h"
 #include "blmd/report/report.h"
 #include "blmd/version.h"
-#include "report/html_page.h"
+#include "report/html/html_page.h"
 #include "report/text.h"
 
 namespace blmd {

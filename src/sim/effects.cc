@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "blmd/constants.h"
 #include "blmd/error.h"
 
 namespace blmd {
@@ -21,10 +22,18 @@ ParamInfo P(std::string name, std::string unit, std::string meaning, bool positi
   return info;
 }
 
+// A phase, rad: an angle that wraps (ParamInfo::periodic).
+ParamInfo Phase(std::string name, std::string meaning, std::string key = "") {
+  ParamInfo info =
+      P(std::move(name), "rad", std::move(meaning), false, false, -kPi, kPi, std::move(key));
+  info.periodic = true;
+  return info;
+}
+
 std::vector<EffectInfo> MakeRegistry() {
   const std::vector<std::string> all = {"blmd", "dc_servo", "rigid_load"};
   std::vector<EffectInfo> effects = {
-      // dc_servo is not listed: its fast path (src/sim/dc_servo_fast.cc) skips DragTorque
+      // dc_servo is not listed: its fast path (src/sim/dc_servo/dc_servo_fast.cc) skips DragTorque
       // when the shaft has no friction, drag or cogging, so dB alone would be ignored there.
       {"asymmetric_viscous",
        {P("dB", "N·m·s/rad", "direction-dependent viscous damping: B+ = B + dB, B- = B - dB", false,
@@ -34,7 +43,7 @@ std::vector<EffectInfo> MakeRegistry() {
       {"cogging",
        {P("Tcog", "N·m", "cogging torque amplitude", false, true, 0.0, 10.0),
         P("periods", "1/rev", "cogging periods per shaft revolution", true, false, 1.0, 200.0),
-        P("phase", "rad", "cogging phase", false, false, -3.14159265358979, 3.14159265358979)},
+        Phase("phase", "cogging phase")},
        "T = Tcog sin(periods theta + phase)",
        all,
        /*position_dependent=*/true},
@@ -55,8 +64,7 @@ std::vector<EffectInfo> MakeRegistry() {
       {"gravity",
        {P("Tg", "N·m", "gravity torque amplitude (unbalanced arm or pendulum: m g l)", false, true,
           0.0, 100.0),
-        P("gravity_phase", "rad", "gravity phase (stable equilibrium at theta = -phase)", false,
-          false, -3.14159265358979, 3.14159265358979, "phase")},
+        Phase("gravity_phase", "gravity phase (stable equilibrium at theta = -phase)", "phase")},
        "T = -Tg sin(theta + phase) on the shaft (T_effects = Tg sin(theta + phase))",
        all,
        /*position_dependent=*/true},
@@ -98,6 +106,15 @@ const EffectInfo& FindEffect(const std::string& name) {
   std::string valid;
   for (const auto& effect : EffectRegistry()) valid += (valid.empty() ? "" : ", ") + effect.name;
   throw InputError("unknown effect '" + InputError::Excerpt(name) + "' (valid: " + valid + ")");
+}
+
+bool IsPeriodicParameter(const std::string& parameter) {
+  for (const auto& effect : EffectRegistry()) {
+    for (const auto& info : effect.parameters) {
+      if (info.name == parameter) return info.periodic;
+    }
+  }
+  return false;
 }
 
 bool IsEffectParameter(const std::string& parameter, std::string* effect_name) {

@@ -15,7 +15,7 @@ namespace {
 // floor of q = (t - t0)/half, except that a q within 1e-9 (relative) of a whole number counts
 // as that number. Sample k of a trace at rate fs sits at t = k/fs, and when a half period is a
 // whole number m of samples, q = k/m lands a few rounding errors off every edge: plain
-// floor (or fmod) put some edges one sample late (issue 18). Samples between edges are at
+// floor (or fmod) put some edges one sample late. Samples between edges are at
 // least 1/m away from a whole q, so the tolerance never moves them while m < 1e8.
 double HalfPeriodIndex(double t, double t0, double half) {
   const double q = (t - t0) / half;
@@ -77,7 +77,7 @@ bool PrbsValid(const InputSignal& signal) {
 std::uint32_t PrbsPolynomial(int order) {
   // Xilinx XAPP052 (P. Alfke, "Efficient Shift Registers, LFSR Counters, and Long
   // Pseudo-Random Sequence Generators", 1996), Table 3: taps n, a, b, c give
-  // p(x) = x^n + x^a (+ x^b + x^c) + 1; each checked primitive by tests/inputs_test.cc.
+  // p(x) = x^n + x^a (+ x^b + x^c) + 1; each checked primitive by tests/unit/inputs_test.cc.
   static constexpr int kTaps[32][4] = {
       {0, 0, 0, 0},    {0, 0, 0, 0},  {1, 0, 0, 0},  {2, 0, 0, 0},  {3, 0, 0, 0},   {3, 0, 0, 0},
       {5, 0, 0, 0},    {6, 0, 0, 0},  {6, 5, 4, 0},  {5, 0, 0, 0},  {7, 0, 0, 0},   {9, 0, 0, 0},

@@ -3,9 +3,9 @@
 #include <cmath>
 
 #include "blmd/error.h"
-#include "blmd/sim/blmd_drive.h"
-#include "blmd/sim/dc_servo.h"
-#include "blmd/sim/rigid_load.h"
+#include "blmd/sim/blmd/blmd_drive.h"
+#include "blmd/sim/dc_servo/dc_servo.h"
+#include "blmd/sim/rigid_load/rigid_load.h"
 
 namespace blmd {
 

@@ -6,11 +6,12 @@
 #include <functional>
 #include <numbers>
 
+#include "blmd/constants.h"
+
 namespace blmd {
 namespace {
 
 using Complex = std::complex<double>;
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 // Refines a change of f between a and b from > 0 to <= 0 (or back) by bisection in log ω to
 // 1e-12 of the frequency.

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <numbers>
 
+#include "blmd/constants.h"
 #include "blmd/error.h"
 #include "blmd/run.h"
 #include "parallel.h"
@@ -13,7 +14,6 @@
 namespace blmd {
 namespace {
 
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 // The margins are searched over four decades either side of the requested crossover.
 constexpr double kSearchDecades = 1e4;
 // More parameters with intervals than this would make 2^k corners too many to simulate.

@@ -12,8 +12,8 @@
 #include <cstdlib>
 #include <string>
 
-#include "blmd/ident/problem.h"
-#include "blmd/ident/trace_input.h"
+#include "blmd/ident/fit/problem.h"
+#include "blmd/ident/fit/trace_input.h"
 #include "blmd/io/config.h"
 #include "blmd/random.h"
 #include "blmd/run.h"

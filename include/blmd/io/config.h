@@ -1,4 +1,4 @@
-// Config JSON (interface.md, docs/config.md): the model, its parameter values, declared
+// Config JSON (docs/config.md): the model, its parameter values, declared
 // effects, numerics, the experiment and the identification set-up. Loading is strict:
 // unknown keys, wrong types and impossible values are InputErrors naming file:line:column
 // (and the nearest valid key for a misspelling).

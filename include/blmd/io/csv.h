@@ -1,4 +1,4 @@
-// Trace CSV (interface.md, docs/trace-format.md): optional '#' comment lines, one header
+// Trace CSV (docs/trace-format.md): optional '#' comment lines, one header
 // row, plain decimal numbers. What real loggers write is accepted: LF or CRLF line ends,
 // ',' or ';' (or tab) between fields (detected from the header, or given), double-quoted
 // names and fields (RFC 4180), a decimal comma in ';'-separated files, and text or empty

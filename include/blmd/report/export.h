@@ -1,13 +1,14 @@
 // Taking the identified model elsewhere (docs/export.md): the final model as a config that
 // blmd-sim and blmd-ident accept (--write-config), its linear part as MATLAB/Octave `ss` and
-// `tf` objects (--export-matlab), and the drift guard against a stored report (--baseline).
+// `tf` objects (--export-matlab). The drift guard against a stored report (--baseline) is the
+// app layer's (app/baseline.h).
 #pragma once
 
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
-#include "blmd/ident/problem.h"
+#include "blmd/ident/fit/problem.h"
 #include "blmd/io/config.h"
 #include "blmd/report/report.h"
 #include "blmd/sim/linear_model.h"
@@ -32,10 +33,5 @@ nlohmann::json ModelConfigJson(const Config& config, const ParameterSet& values,
 // and their intervals as comments. Needs the Control System Toolbox (MATLAB) or the control
 // package (Octave, `pkg load control`).
 std::string MatlabScript(const IdentReport& report);
-
-// Compares the report's final free parameters with those of a stored blmd-ident report
-// (docs/export.md "Drift guard"). InputError (file, line, column) when the file is not a
-// blmd-ident report of the same model.
-BaselineReport CompareWithBaseline(const IdentReport& report, const std::string& baseline_path);
 
 }  // namespace blmd

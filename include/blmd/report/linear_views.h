@@ -1,8 +1,8 @@
 // The frequency-domain and step views of the identified model (docs/report.md "Frequency
 // response", "Step response"): the empirical frequency response of the traces (Welch-averaged
-// H1 with its coherence, ident/spectral.h) beside the Bode plot of the final model's linear
-// part, and that linear part's step response with its rise time, overshoot and settling time.
-// Built once by Identify; the JSON (report.frequency_response, report.step_response) and the
+// H1 with its coherence, ident/residual/spectral.h) beside the Bode plot of the final model's
+// linear part, and that linear part's step response with its rise time, overshoot and settling
+// time. Built once by Identify; the JSON (report.frequency_response, report.step_response) and the
 // HTML page only render them.
 #pragma once
 
@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "blmd/ident/problem.h"
+#include "blmd/ident/fit/problem.h"
 #include "blmd/sim/linear_model.h"
 #include "blmd/sim/linear_response.h"
 

@@ -1,5 +1,5 @@
 // The progress of an identification as one line on a terminal (docs/cli.md §2.3,
-// blmd-ident --progress): a ProgressObserver (ident/progress.h) that redraws its state,
+// blmd-ident --progress): a ProgressObserver (ident/fit/progress.h) that redraws its state,
 //   blmd-ident: first fit (fsd): 862/1916 evaluations, best cost 0.001171, 23.6 s, 28.9 s left
 // in place (carriage return, no newline) at most every `interval` and at every new stage,
 // and ends with a final line and a newline.
@@ -13,7 +13,7 @@
 #include <string>
 #include <thread>
 
-#include "blmd/ident/progress.h"
+#include "blmd/ident/fit/progress.h"
 
 namespace blmd {
 

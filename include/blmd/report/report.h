@@ -1,8 +1,8 @@
-// The blmd-ident report (interface.md "Report JSON", docs/report.md) as one typed value,
+// The blmd-ident report (docs/report.md) as one typed value,
 // IdentReport, from which the JSON (nlohmann to_json), the human summary and the HTML page
 // (html_report.h) are all rendered; nothing reads the JSON back. The report layer builds it
-// from what the identification layer computed (ident/errors.h, ident/diagnostics.h,
-// ident/discovery.h).
+// from what the identification layer computed (ident/fit/fit_errors.h,
+// ident/residual/diagnostics.h, ident/discovery/discovery.h).
 #pragma once
 
 #include <cstdint>
@@ -12,13 +12,13 @@
 #include <string>
 #include <vector>
 
-#include "blmd/ident/diagnostics.h"
-#include "blmd/ident/discovery.h"
-#include "blmd/ident/errors.h"
-#include "blmd/ident/optimizer.h"
-#include "blmd/ident/parameter_correlation.h"
-#include "blmd/ident/problem.h"
-#include "blmd/ident/units_check.h"
+#include "blmd/ident/discovery/discovery.h"
+#include "blmd/ident/fit/fit_errors.h"
+#include "blmd/ident/fit/problem.h"
+#include "blmd/ident/fit/units_check.h"
+#include "blmd/ident/optimizers/optimizer.h"
+#include "blmd/ident/residual/diagnostics.h"
+#include "blmd/ident/uncertainty/parameter_correlation.h"
 #include "blmd/report/linear_views.h"
 #include "blmd/sim/linear_model.h"
 
@@ -105,11 +105,11 @@ struct ModelReport {
   bool intervals_optimistic = false;
   std::optional<ValidationReport> validation;
   // The correlation of the free parameters' estimates, from the covariance of the intervals
-  // (ident/parameter_correlation.h): "correlation" in the JSON.
+  // (ident/uncertainty/parameter_correlation.h): "correlation" in the JSON.
   ParameterCorrelation correlation;
 };
 
-// A model that discovery could not tell apart from another (issue 19: reported, not hidden).
+// A model that discovery could not tell apart from another (reported, not hidden).
 struct CompetingModel {
   std::string effect;
   double nrmse = 0.0, delta_bic = 0.0;
@@ -121,7 +121,7 @@ struct AmbiguousGroup {
   std::vector<CompetingModel> models;
 };
 
-// The report's "discovery" block (interface.md, docs/discovery.md §4).
+// The report's "discovery" block (docs/discovery.md §4).
 struct DiscoveryReport {
   std::vector<std::string> added;
   std::vector<DiscoveryStep> steps;
@@ -192,7 +192,7 @@ struct IdentReport {
   std::optional<FrequencyResponseReport> frequency_response;
   std::optional<StepResponseReport> step_response;
   std::optional<BaselineReport> baseline;  // --baseline
-  // Signs that a measured column is in other units than the model's (ident/units_check.h):
+  // Signs that a measured column is in other units than the model's (ident/fit/units_check.h):
   // each becomes a warning units_suspect.
   std::vector<UnitsHint> units_hints;
 
@@ -202,7 +202,7 @@ struct IdentReport {
   bool discovered() const { return discovery && !discovery->added.empty(); }
 };
 
-// The report as JSON (docs/report.md): every key of interface.md, non-finite numbers null.
+// The report as JSON (docs/report.md): every key of its schema, non-finite numbers null.
 void to_json(nlohmann::json& out, const IdentReport& report);
 void to_json(nlohmann::json& out, const ErrorFigures& errors);
 void to_json(nlohmann::json& out, const ResidualAnalysis& analysis);

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "blmd/ident/surface.h"
+#include "blmd/ident/fit/surface.h"
 
 namespace blmd {
 

@@ -1,4 +1,4 @@
-// The effects vocabulary (interface.md, docs/effects.md): extra physics a model can carry.
+// The effects vocabulary (docs/effects.md): extra physics a model can carry.
 // One implementation, shared by every model. All shaft torques are in N·m and enter the
 // mechanical equation as T_effects, i.e. they are *subtracted* from the drive torque:
 //
@@ -56,6 +56,8 @@ const std::vector<EffectInfo>& EffectRegistry();
 // Throws InputError listing the valid names when `name` is unknown.
 const EffectInfo& FindEffect(const std::string& name);
 bool IsEffectParameter(const std::string& parameter, std::string* effect_name = nullptr);
+// True when `parameter` (a flat name) is an effect's angle that wraps (ParamInfo::periodic).
+bool IsPeriodicParameter(const std::string& parameter);
 
 // Hot-loop view of the enabled shaft effects, unpacked once per simulation.
 struct ShaftEffects {

@@ -15,7 +15,7 @@
 
 namespace blmd {
 
-// How a simulation ended: a status value, never an exception (style.md, rule 4).
+// How a simulation ended: a status value, never an exception (the caller decides).
 struct SimStatus {
   enum class Code { kOk, kDiverged, kInvalidParameters };
   Code code = Code::kOk;
@@ -36,7 +36,7 @@ struct SimulationRequest {
   const std::vector<double>* sample_times = nullptr;
 };
 
-// What the rest of the code asks of a model besides its equations (issue 20: the code asks
+// What the rest of the code asks of a model besides its equations (the code asks
 // the model, never its name).
 struct ModelTraits {
   // The input u is the drive torque (or force) itself, in N·m (rigid_load): the equation

@@ -28,6 +28,10 @@ struct ParamInfo {
   // initial, bounds, reports). Gravity's `phase` is `gravity_phase` in the flat namespace,
   // where cogging owns `phase` (docs/effects.md). Empty: the same as `name`.
   std::string key;
+  // An angle that wraps (a phase, rad, periodic in 2π): its value near a bound is no sign of a
+  // poor fit, and two values that differ by 2π are the same model. Discovery's validity check and
+  // the adequacy check's split-record comparison leave such parameters out.
+  bool periodic = false;
   const std::string& config_key() const { return key.empty() ? name : key; }
 };
 

@@ -14,7 +14,7 @@
 
 #include "blmd/io/config.h"
 #include "blmd/sim/linear_model.h"
-#include "blmd/tune/design.h"
+#include "blmd/tune/controller_design.h"
 #include "blmd/tune/loop.h"
 
 namespace blmd {
@@ -47,7 +47,7 @@ struct TuneInput {
 TuneInput LoadTuneInput(const std::string& config_path, const std::string& report_path);
 
 struct TuneRequest {
-  DesignOptions design;
+  ControllerDesignOptions design;
   double u_max = 0.0;     // the drive's input limit (dc_servo: V), > 0
   double i_max = 0.0;     // A, the drive's current limit; 0: not checked
   double step = 0.0;      // reference step (rad; speed loop rad/s); 0: the default
@@ -104,7 +104,7 @@ struct TuneResult {
   std::string refusal;       // why the request cannot be met (refused)
   std::string plant_output;  // "w" or "theta": the loop's measured column
   TransferFunction plant;    // u -> the measured output, at the nominal values
-  DesignResult design;
+  ControllerDesignResult design;
   LoopCheck nominal;
   // The simulated step: its size, length and sample rate (also written by --write-config).
   double step = 0.0, duration = 0.0, sample_rate = 0.0;

@@ -1,0 +1,147 @@
+// Closing the loop (docs/discovery.md): fit, examine the residual, find the effect the
+// model lacks, add it, refit, repeat until nothing significant is left.
+//
+// Each round, every applicable effect of the vocabulary not yet in the model is a
+// candidate. A candidate is screened: a small deterministic scan of its parameters
+// (periods of cogging from the torque balance along the measured motion for rigid_load, from
+// the residual's angle spectrum otherwise; i0 from the current residual's mean) with the
+// others held, then one damped Gauss-Newton step on all free parameters (for cogging, when
+// that does not lower BIC on the free-running model, a short free-running search from it).
+// The `refits` best by screening BIC are refit in full (Ceres, all parameters). Each is
+// scored by the
+// Bayesian information criterion with each observed column's own noise level,
+//   BIC = sum_c N_c ln(SSE_c / N_c) + k ln N,
+// and qualifies when it lowers BIC by more than `bic_margin` (10: "very strong" evidence)
+// and its parameters are physically valid (inside their constraints, e.g. |dB| < B for
+// asymmetric_viscous, off their search bounds, and away from zero by more than two standard
+// deviations). The best qualifying
+// candidate is added; if another qualifying candidate is within `ambiguity_margin` (2) of
+// it, the data cannot tell them apart and the round reports them as ambiguous and adds
+// nothing.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "blmd/ident/fit/problem.h"
+#include "blmd/ident/optimizers/optimizer.h"
+#include "blmd/ident/residual/adequacy.h"
+#include "blmd/ident/residual/diagnostics.h"
+
+namespace blmd {
+
+struct DiscoveryOptions {
+  double bic_margin = 10.0;             // BIC must fall by more than this to add an effect
+  double ambiguity_margin = 2.0;        // candidates closer than this to the best are ambiguous
+  int max_effects = 3;                  // rounds
+  int refits = 3;                       // candidates refit in full per round (best by screening)
+  std::vector<std::string> candidates;  // empty: every applicable effect
+  // Options of the Ceres refits (threads, budgets). Its `progress`, when set, also gets
+  // discovery's stages (per round: "discovery round 1: screening", one step per candidate,
+  // then "discovery round 1: refits", one per refit) and the screening's evaluations.
+  OptimizerOptions refit;
+  // Held-out traces (--validate), or null. With them, a candidate must qualify by the plain
+  // BIC on the fit traces AND lower the held-out NRMSE by more than `held_out_margin`
+  // (relative); without them, by the BIC on prewhitened residuals (evidence.h).
+  const std::vector<FitTrace>* held_out = nullptr;
+  // false: every sample counts as independent (the plain BIC of versions before 0.2; kept
+  // for comparison in the studies of docs/discovery.md).
+  bool prewhiten = true;
+  double held_out_margin = 0.01;
+  // The stopping rule (docs/discovery.md §3b). Materiality: a candidate must explain at
+  // least this share of what the current model leaves above the noise floor,
+  //   (NRMSE_before^2 - NRMSE_after^2) / (NRMSE_before^2 - floor^2),
+  // the floor from the measured columns' second differences (NoiseFloor, adequacy.h).
+  double min_explained_share = 0.10;
+  // Generalisation without held-out traces: the record is cut in two (record_parts.h), the
+  // model with and without the candidate fitted on each part and scored on the other; the
+  // pooled cross-validated NRMSE must fall by more than `held_out_margin`. false: skip it
+  // (the evidence alone decides, as before version 0.3).
+  bool cross_validate = true;
+  // The model-adequacy check on the final model (adequacy.h); false: skip it.
+  bool check_adequacy = true;
+  AdequacyOptions adequacy;
+};
+
+struct CandidateOutcome {
+  std::string effect;
+  bool fitted = false;
+  bool valid = false;
+  std::string reason;  // why not valid / not fitted
+  double bic = 0.0;
+  double delta_bic = 0.0;        // vs the model before this round (negative: better), from the
+                                 // prewhitened residuals once refit (evidence.h)
+  double delta_bic_white = 0.0;  // the same with every sample independent (plain BIC)
+  // Per observed column, the noise model the evidence used: AR order and the ratio of the
+  // innovation to the residual variance (1: white).
+  std::map<std::string, std::pair<int, double>> noise_model;
+  // With held-out traces: their NRMSE without and with the effect (parameters from the fit
+  // traces), and whether it fell by more than the margin.
+  bool has_held_out = false;
+  double held_out_before = 0.0, held_out_after = 0.0;
+  bool held_out_better = true;
+  std::string evidence_rule;  // "prewhitened_bic" or "held_out" (docs/discovery.md)
+  double nrmse = 0.0;
+  // The stopping rule: the share of what was left above the noise floor that the candidate
+  // explains (negative: not computed), and whether it clears DiscoveryOptions'
+  // min_explained_share.
+  double explained_share = -1.0;
+  bool material = true;
+  // Block cross-validation (when computed): the pooled NRMSE on the part not fitted, of
+  // the current model and of the model with the candidate, and whether it fell by more
+  // than the margin.
+  bool cross_validated = false;
+  double cv_before = 0.0, cv_after = 0.0;
+  bool generalises = true;
+  std::map<std::string, double> parameters;  // the effect's fitted parameters
+  // Every free parameter of the model with this effect (J, B, ... and the effect's), as
+  // refit: what an ambiguous round reports for each competing model.
+  std::map<std::string, double> model_parameters;
+};
+
+struct DiscoveryStep {
+  std::string effect;
+  std::vector<ParameterEstimate> effect_parameters;  // with intervals
+  std::map<std::string, double> fixed_parameters;    // e.g. cogging periods
+  double nrmse_before = 0.0, nrmse_after = 0.0;
+  double bic_before = 0.0, bic_after = 0.0;
+  std::vector<CandidateOutcome> candidates;  // every candidate of the round, best first
+  std::string evidence;                      // one line: why this effect
+};
+
+struct DiscoveryResult {
+  std::vector<std::string> added;
+  std::vector<DiscoveryStep> steps;
+  // Rounds that stopped because the best candidates could not be told apart.
+  std::vector<std::vector<std::string>> ambiguous;
+  std::string ambiguity_reason;
+  std::vector<CandidateOutcome> last_round;  // the round that added nothing, best first
+  std::string conclusion;                    // one line for people
+  Config final_config;                       // with the added effects at their fitted values
+  std::vector<std::string> final_free;
+  std::vector<FreeParameter> final_free_parameters;  // with the bounds discovery fitted them in
+  FitResult final_fit;
+  double bic_initial = 0.0;
+  // The noise floor of the measured columns in NRMSE units (sqrt of the mean over columns
+  // of sigma_c^2 / Var_c; NoiseFloor), what the stopping rule measures shares against.
+  double noise_floor_nrmse = 0.0;
+  std::string cross_validation_parts;  // how the record was cut for the cross-validation
+  // The final model's adequacy: what its residual still depends on, and whether the added
+  // effects' parameters hold still across the record (adequacy.h).
+  AdequacyReport adequacy;
+};
+
+// BIC of `evaluation` for `k` free parameters (see above).
+double Bic(const FitProblem& problem, const Evaluation& evaluation, std::size_t k);
+
+// Runs discovery from an initial fit of `problem` (whose result is `initial`).
+DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
+                         const DiscoveryOptions& options);
+
+// The model after discovery as a problem over the traces of `problem` (its observed columns,
+// the final free parameters with the final config's bounds); null when nothing was added.
+std::unique_ptr<FitProblem> FinalProblem(const FitProblem& problem, const DiscoveryResult& result);
+
+}  // namespace blmd

@@ -1,0 +1,109 @@
+// Optimisers behind one interface (docs/identification.md): Options in, FitResult with a
+// Summary out. One registry knows every method; an unknown name lists the valid ones.
+//   ceres   - Ceres Solver nonlinear least squares on the per-sample residuals, numeric
+//             (central) derivatives, bounds, ceres::Covariance for the intervals.
+//   powell  - NLopt's Powell family in scaled coordinates: BOBYQA (default) or PRAXIS.
+//   fsd     - Fast Simulated Diffusion (our reconstruction, docs/fsd.md), seeded, with a
+//             final BOBYQA polish; deterministic for a seed whatever the thread count.
+//   classic - Ganesh et al. (2012) estimators on steady-state and coast-down traces.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "blmd/ident/fit/problem.h"
+#include "blmd/ident/fit/progress.h"
+
+namespace blmd {
+
+struct OptimizerOptions {
+  std::uint64_t seed = 1;   // random seed (fsd)
+  int threads = 0;          // worker threads; 0 = all cores
+  int max_evaluations = 0;  // cost evaluations; 0 = the method's default
+  // The back-end's own log on stderr (Ceres's glog lines). Off: a command's only stderr line
+  // on a failure is its own one-line error (docs/errors.md).
+  bool verbose = false;
+  // Method-specific options by name, e.g. {"algorithm": "praxis"} for powell; unknown names
+  // are an InputError listing the valid ones.
+  nlohmann::json method_options = nlohmann::json::object();
+  // Where the fit reports its cost evaluations (progress.h); null: nowhere. Not owned; every
+  // fit made with these options (jackknife and discovery refits too) reports to it.
+  ProgressObserver* progress = nullptr;
+};
+
+struct OptimizerSummary {
+  std::string method = "none";
+  std::string algorithm;  // e.g. "LN_BOBYQA", "LEVENBERG_MARQUARDT"
+  bool converged = false;
+  std::string termination = "not run";  // short reason it stopped
+  std::string message;                  // the back-end's own words
+  int raw_code = 0;                     // the back-end's own result code
+  long evaluations = 0;                 // cost evaluations (each simulates every trace)
+  long failed_evaluations = 0;          // of which diverged or invalid (infinite cost)
+  std::map<std::string, long> failure_reasons;
+  long iterations = 0;
+  double wall_time_s = 0.0;
+  // The finite-difference step of the Jacobian the intervals came from (search coordinates),
+  // when the method used one; 0 when it did not (the correlation then uses the default step).
+  double fd_step = 0.0;
+  // Why there is no interval ("" when there is one, or none was attempted).
+  std::string interval_unavailable;
+  // The method's own figures for the report (seed, schedule, constants ...): written, never
+  // read back by the program (the typed fields above carry what it reads).
+  nlohmann::json details = nlohmann::json::object();
+};
+
+struct ParameterEstimate {
+  std::string name;
+  double value = 0.0;
+  double initial = 0.0;
+  bool has_interval = false;  // std and ci95 valid
+  double std = 0.0;           // standard deviation, physical units
+  double ci95_low = 0.0, ci95_high = 0.0;
+  std::string interval_method;  // "hac_prewhitened" (docs/uncertainty.md), or the white one's
+  // The interval with the residuals taken as white noise (every sample independent): the
+  // classic (J^T J)^-1, too narrow when the residuals are correlated; kept for comparison.
+  bool has_white_interval = false;
+  double std_white = 0.0;
+  double ci95_white_low = 0.0, ci95_white_high = 0.0;
+  std::string white_method;  // "ceres_covariance" or "gauss_newton"
+  // When the spread between traces widened the interval (trace_jackknife.h): the HAC
+  // interval it replaced.
+  bool has_hac_interval = false;
+  double std_hac = 0.0;
+  double ci95_hac_low = 0.0, ci95_hac_high = 0.0;
+};
+
+struct FitResult {
+  std::vector<double> values;  // free parameters, physical units
+  Evaluation evaluation;       // cost at `values`
+  std::vector<ParameterEstimate> estimates;
+  OptimizerSummary summary;
+  // Classic estimates may include parameters that are not free (Kb, Kt): name -> value.
+  std::map<std::string, double> extra_estimates;
+};
+
+class Optimizer {
+ public:
+  virtual ~Optimizer() = default;
+  virtual std::string_view name() const = 0;
+  virtual std::vector<std::string> option_names() const = 0;
+  virtual FitResult Minimize(const FitProblem& problem, const OptimizerOptions& options) const = 0;
+};
+
+const std::vector<const Optimizer*>& OptimizerRegistry();
+const Optimizer& FindOptimizer(std::string_view name);
+
+// Standard deviations and 95 % intervals at `values`: central-difference Jacobian J of the
+// noise-normalised residuals e/s_c (s_c^2 = SSE_c/(N_c - p/C), each observed column its own
+// noise level) in the search coordinates (log for log-scale parameters); the headline
+// interval from the prewhitened HAC sandwich (uncertainty.h), the white one from
+// (J^T J)^-1 ("gauss_newton").
+void EstimateUncertainty(const FitProblem& problem, const std::vector<double>& values,
+                         std::vector<ParameterEstimate>* estimates);
+
+}  // namespace blmd

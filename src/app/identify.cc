@@ -1,0 +1,123 @@
+#include "blmd/app/identify.h"
+
+#include <algorithm>
+#include <string>
+#include <thread>
+#include <utility>
+
+#include "blmd/app/baseline.h"
+#include "blmd/ident/fit/progress.h"
+#include "blmd/ident/uncertainty/trace_jackknife.h"
+#include "blmd/report/export.h"
+#include "blmd/report/report.h"
+
+namespace blmd {
+namespace {
+
+// Begins a stage of the progress (progress.h), if there is one.
+void Stage(ProgressObserver* progress, std::string name, int steps = 0) {
+  if (progress) progress->BeginStage(std::move(name), steps);
+}
+
+// The spread between traces in the intervals (trace_jackknife.h): K refits, K >= 3, the
+// stage "<stage_prefix>leave-one-trace-out refits" of the progress.
+FitResult WidenedByTraces(const FitProblem& problem, const FitResult& fit,
+                          const OptimizerOptions& options, const std::string& stage_prefix) {
+  FitResult copy = fit;
+  if (fit.evaluation.ok && fit.summary.converged && problem.traces().size() >= 3) {
+    Stage(options.progress, stage_prefix + "leave-one-trace-out refits",
+          static_cast<int>(problem.traces().size()));
+    WidenByTraceJackknife(problem, LeaveOneTraceOut(problem, fit.values, options), &copy);
+  }
+  return copy;
+}
+
+}  // namespace
+
+IdentOutcome Identify(IdentRequest request) {
+  IdentOutcome outcome;
+  const Optimizer& optimizer = FindOptimizer(request.method);
+  if (!request.baseline_path.empty()) {  // a bad baseline is refused before the work
+    IdentReport model_only;
+    model_only.model = std::string(request.config.model->name());
+    CompareWithBaseline(model_only, request.baseline_path);
+  }
+  outcome.problem = std::make_unique<FitProblem>(request.config, std::move(request.traces),
+                                                 request.observe, request.free);
+  const FitProblem& problem = *outcome.problem;
+  std::unique_ptr<FitProblem> validation;
+  if (!request.validation.empty()) {
+    validation = std::make_unique<FitProblem>(request.config, std::move(request.validation),
+                                              request.observe, request.free);
+  }
+  const OptimizerOptions& options = request.options;
+  ProgressObserver* const progress = options.progress;
+  Stage(progress, "first fit (" + request.method + ")");
+  outcome.first_fit = optimizer.Minimize(problem, options);
+  OptimizerOptions refit_options = options;
+  refit_options.method_options = nlohmann::json::object();
+  const FitResult first_result = WidenedByTraces(problem, outcome.first_fit, refit_options, "");
+
+  ReportInputs inputs;
+  inputs.config_path = request.config_path;
+  inputs.problem = &problem;
+  inputs.result = &first_result;
+  inputs.validation = validation.get();
+  inputs.seed = options.seed;
+  inputs.threads = options.threads > 0
+                       ? options.threads
+                       : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  Stage(progress, "report");
+  IdentReport report = MakeReport(inputs);
+  outcome.final_config = problem.config();
+  outcome.final_parameters = problem.Parameters(outcome.first_fit.values);
+  outcome.final_free = problem.free();
+  if (request.discover) {
+    DiscoveryOptions discovery_options = request.discovery;
+    discovery_options.refit.threads = options.threads;
+    discovery_options.refit.seed = options.seed;
+    discovery_options.refit.verbose = options.verbose;
+    discovery_options.refit.progress = progress;
+    if (validation) discovery_options.held_out = &validation->traces();
+    outcome.discovery =
+        std::make_unique<DiscoveryResult>(Discover(problem, outcome.first_fit, discovery_options));
+    const DiscoveryResult& discovery = *outcome.discovery;
+    std::unique_ptr<FitProblem> validation_after;
+    if (validation) {
+      validation_after =
+          std::make_unique<FitProblem>(discovery.final_config, validation->traces(),
+                                       request.observe, NamedFreeParameters(discovery.final_free));
+    }
+    DiscoveryReport block = MakeDiscoveryReport(problem, outcome.first_fit, discovery,
+                                                validation.get(), validation_after.get());
+    // The final model is the answer: its parameters, fit, residual and
+    // validation head the report; the first fit moves to discovery.before.
+    const std::unique_ptr<FitProblem> final_problem = FinalProblem(problem, discovery);
+    IdentReport headline = report;
+    if (final_problem) {
+      outcome.final_config = final_problem->config();
+      outcome.final_parameters = final_problem->Parameters(discovery.final_fit.values);
+      outcome.final_free = final_problem->free();
+      const FitResult final_result =
+          WidenedByTraces(*final_problem, discovery.final_fit, refit_options, "final model: ");
+      ReportInputs final_inputs = inputs;
+      final_inputs.problem = final_problem.get();
+      final_inputs.result = &final_result;
+      final_inputs.validation = validation_after.get();
+      Stage(progress, "final model: report");
+      headline = MakeReport(final_inputs);
+    }
+    report = FinalModelReport(std::move(headline), report, std::move(block));
+  }
+  WidenForAmbiguity(&report);
+  AddLinearViews(&report, problem, outcome.final_config, outcome.final_parameters);
+  if (!request.baseline_path.empty()) {
+    report.baseline = CompareWithBaseline(report, request.baseline_path);
+  }
+  report.units_hints = CheckUnits(problem, outcome.first_fit.values);
+  AddWarnings(&report);
+  outcome.report = std::move(report);
+  return outcome;
+}
+
+}  // namespace blmd

@@ -1,0 +1,926 @@
+#include "blmd/ident/discovery/discovery.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <optional>
+
+#include "blmd/ident/discovery/evidence.h"
+#include "blmd/io/csv.h"
+#include "blmd/sim/effects.h"
+#include "ident/discovery/effect_search.h"
+#include "ident/fit/counting_cost.h"
+#include "ident/fit/jacobian.h"
+#include "ident/residual/record_parts.h"
+#include "parallel.h"
+
+namespace blmd {
+namespace {
+
+using internal::CandidatePlan;
+using internal::DifferenceRule;
+using internal::FiniteDifferenceJacobian;
+using internal::FromSearchCoordinates;
+using internal::PlanCandidate;
+using internal::PointingDiagnostic;
+using internal::ToSearchCoordinates;
+
+std::string G(double v, int digits = 4) { return FormatSignificant(v, digits); }
+
+// A position-dependent effect (cogging) is fitted with the measured angle (docs/discovery.md,
+// "Cogging: the measured angle"): a cogging torque large enough to matter captures the simulated
+// shaft in detents at low speed, so with the simulated angle the cost over (Tcog, phase, J, B) is
+// rugged and a local fit stays wherever it starts (measured: a start 12 % off in Tcog and 0.4 rad
+// in phase does not move). Evaluated at the measured angle, the cogging torque is a known function
+// of time for given (Tcog, phase): the response is nearly linear in it and the cost smooth. Fits
+// use it; scores (BIC, NRMSE, the report's errors) use the free-running model.
+bool UsesMeasuredAngle(const Config& config) {
+  return std::any_of(config.effects.begin(), config.effects.end(), [](const std::string& effect) {
+    return FindEffect(effect).position_dependent;
+  });
+}
+
+FitProblem MakeProblem(const Config& config, const std::vector<FitTrace>& traces,
+                       const std::vector<std::string>& observe,
+                       const std::vector<FreeParameter>& free) {
+  FitProblem problem(config, traces, observe, free);
+  if (UsesMeasuredAngle(config)) problem.ForceEffectAngle();  // unchanged without theta or w
+  return problem;
+}
+
+// `evaluation`, reported to `progress` (when there is one) as one cost evaluation.
+Evaluation Counted(ProgressObserver* progress, Evaluation evaluation) {
+  if (progress) progress->Evaluated(evaluation.cost);
+  return evaluation;
+}
+
+// The cost of the free-running model (the simulated angle everywhere) at `values`.
+Evaluation FreeRunEvaluation(const FitProblem& problem, const std::vector<double>& values,
+                             const Evaluation& evaluation) {
+  if (!problem.effect_angle_forced()) return evaluation;
+  const FitProblem free_run(problem.config(), problem.traces(), problem.observe(), problem.free());
+  return free_run.Evaluate(values);
+}
+
+struct CandidateRun {
+  CandidateOutcome outcome;
+  Config config;
+  std::vector<FreeParameter> free;
+  FitResult fit;
+  std::map<std::string, double> fixed;
+  std::vector<double> screen_values;  // after the scan and one Gauss-Newton step
+  double screen_bic = std::numeric_limits<double>::infinity();  // delta BIC at screening
+  bool refitted = false;
+};
+
+// Builds the problem with `effect` added at `effect_values` (free) and `fixed`.
+FitProblem CandidateProblem(const FitProblem& base, const std::vector<double>& base_values,
+                            const CandidatePlan& plan, const std::vector<double>& effect_values,
+                            const std::map<std::string, double>& fixed, Config* config_out,
+                            std::vector<FreeParameter>* free_out) {
+  Config config = base.config();
+  ParameterSet effect_parameters;
+  for (std::size_t k = 0; k < plan.free.size(); ++k)
+    effect_parameters.Set(plan.free[k].name, effect_values[k]);
+  for (const auto& [name, value] : fixed) effect_parameters.Set(name, value);
+  config.AddEffect(plan.effect, effect_parameters);
+  std::vector<FreeParameter> free = base.free();
+  for (std::size_t k = 0; k < free.size(); ++k) {
+    free[k].initial = std::clamp(base_values[k], free[k].lower, free[k].upper);
+    config.parameters.Set(free[k].name, free[k].initial);
+  }
+  for (std::size_t k = 0; k < plan.free.size(); ++k) {
+    FreeParameter p = plan.free[k];
+    p.initial = std::clamp(effect_values[k], p.lower, p.upper);
+    free.push_back(p);
+  }
+  *config_out = config;
+  *free_out = free;
+  return MakeProblem(config, base.traces(), base.observe(), free);
+}
+
+// One damped Gauss-Newton step on all free parameters from `values` (the issue's "one-step
+// Gauss-Newton fit"): cheap, and it lets J and B move with the new effect, which a scan with
+// J and B held cannot. Returns the better of the start and the step. The Jacobian is the
+// shared one (ident/fit/jacobian.h) with a coarser floor for linear parameters (1 % of the
+// range: an effect's amplitude starts at 0) and the neighbours held within the bounds. Its
+// evaluations are reported to `progress` (may be null).
+std::pair<std::vector<double>, Evaluation> OneStepGaussNewton(const FitProblem& problem,
+                                                              const std::vector<double>& values,
+                                                              const Evaluation& start,
+                                                              ProgressObserver* progress) {
+  const std::size_t p = problem.num_free();
+  const std::vector<double> x0 = ToSearchCoordinates(problem, values);
+  DifferenceRule rule;
+  rule.linear_floor = 1e-2;
+  rule.clamp_to_bounds = true;
+  rule.one_sided_fallback = false;
+  std::vector<double> r0;
+  Eigen::MatrixXd jacobian;
+  internal::CountingCost counter(problem, progress);
+  if (!FiniteDifferenceJacobian(problem, x0, rule, &counter, &r0, &jacobian))
+    return {values, start};
+  const std::size_t n = r0.size();
+  const Eigen::Map<const Eigen::VectorXd> residual(r0.data(), static_cast<Eigen::Index>(n));
+  Eigen::MatrixXd normal = jacobian.transpose() * jacobian;
+  const Eigen::VectorXd gradient = jacobian.transpose() * residual;
+  std::vector<double> best_values = values;
+  Evaluation best = start;
+  for (double damping : {1e-4, 1e-2, 1.0}) {
+    Eigen::MatrixXd damped = normal;
+    for (Eigen::Index k = 0; k < damped.rows(); ++k) damped(k, k) *= (1.0 + damping);
+    const Eigen::VectorXd step = damped.ldlt().solve(-gradient);
+    if (!step.allFinite()) continue;
+    std::vector<double> x = x0;
+    for (std::size_t k = 0; k < p; ++k) x[k] += step(static_cast<Eigen::Index>(k));
+    const std::vector<double> trial = FromSearchCoordinates(problem, x, /*clamp=*/true);
+    const Evaluation evaluation = Counted(progress, problem.Evaluate(trial));
+    if (evaluation.ok && evaluation.cost < best.cost) {
+      best = evaluation;
+      best_values = trial;
+      break;
+    }
+  }
+  return {best_values, best};
+}
+
+// Screening: a deterministic scan of the effect's start points (and cogging periods) with
+// the other parameters held, then one Gauss-Newton step on all of them. Its evaluations are
+// reported to `progress` (may be null).
+CandidateRun ScreenCandidate(const FitProblem& base, const std::vector<double>& base_values,
+                             const CandidatePlan& plan, double bic_before,
+                             ProgressObserver* progress) {
+  CandidateRun run;
+  run.outcome.effect = plan.effect;
+  if (!plan.applicable) {
+    run.outcome.reason = plan.not_applicable;
+    return run;
+  }
+  std::vector<std::map<std::string, double>> alternatives = plan.fixed_alternatives;
+  if (alternatives.empty()) alternatives.emplace_back();
+  // Scan: every start point of every alternative, the other parameters held.
+  struct Scanned {
+    double cost;
+    std::size_t alternative;
+    std::vector<double> start;
+  };
+  std::vector<Scanned> scanned;
+  for (std::size_t a = 0; a < alternatives.size(); ++a) {
+    std::vector<std::vector<double>> starts = plan.starts;
+    if (a < plan.alternative_starts.size()) {
+      starts.insert(starts.begin(), plan.alternative_starts[a].begin(),
+                    plan.alternative_starts[a].end());
+    }
+    Scanned best_of_alternative{std::numeric_limits<double>::infinity(), a, {}};
+    std::vector<Scanned> of_alternative;
+    for (const auto& start : starts) {
+      Config config;
+      std::vector<FreeParameter> free;
+      const FitProblem problem =
+          CandidateProblem(base, base_values, plan, start, alternatives[a], &config, &free);
+      const Evaluation evaluation = Counted(progress, problem.Evaluate(problem.InitialValues()));
+      if (evaluation.ok) of_alternative.push_back({evaluation.cost, a, start});
+    }
+    // With several alternatives (cogging orders) only each one's best start competes.
+    std::stable_sort(of_alternative.begin(), of_alternative.end(),
+                     [](const Scanned& l, const Scanned& r) { return l.cost < r.cost; });
+    const std::size_t keep = alternatives.size() > 1 ? 1 : 2;
+    for (std::size_t k = 0; k < of_alternative.size() && k < keep; ++k)
+      scanned.push_back(of_alternative[k]);
+  }
+  if (scanned.empty()) {
+    run.outcome.reason = "every start point failed to simulate";
+    return run;
+  }
+  // The scan holds J and B at values that absorbed the missing effect, so its ranking is
+  // rough: the best few (five alternatives, or the two best starts) each get a short local
+  // search on all free parameters (BOBYQA; a short Ceres fit at the measured angle for
+  // cogging), and the best of those is screened.
+  std::stable_sort(scanned.begin(), scanned.end(),
+                   [](const Scanned& l, const Scanned& r) { return l.cost < r.cost; });
+  if (scanned.size() > 5) scanned.resize(5);
+  double best_cost = std::numeric_limits<double>::infinity();
+  std::vector<double> best_values;
+  std::map<std::string, double> best_fixed;
+  for (const auto& candidate : scanned) {
+    Config config;
+    std::vector<FreeParameter> free;
+    const FitProblem problem =
+        CandidateProblem(base, base_values, plan, candidate.start,
+                         alternatives[candidate.alternative], &config, &free);
+    double cost = std::numeric_limits<double>::infinity();
+    std::vector<double> values;
+    if (problem.effect_angle_forced()) {
+      // At the measured angle the cost is smooth: a short Ceres fit settles each order.
+      OptimizerOptions short_fit;
+      short_fit.threads = 1;
+      short_fit.progress = progress;
+      short_fit.method_options["max_iterations"] = 10;
+      const FitResult fit = FindOptimizer("ceres").Minimize(problem, short_fit);
+      if (fit.evaluation.ok) {
+        cost = fit.evaluation.cost;
+        values = fit.values;
+      }
+    } else {
+      internal::CountingCost counting(problem, progress);
+      const internal::LocalResult local = internal::NloptLocal(
+          counting, "bobyqa", problem.ToScaled(problem.InitialValues()), 0.05, 40, 1e-6, 1e-6);
+      cost = local.cost;
+      values = problem.FromScaled(local.scaled);
+    }
+    if (cost < best_cost) {
+      best_cost = cost;
+      best_fixed = alternatives[candidate.alternative];
+      best_values = values;
+    }
+  }
+  if (best_values.empty()) {
+    run.outcome.reason = "the local searches of the scan's best points failed";
+    return run;
+  }
+  const std::vector<double> searched_base(best_values.begin(),
+                                          best_values.begin() + static_cast<long>(base.num_free()));
+  const std::vector<double> best_start(best_values.begin() + static_cast<long>(base.num_free()),
+                                       best_values.end());
+  const FitProblem problem =
+      CandidateProblem(base, searched_base, plan, best_start, best_fixed, &run.config, &run.free);
+  const Evaluation at_start = Counted(progress, problem.Evaluate(problem.InitialValues()));
+  auto [values, fitted] = OneStepGaussNewton(problem, problem.InitialValues(), at_start, progress);
+  Evaluation evaluation = FreeRunEvaluation(problem, values, fitted);
+  if (FindEffect(plan.effect).position_dependent && problem.effect_angle_forced() &&
+      evaluation.ok && !(Bic(problem, evaluation, problem.num_free()) < bic_before)) {
+    // Fitted at the measured angle, the point may sit just outside the free-running model's
+    // narrow basin (a cogging torque captures the simulated shaft in other detents): a short
+    // free-running search from there decides, as the refit's polish does.
+    std::vector<FreeParameter> free = run.free;
+    for (std::size_t k = 0; k < free.size(); ++k) free[k].initial = values[k];
+    const FitProblem free_run(run.config, base.traces(), base.observe(), free);
+    OptimizerOptions polish;
+    polish.threads = 1;
+    polish.progress = progress;
+    polish.method_options["max_iterations"] = 10;
+    const FitResult polished = FindOptimizer("ceres").Minimize(free_run, polish);
+    if (polished.evaluation.ok && polished.evaluation.cost < evaluation.cost) {
+      values = polished.values;
+      evaluation = polished.evaluation;
+    }
+  }
+  run.fixed = best_fixed;
+  run.screen_values = values;
+  run.screen_bic = Bic(problem, evaluation, problem.num_free()) - bic_before;
+  run.outcome.delta_bic = run.screen_bic;
+  run.outcome.nrmse = std::sqrt(evaluation.cost);
+  return run;
+}
+
+// The noise floor in the cost's units: sqrt of the mean over observed columns of
+// sigma_c^2 / Var_c, sigma_c^2 from the measured column's second differences
+// (NoiseFloorVariance, adequacy.h), pooled over the traces by their sample counts.
+double NoiseFloorNrmse(const FitProblem& problem) {
+  const std::size_t columns = problem.observe().size();
+  if (columns == 0) return 0.0;
+  double total = 0.0;
+  for (std::size_t c = 0; c < columns; ++c) {
+    double weighted = 0.0, count = 0.0;
+    for (std::size_t k = 0; k < problem.traces().size(); ++k) {
+      const Trace& measured = problem.measured(k);
+      const auto n = static_cast<double>(measured.rows());
+      weighted +=
+          n * NoiseFloorVariance(measured.Column("t"), measured.Column(problem.observe()[c]));
+      count += n;
+    }
+    if (count > 0.0 && problem.variance()[c] > 0.0)
+      total += weighted / count / problem.variance()[c];
+  }
+  return std::sqrt(total / static_cast<double>(columns));
+}
+
+// The share of what `before` leaves above the noise floor that `after` explains (all in
+// NRMSE units); 0 when the model before is already at the floor.
+double ExplainedShare(double before, double after, double floor) {
+  const double above = before * before - floor * floor;
+  if (!(above > 0.0)) return 0.0;
+  return (before * before - after * after) / above;
+}
+
+// Block cross-validation (docs/discovery.md §3b): `config` with `free` (initial values: the
+// full fit's) fitted on each part of the record and scored on the other; the pooled NRMSE,
+// sqrt of the mean of the two held-out costs. Each part's score is its own NRMSE (its
+// columns' own variances). A model with a position-dependent effect is fitted and scored at
+// the measured angle, as discovery fits it: a free-running prediction of a shaft in a cogging
+// field over half a record hangs on where detents capture it (§6), not on the torque.
+struct CrossValidation {
+  bool ok = false;
+  std::string reason;
+  double nrmse = 0.0;
+  std::string parts;  // how the record was cut (RecordParts::description)
+};
+
+CrossValidation BlockCrossValidate(const Config& config, const std::vector<FreeParameter>& free,
+                                   const std::vector<FitTrace>& traces,
+                                   const std::vector<std::string>& observe,
+                                   const std::vector<double>& values,
+                                   const OptimizerOptions& refit) {
+  CrossValidation out;
+  // The parts, the second starting from this model's own state at the cut.
+  const internal::RecordParts parts =
+      internal::SplitRecord(FitProblem(config, traces, observe, free), values);
+  out.parts = parts.description;
+  if (!parts.ok) {
+    out.reason = parts.reason;
+    return out;
+  }
+  double sum = 0.0;
+  for (int fold = 0; fold < 2; ++fold) {
+    const std::vector<FitTrace>& fit_on = fold == 0 ? parts.first : parts.second;
+    const std::vector<FitTrace>& score_on = fold == 0 ? parts.second : parts.first;
+    const FitProblem fit_problem = MakeProblem(config, fit_on, observe, free);
+    OptimizerOptions options = refit;
+    options.method_options = nlohmann::json::object();
+    options.method_options["max_iterations"] = 20;
+    const FitResult fit = FindOptimizer("ceres").Minimize(fit_problem, options);
+    if (!fit.evaluation.ok) {
+      out.reason = "a fold's fit failed: " + fit.evaluation.reason;
+      return out;
+    }
+    const FitProblem score_problem = MakeProblem(config, score_on, observe, free);
+    const Evaluation score = score_problem.Evaluate(fit.values);
+    if (!score.ok) {
+      out.reason = "a fold's prediction failed: " + score.reason;
+      return out;
+    }
+    sum += score.cost;
+  }
+  out.ok = true;
+  out.nrmse = std::sqrt(0.5 * sum);
+  return out;
+}
+
+// The free parameters of `problem` starting at `values`.
+std::vector<FreeParameter> StartingAt(const std::vector<FreeParameter>& free,
+                                      const std::vector<double>& values) {
+  std::vector<FreeParameter> out = free;
+  for (std::size_t k = 0; k < out.size() && k < values.size(); ++k)
+    out[k].initial = std::clamp(values[k], out[k].lower, out[k].upper);
+  return out;
+}
+
+// Full refit (Ceres, all free parameters) from the screening point, and the verdict.
+// What every candidate of a round is compared with, computed once per round: the current
+// model's residuals on the fit traces (for the prewhitened evidence) or its error on the
+// held-out traces (for the held-out rule).
+struct RoundBase {
+  std::vector<double> residuals;  // empty when its evaluation failed
+  Evaluation held_out;            // ok only with held-out traces that simulate
+  double nrmse = 0.0;             // the current model's
+  double floor_nrmse = 0.0;       // the noise floor (NoiseFloorNrmse)
+};
+
+RoundBase MakeRoundBase(const FitProblem& base, const std::vector<double>& values,
+                        double floor_nrmse, const DiscoveryOptions& options) {
+  RoundBase round;
+  // The free-running model's error, as every candidate's is scored.
+  const FitProblem free_run(base.config(), base.traces(), base.observe(), base.free());
+  round.nrmse = std::sqrt(free_run.Evaluate(values).cost);
+  round.floor_nrmse = floor_nrmse;
+  const bool held_out = options.held_out && !options.held_out->empty();
+  if (!held_out && options.prewhiten && !free_run.Evaluate(values, &round.residuals).ok) {
+    round.residuals.clear();
+  }
+  if (held_out) {
+    std::vector<std::string> names;
+    for (const auto& f : base.free()) names.push_back(f.name);
+    const FitProblem held(base.config(), *options.held_out, base.observe(),
+                          NamedFreeParameters(names));
+    round.held_out = held.Evaluate(values);
+  }
+  return round;
+}
+
+void RefitCandidate(const FitProblem& base, const RoundBase& round, const CandidatePlan& plan,
+                    double bic_before, const DiscoveryOptions& options, CandidateRun* run) {
+  for (std::size_t k = 0; k < run->free.size(); ++k) run->free[k].initial = run->screen_values[k];
+  const FitProblem problem = MakeProblem(run->config, base.traces(), base.observe(), run->free);
+  OptimizerOptions refit = options.refit;
+  if (!refit.method_options.contains("max_iterations")) refit.method_options["max_iterations"] = 50;
+  run->fit = FindOptimizer("ceres").Minimize(problem, refit);
+  if (run->fit.evaluation.ok && problem.effect_angle_forced()) {
+    // Fitted at the measured angle: polish on the free-running model from there (its basin
+    // is narrow but the measured-angle fit lands in it), keeping whichever runs better.
+    std::vector<FreeParameter> free = run->free;
+    for (std::size_t k = 0; k < free.size(); ++k) free[k].initial = run->fit.values[k];
+    const FitProblem free_run(run->config, base.traces(), base.observe(), free);
+    const Evaluation at_forced = free_run.Evaluate(run->fit.values);
+    OptimizerOptions polish = refit;
+    polish.method_options["max_iterations"] = 20;
+    FitResult polished = FindOptimizer("ceres").Minimize(free_run, polish);
+    if (polished.evaluation.ok && (!at_forced.ok || polished.evaluation.cost < at_forced.cost)) {
+      run->fit = std::move(polished);
+    } else {
+      run->fit.evaluation = at_forced;
+    }
+    // The screening point may already be a free-running search's result (ScreenCandidate)
+    // that the measured-angle fit left: polish from it too and keep the better.
+    const Evaluation at_screen = free_run.Evaluate(run->screen_values);
+    if (at_screen.ok && at_screen.cost < run->fit.evaluation.cost) {
+      for (std::size_t k = 0; k < free.size(); ++k) free[k].initial = run->screen_values[k];
+      const FitProblem from_screen(run->config, base.traces(), base.observe(), free);
+      FitResult again = FindOptimizer("ceres").Minimize(from_screen, polish);
+      if (again.evaluation.ok && again.evaluation.cost < run->fit.evaluation.cost)
+        run->fit = std::move(again);
+    }
+  }
+  run->outcome.fitted = run->fit.evaluation.ok;
+  if (!run->outcome.fitted) {
+    run->outcome.reason = "refit failed: " + run->fit.evaluation.reason;
+    return;
+  }
+  run->outcome.bic = Bic(problem, run->fit.evaluation, problem.num_free());
+  run->outcome.delta_bic = run->outcome.bic - bic_before;
+  run->outcome.delta_bic_white = run->outcome.delta_bic;
+  // The evidence counts what correlated samples are worth (evidence.h): the same change in
+  // BIC on residuals whitened by the candidate model's AR noise model.
+  // With held-out traces the evidence is theirs instead: the plain BIC on the fit traces,
+  // and a lower error on traces the effect was not fitted to.
+  run->outcome.evidence_rule = "plain_bic";
+  if (options.held_out && !options.held_out->empty()) {
+    std::vector<std::string> names;
+    for (const auto& f : run->free) names.push_back(f.name);
+    const FitProblem held_candidate(run->config, *options.held_out, base.observe(),
+                                    NamedFreeParameters(names));
+    const Evaluation after = held_candidate.Evaluate(run->fit.values);
+    run->outcome.evidence_rule = "held_out";
+    run->outcome.has_held_out = round.held_out.ok && after.ok;
+    if (run->outcome.has_held_out) {
+      run->outcome.held_out_before = std::sqrt(round.held_out.cost);
+      run->outcome.held_out_after = std::sqrt(after.cost);
+      run->outcome.held_out_better = run->outcome.held_out_after <
+                                     (1.0 - options.held_out_margin) * run->outcome.held_out_before;
+    } else {
+      run->outcome.held_out_better = false;
+    }
+  } else if (options.prewhiten && !round.residuals.empty()) {
+    const FitProblem model(run->config, base.traces(), base.observe(), run->free);
+    const WhitenedEvidence evidence =
+        PrewhitenedEvidence(round.residuals, base.num_free(), model, run->fit.values);
+    if (evidence.ok) {
+      run->outcome.evidence_rule = "prewhitened_bic";
+      run->outcome.delta_bic = evidence.delta_bic;
+      run->outcome.bic = bic_before + evidence.delta_bic;
+      for (std::size_t c = 0; c < base.observe().size(); ++c) {
+        run->outcome.noise_model[base.observe()[c]] = {evidence.order[c],
+                                                       evidence.innovation_ratio[c]};
+      }
+    }
+  }
+  run->outcome.nrmse = std::sqrt(run->fit.evaluation.cost);
+  run->outcome.explained_share = ExplainedShare(round.nrmse, run->outcome.nrmse, round.floor_nrmse);
+  run->outcome.material = run->outcome.explained_share >= options.min_explained_share;
+  const std::size_t offset = base.num_free();
+  for (std::size_t k = 0; k < plan.free.size(); ++k) {
+    run->outcome.parameters[plan.free[k].name] = run->fit.values[offset + k];
+  }
+  for (const auto& [name, value] : run->fixed) run->outcome.parameters[name] = value;
+  for (std::size_t k = 0; k < run->free.size() && k < run->fit.values.size(); ++k) {
+    run->outcome.model_parameters[run->free[k].name] = run->fit.values[k];
+  }
+  // Physical validity: off the search bounds, and the amplitude distinguishable from zero.
+  run->outcome.valid = true;
+  for (std::size_t k = 0; k < plan.free.size(); ++k) {
+    const FreeParameter& p = plan.free[k];
+    if (IsPeriodicParameter(p.name)) continue;  // a phase wraps: no bound to sit on
+    const double v = run->fit.values[offset + k];
+    const double margin = 1e-3 * (p.log_scale ? std::log(p.upper / p.lower) : (p.upper - p.lower));
+    const double below = p.log_scale ? std::log(v / p.lower) : v - p.lower;
+    const double above = p.log_scale ? std::log(p.upper / v) : p.upper - v;
+    if (below < margin || above < margin) {
+      run->outcome.valid = false;
+      run->outcome.reason = p.name + " = " + G(v) + " sits on its search bound [" + G(p.lower) +
+                            ", " + G(p.upper) + "]";
+      break;
+    }
+    if (p.name == plan.amplitude) {
+      const ParameterEstimate& e = run->fit.estimates[offset + k];
+      if (e.has_interval && std::abs(v) < 2.0 * e.std) {
+        run->outcome.valid = false;
+        run->outcome.reason =
+            p.name + " = " + G(v) + " is within two standard deviations (" + G(e.std) + ") of zero";
+        break;
+      }
+    }
+  }
+  if (run->outcome.valid && plan.constraint) {
+    ParameterSet values = run->config.parameters;
+    for (std::size_t k = 0; k < run->free.size(); ++k)
+      values.Set(run->free[k].name, run->fit.values[k]);
+    if (std::string why = plan.constraint(values); !why.empty()) {
+      run->outcome.valid = false;
+      run->outcome.reason = why;
+    }
+  }
+  if (run->outcome.valid && !(run->outcome.delta_bic < -options.bic_margin)) {
+    run->outcome.reason = "BIC does not fall by more than " + G(options.bic_margin);
+  } else if (run->outcome.valid && !run->outcome.material) {
+    run->outcome.reason = "tried, not needed: explains " +
+                          G(100.0 * run->outcome.explained_share, 2) +
+                          " % of the residual above the noise floor (needs " +
+                          G(100.0 * options.min_explained_share, 2) + " %)";
+  } else if (run->outcome.valid && !run->outcome.held_out_better) {
+    run->outcome.reason = run->outcome.has_held_out
+                              ? "the held-out NRMSE does not fall by more than " +
+                                    G(100.0 * options.held_out_margin) + " % (" +
+                                    G(run->outcome.held_out_before) + " -> " +
+                                    G(run->outcome.held_out_after) + ")"
+                              : "the held-out traces could not be simulated with the effect";
+  }
+}
+
+std::string Evidence(const std::string& effect, const ResidualAnalysis& analysis,
+                     const CandidateOutcome& outcome, double nrmse_before, int order) {
+  std::string text =
+      "BIC " + G(outcome.delta_bic, 5) +
+      (outcome.evidence_rule == "prewhitened_bic" &&
+               G(outcome.delta_bic_white, 5) != G(outcome.delta_bic, 5)
+           ? " on whitened residuals (" + G(outcome.delta_bic_white, 5) + " counting every sample)"
+           : std::string()) +
+      ", NRMSE " + G(nrmse_before) + " -> " + G(outcome.nrmse) +
+      (outcome.has_held_out
+           ? ", held-out NRMSE " + G(outcome.held_out_before) + " -> " + G(outcome.held_out_after)
+           : std::string());
+  if (outcome.explained_share >= 0.0)
+    text += ", explains " + G(100.0 * outcome.explained_share, 3) +
+            " % of the residual above the noise floor";
+  if (outcome.cross_validated)
+    text += ", cross-validated NRMSE " + G(outcome.cv_before) + " -> " + G(outcome.cv_after);
+  text += PointingDiagnostic(effect, analysis, order);
+  return text;
+}
+
+}  // namespace
+
+double Bic(const FitProblem& problem, const Evaluation& evaluation, std::size_t k) {
+  double bic = 0.0;
+  std::size_t total = 0;
+  for (std::size_t c = 0; c < problem.observe().size(); ++c) {
+    std::size_t n = 0;
+    for (std::size_t t = 0; t < problem.traces().size(); ++t) n += problem.measured(t).rows();
+    total += n;
+    // An MSE below 1e-12 of the column's variance (NRMSE 1e-6) is the simulator's numerical
+    // precision, not a better fit: without this floor a noise-free trace's residual of
+    // rounding errors let any effect "explain" part of it (a current offset of 1e-12 A).
+    const double floor = std::max(1e-12 * problem.variance()[c], 1e-300);
+    bic += static_cast<double>(n) * std::log(std::max(evaluation.mse[c], floor));
+  }
+  return bic + static_cast<double>(k) * std::log(static_cast<double>(total));
+}
+
+DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
+                         const DiscoveryOptions& options) {
+  DiscoveryResult result;
+  std::vector<std::string> candidates = options.candidates;
+  const std::string model(problem.config().model->name());
+  if (candidates.empty()) {
+    for (const auto& effect : EffectRegistry()) {
+      if (std::find(effect.models.begin(), effect.models.end(), model) != effect.models.end()) {
+        candidates.push_back(effect.name);
+      }
+    }
+  }
+  // The current model: problem + fit.
+  auto current_problem = std::make_unique<FitProblem>(problem);
+  FitResult current_fit = initial;
+  double current_bic = initial.evaluation.ok ? Bic(problem, initial.evaluation, problem.num_free())
+                                             : std::numeric_limits<double>::infinity();
+  result.bic_initial = current_bic;
+  if (!initial.evaluation.ok) {
+    result.conclusion = "the initial fit failed: nothing to examine";
+    result.final_config = problem.config();
+    result.final_fit = initial;
+    return result;
+  }
+  // The measured columns' noise floor: the same for every round.
+  result.noise_floor_nrmse = NoiseFloorNrmse(problem);
+  for (int round = 0; round < options.max_effects; ++round) {
+    const ResidualAnalysis analysis = AnalyseResidual(*current_problem, current_fit.values);
+    std::vector<CandidatePlan> plans;
+    for (const auto& effect : candidates) {
+      const auto& declared = current_problem->config().effects;
+      if (std::find(declared.begin(), declared.end(), effect) != declared.end()) continue;
+      plans.push_back(PlanCandidate(effect, *current_problem, analysis, current_fit.values));
+    }
+    if (plans.empty()) break;
+    std::vector<CandidateRun> runs(plans.size());
+    const int threads = internal::ThreadCount(options.refit.threads);
+    auto parallel = [&](const std::vector<std::size_t>& items,
+                        const std::function<void(std::size_t)>& work) {
+      internal::ParallelFor(items.size(), threads, [&](std::size_t k) { work(items[k]); });
+    };
+    std::vector<std::size_t> all(plans.size());
+    for (std::size_t k = 0; k < all.size(); ++k) all[k] = k;
+    ProgressObserver* const progress = options.refit.progress;
+    const std::string round_name = "discovery round " + std::to_string(round + 1);
+    if (progress) progress->BeginStage(round_name + ": screening", static_cast<int>(plans.size()));
+    parallel(all, [&](std::size_t k) {
+      runs[k] =
+          ScreenCandidate(*current_problem, current_fit.values, plans[k], current_bic, progress);
+      if (progress) progress->StepDone();
+    });
+    const RoundBase round_base =
+        MakeRoundBase(*current_problem, current_fit.values, result.noise_floor_nrmse, options);
+    // Refit the most promising candidates by their screening BIC (deterministic order).
+    // Only candidates whose screening already lowers BIC are worth a full refit.
+    std::vector<std::size_t> screened;
+    for (std::size_t k = 0; k < runs.size(); ++k) {
+      if (!runs[k].screen_values.empty() && runs[k].screen_bic < 0.0) screened.push_back(k);
+    }
+    std::stable_sort(screened.begin(), screened.end(), [&](std::size_t l, std::size_t r) {
+      return runs[l].screen_bic < runs[r].screen_bic;
+    });
+    // The best `refits`, and every position-dependent candidate (cogging, gravity, spring)
+    // whose screening lowers BIC: their screening is the least reliable (a narrow
+    // free-running basin around the measured-angle fit), and behind slow candidates that
+    // bend the simulation a little everywhere a cogging ripple was never refit (a case:
+    // Coulomb friction beside cogging, gravity added in its place).
+    std::vector<std::size_t> refit;
+    for (std::size_t q = 0; q < screened.size(); ++q) {
+      if (q < static_cast<std::size_t>(options.refits) ||
+          FindEffect(plans[screened[q]].effect).position_dependent)
+        refit.push_back(screened[q]);
+    }
+    screened = refit;
+    if (progress && !screened.empty())
+      progress->BeginStage(round_name + ": refits", static_cast<int>(screened.size()));
+    parallel(screened, [&](std::size_t k) {
+      RefitCandidate(*current_problem, round_base, plans[k], current_bic, options, &runs[k]);
+      runs[k].refitted = true;
+      if (progress) progress->StepDone();
+    });
+    for (auto& run : runs) {
+      if (!run.refitted && !run.screen_values.empty()) {
+        run.outcome.reason = run.screen_bic >= 0.0
+                                 ? "screened out: one Gauss-Newton step does not lower BIC (" +
+                                       G(run.screen_bic, 4) + ")"
+                                 : "screened out (one-step BIC " + G(run.screen_bic, 4) +
+                                       "; only the best " + std::to_string(options.refits) +
+                                       " are refit)";
+      }
+    }
+    // Best first: fitted before not, then by BIC; ties by name (deterministic).
+    std::vector<std::size_t> order(runs.size());
+    for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t l, std::size_t r) {
+      const auto& a = runs[l].outcome;
+      const auto& b = runs[r].outcome;
+      if (a.fitted != b.fitted) return a.fitted;
+      if (a.fitted && a.bic != b.bic) return a.bic < b.bic;
+      if (!a.fitted && runs[l].screen_bic != runs[r].screen_bic)
+        return runs[l].screen_bic < runs[r].screen_bic;
+      return a.effect < b.effect;
+    });
+    // The stopping rule (docs/discovery.md §3b): the evidence, physically valid, material,
+    // and generalising to the part of the record it was not fitted to.
+    auto passes_evidence = [&](const CandidateOutcome& o) {
+      return o.fitted && o.valid && o.held_out_better && o.delta_bic < -options.bic_margin &&
+             o.material;
+    };
+    const bool cross_validate =
+        options.cross_validate && !(options.held_out && !options.held_out->empty());
+    std::optional<CrossValidation> base_cv;
+    for (std::size_t k : order) {
+      CandidateRun& run = runs[k];
+      CandidateOutcome& o = run.outcome;
+      if (!cross_validate || !passes_evidence(o)) continue;
+      if (!base_cv) {
+        base_cv = BlockCrossValidate(
+            current_problem->config(), StartingAt(current_problem->free(), current_fit.values),
+            problem.traces(), problem.observe(), current_fit.values, options.refit);
+        result.cross_validation_parts = base_cv->parts;
+      }
+      if (!base_cv->ok) break;  // nothing to compare with: the evidence alone decides
+      // Parts that do not predict each other even with the current model (a cross-validated
+      // NRMSE over twice the fitted one) cannot judge a candidate: the evidence alone decides,
+      // and the report says why (cross_validation_parts).
+      if (!(base_cv->nrmse <= 2.0 * round_base.nrmse)) {
+        result.cross_validation_parts += " (not used in round " + std::to_string(round + 1) +
+                                         ": the parts predict each other with NRMSE " +
+                                         G(base_cv->nrmse) + " against " + G(round_base.nrmse) +
+                                         " fitted)";
+        break;
+      }
+      if (progress) progress->BeginStage(round_name + ": cross-validating " + o.effect, 0);
+      const CrossValidation cv =
+          BlockCrossValidate(run.config, StartingAt(run.free, run.fit.values), problem.traces(),
+                             problem.observe(), run.fit.values, options.refit);
+      if (!cv.ok) continue;  // the candidate keeps its evidence-only verdict
+      o.cross_validated = true;
+      o.cv_before = base_cv->nrmse;
+      o.cv_after = cv.nrmse;
+      o.generalises = cv.nrmse < (1.0 - options.held_out_margin) * base_cv->nrmse;
+      if (!o.generalises) {
+        o.reason = "tried, not needed: does not generalise (cross-validated NRMSE " +
+                   G(o.cv_before) + " -> " + G(o.cv_after) + ", needs a fall of more than " +
+                   G(100.0 * options.held_out_margin) + " %)";
+      }
+    }
+    std::vector<std::size_t> qualifying;
+    for (std::size_t k : order) {
+      const auto& o = runs[k].outcome;
+      if (passes_evidence(o) && o.generalises) qualifying.push_back(k);
+    }
+    // Parsimony and generalisation: the best candidate by BIC gives way to another
+    // qualifying one with fewer parameters unless it predicts the data they were not fitted
+    // to better (by the margin: a Stribeck curve must show its dip, not reshape a Coulomb
+    // friction), and to one with as many parameters that predicts those data better by the
+    // margin (a case: gravity's one period per revolution ahead of a cogging ripple by BIC,
+    // the cogging 2 % better on the held-out blocks).
+    auto out_of_sample = [&](const CandidateOutcome& o) {
+      if (o.cross_validated) return o.cv_after;
+      if (o.has_held_out) return o.held_out_after;
+      return std::numeric_limits<double>::quiet_NaN();
+    };
+    if (qualifying.size() > 1) {
+      const std::size_t first = qualifying.front();
+      for (std::size_t q = 1; q < qualifying.size(); ++q) {
+        const std::size_t other = qualifying[q];
+        const double first_score = out_of_sample(runs[first].outcome);
+        const double other_score = out_of_sample(runs[other].outcome);
+        const std::size_t first_size = plans[first].free.size();
+        const std::size_t other_size = plans[other].free.size();
+        if (other_size > first_size || !std::isfinite(first_score) || !std::isfinite(other_score))
+          continue;
+        const bool simpler = other_size < first_size;
+        const bool gives_way = simpler
+                                   ? !(first_score < (1.0 - options.held_out_margin) * other_score)
+                                   : other_score < (1.0 - options.held_out_margin) * first_score;
+        if (!gives_way) continue;
+        runs[first].outcome.reason =
+            simpler ? "tried, not needed: its " + std::to_string(first_size) +
+                          " parameters do not predict the data they were not fitted to better "
+                          "than " +
+                          runs[other].outcome.effect + "'s " + std::to_string(other_size) + " (" +
+                          G(first_score) + " against " + G(other_score) + ")"
+                    : "tried, not needed: " + runs[other].outcome.effect +
+                          ", with as many parameters, predicts the data they were not fitted "
+                          "to better by more than " +
+                          G(100.0 * options.held_out_margin) + " % (" + G(other_score) +
+                          " against " + G(first_score) + ")";
+        qualifying.erase(qualifying.begin());
+        std::stable_sort(qualifying.begin(), qualifying.end(), [&](std::size_t l, std::size_t r) {
+          if (l == other) return r != other;
+          return false;
+        });
+        break;
+      }
+    }
+    std::vector<CandidateOutcome> outcomes;
+    outcomes.reserve(order.size());
+    for (std::size_t k : order) outcomes.push_back(runs[k].outcome);
+    if (qualifying.empty()) {
+      result.last_round = outcomes;
+      break;
+    }
+    const CandidateRun& best = runs[qualifying.front()];
+    std::vector<std::string> tied = {best.outcome.effect};
+    for (std::size_t q = 1; q < qualifying.size(); ++q) {
+      if (std::abs(runs[qualifying[q]].outcome.bic - best.outcome.bic) < options.ambiguity_margin) {
+        tied.push_back(runs[qualifying[q]].outcome.effect);
+      }
+    }
+    if (tied.size() > 1) {
+      // Listed by name: which of equals comes first carries no information.
+      std::sort(tied.begin(), tied.end());
+      result.ambiguous.push_back(tied);
+      std::string names;
+      for (const auto& n : tied) names += (names.empty() ? "" : " and ") + n;
+      // The hint names what would separate these effects: the direction of motion only
+      // when one of them is a friction (sign of w) and another a constant torque.
+      bool friction = false, constant = false;
+      for (const auto& n : tied) {
+        const internal::EffectSearch* search = internal::FindEffectSearch(n);
+        friction = friction || (search && search->pointer == internal::Pointer::kSignOfW);
+        constant = constant || (search && search->pointer == internal::Pointer::kResidualMean);
+      }
+      result.ambiguity_reason =
+          names + " explain the residual equally well (BIC within " + G(options.ambiguity_margin) +
+          ")" +
+          (!analysis.w_changes_sign && friction && constant
+               ? "; w never changes sign on this data, so friction and a constant load look "
+                 "alike: record motion in both directions to tell them apart"
+               : ": an experiment that drives them differently (other speeds, amplitudes or "
+                 "directions; blmd-design) would tell them apart");
+      result.last_round = outcomes;
+      break;
+    }
+    DiscoveryStep step;
+    step.effect = best.outcome.effect;
+    step.nrmse_before = std::sqrt(current_fit.evaluation.cost);
+    step.nrmse_after = best.outcome.nrmse;
+    step.bic_before = current_bic;
+    step.bic_after = best.outcome.bic;
+    step.candidates = outcomes;
+    step.fixed_parameters = best.fixed;
+    const std::size_t offset = current_problem->num_free();
+    for (std::size_t k = offset; k < best.fit.estimates.size(); ++k) {
+      step.effect_parameters.push_back(best.fit.estimates[k]);
+    }
+    // The alternative added (cogging: its order), whose own evidence the line cites.
+    const CandidatePlan& best_plan = plans[qualifying.front()];
+    int added_order = 0;
+    std::string alternative_evidence;
+    for (std::size_t a = 0; a < best_plan.fixed_alternatives.size(); ++a) {
+      if (best_plan.fixed_alternatives[a] != best.fixed) continue;
+      const auto periods = best.fixed.find("periods");
+      if (periods != best.fixed.end()) added_order = static_cast<int>(std::lround(periods->second));
+      if (a < best_plan.alternative_evidence.size())
+        alternative_evidence = best_plan.alternative_evidence[a];
+    }
+    step.evidence = Evidence(step.effect, analysis, best.outcome, step.nrmse_before, added_order);
+    if (!best_plan.evidence.empty()) step.evidence += "; " + best_plan.evidence;
+    if (!alternative_evidence.empty()) step.evidence += "; " + alternative_evidence;
+    result.steps.push_back(step);
+    result.added.push_back(step.effect);
+    // The winner becomes the current model, its fitted values its parameters.
+    Config config = best.config;
+    for (std::size_t k = 0; k < best.free.size(); ++k)
+      config.parameters.Set(best.free[k].name, best.fit.values[k]);
+    std::vector<FreeParameter> free = best.free;
+    for (std::size_t k = 0; k < free.size(); ++k) free[k].initial = best.fit.values[k];
+    current_problem = std::make_unique<FitProblem>(
+        MakeProblem(config, problem.traces(), problem.observe(), free));
+    current_fit = best.fit;
+    current_bic = best.outcome.bic;
+  }
+  // The final model as it runs free (its free parameters start at the winner's values), the
+  // model the report scores: fitted to convergence and checked for adequacy.
+  const FitProblem final_problem(current_problem->config(), problem.traces(), problem.observe(),
+                                 current_problem->free());
+  ProgressObserver* const progress = options.refit.progress;
+  if (!result.added.empty() && !current_fit.summary.converged) {
+    // The winner's refit stops after a few iterations (its free-running polish, 20): the
+    // final model, which heads the report, is fitted to convergence from there (a
+    // free-running cogging fit creeps along a narrow valley: 3 of 6 Coulomb + cogging cases
+    // of the adequacy study stopped at 20 iterations, their answers right, the report saying
+    // "not converged"). The user's Ceres options, else Ceres's own iteration limit, 100.
+    if (progress) progress->BeginStage("final model: fitted to convergence", 0);
+    FitResult converged = FindOptimizer("ceres").Minimize(final_problem, options.refit);
+    if (converged.evaluation.ok && converged.evaluation.cost <= current_fit.evaluation.cost)
+      current_fit = std::move(converged);
+  }
+  result.final_config = current_problem->config();
+  for (const auto& p : current_problem->free()) result.final_free.push_back(p.name);
+  result.final_free_parameters = current_problem->free();
+  result.final_fit = current_fit;
+  if (options.check_adequacy) {
+    if (progress) progress->BeginStage("adequacy check", 0);
+    result.adequacy = CheckResidualStructure(final_problem, current_fit.values, options.adequacy);
+    if (!result.added.empty()) {
+      CheckEffectStability(final_problem, current_fit.values, result.added, options.refit,
+                           options.adequacy, &result.adequacy);
+    }
+  }
+  // What is left, in words: "unexplained" when the adequacy check finds structure that no
+  // effect of the vocabulary took up.
+  const std::string unexplained = result.adequacy.ok && !result.adequacy.flagged.empty()
+                                      ? "unexplained: " + result.adequacy.StructureMessage() +
+                                            ", and no effect of the vocabulary explains it"
+                                      : std::string();
+  std::string best;
+  if (!result.last_round.empty() && result.last_round.front().fitted) {
+    const CandidateOutcome& top = result.last_round.front();
+    best = " (best candidate " + top.effect + ": BIC " + G(top.delta_bic, 4) +
+           (top.reason.empty() ? std::string() : "; " + top.reason) + ")";
+  }
+  if (!result.ambiguous.empty() && result.added.empty()) {
+    result.conclusion = "ambiguous: " + result.ambiguity_reason;
+  } else if (result.added.empty()) {
+    result.conclusion =
+        !unexplained.empty()
+            ? unexplained + best
+            : "nothing missing: no effect lowers BIC by more than " + G(options.bic_margin) +
+                  " with valid parameters, a material share of the residual and a lower error "
+                  "on the data it was not fitted to" +
+                  best;
+  } else {
+    std::string names;
+    for (const auto& n : result.added) names += (names.empty() ? "" : ", ") + n;
+    result.conclusion = "added " + names;
+    if (!result.ambiguous.empty())
+      result.conclusion += "; then ambiguous: " + result.ambiguity_reason;
+    if (!unexplained.empty()) result.conclusion += "; then " + unexplained;
+  }
+  return result;
+}
+
+std::unique_ptr<FitProblem> FinalProblem(const FitProblem& problem, const DiscoveryResult& result) {
+  if (result.added.empty()) return nullptr;
+  // The bounds discovery fitted the effects in (their search boxes), the values as start.
+  std::vector<FreeParameter> free = result.final_free_parameters;
+  if (free.size() != result.final_fit.values.size()) return nullptr;
+  for (std::size_t k = 0; k < free.size(); ++k) free[k].initial = result.final_fit.values[k];
+  return std::make_unique<FitProblem>(result.final_config, problem.traces(), problem.observe(),
+                                      std::move(free));
+}
+
+}  // namespace blmd

@@ -1,0 +1,444 @@
+#include "blmd/ident/fit/trace_input.h"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <set>
+
+#include "blmd/error.h"
+#include "blmd/io/csv.h"
+#include "blmd/io/files.h"
+
+namespace blmd {
+namespace {
+
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
+std::string SelectFormatError(const std::string& text) {
+  return "--select '" + text +
+         "': expected NAME=VALUE[,VALUE...] or NAME=LO:HI (LO or HI may be left out)";
+}
+
+// A finite decimal number, the whole of `field`.
+double SelectNumber(const std::string& text, const std::string& field) {
+  const char* begin = field.data();
+  const char* end = field.data() + field.size();
+  if (begin != end && *begin == '+') ++begin;
+  double value = 0.0;
+  const auto [ptr, ec] = std::from_chars(begin, end, value);
+  if (field.empty() || begin == end || ec != std::errc() || ptr != end || !std::isfinite(value)) {
+    throw InputError("--select " + text + ": '" + field + "' is not a finite number");
+  }
+  return value;
+}
+
+// Lowest and highest value of a column, for "no row matches" messages.
+std::string Span(const std::vector<double>& values) {
+  const auto [low, high] = std::minmax_element(values.begin(), values.end());
+  return DisplayNumber(*low) + " ... " + DisplayNumber(*high);
+}
+
+}  // namespace
+
+bool RowSelection::Matches(double value) const {
+  for (const auto& [low, high] : ranges) {
+    if (value >= low && value <= high) return true;
+  }
+  return false;
+}
+
+RowSelection ParseRowSelection(const std::string& text) {
+  const std::size_t equals = text.find('=');
+  if (equals == std::string::npos || equals == 0 || equals + 1 == text.size()) {
+    throw InputError(SelectFormatError(text));
+  }
+  RowSelection selection;
+  selection.column = text.substr(0, equals);
+  selection.text = text;
+  const std::string spec = text.substr(equals + 1);
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t comma = spec.find(',', start);
+    const std::string item =
+        spec.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+    if (item.empty()) throw InputError(SelectFormatError(text));
+    const std::size_t colon = item.find(':');
+    if (colon == std::string::npos) {
+      const double value = SelectNumber(text, item);
+      selection.ranges.emplace_back(value, value);
+    } else {
+      const std::string low_text = item.substr(0, colon), high_text = item.substr(colon + 1);
+      if ((low_text.empty() && high_text.empty()) || high_text.find(':') != std::string::npos) {
+        throw InputError(SelectFormatError(text));
+      }
+      const double low = low_text.empty() ? -kInfinity : SelectNumber(text, low_text);
+      const double high = high_text.empty() ? kInfinity : SelectNumber(text, high_text);
+      if (low > high) {
+        throw InputError("--select " + text + ": the range " + item +
+                         " is inverted (LO must not exceed HI)");
+      }
+      selection.ranges.emplace_back(low, high);
+    }
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return selection;
+}
+
+std::vector<double> Differentiate(const std::vector<double>& t, const std::vector<double>& x) {
+  const std::size_t n = x.size();
+  std::vector<double> d(n, 0.0);
+  if (n < 2) return d;
+  d[0] = (x[1] - x[0]) / (t[1] - t[0]);
+  d[n - 1] = (x[n - 1] - x[n - 2]) / (t[n - 1] - t[n - 2]);
+  for (std::size_t k = 1; k + 1 < n; ++k) d[k] = (x[k + 1] - x[k - 1]) / (t[k + 1] - t[k - 1]);
+  return d;
+}
+
+namespace {
+
+// The header names of the columns a fit reads (the CSV reader reads them strictly).
+std::vector<std::string> UsedHeaders(const TraceInputOptions& options) {
+  auto header_of = [&](const std::string& name) {
+    const auto mapped = options.columns.find(name);
+    return mapped == options.columns.end() ? name : mapped->second;
+  };
+  std::vector<std::string> used = {"t", "u", "open"};
+  used.insert(used.end(), options.required.begin(), options.required.end());
+  for (const auto& [target, source] : options.derive) used.push_back(source);
+  for (const auto& selection : options.select) used.push_back(selection.column);
+  if (!options.split.empty()) used.push_back(options.split);
+  for (const auto& [name, factor] : options.scales) used.push_back(name);
+  if (options.initial_from_trace) used.insert(used.end(), {"i", "w", "theta"});
+  std::vector<std::string> headers;
+  headers.reserve(used.size());
+  for (const auto& name : used) headers.push_back(header_of(name));
+  return headers;
+}
+
+}  // namespace
+
+std::vector<FitTrace> LoadFitTraces(const std::string& path, const TraceInputOptions& options,
+                                    const InitialState& default_initial) {
+  const bool by_rows = !options.select.empty() || !options.split.empty();
+  CsvReadOptions csv;
+  // The reader checks the file's time column (the header mapped to t); scaling may still
+  // reverse it, so t is checked again by PrepareFitTraces. With --select or --split the time
+  // need only increase within each experiment (a logger may restart its clock per run): the
+  // reader does not check it, each experiment is checked by PrepareFitTraces.
+  const auto t_header = options.columns.find("t");
+  const std::string time_header = t_header == options.columns.end() ? "t" : t_header->second;
+  csv.time_column = by_rows ? "" : time_header;
+  csv.delimiter = options.delimiter;
+  csv.duplicate_time = options.duplicate_time;
+  // The columns this fit reads are read strictly; any other may hold text (a timestamp, a
+  // state name) or empty cells, and is then left out (docs/trace-format.md).
+  csv.strict_columns = UsedHeaders(options);
+  std::string sha256;
+  Trace trace = ReadTraceCsv(path, csv, &sha256);
+  return PrepareFitTraces(std::move(trace), path, sha256, options, default_initial);
+}
+
+namespace {
+
+// Where the rows and columns of a trace are in its file, for error messages.
+struct TraceFile {
+  const std::string& path;
+  const TraceInputOptions& options;
+  long first_line = 0;  // line of row 0: after the comments and the header
+  // The file's field (1-based) holding a column, before mapping added columns at the end.
+  std::map<std::string, long> fields;
+
+  long LineOf(std::size_t row) const { return first_line + static_cast<long>(row); }
+  // The field of a standard column (through --column), 0 when the file has none.
+  long FieldOf(const std::string& name) const {
+    const auto mapped = options.columns.find(name);
+    const auto found = fields.find(mapped == options.columns.end() ? name : mapped->second);
+    return found == fields.end() ? 0 : found->second;
+  }
+};
+
+TraceFile LocateTrace(const Trace& trace, const std::string& path,
+                      const TraceInputOptions& options) {
+  // Line of row k: comments, the header, then k + 1.
+  TraceFile file{path, options, static_cast<long>(trace.comments.size()) + 2, {}};
+  for (std::size_t c = 0; c < trace.num_columns(); ++c) {
+    file.fields[trace.names()[c]] = static_cast<long>(c + 1);
+  }
+  return file;
+}
+
+// The columns a fit reads must hold finite numbers (the CSV reader has checked a file's).
+void CheckFinite(const Trace& trace, const TraceFile& file) {
+  for (const auto& header : UsedHeaders(file.options)) {
+    const int c = trace.Find(header);
+    if (c < 0) continue;
+    const auto& column = trace.Column(static_cast<std::size_t>(c));
+    for (std::size_t k = 0; k < column.size(); ++k) {
+      if (!std::isfinite(column[k])) {
+        throw InputError(
+            file.path, file.LineOf(k), c + 1,
+            "column '" + header + "' is not a finite number (" + DisplayNumber(column[k]) + ")");
+      }
+    }
+  }
+}
+
+// Column mapping (header -> standard name), then scaling.
+void MapAndScaleColumns(Trace& trace, const std::string& path, const TraceInputOptions& options) {
+  for (const auto& [standard, header] : options.columns) {
+    if (!trace.Has(header)) {
+      throw InputError(path + ": --column " + standard + "=" + header + ": no column '" + header +
+                       "' (header has: " + HeaderSummary(trace.names()) + ")");
+    }
+    if (standard != header && trace.Has(standard)) {
+      trace.Rename(standard, standard + "_original");
+    }
+    if (standard != header) trace.Set(standard, trace.Column(header));
+  }
+  for (const auto& [name, factor] : options.scales) {
+    if (!trace.Has(name))
+      throw InputError(path + ": --scale " + name + ": no column '" + name + "'");
+    for (double& v : trace.Column(name)) v *= factor;
+  }
+}
+
+// t, u, the sources of --derive and the columns of --select and --split must exist.
+void CheckNamedColumns(const Trace& trace, const std::string& path,
+                       const TraceInputOptions& options) {
+  std::vector<std::string> required = {"t", "u"};
+  for (const auto& [target, source] : options.derive) required.push_back(source);
+  for (const auto& name : required) {
+    if (!trace.Has(name)) {
+      throw InputError(path + ": missing required column '" + name +
+                       "' (header has: " + HeaderSummary(trace.names()) +
+                       "; map another header with --column " + name + "=HEADER)");
+    }
+  }
+  for (const auto& selection : options.select) {
+    if (!trace.Has(selection.column)) {
+      throw InputError(path + ": --select " + selection.text + ": no column '" + selection.column +
+                       "' (header has: " + HeaderSummary(trace.names()) + ")");
+    }
+  }
+  if (!options.split.empty() && !trace.Has(options.split)) {
+    throw InputError(path + ": --split " + options.split + ": no column '" + options.split +
+                     "' (header has: " + HeaderSummary(trace.names()) + ")");
+  }
+}
+
+// The rows every --select keeps; none is an error.
+std::vector<std::size_t> SelectedRows(const Trace& trace, const std::string& path,
+                                      const TraceInputOptions& options) {
+  std::vector<std::size_t> kept;
+  kept.reserve(trace.rows());
+  for (std::size_t k = 0; k < trace.rows(); ++k) {
+    bool keep = true;
+    for (const auto& selection : options.select) {
+      keep = keep && selection.Matches(trace.Column(selection.column)[k]);
+    }
+    if (keep) kept.push_back(k);
+  }
+  if (kept.empty()) {
+    std::string what;
+    for (const auto& selection : options.select) {
+      what += std::string(what.empty() ? "" : ", ") + "'" + selection.column + "' holds " +
+              Span(trace.Column(selection.column));
+    }
+    std::string flags;
+    for (const auto& selection : options.select) flags += " --select " + selection.text;
+    throw InputError(path + ": no row matches" + flags + " (" + what + ")");
+  }
+  return kept;
+}
+
+// One experiment: a block of consecutive rows.
+struct Block {
+  std::size_t begin = 0, end = 0;  // rows [begin, end)
+  double value = 0.0;              // of the split column
+};
+
+// The experiments: blocks of consecutive kept rows, cut where the split column changes. A block
+// the selection breaks, or a split value that comes back, is an error.
+std::vector<Block> CutIntoBlocks(const Trace& trace, const TraceFile& file,
+                                 const std::vector<std::size_t>& kept) {
+  const TraceInputOptions& options = file.options;
+  std::vector<Block> blocks;
+  const std::vector<double>* split_values =
+      options.split.empty() ? nullptr : &trace.Column(options.split);
+  for (std::size_t row : kept) {
+    const double value = split_values ? (*split_values)[row] : 0.0;
+    if (!blocks.empty() && value == blocks.back().value) {
+      if (row == blocks.back().end) {
+        ++blocks.back().end;
+        continue;
+      }
+      // The same experiment resumes after rows the selection dropped.
+      const std::string part = split_values
+                                   ? "the rows with " + options.split + " = " + DisplayNumber(value)
+                                   : "the rows kept";
+      throw InputError(file.path, file.LineOf(row), 1,
+                       "--select keeps " + part + " in more than one block (line " +
+                           std::to_string(file.LineOf(blocks.back().end - 1)) + ", then line " +
+                           std::to_string(file.LineOf(row)) +
+                           "): one experiment must be an unbroken block of rows; narrow the "
+                           "selection" +
+                           (split_values ? "" : ", or cut the file with --split COLUMN"));
+    }
+    if (split_values) {
+      for (const Block& earlier : blocks) {
+        if (earlier.value == value) {
+          throw InputError(file.path, file.LineOf(row), file.FieldOf(options.split),
+                           "--split " + options.split + ": " + options.split + " = " +
+                               DisplayNumber(value) + " appears again (its first block is lines " +
+                               std::to_string(file.LineOf(earlier.begin)) + "-" +
+                               std::to_string(file.LineOf(earlier.end - 1)) +
+                               "); the rows of one experiment must be an unbroken block");
+        }
+      }
+    }
+    blocks.push_back({row, row + 1, value});
+  }
+  return blocks;
+}
+
+// The rows [begin, end) of every column.
+Trace BlockRows(const Trace& trace, const Block& block) {
+  Trace part;
+  part.comments = trace.comments;
+  for (std::size_t c = 0; c < trace.num_columns(); ++c) {
+    const auto& column = trace.Column(c);
+    part.Set(trace.names()[c], std::vector<double>(column.begin() + static_cast<long>(block.begin),
+                                                   column.begin() + static_cast<long>(block.end)));
+  }
+  return part;
+}
+
+// t must strictly increase within the experiment.
+void CheckTimeIncreases(const Trace& part, const TraceFile& file, const Block& block) {
+  const std::string& split = file.options.split;
+  const auto& t = part.Column("t");
+  for (std::size_t k = 1; k < t.size(); ++k) {
+    if (!(t[k] > t[k - 1])) {
+      throw InputError(
+          file.path, file.LineOf(block.begin + k), file.FieldOf("t"),
+          "time 't' must strictly increase (" + DisplayNumber(t[k]) +
+              (t[k] == t[k - 1] ? " repeats " : " follows ") + DisplayNumber(t[k - 1]) + ")" +
+              (!split.empty() ? " within " + split + " = " + DisplayNumber(block.value) : ""));
+    }
+  }
+}
+
+// After --derive: the observed columns must exist and a fit needs at least 3 samples.
+void CheckFitColumns(const Trace& part, const TraceFile& file, const Block& block,
+                     const std::string& name, bool by_rows) {
+  const std::string& path = file.path;
+  for (const auto& required_name : file.options.required) {
+    if (!part.Has(required_name)) {
+      throw InputError(path + ": missing observed column '" + required_name +
+                       "' (header has: " + HeaderSummary(part.names()) +
+                       "; map another header with --column " + required_name + "=HEADER)");
+    }
+  }
+  if (part.rows() < 3) {
+    const std::string samples =
+        std::to_string(part.rows()) + " sample" + (part.rows() == 1 ? "" : "s");
+    if (!by_rows) throw InputError(path + ": " + samples + " only: a fit needs at least 3");
+    throw InputError(path, file.LineOf(block.begin), 0,
+                     name.substr(path.size()) + " has " + samples + " only (line" +
+                         (part.rows() == 1 ? " " + std::to_string(file.LineOf(block.begin))
+                                           : "s " + std::to_string(file.LineOf(block.begin)) + "-" +
+                                                 std::to_string(file.LineOf(block.end - 1))) +
+                         "): a fit needs at least 3 per experiment");
+  }
+}
+
+// FILE, FILE[COLUMN=VALUE] with --split, FILE[SELECTION] with --select alone.
+std::string ExperimentName(const std::string& path, const TraceInputOptions& options,
+                           const Block& block) {
+  std::string name = path;
+  if (!options.split.empty()) {
+    name += "[" + options.split + "=" + DisplayNumber(block.value) + "]";
+  } else if (!options.select.empty()) {
+    std::string selection_name;
+    for (const auto& selection : options.select) {
+      selection_name += (selection_name.empty() ? "" : ",") + selection.text;
+    }
+    name += "[" + selection_name + "]";
+  }
+  return name;
+}
+
+InitialState InitialStateOf(const Trace& part, const TraceInputOptions& options,
+                            const InitialState& default_initial) {
+  InitialState initial = default_initial;
+  if (options.initial_from_trace) {
+    if (part.Has("w")) initial.w = part.Column("w").front();
+    if (part.Has("theta")) initial.theta = part.Column("theta").front();
+    if (part.Has("i")) initial.i = part.Column("i").front();
+  }
+  return initial;
+}
+
+}  // namespace
+
+std::vector<FitTrace> PrepareFitTraces(Trace trace, const std::string& path,
+                                       const std::string& sha256, const TraceInputOptions& options,
+                                       const InitialState& default_initial) {
+  const bool by_rows = !options.select.empty() || !options.split.empty();
+  const TraceFile file = LocateTrace(trace, path, options);
+  CheckFinite(trace, file);
+  MapAndScaleColumns(trace, path, options);
+  CheckNamedColumns(trace, path, options);
+  const std::vector<Block> blocks = CutIntoBlocks(trace, file, SelectedRows(trace, path, options));
+
+  std::vector<FitTrace> experiments;
+  experiments.reserve(blocks.size());
+  for (const Block& block : blocks) {
+    const std::string name = ExperimentName(path, options, block);
+    Trace part;
+    if (!by_rows) {
+      // Without --select or --split there is exactly one block: the trace moves once.
+      part = std::move(trace);  // NOLINT(bugprone-use-after-move)
+    } else {
+      part = BlockRows(trace, block);
+    }
+    CheckTimeIncreases(part, file, block);
+    for (const auto& [target, source] : options.derive) {
+      part.Set(target, Differentiate(part.Column("t"), part.Column(source)));
+    }
+    CheckFitColumns(part, file, block, name, by_rows);
+    const InitialState initial = InitialStateOf(part, options, default_initial);
+    FitTrace fit = RecordedFitTrace(std::move(part), initial, name);
+    fit.sha256 = sha256;
+    experiments.push_back(std::move(fit));
+  }
+  return experiments;
+}
+
+FitTrace RecordedFitTrace(Trace trace, const InitialState& initial, const std::string& path) {
+  FitTrace fit;
+  fit.path = path;
+  fit.input.kind = InputSignal::Kind::kRecorded;
+  fit.input.times = trace.Column("t");
+  fit.input.values = trace.Column("u");
+  if (trace.Has("open")) fit.input.open = trace.Column("open");
+  fit.initial = initial;
+  fit.trace = std::move(trace);
+  return fit;
+}
+
+FitTrace LoadFitTrace(const std::string& path, const TraceInputOptions& options,
+                      const InitialState& default_initial) {
+  std::vector<FitTrace> experiments = LoadFitTraces(path, options, default_initial);
+  if (experiments.size() != 1) {
+    throw InputError(path + ": --split " + options.split + " gives " +
+                     std::to_string(experiments.size()) +
+                     " experiments where one trace is expected");
+  }
+  return std::move(experiments.front());
+}
+
+}  // namespace blmd

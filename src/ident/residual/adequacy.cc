@@ -1,0 +1,676 @@
+#include "blmd/ident/residual/adequacy.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <boost/math/distributions/fisher_f.hpp>
+#include <boost/math/distributions/normal.hpp>
+#include <cmath>
+#include <complex>
+#include <limits>
+#include <unsupported/Eigen/FFT>
+
+#include "blmd/constants.h"
+#include "blmd/ident/discovery/evidence.h"
+#include "blmd/io/csv.h"
+#include "blmd/sim/effects.h"
+#include "ident/residual/record_parts.h"
+
+namespace blmd {
+namespace {
+
+std::string G(double v, int digits = 3) { return FormatSignificant(v, digits); }
+
+// What the tests see of the record, pooled over the traces: the states at every compared
+// sample and each observed column's residual.
+struct Pooled {
+  std::vector<std::size_t> segments;  // start of each trace
+  std::vector<double> t, u, w, theta;
+  bool has_w = false, has_theta = false;
+  std::vector<std::vector<double>> residual;  // per observed column
+  std::vector<double> dt;                     // per trace, mean sample interval, s
+};
+
+bool Gather(const FitProblem& problem, const std::vector<double>& values, Pooled* pooled,
+            std::string* reason) {
+  const auto& observe = problem.observe();
+  pooled->residual.assign(observe.size(), {});
+  pooled->has_w = pooled->has_theta = true;
+  for (std::size_t k = 0; k < problem.traces().size(); ++k) {
+    Trace simulated;
+    const SimStatus status = problem.Simulate(k, values, &simulated);
+    if (!status.ok()) {
+      *reason = "the model could not be simulated: " + status.message;
+      return false;
+    }
+    const Trace& measured = problem.measured(k);
+    const std::size_t n = measured.rows();
+    if (simulated.rows() != n || n < 8) {
+      *reason = "a trace is too short to test";
+      return false;
+    }
+    pooled->segments.push_back(pooled->t.size());
+    const auto& t = measured.Column("t");
+    // The states the residual is tested against: the simulated ones where the model gives
+    // them. A measured speed carries the very noise whose residual is tested: binned on
+    // measured w, AR(1) noise of 0.95 "depended on w" in 11 of 40 controls (p down to 1e-42).
+    // Measured only under the equation error, whose simulation gives the input.
+    auto state = [&](const char* name) -> const std::vector<double>* {
+      if (simulated.Has(name)) return &simulated.Column(name);
+      if (measured.Has(name)) return &measured.Column(name);
+      return nullptr;
+    };
+    const std::vector<double>* w = state("w");
+    const std::vector<double>* theta = state("theta");
+    const std::vector<double>* u = measured.Has("u") ? &measured.Column("u") : nullptr;
+    pooled->has_w = pooled->has_w && w;
+    pooled->has_theta = pooled->has_theta && theta;
+    pooled->dt.push_back((t.back() - t.front()) / static_cast<double>(n - 1));
+    for (std::size_t r = 0; r < n; ++r) {
+      pooled->t.push_back(t[r]);
+      pooled->u.push_back(u ? (*u)[r] : 0.0);
+      pooled->w.push_back(w ? (*w)[r] : 0.0);
+      pooled->theta.push_back(theta ? (*theta)[r] : 0.0);
+    }
+    for (std::size_t c = 0; c < observe.size(); ++c) {
+      const auto& m = measured.Column(observe[c]);
+      const auto& s = simulated.Column(observe[c]);
+      for (std::size_t r = 0; r < n; ++r) pooled->residual[c].push_back(m[r] - s[r]);
+    }
+  }
+  return true;
+}
+
+// Indicator columns of the quantile bins of x (the lowest bin left to the intercepts).
+std::vector<std::vector<double>> QuantileBins(const std::vector<double>& x, int bins) {
+  std::vector<double> sorted = x;
+  std::sort(sorted.begin(), sorted.end());
+  std::vector<double> edges;
+  for (int b = 1; b < bins; ++b) {
+    const double edge = sorted[static_cast<std::size_t>(static_cast<double>(b) / bins *
+                                                        static_cast<double>(sorted.size() - 1))];
+    if (edges.empty() || edge > edges.back()) edges.push_back(edge);
+  }
+  std::vector<std::vector<double>> columns;
+  for (std::size_t e = 0; e < edges.size(); ++e) {
+    std::vector<double> column(x.size(), 0.0);
+    std::size_t count = 0;
+    for (std::size_t r = 0; r < x.size(); ++r) {
+      const bool above = x[r] > edges[e];
+      const bool below_next = e + 1 == edges.size() || x[r] <= edges[e + 1];
+      if (above && below_next) {
+        column[r] = 1.0;
+        ++count;
+      }
+    }
+    if (count > 0 && count < x.size()) columns.push_back(std::move(column));
+  }
+  return columns;
+}
+
+// Residual sum of squares of y on X (QR with column pivoting) and X's rank.
+std::pair<double, Eigen::Index> LeastSquares(const Eigen::MatrixXd& X, const Eigen::VectorXd& y,
+                                             Eigen::VectorXd* fitted = nullptr) {
+  if (X.cols() == 0) {
+    if (fitted) *fitted = Eigen::VectorXd::Zero(y.size());
+    return {y.squaredNorm(), 0};
+  }
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(X);
+  qr.setThreshold(1e-10);
+  const Eigen::VectorXd beta = qr.solve(y);
+  const Eigen::VectorXd f = X * beta;
+  if (fitted) *fitted = f;
+  return {(y - f).squaredNorm(), qr.rank()};
+}
+
+// Filters the rows of every segment with e_t = x_t - a_1 x_{t-1} - ... (dropping each
+// segment's first p rows).
+Eigen::MatrixXd Whiten(const Eigen::MatrixXd& M, const std::vector<std::size_t>& segments,
+                       const std::vector<double>& a) {
+  const std::size_t p = a.size();
+  const auto rows = static_cast<std::size_t>(M.rows());
+  std::size_t kept = 0;
+  for (std::size_t s = 0; s < segments.size(); ++s) {
+    const std::size_t end = s + 1 < segments.size() ? segments[s + 1] : rows;
+    if (end - segments[s] > p) kept += end - segments[s] - p;
+  }
+  Eigen::MatrixXd out(static_cast<Eigen::Index>(kept), M.cols());
+  Eigen::Index at = 0;
+  for (std::size_t s = 0; s < segments.size(); ++s) {
+    const std::size_t end = s + 1 < segments.size() ? segments[s + 1] : rows;
+    for (std::size_t r = segments[s] + p; r < end; ++r) {
+      out.row(at) = M.row(static_cast<Eigen::Index>(r));
+      for (std::size_t j = 0; j < p; ++j) {
+        out.row(at) -= a[j] * M.row(static_cast<Eigen::Index>(r - j - 1));
+      }
+      ++at;
+    }
+  }
+  return out;
+}
+
+double FSurvival(double f, double q, double dof) {
+  if (!(f > 0.0) || !(q > 0.0) || !(dof > 0.0)) return 1.0;
+  return boost::math::cdf(boost::math::complement(boost::math::fisher_f(q, dof), f));
+}
+
+// Legendre polynomials P1..P_degree of x in [-1, 1].
+std::vector<double> Legendre(double x, int degree) {
+  std::vector<double> p(static_cast<std::size_t>(degree) + 1, 0.0);
+  p[0] = 1.0;
+  if (degree >= 1) p[1] = x;
+  for (int n = 1; n < degree; ++n) {
+    p[static_cast<std::size_t>(n) + 1] = ((2.0 * n + 1.0) * x * p[static_cast<std::size_t>(n)] -
+                                          n * p[static_cast<std::size_t>(n) - 1]) /
+                                         (n + 1.0);
+  }
+  return p;
+}
+
+// Hann-windowed periodogram of each segment of x, summed onto a common grid of frequencies
+// f_j = j df (j = 0..bins-1): each segment's own bin nearest to f_j.
+std::vector<double> Periodogram(const std::vector<double>& x,
+                                const std::vector<std::size_t>& segments,
+                                const std::vector<double>& dt, double df, std::size_t bins) {
+  std::vector<double> power(bins, 0.0);
+  Eigen::FFT<double> fft;
+  for (std::size_t s = 0; s < segments.size(); ++s) {
+    const std::size_t begin = segments[s];
+    const std::size_t end = s + 1 < segments.size() ? segments[s + 1] : x.size();
+    const std::size_t n = end - begin;
+    if (n < 8 || !(dt[s] > 0.0)) continue;
+    double mean = 0.0;
+    for (std::size_t r = begin; r < end; ++r) mean += x[r];
+    mean /= static_cast<double>(n);
+    std::size_t padded = 1;
+    while (padded < 2 * n) padded *= 2;
+    std::vector<double> in(padded, 0.0);
+    for (std::size_t r = 0; r < n; ++r) {
+      const double hann =
+          0.5 - 0.5 * std::cos(2.0 * kPi * static_cast<double>(r) / static_cast<double>(n - 1));
+      in[r] = hann * (x[begin + r] - mean);
+    }
+    std::vector<std::complex<double>> out;
+    fft.fwd(out, in);
+    const double own_df = 1.0 / (static_cast<double>(padded) * dt[s]);
+    for (std::size_t j = 0; j < bins; ++j) {
+      const auto bin = static_cast<std::size_t>(std::lround(static_cast<double>(j) * df / own_df));
+      if (bin < padded / 2) power[j] += std::norm(out[bin]);
+    }
+  }
+  return power;
+}
+
+// The fall of the sum of squares of y over rows [begin, end) that the least-squares
+// a sin(x_r) + b cos(x_r) achieves, x_r = phase(r); negative when the two are collinear.
+template <typename Phase>
+double SinCosReduction(const std::vector<double>& y, std::size_t begin, std::size_t end,
+                       Phase phase) {
+  double ys = 0.0, yc = 0.0, ss = 0.0, cc = 0.0, sc = 0.0;
+  for (std::size_t r = begin; r < end; ++r) {
+    const double x = phase(r);
+    const double si = std::sin(x), co = std::cos(x);
+    ys += y[r] * si;
+    yc += y[r] * co;
+    ss += si * si;
+    cc += co * co;
+    sc += si * co;
+  }
+  const double det = ss * cc - sc * sc;
+  if (!(det > 1e-12 * ss * cc)) return -1.0;
+  return (cc * ys * ys - 2.0 * sc * ys * yc + ss * yc * yc) / det;
+}
+
+// The residual of column c in 20 bins of the test's state (periodic: of the phase).
+void BinResidual(const Pooled& pooled, std::size_t c, StructureTest* test) {
+  const std::size_t n = pooled.t.size();
+  std::vector<double> x(n);
+  if (test->state == "theta") {
+    x = pooled.theta;
+    test->x_label = "theta";
+    test->x_unit = "rad";
+  } else if (test->state == "w" || test->state == "sign(w)") {
+    x = pooled.w;
+    test->x_label = "w";
+    test->x_unit = "rad/s";
+  } else if (test->state == "u") {
+    x = pooled.u;
+    test->x_label = "u";
+  } else if (test->state == "t") {
+    x = pooled.t;
+    test->x_label = "t";
+    test->x_unit = "s";
+  } else if (test->state == "t (periodic)") {
+    for (std::size_t r = 0; r < n; ++r) {
+      const double cycles = pooled.t[r] * test->frequency_hz;
+      x[r] = cycles - std::floor(cycles);
+    }
+    test->x_label = "phase of t at " + G(test->frequency_hz) + " Hz";
+    test->x_unit = "periods";
+  } else {
+    const double m = test->order;
+    for (std::size_t r = 0; r < n; ++r) {
+      const double cycles = m * pooled.theta[r] / (2.0 * kPi);
+      x[r] = cycles - std::floor(cycles);
+    }
+    test->x_label = "phase of theta at " + std::to_string(test->order) + "/rev";
+    test->x_unit = "periods";
+  }
+  const auto [lo_it, hi_it] = std::minmax_element(x.begin(), x.end());
+  const double lo = *lo_it, hi = *hi_it;
+  constexpr int kBins = 20;
+  std::vector<double> sum(kBins, 0.0);
+  std::vector<int> count(kBins, 0);
+  for (std::size_t r = 0; r < n; ++r) {
+    const int b =
+        hi > lo ? std::min(kBins - 1, static_cast<int>((x[r] - lo) / (hi - lo) * kBins)) : 0;
+    sum[static_cast<std::size_t>(b)] += pooled.residual[c][r];
+    ++count[static_cast<std::size_t>(b)];
+  }
+  for (int b = 0; b < kBins; ++b) {
+    if (count[static_cast<std::size_t>(b)] == 0) continue;
+    test->bin_x.push_back(lo + (b + 0.5) * (hi - lo) / kBins);
+    test->bin_mean.push_back(sum[static_cast<std::size_t>(b)] / count[static_cast<std::size_t>(b)]);
+    test->bin_count.push_back(count[static_cast<std::size_t>(b)]);
+  }
+}
+
+struct Basis {
+  std::string state;
+  std::vector<std::vector<double>> columns;
+  double alternatives = 1.0;  // Bonferroni factor of a searched basis
+  double frequency_hz = 0.0;
+  int order = 0;
+  int input_harmonic = 0;
+};
+
+}  // namespace
+
+FglsTest FglsFTest(const std::vector<double>& response,
+                   const std::vector<std::vector<double>>& regressors,
+                   const std::vector<std::size_t>& segments, int ar_max_order) {
+  FglsTest out;
+  const auto n = static_cast<Eigen::Index>(response.size());
+  const auto K = static_cast<Eigen::Index>(segments.size());
+  const auto q = static_cast<Eigen::Index>(regressors.size());
+  if (n < 8 || K == 0 || q == 0) return out;
+  Eigen::MatrixXd X(n, K + q);
+  X.setZero();
+  for (Eigen::Index s = 0; s < K; ++s) {
+    const auto begin = static_cast<Eigen::Index>(segments[static_cast<std::size_t>(s)]);
+    const Eigen::Index end =
+        s + 1 < K ? static_cast<Eigen::Index>(segments[static_cast<std::size_t>(s) + 1]) : n;
+    X.block(begin, s, end - begin, 1).setOnes();
+  }
+  for (Eigen::Index j = 0; j < q; ++j) {
+    X.col(K + j) =
+        Eigen::Map<const Eigen::VectorXd>(regressors[static_cast<std::size_t>(j)].data(), n);
+  }
+  const Eigen::VectorXd y = Eigen::Map<const Eigen::VectorXd>(response.data(), n);
+  // OLS: the share of the residual's variance (about its per-trace means) the basis explains.
+  Eigen::VectorXd fitted;
+  const double sse_null = LeastSquares(X.leftCols(K), y).first;
+  const double sse_ols = LeastSquares(X, y, &fitted).first;
+  if (!(sse_null > 0.0) || !std::isfinite(sse_null)) return out;
+  out.share = std::clamp(1.0 - sse_ols / sse_null, 0.0, 1.0);
+  // The noise model from the alternative's residual, then the F test on the filtered data.
+  const Eigen::VectorXd e = y - fitted;
+  const std::vector<double> a =
+      FitAutoregression(std::vector<double>(e.data(), e.data() + e.size()), ar_max_order);
+  out.ar_order = static_cast<int>(a.size());
+  Eigen::MatrixXd Xy(n, K + q + 1);
+  Xy << X, y;
+  const Eigen::MatrixXd W = Whiten(Xy, segments, a);
+  const Eigen::VectorXd yw = W.col(K + q);
+  const auto [sse0, rank0] = LeastSquares(W.leftCols(K), yw);
+  const auto [sse1, rank1] = LeastSquares(W.leftCols(K + q), yw);
+  const double extra = static_cast<double>(rank1 - rank0);
+  const double dof = static_cast<double>(W.rows() - rank1);
+  if (!(extra > 0.0) || !(dof > 0.0) || !(sse1 > 0.0)) return out;
+  out.f = std::max(0.0, (sse0 - sse1) / extra / (sse1 / dof));
+  out.p_value = FSurvival(out.f, extra, dof);
+  out.ok = std::isfinite(out.f) && std::isfinite(out.p_value);
+  return out;
+}
+
+std::string StructureTest::Describe() const {
+  if (state == "t (periodic)") {
+    return "t (periodic, " + G(frequency_hz) + " Hz" +
+           (input_harmonic > 0 ? ", harmonic " + std::to_string(input_harmonic) + " of the input"
+                               : std::string()) +
+           ")";
+  }
+  if (state == "theta (periodic)") return "theta (periodic, " + std::to_string(order) + "/rev)";
+  return state;
+}
+
+std::string AdequacyReport::StructureMessage() const {
+  if (flagged.empty()) return "";
+  const StructureTest& top = flagged.front();
+  std::string text = "residual depends on " + top.Describe() + " (" + top.column + ": " +
+                     G(100.0 * top.share, 2) + " % of its variance, p = " + G(top.p_value, 2) + ")";
+  std::vector<std::string> others;
+  for (std::size_t k = 1; k < flagged.size(); ++k) {
+    const std::string name = flagged[k].Describe();
+    if (name != top.Describe() && std::find(others.begin(), others.end(), name) == others.end())
+      others.push_back(name);
+  }
+  if (!others.empty()) {
+    text += "; also on ";
+    for (std::size_t k = 0; k < others.size(); ++k) text += (k ? ", " : "") + others[k];
+  }
+  return text;
+}
+
+AdequacyReport CheckResidualStructure(const FitProblem& problem, const std::vector<double>& values,
+                                      const AdequacyOptions& options) {
+  AdequacyReport report;
+  report.family_level = options.family_level;
+  report.min_share = options.min_share;
+  Pooled pooled;
+  if (!Gather(problem, values, &pooled, &report.reason)) return report;
+  const std::size_t n = pooled.t.size();
+  const std::size_t traces = pooled.segments.size();
+  auto segment_end = [&](std::size_t s) { return s + 1 < traces ? pooled.segments[s + 1] : n; };
+
+  // The state bases that do not depend on the column.
+  std::vector<Basis> bases;
+  if (pooled.has_theta) {
+    double lo = pooled.theta.front(), hi = lo;
+    for (double v : pooled.theta) {
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+    }
+    if (hi - lo > 1e-9) {
+      Basis theta{"theta", {}, 1.0, 0.0, 0};
+      std::vector<double> linear(n), s(n), c(n);
+      for (std::size_t r = 0; r < n; ++r) {
+        linear[r] = (pooled.theta[r] - 0.5 * (lo + hi)) / (0.5 * (hi - lo));
+        s[r] = std::sin(pooled.theta[r]);
+        c[r] = std::cos(pooled.theta[r]);
+      }
+      theta.columns = {linear, s, c};
+      bases.push_back(std::move(theta));
+    }
+  }
+  if (pooled.has_w) {
+    Basis w{"w", QuantileBins(pooled.w, options.bins), 1.0, 0.0, 0};
+    if (!w.columns.empty()) bases.push_back(std::move(w));
+    std::vector<double> sign(n);
+    bool both = false, positive = false, negative = false;
+    for (std::size_t r = 0; r < n; ++r) {
+      sign[r] = pooled.w[r] > 0.0 ? 1.0 : (pooled.w[r] < 0.0 ? -1.0 : 0.0);
+      positive = positive || sign[r] > 0.0;
+      negative = negative || sign[r] < 0.0;
+    }
+    both = positive && negative;
+    if (both) bases.push_back({"sign(w)", {sign}, 1.0, 0.0, 0});
+  }
+  {
+    Basis u{"u", QuantileBins(pooled.u, options.bins), 1.0, 0.0, 0};
+    if (!u.columns.empty()) bases.push_back(std::move(u));
+  }
+  {
+    Basis t{"t", {}, 1.0, 0.0, 0};
+    for (std::size_t s = 0; s < traces; ++s) {
+      const std::size_t begin = pooled.segments[s], end = segment_end(s);
+      const double t0 = pooled.t[begin], t1 = pooled.t[end - 1];
+      std::vector<std::vector<double>> columns(static_cast<std::size_t>(options.legendre_degree),
+                                               std::vector<double>(n, 0.0));
+      for (std::size_t r = begin; r < end; ++r) {
+        const double x = t1 > t0 ? 2.0 * (pooled.t[r] - t0) / (t1 - t0) - 1.0 : 0.0;
+        const std::vector<double> p = Legendre(x, options.legendre_degree);
+        for (std::size_t d = 1; d < p.size(); ++d) columns[d - 1][r] = p[d];
+      }
+      for (auto& column : columns) t.columns.push_back(std::move(column));
+    }
+    bases.push_back(std::move(t));
+  }
+
+  // The frequencies the t (periodic) test searches: from two periods over the longest trace
+  // up to the Nyquist frequency (or max_frequency_hz), on the grid of the longest trace's
+  // two-fold zero-padded FFT. The input's strongest line is kept to say when the residual's
+  // period is a harmonic of the input's (a dynamic misfit repeats with the input).
+  double longest = 0.0, finest_dt = std::numeric_limits<double>::infinity();
+  for (std::size_t s = 0; s < traces; ++s) {
+    longest = std::max(longest, pooled.t[segment_end(s) - 1] - pooled.t[pooled.segments[s]]);
+    finest_dt = std::min(finest_dt, pooled.dt[s]);
+  }
+  std::vector<std::size_t> allowed;
+  double df = 0.0, input_hz = 0.0;
+  if (longest > 0.0 && finest_dt > 0.0) {
+    df = 0.5 / longest;  // the grid of a two-fold zero-padded FFT
+    double top = 0.5 / finest_dt;
+    if (options.max_frequency_hz > 0.0) top = std::min(top, options.max_frequency_hz);
+    const auto bins = static_cast<std::size_t>(top / df);
+    const std::vector<double> input = Periodogram(pooled.u, pooled.segments, pooled.dt, df, bins);
+    std::size_t strongest = 0;
+    for (std::size_t j = 1; j < bins; ++j) {
+      if (input[j] > input[strongest]) strongest = j;
+    }
+    if (strongest > 0 && input[strongest] > 0.0) input_hz = static_cast<double>(strongest) * df;
+    for (std::size_t j = static_cast<std::size_t>(std::ceil(2.0 / longest / df)); j < bins; ++j)
+      allowed.push_back(j);
+  }
+
+  double tests_run = 0.0;
+  for (std::size_t c = 0; c < problem.observe().size(); ++c) {
+    const std::vector<double>& y = pooled.residual[c];
+    std::vector<Basis> column_bases = bases;
+    // The residual about each trace's mean, what the periodic searches fit.
+    std::vector<double> centred(n);
+    for (std::size_t s = 0; s < traces; ++s) {
+      double mean = 0.0;
+      for (std::size_t r = pooled.segments[s]; r < segment_end(s); ++r) mean += y[r];
+      mean /= static_cast<double>(segment_end(s) - pooled.segments[s]);
+      for (std::size_t r = pooled.segments[s]; r < segment_end(s); ++r) centred[r] = y[r] - mean;
+    }
+    // theta (periodic): the order whose sin/cos explain most of the residual (about each
+    // trace's mean), among those completing at least three periods over the angle travelled.
+    if (pooled.has_theta) {
+      double travelled = 0.0;
+      for (std::size_t s = 0; s < traces; ++s) {
+        for (std::size_t r = pooled.segments[s] + 1; r < segment_end(s); ++r)
+          travelled += std::abs(pooled.theta[r] - pooled.theta[r - 1]);
+      }
+      // (in double first: a shaft that hardly turns would overflow the int)
+      const double fewest = std::ceil(3.0 * 2.0 * kPi / std::max(travelled, 1e-300));
+      const int lowest = fewest > options.max_order ? options.max_order + 1
+                                                    : std::max(2, static_cast<int>(fewest));
+      int best_order = 0;
+      double best_reduction = 0.0;
+      int searched = 0;
+      for (int m = lowest; m <= options.max_order; ++m) {
+        const double reduction =
+            SinCosReduction(centred, 0, n, [&](std::size_t r) { return m * pooled.theta[r]; });
+        if (reduction < 0.0) continue;
+        ++searched;
+        if (reduction > best_reduction) {
+          best_reduction = reduction;
+          best_order = m;
+        }
+      }
+      if (best_order > 0) {
+        std::vector<double> s(n), co(n);
+        for (std::size_t r = 0; r < n; ++r) {
+          s[r] = std::sin(best_order * pooled.theta[r]);
+          co[r] = std::cos(best_order * pooled.theta[r]);
+        }
+        column_bases.push_back(
+            {"theta (periodic)", {s, co}, static_cast<double>(searched), 0.0, best_order});
+      }
+    }
+    // t (periodic): the periodogram's highest allowed bin.
+    if (!allowed.empty()) {
+      const std::vector<double> power =
+          Periodogram(y, pooled.segments, pooled.dt, df, allowed.back() + 1);
+      std::size_t best = allowed.front();
+      for (std::size_t j : allowed) {
+        if (power[j] > power[best]) best = j;
+      }
+      // The grid is coarse against the Hann main lobe: refine the frequency to the one whose
+      // sinusoid (per trace, about each trace's mean) explains most, within two bins.
+      double f = static_cast<double>(best) * df, best_reduction = -1.0;
+      for (int step = -40; step <= 40; ++step) {
+        const double trial = (static_cast<double>(best) + step / 20.0) * df;
+        if (!(trial > 0.0)) continue;
+        double reduction = 0.0;
+        for (std::size_t s = 0; s < traces; ++s) {
+          reduction += std::max(
+              0.0, SinCosReduction(centred, pooled.segments[s], segment_end(s),
+                                   [&](std::size_t r) { return 2.0 * kPi * trial * pooled.t[r]; }));
+        }
+        if (reduction > best_reduction) {
+          best_reduction = reduction;
+          f = trial;
+        }
+      }
+      Basis periodic{"t (periodic)", {}, 1.0, f, 0};
+      if (input_hz > 0.0) {
+        const double harmonic = std::round(f / input_hz);
+        if (harmonic >= 1.0 && std::abs(f - harmonic * input_hz) <= df)
+          periodic.input_harmonic = static_cast<int>(harmonic);
+      }
+      for (std::size_t s = 0; s < traces; ++s) {
+        std::vector<double> sine(n, 0.0), cosine(n, 0.0);
+        for (std::size_t r = pooled.segments[s]; r < segment_end(s); ++r) {
+          sine[r] = std::sin(2.0 * kPi * f * pooled.t[r]);
+          cosine[r] = std::cos(2.0 * kPi * f * pooled.t[r]);
+        }
+        periodic.columns.push_back(std::move(sine));
+        periodic.columns.push_back(std::move(cosine));
+      }
+      // The zero-padded grid is twice as fine as the independent frequencies.
+      periodic.alternatives = std::max(1.0, 0.5 * static_cast<double>(allowed.size()));
+      column_bases.push_back(std::move(periodic));
+    }
+    for (const Basis& basis : column_bases) {
+      const FglsTest test = FglsFTest(y, basis.columns, pooled.segments, options.ar_max_order);
+      if (!test.ok) continue;
+      tests_run += 1.0;
+      StructureTest out;
+      out.state = basis.state;
+      out.column = problem.observe()[c];
+      out.regressors = static_cast<int>(basis.columns.size());
+      out.f = test.f;
+      out.p_value = std::min(1.0, test.p_value * basis.alternatives);  // the search's factor
+      out.share = test.share;
+      out.ar_order = test.ar_order;
+      out.frequency_hz = basis.frequency_hz;
+      out.order = basis.order;
+      out.input_harmonic = basis.input_harmonic;
+      report.tests.push_back(out);
+    }
+  }
+  // The family: every test of every column.
+  const std::vector<std::string>& observe = problem.observe();
+  for (StructureTest& test : report.tests) {
+    test.p_value = std::min(1.0, test.p_value * tests_run);
+    test.significant = test.p_value < options.family_level;
+    test.flagged = test.significant && test.share >= options.min_share;
+    if (!test.flagged) continue;
+    const auto c = static_cast<std::size_t>(std::find(observe.begin(), observe.end(), test.column) -
+                                            observe.begin());
+    BinResidual(pooled, c, &test);
+    report.flagged.push_back(test);
+  }
+  std::stable_sort(
+      report.flagged.begin(), report.flagged.end(),
+      [](const StructureTest& a, const StructureTest& b) { return a.share > b.share; });
+  report.ok = true;
+  return report;
+}
+
+void CheckEffectStability(const FitProblem& problem, const std::vector<double>& values,
+                          const std::vector<std::string>& effects, const OptimizerOptions& refit,
+                          const AdequacyOptions& options, AdequacyReport* report) {
+  report->stability.clear();
+  report->unstable.clear();
+  // The effect parameters to compare: free, not periodic (a phase wraps).
+  std::vector<std::size_t> compared;
+  std::vector<std::string> owner;
+  for (std::size_t k = 0; k < problem.num_free(); ++k) {
+    std::string effect;
+    const std::string& name = problem.free()[k].name;
+    if (!IsEffectParameter(name, &effect)) continue;
+    if (std::find(effects.begin(), effects.end(), effect) == effects.end()) continue;
+    if (IsPeriodicParameter(name)) continue;
+    compared.push_back(k);
+    owner.push_back(effect);
+  }
+  if (compared.empty()) {
+    report->stability_reason = "no effect parameter to compare";
+    return;
+  }
+  const internal::RecordParts parts = internal::SplitRecord(problem, values);
+  if (!parts.ok) {
+    report->stability_reason = parts.reason;
+    return;
+  }
+  report->parts = parts.description;
+  std::vector<FitResult> fits;
+  for (const auto* part : {&parts.first, &parts.second}) {
+    std::vector<FreeParameter> free = problem.free();
+    for (std::size_t k = 0; k < free.size(); ++k)
+      free[k].initial = std::clamp(values[k], free[k].lower, free[k].upper);
+    const FitProblem part_problem(problem.config(), *part, problem.observe(), free);
+    OptimizerOptions fit_options = refit;
+    fit_options.method_options = nlohmann::json::object();
+    fit_options.method_options["max_iterations"] = 30;
+    fits.push_back(FindOptimizer("ceres").Minimize(part_problem, fit_options));
+    if (!fits.back().evaluation.ok) {
+      report->stability_reason =
+          "a part of the record could not be refit: " + fits.back().evaluation.reason;
+      return;
+    }
+  }
+  const double tail = options.family_level / (2.0 * static_cast<double>(compared.size()));
+  const double limit = boost::math::quantile(boost::math::complement(boost::math::normal(), tail));
+  for (std::size_t j = 0; j < compared.size(); ++j) {
+    const std::size_t k = compared[j];
+    EffectStability s;
+    s.effect = owner[j];
+    s.parameter = problem.free()[k].name;
+    s.first = fits[0].values[k];
+    s.second = fits[1].values[k];
+    const ParameterEstimate& a = fits[0].estimates[k];
+    const ParameterEstimate& b = fits[1].estimates[k];
+    s.first_std = a.has_interval ? a.std : 0.0;
+    s.second_std = b.has_interval ? b.std : 0.0;
+    const double spread = std::hypot(s.first_std, s.second_std);
+    s.limit = limit;
+    s.z = spread > 0.0 ? std::abs(s.first - s.second) / spread
+                       : std::numeric_limits<double>::infinity();
+    const double scale = std::max(std::abs(values[k]), 1e-300);
+    s.unstable = s.z > limit && std::abs(s.first - s.second) > options.min_relative_change * scale;
+    if (s.unstable && std::find(report->unstable.begin(), report->unstable.end(), s.effect) ==
+                          report->unstable.end())
+      report->unstable.push_back(s.effect);
+    report->stability.push_back(s);
+  }
+  report->stability_checked = true;
+}
+
+}  // namespace blmd
+
+namespace blmd {
+
+double NoiseFloorVariance(const std::vector<double>& t, const std::vector<double>& y) {
+  const std::size_t n = std::min(t.size(), y.size());
+  if (n < 3) return 0.0;
+  std::vector<double> magnitude;
+  magnitude.reserve(n - 2);
+  for (std::size_t k = 1; k + 1 < n; ++k) {
+    const double span = t[k + 1] - t[k - 1];
+    if (!(span > 0.0)) continue;
+    const double a = (t[k + 1] - t[k]) / span, b = 1.0 - a;
+    magnitude.push_back(
+        std::abs((a * y[k - 1] + b * y[k + 1] - y[k]) / std::sqrt(a * a + b * b + 1.0)));
+  }
+  if (magnitude.empty()) return 0.0;
+  const auto middle = magnitude.begin() + static_cast<long>(magnitude.size() / 2);
+  std::nth_element(magnitude.begin(), middle, magnitude.end());
+  const double sigma = 1.482602218505602 * *middle;
+  return sigma * sigma;
+}
+
+}  // namespace blmd

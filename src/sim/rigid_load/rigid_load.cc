@@ -1,0 +1,148 @@
+#include "blmd/sim/rigid_load/rigid_load.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include "blmd/sim/effects.h"
+#include "sim/discretise.h"
+#include "sim/sampler.h"
+
+namespace blmd {
+
+// Typical values: a shaft of 0.02 kg·m² with 0.05 N·m·s/rad of damping (time constant
+// J/B = 0.4 s) driven by its torque (Kt = 1), as tests/schema/rigid-truth.json.
+const std::vector<ParamInfo>& RigidLoadModel::parameters() const {
+  static const std::vector<ParamInfo> params = [] {
+    std::vector<ParamInfo> list;
+    ParamInfo J;
+    J.name = "J";
+    J.unit = "kg·m²";
+    J.meaning = "inertia (a mass in kg for a linear axis)";
+    J.default_lower = 1e-9;
+    J.default_upper = 1e4;
+    J.typical = 0.02;
+    ParamInfo B;
+    B.name = "B";
+    B.unit = "N·m·s/rad";
+    B.meaning = "viscous damping (N·s/m for a linear axis)";
+    B.default_lower = 1e-12;
+    B.default_upper = 1e5;
+    B.typical = 0.05;
+    ParamInfo Kt;
+    Kt.name = "Kt";
+    Kt.unit = "N·m per unit of u";
+    Kt.meaning = "torque (force) per unit input: 1 when u is the torque itself";
+    Kt.default_lower = 1e-6;
+    Kt.default_upper = 1e6;
+    Kt.optional = true;
+    Kt.default_value = 1.0;
+    Kt.typical = 1.0;
+    list = {J, B, Kt};
+    return list;
+  }();
+  return params;
+}
+
+SimulationSettings RigidLoadModel::default_settings() const {
+  SimulationSettings settings;
+  settings.dt = 1e-4;
+  return settings;
+}
+
+// Driven by its torque: the equation error applies; the speed observed.
+ModelTraits RigidLoadModel::traits() const {
+  ModelTraits traits;
+  traits.input_is_torque = true;
+  traits.default_observe = {"w"};
+  return traits;
+}
+
+SimStatus RigidLoadModel::Simulate(const SimulationRequest& request, Trace* out) const {
+  const ParameterSet& values = *request.parameters;
+  const Experiment& experiment = *request.experiment;
+  const std::vector<double>& times = *request.sample_times;
+  const double dt = request.settings.dt;
+  if (SimStatus status = CheckRequest(request); !status.ok()) return status;
+  const double J = values.Get("J"), B = values.Get("B"), Kt = values.Get("Kt");
+  const ShaftEffects shaft =
+      ShaftEffects::From(values, *request.effects, request.settings.friction_smoothing_w);
+
+  // x = [w, theta], input: the net torque Kt u - T_effects, held over the step.
+  Eigen::Matrix2d A, Ad;
+  A << -B / J, 0.0, 1.0, 0.0;
+  Eigen::Matrix<double, 2, 1> Bm, Bd;
+  Bm << 1.0 / J, 0.0;
+  internal::Discretise<2, 1>(A, Bm, dt, &Ad, &Bd);
+
+  internal::OutputSampler sampler(times, {"u", "w", "theta"});
+  InputCursor input(experiment.input);
+  const double t_start = times.front();
+  double w = experiment.initial.w, theta = experiment.initial.theta;
+  std::array<double, 3> prev = {input.At(t_start + 0.5 * dt), w, theta};
+  sampler.Record(t_start, prev.data(), t_start, prev.data());
+  std::array<double, 3> now = prev;
+  EffectAngle effect_angle(request.sample_times, request.settings.effect_angle);
+  for (long step = 0; !sampler.done(); ++step) {
+    const double t = t_start + static_cast<double>(step) * dt;
+    const double t_next = t_start + static_cast<double>(step + 1) * dt;
+    // The input over [t, t + dt) is read at the step's midpoint (events on the grid take
+    // effect there whatever the rounding of t, as in dc_servo).
+    const double u = input.At(t + 0.5 * dt);
+    const double drive = Kt * u;
+    const double non_friction =
+        shaft.NonFrictionTorque(effect_angle.At(t, theta)) + shaft.DragTorque(w);
+    bool stuck = false;
+    const double friction = shaft.StepFriction(w, drive - non_friction, &stuck);
+    const double w_old = w, theta_old = theta;
+    if (!stuck) {
+      const Eigen::Vector2d x =
+          Ad * Eigen::Vector2d(w, theta) + Bd * (drive - friction - non_friction);
+      w = x(0);
+      theta = x(1);
+      if (shaft.StopsWithin(w_old, w)) {
+        const double fraction = w_old / (w_old - w);
+        theta = theta_old + 0.5 * w_old * fraction * dt;
+        w = 0.0;
+      }
+    }
+    now = {input.At(t_next + 0.5 * dt), w, theta};
+    if (!internal::AllFinite(now.data() + 1, 2, request.settings.divergence_limit)) {
+      return {SimStatus::Code::kDiverged,
+              internal::DivergedMessage(request.settings.divergence_limit), t_next};
+    }
+    sampler.Record(t, prev.data(), t_next, now.data());
+    prev = now;
+  }
+  sampler.Finish(out);
+  auto& u_column = out->Column("u");
+  for (std::size_t k = 0; k < times.size(); ++k)
+    u_column[k] = experiment.input.At(times[k] + 0.5 * dt);
+  return SimStatus::Ok();
+}
+
+double RigidLoadModel::DriveTorqueScale(const ParameterSet& values, double /*i_max*/, double u_max,
+                                        double w_max) const {
+  return std::max(values.Get("Kt") * u_max, values.Get("B") * w_max);
+}
+
+// The shaft without effects (docs/model-rigid-load.md, "Linear part"):
+// J dw/dt = Kt u - B w, dtheta/dt = w.
+LinearModel RigidLoadModel::Linearise(const ParameterSet& values) const {
+  const double J = values.Get("J"), B = values.Get("B"), Kt = values.Get("Kt");
+  LinearModel model;
+  model.available = true;
+  model.input = "u (N·m, or N for a linear axis, per Kt)";
+  model.assumption = "the effects (friction, load, cogging, ...) left out";
+  model.states = {"w", "theta"};
+  model.outputs = model.states;
+  model.A.resize(2, 2);
+  model.A << -B / J, 0.0, 1.0, 0.0;
+  model.B.resize(2, 1);
+  model.B << Kt / J, 0.0;
+  model.C = Eigen::MatrixXd::Identity(2, 2);
+  model.D = Eigen::MatrixXd::Zero(2, 1);
+  return model;
+}
+
+}  // namespace blmd
