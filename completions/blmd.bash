@@ -20,7 +20,7 @@ _blmd_methods="ceres classic fsd powell"
 _blmd_effects="asymmetric_viscous cogging coulomb_friction current_offset dead_time gravity load_torque quadratic_drag spring stribeck"
 _blmd_columns="i ib ic theta u w"
 
-_blmd_ident_flags="--baseline --bic-margin --candidates --column --config --decimate --delimiter --derive --discover --duplicate-time --error --export-matlab --fail-above-nrmse --fail-on-warning --filter-hz --free --help --html --initial --initial-state --json --max-effects --max-evaluations --method --min-share --no-progress --observe --option --progress --quiet --report --scale --seed --select --split --threads --trace --validate --verbose --version --write-config"
+_blmd_ident_flags="--baseline --bic-margin --candidates --column --config --decimate --delimiter --derive --discover --duplicate-time --error --export-matlab --fail-above-nrmse --fail-on-warning --filter-hz --free --help --html --initial --initial-state --json --max-effects --max-evaluations --method --min-share --no-progress --noise-std --observe --option --progress --quiet --report --scale --seed --select --split --threads --trace --validate --verbose --version --weighting --write-config"
 _blmd_sim_flags="--config --delimiter --duplicate-time --effect --help --init-config --input --noise --out --quiet --seed --version"
 _blmd_surface_flags="--column --config --decimate --delimiter --derive --duplicate-time --error --filter-hz --force --grid --help --initial-state --json --observe --out --quiet --scale --select --shard --split --svg --threads --trace --version"
 _blmd_tune_flags="--config --crossover --duration --filter-ratio --from-report --help --integral-ratio --json --limit --loop --phase-margin --quiet --report --step --threads --version --write-config"
@@ -128,12 +128,13 @@ _blmd_complete() {
     --family) _blmd_words "all chirp prbs square steps" "$cur" ;;
     --derive) _blmd_words "w=theta" "$cur" ;;
     --error) _blmd_words "output equation" "$cur" ;;
+    --weighting) _blmd_words "noise variance" "$cur" ;;
     --initial-state) _blmd_words "config trace" "$cur" ;;
     --delimiter) _blmd_words ", ; tab" "$cur" ;;
     --duplicate-time) _blmd_words "error first mean" "$cur" ;;
     --loop) _blmd_words "position speed" "$cur" ;;
     --bic-margin | --min-share | --column | --decimate | --target | --fail-above-nrmse | --filter-hz | --free | \
-      --grid | --initial | --max-effects | --max-evaluations | --option | --scale | --seed | \
+      --grid | --initial | --max-effects | --max-evaluations | --option | --scale | --seed | --noise-std | \
       --select | --shard | --split | --threads | --title | --crossover | --phase-margin | \
       --step | --duration | --integral-ratio | --filter-ratio)
       COMPREPLY=() # a value of the user's own

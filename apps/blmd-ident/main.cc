@@ -28,7 +28,8 @@ namespace {
 struct IdentFlags {
   std::string config_path, method, observe_text, free_text, report_path, html_path;
   std::string write_config_path, matlab_path, baseline_path;
-  std::vector<std::string> traces, validates, method_options, initials;
+  std::vector<std::string> traces, validates, method_options, initials, noise_stds;
+  std::string weighting;
   std::uint64_t seed = 1;
   int threads = 0, max_evaluations = 0;
   bool json = false, quiet = false, discover = false, verbose = false;
@@ -54,6 +55,12 @@ struct IdentFlags {
     app.add_option("--initial", initials, "start value NAME=VALUE (repeatable)");
     app.add_option("--option", method_options,
                    "method option KEY=VALUE (repeatable), e.g. algorithm=praxis");
+    app.add_option("--weighting", weighting,
+                   "how the cost weighs the observed columns: noise (1/sigma^2 of each "
+                   "column's noise, the default) or variance (1/its variance)");
+    app.add_option("--noise-std", noise_stds,
+                   "fix a column's noise NAME=SIGMA (its units; repeatable) instead of "
+                   "estimating it from the residual");
     app.add_option("--max-evaluations", max_evaluations,
                    "cost evaluation budget (0: method default)");
     app.add_flag("--discover", discover, "find the effects the model lacks, add them, refit");
@@ -120,6 +127,8 @@ blmd::IdentSettings Settings(const CLI::App& app, const IdentFlags& f) {
   settings.bic_margin = f.bic_margin;
   settings.min_share = f.min_share;
   settings.max_effects = f.max_effects;
+  settings.weighting = f.weighting;
+  settings.noise_stds = f.noise_stds;
   settings.error = f.error_flags;
   settings.preparation = f.trace_flags;
   return settings;
@@ -179,6 +188,12 @@ int ExitCode(const IdentFlags& f, const blmd::IdentOutcome& outcome) {
     std::cerr << "error: the fit did not converge: " << outcome.first_fit.summary.termination
               << "\n";
     return blmd::kExitFailed;
+  }
+  for (const auto& w : report.warnings) {
+    if (w.code == "not_a_fit") {  // NRMSE >= 1 with parameters at their bounds
+      std::cerr << "error: the fit failed: " << w.message << "\n";
+      return blmd::kExitFailed;
+    }
   }
   if (f.fail_above >= 0.0) {
     // The final model's NRMSE (after discovery when it ran: its model is the answer).

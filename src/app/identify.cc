@@ -7,7 +7,9 @@
 
 #include "blmd/app/baseline.h"
 #include "blmd/ident/fit/progress.h"
+#include "blmd/ident/residual/adequacy.h"
 #include "blmd/ident/uncertainty/trace_jackknife.h"
+#include "blmd/io/csv.h"
 #include "blmd/report/export.h"
 #include "blmd/report/report.h"
 
@@ -42,9 +44,8 @@ IdentOutcome Identify(IdentRequest request) {
     model_only.model = std::string(request.config.model->name());
     CompareWithBaseline(model_only, request.baseline_path);
   }
-  outcome.problem = std::make_unique<FitProblem>(request.config, std::move(request.traces),
-                                                 request.observe, request.free);
-  const FitProblem& problem = *outcome.problem;
+  const FitProblem unweighted(request.config, std::move(request.traces), request.observe,
+                              request.free);
   std::unique_ptr<FitProblem> validation;
   if (!request.validation.empty()) {
     validation = std::make_unique<FitProblem>(request.config, std::move(request.validation),
@@ -53,7 +54,13 @@ IdentOutcome Identify(IdentRequest request) {
   const OptimizerOptions& options = request.options;
   ProgressObserver* const progress = options.progress;
   Stage(progress, "first fit (" + request.method + ")");
-  outcome.first_fit = optimizer.Minimize(problem, options);
+  const FitResult unweighted_fit = optimizer.Minimize(unweighted, options);
+  // The cost weighted by each column's noise (noise_model.h): estimated from the residual,
+  // refit from the optimum until the noise settles.
+  Stage(progress, "noise-weighted refit (" + request.method + ")");
+  outcome.problem = FitNoiseWeighted(unweighted, unweighted_fit, optimizer, options, request.noise,
+                                     &outcome.first_fit, &outcome.noise);
+  const FitProblem& problem = *outcome.problem;
   OptimizerOptions refit_options = options;
   refit_options.method_options = nlohmann::json::object();
   const FitResult first_result = WidenedByTraces(problem, outcome.first_fit, refit_options, "");
@@ -69,6 +76,7 @@ IdentOutcome Identify(IdentRequest request) {
                        : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   Stage(progress, "report");
   IdentReport report = MakeReport(inputs);
+  report.noise = outcome.noise;
   outcome.final_config = problem.config();
   outcome.final_parameters = problem.Parameters(outcome.first_fit.values);
   outcome.final_free = problem.free();
@@ -82,6 +90,19 @@ IdentOutcome Identify(IdentRequest request) {
     outcome.discovery =
         std::make_unique<DiscoveryResult>(Discover(problem, outcome.first_fit, discovery_options));
     const DiscoveryResult& discovery = *outcome.discovery;
+    // The final model is the answer: its parameters, fit, residual and
+    // validation head the report; the first fit moves to discovery.before.
+    std::unique_ptr<FitProblem> final_problem = FinalProblem(problem, discovery);
+    NoiseModel final_noise = outcome.noise;
+    if (final_problem && outcome.noise.weighting == "noise") {
+      // The final model's own residual sets its weights: the first model's residual held the
+      // misfit of what discovery added.
+      Stage(progress, "final model: noise-weighted refit");
+      FitResult refit;
+      final_problem = FitNoiseWeighted(*final_problem, discovery.final_fit, FindOptimizer("ceres"),
+                                       refit_options, request.noise, &refit, &final_noise);
+      if (refit.evaluation.ok) outcome.discovery->final_fit = std::move(refit);
+    }
     std::unique_ptr<FitProblem> validation_after;
     if (validation) {
       validation_after =
@@ -90,9 +111,6 @@ IdentOutcome Identify(IdentRequest request) {
     }
     DiscoveryReport block = MakeDiscoveryReport(problem, outcome.first_fit, discovery,
                                                 validation.get(), validation_after.get());
-    // The final model is the answer: its parameters, fit, residual and
-    // validation head the report; the first fit moves to discovery.before.
-    const std::unique_ptr<FitProblem> final_problem = FinalProblem(problem, discovery);
     IdentReport headline = report;
     if (final_problem) {
       outcome.final_config = final_problem->config();
@@ -106,8 +124,28 @@ IdentOutcome Identify(IdentRequest request) {
       final_inputs.validation = validation_after.get();
       Stage(progress, "final model: report");
       headline = MakeReport(final_inputs);
+      headline.noise = final_noise;
     }
     report = FinalModelReport(std::move(headline), report, std::move(block));
+  }
+  if (!request.discover) {
+    // A plain fit's verdict on its model: what its residual still depends on.
+    Stage(progress, "adequacy check");
+    report.adequacy = CheckResidualStructure(problem, outcome.first_fit.values);
+  }
+  if (problem.config().experiment.closed_loop) {
+    report.notes.push_back(
+        "the config's experiment is a closed loop (experiment.pid): the fit replays each trace's "
+        "recorded u open loop, so the loop's gains play no part (this is right when u is what "
+        "the drive applied; it is not the loop's reference)");
+  }
+  const ResidualAnalysis* left =
+      report.final_model.residual.analysis ? &*report.final_model.residual.analysis : nullptr;
+  if (left && left->ok && !left->white) {
+    report.notes.push_back(
+        "the residual is coloured (Ljung-Box p = " + FormatSignificant(left->whiteness_p, 3) +
+        "): the intervals allow for correlated noise (prewhitened HAC); a "
+        "missing effect would show in the adequacy check");
   }
   WidenForAmbiguity(&report);
   AddLinearViews(&report, problem, outcome.final_config, outcome.final_parameters);

@@ -225,6 +225,30 @@ IdentRequest MakeIdentRequest(Config config_in, const std::string& config_path,
   request.discovery.bic_margin = settings.bic_margin;
   request.discovery.min_explained_share = settings.min_share;
   request.discovery.max_effects = settings.max_effects;
+  // The cost's weights (docs/identification.md §1a): the config's, then the flags'.
+  request.noise.weighting = config.identification.weighting;
+  if (!settings.weighting.empty()) {
+    if (settings.weighting != "noise" && settings.weighting != "variance") {
+      throw InputError("--weighting: '" + InputError::Excerpt(settings.weighting) +
+                       "' is not one of: noise, variance");
+    }
+    request.noise.weighting = settings.weighting;
+  }
+  request.noise.std = config.identification.noise_std;
+  for (const auto& text : settings.noise_stds) {
+    const auto [name, value] = ParseAssignment(text, "--noise-std");
+    if (!(value > 0.0)) {
+      throw InputError("--noise-std " + name + ": sigma must be > 0 (got " + FormatNumber(value) +
+                       ")");
+    }
+    request.noise.std[name] = value;
+  }
+  for (const auto& [name, value] : request.noise.std) {
+    if (std::find(request.observe.begin(), request.observe.end(), name) == request.observe.end()) {
+      throw InputError("--noise-std " + name + ": '" + name +
+                       "' is not an observed column (observed: " + Join(request.observe) + ")");
+    }
+  }
   return request;
 }
 

@@ -93,6 +93,8 @@ struct IdentSettings {
   double bic_margin = 10.0;
   double min_share = 0.10;  // discovery's stopping rule (DiscoveryOptions::min_explained_share)
   int max_effects = 3;
+  std::string weighting;                // --weighting noise|variance ("": the config's)
+  std::vector<std::string> noise_stds;  // --noise-std NAME=SIGMA (repeatable)
   ErrorSettings error;
   TraceSettings preparation;
 };

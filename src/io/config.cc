@@ -544,7 +544,7 @@ void ReadIdentification(const Reader& reader, const json& root, Config* out) {
     reader.RequireObject(id, "/identification");
     reader.CheckKeys(id, "/identification",
                      {"free", "initial", "bounds", "observe", "method", "options", "error",
-                      "filter_hz", "decimate"});
+                      "filter_hz", "decimate", "weighting", "noise_std"});
     if (id.contains("free")) ident.free = reader.Strings(id["free"], "/identification/free");
     if (id.contains("observe")) {
       ident.observe = reader.Strings(id["observe"], "/identification/observe");
@@ -579,6 +579,30 @@ void ReadIdentification(const Reader& reader, const json& root, Config* out) {
     }
     if (id.contains("filter_hz")) {
       ident.filter_hz = reader.Positive(id["filter_hz"], "/identification/filter_hz");
+    }
+    if (id.contains("weighting")) {
+      ident.weighting = reader.String(id["weighting"], "/identification/weighting");
+      if (ident.weighting != "noise" && ident.weighting != "variance") {
+        reader.Fail("/identification/weighting", "weighting '" +
+                                                     InputError::Excerpt(ident.weighting) +
+                                                     "' is not one of: noise, variance");
+      }
+    }
+    if (id.contains("noise_std")) {
+      const json& noise = id["noise_std"];
+      reader.RequireObject(noise, "/identification/noise_std");
+      const auto& outputs = config.model->outputs();
+      for (const auto& [column, value] : noise.items()) {
+        const std::string pointer = "/identification/noise_std/" + column;
+        std::vector<std::string> valid(outputs.begin(), outputs.end());
+        valid.push_back("u");
+        if (std::find(valid.begin(), valid.end(), column) == valid.end()) {
+          reader.Fail(pointer, "noise_std names '" + InputError::Excerpt(column) +
+                                   "', not a column of model " + model_name +
+                                   " (valid: " + Join(valid) + ")");
+        }
+        ident.noise_std[column] = reader.Positive(value, pointer);
+      }
     }
     if (id.contains("decimate")) {
       const double decimate = reader.Number(id["decimate"], "/identification/decimate");

@@ -145,12 +145,14 @@ ModelReport MakeModelReport(const ReportInputs& inputs) {
 // The competing models of an ambiguous group: the last round's fitted candidates.
 std::vector<AmbiguousGroup> AmbiguousGroups(const DiscoveryResult& result) {
   std::vector<AmbiguousGroup> groups;
-  for (const auto& effects : result.ambiguous) {
+  for (std::size_t g = 0; g < result.ambiguous.size(); ++g) {
     AmbiguousGroup group;
-    group.effects = effects;
+    group.effects = result.ambiguous[g];
     group.reason = result.ambiguity_reason;
-    for (const auto& effect : effects) {
-      for (const auto& o : result.last_round) {
+    const std::vector<CandidateOutcome>& round =
+        g < result.ambiguous_models.size() ? result.ambiguous_models[g] : result.last_round;
+    for (const auto& effect : group.effects) {
+      for (const auto& o : round) {
         if (o.effect != effect || !o.fitted) continue;
         group.models.push_back({o.effect, o.nrmse, o.delta_bic, o.model_parameters});
       }
@@ -315,12 +317,31 @@ void AddWarnings(IdentReport* report) {
               " >= 1: on the held-out traces the model is no better than the columns' means");
     }
   }
+  // A residual that is merely coloured is no verdict on the model (the intervals allow for
+  // correlated noise; notes). The model is inadequate when its residual depends on the input,
+  // the states, the angle or the time beyond what a noise model explains: the adequacy check.
   const ResidualAnalysis* residual = model.residual.analysis ? &*model.residual.analysis : nullptr;
-  if (residual && residual->ok && !residual->white) {
-    add("residual_not_white",
-        "the residual is not white (Ljung-Box p = " + Figure(residual->whiteness_p, 3) +
-            "): structure is left that the model does not explain; the intervals allow for "
-            "correlated noise, not for a missing effect, which may bias the estimates");
+  const bool one_direction =
+      residual && residual->ok && !residual->w_changes_sign && residual->w_max > 0.0;
+  if (report->adequacy && report->adequacy->ok && !report->adequacy->flagged.empty()) {
+    add("model_inadequate",
+        report->adequacy->StructureMessage() +
+            ": the model misses something that biases its values; next: run --discover to find "
+            "the effect" +
+            (one_direction
+                 ? "; the shaft turned one way only, so J and a constant torque (friction, a "
+                   "load) are confounded: record motion in both directions"
+                 : ""));
+  }
+  bool any_at_bound = false;
+  for (const auto& [name, p] : model.parameters)
+    any_at_bound = any_at_bound || (p.free && p.at_bound);
+  if (fit.ok && std::isfinite(fit.nrmse) && fit.nrmse >= 1.0 && any_at_bound) {
+    add("not_a_fit",
+        "NRMSE " + Figure(fit.nrmse, 4) +
+            " >= 1 with parameters at their bounds: the model does not describe this trace at "
+            "any value; check the column mapping (is u the drive's input, not the loop's "
+            "reference or a command?), the columns' units and the model");
   }
   std::string no_interval;
   for (const auto& [name, p] : model.parameters) {
@@ -382,10 +403,39 @@ void AddWarnings(IdentReport* report) {
       }
       models += " (NRMSE " + Figure(m.nrmse, 4) + ")";
     }
+    // Which headline parameters the choice moves: a model's value outside the final model's
+    // own 95 % interval (before the widening).
+    std::string agree, depend;
+    for (const auto& [name, p] : report->final_model.parameters) {
+      if (!p.free || !p.estimate.has_interval) continue;
+      const double low = p.widened_by_ambiguity ? p.ci95_before_ambiguity_low : p.estimate.ci95_low;
+      const double high =
+          p.widened_by_ambiguity ? p.ci95_before_ambiguity_high : p.estimate.ci95_high;
+      bool shared = false, inside = true;
+      for (const auto& m : group.models) {
+        const auto found = m.parameters.find(name);
+        if (found == m.parameters.end()) continue;
+        shared = true;
+        inside = inside && found->second >= low && found->second <= high;
+      }
+      if (!shared) continue;
+      std::string& list = inside ? agree : depend;
+      list += (list.empty() ? "" : ", ") + name;
+    }
+    std::string added;
+    for (const auto& step : discovery.steps) {
+      if (!step.ambiguous_with.empty()) added = step.effect;
+    }
     add("discovery_ambiguous",
-        "discovery could not tell " + effects + " apart and added neither (" + group.reason +
-            "); the competing models: " + (models.empty() ? "see discovery.ambiguous" : models) +
-            "; the intervals cover them");
+        "discovery could not tell " + effects + " apart (" + group.reason + "); " +
+            (added.empty() ? std::string("it added neither")
+                           : "it added " + added + ", the best by BIC") +
+            "; the competing models: " + (models.empty() ? "see discovery.ambiguous" : models) +
+            (agree.empty() ? std::string() : "; " + agree + " agree across them") +
+            (depend.empty() ? std::string()
+                            : "; " + depend +
+                                  " depend on the choice (the intervals cover every "
+                                  "model's value)"));
   }
   if (discovery.has_adequacy && discovery.adequacy.ok && !discovery.adequacy.flagged.empty()) {
     add("unexplained_structure",

@@ -56,6 +56,11 @@ json ToJson(const ParameterReport& p) {
     out["ci95_white"] = Pair(e.ci95_white_low, e.ci95_white_high);
     out["white_interval_method"] = e.white_method;
   }
+  // The experiment's Cramer-Rao bound and how far the interval is from it.
+  if (e.has_crb) {
+    out["std_crb"] = Number(e.std_crb);
+    if (e.has_interval && e.std_crb > 0.0) out["crb_ratio"] = Number(e.std / e.std_crb);
+  }
   if (p.has_bounds) {
     out["bounds"] = {p.lower, p.upper};
     out["at_bound"] = p.at_bound;
@@ -529,6 +534,25 @@ void to_json(json& out, const IdentReport& report) {
                        {"moved", b.moved},
                        {"parameters", parameters}};
   }
+  if (!report.noise.columns.empty()) {
+    json columns = json::object();
+    for (const auto& c : report.noise.columns) {
+      json entry = {{"std", Number(c.std)},
+                    {"source", c.source},
+                    {"weight", Number(c.weight)},
+                    {"residual_rms", Number(c.residual_std)}};
+      if (c.quantum > 0.0) entry["quantum"] = Number(c.quantum);
+      if (c.std_per_trace.size() > 1) entry["std_per_trace"] = c.std_per_trace;
+      columns[c.column] = entry;
+    }
+    out["noise"] = {{"weighting", report.noise.weighting},
+                    {"fits", report.noise.fits},
+                    {"evaluations", report.noise.evaluations},
+                    {"converged", report.noise.converged},
+                    {"columns", columns}};
+  }
+  if (!report.notes.empty()) out["notes"] = report.notes;
+  if (report.adequacy) out["adequacy"] = AdequacyJson(*report.adequacy);
   json warnings = json::array();
   for (const auto& w : report.warnings)
     warnings.push_back({{"code", w.code}, {"message", w.message}});

@@ -33,9 +33,11 @@ void Parameters(const ModelReport& model, std::ostringstream& out) {
                   unit.c_str());
     out << line;
     if (p.free && e.has_interval) {
-      out << "   ± " << Figure(e.std, 3) << " (95 %: [" << Figure(e.ci95_low, 5) << ", "
-          << Figure(e.ci95_high, 5) << "]"
+      // ± is the 95 % interval's half-width (the JSON keeps std and ci95).
+      out << "   ± " << Figure(0.5 * (e.ci95_high - e.ci95_low), 3) << " (95 %: ["
+          << Figure(e.ci95_low, 5) << ", " << Figure(e.ci95_high, 5) << "]"
           << (p.widened_by_ambiguity ? ", widened to cover the ambiguous models" : "") << ")";
+      if (e.has_crb && e.std_crb > 0.0) out << "   " << Figure(e.std / e.std_crb, 3) << "x CRB";
     }
     if (p.free && std::isfinite(e.initial)) out << "   initial " << Figure(e.initial, 4);
     if (!p.free) out << "   (classic estimate)";
@@ -203,11 +205,38 @@ std::string HumanSummary(const IdentReport& report) {
   Parameters(model, out);
   Fit(model.fit, out);
   Method(model.summary, out);
+  if (!report.noise.columns.empty()) {
+    out << "noise";
+    if (report.noise.weighting == "noise") {
+      out << " (the cost weighs each column by 1/sigma^2";
+      if (report.noise.fits > 1) out << ", " << report.noise.fits << " fits";
+      if (!report.noise.converged) out << ", NOT settled";
+      out << "):";
+      for (const auto& c : report.noise.columns) {
+        out << " " << c.column << " sigma " << Figure(c.std, 3) << " (" << c.source;
+        if (c.quantum > 0.0) out << ", step " << Figure(c.quantum, 3);
+        out << ")";
+      }
+    } else {
+      out << ": weighted by each column's variance (--weighting variance)";
+    }
+    out << "\n";
+  }
   const ResidualAnalysis* residual = model.residual.analysis ? &*model.residual.analysis : nullptr;
   if (residual && residual->ok && std::isfinite(residual->whiteness_p)) {
     out << "residual: Ljung-Box p = " << Figure(residual->whiteness_p, 3)
-        << (residual->white ? " (white)" : " (NOT white: structure left in the residual)") << "\n";
+        << (residual->white ? " (white)" : " (coloured: the intervals allow for correlated noise)")
+        << "\n";
   }
+  if (report.adequacy && report.adequacy->ok) {
+    out << "adequacy: "
+        << (report.adequacy->flagged.empty()
+                ? "no structure above " + Figure(100.0 * report.adequacy->min_share, 2) +
+                      " % of the residual's variance depends on theta, w, sign(w), u or t"
+                : report.adequacy->StructureMessage())
+        << "\n";
+  }
+  for (const std::string& note : report.notes) out << "note: " << note << "\n";
   if (model.intervals_optimistic) {
     out << "note: the intervals assume white residuals and are optimistic here\n";
   }

@@ -124,7 +124,9 @@ TEST(CsvDialects, RepeatedTimeStamps) {
 
 // The MG996R servo log (../shared/realdata/mg996r_servo): 19 571 rows, 27 repeated time
 // stamps. Refused by default naming the first repeated line and the flag; read with the
-// flag. The raw log (';', decimal commas, 13-digit millisecond stamps) reads too.
+// flag. The raw log (';', decimal commas, 13-digit millisecond stamps) reads too. (The
+// Ganesh config is not this servo's model: the fit is no fit, NRMSE above 1 with J or B at a
+// bound, exit 1 with the reason, the report written all the same.)
 TEST(CsvDialects, Mg996rServoLogWithRepeatedTimeStamps) {
   const std::string log = SourcePath("../shared/realdata/mg996r_servo/triangle_speed_log.csv");
   if (!FileExists(log)) GTEST_SKIP() << "shared/realdata is not beside the repository";
@@ -141,7 +143,8 @@ TEST(CsvDialects, Mg996rServoLogWithRepeatedTimeStamps) {
   for (const std::string mode : {"first", "mean"}) {
     run = blmd::testing::Run(common + " --duplicate-time " + mode + " --report " +
                              dir.File(mode + ".json"));
-    EXPECT_EQ(run.exit_code, 0) << run.err;
+    EXPECT_EQ(run.exit_code, 1) << run.err;
+    EXPECT_EQ(run.err.rfind("error: the fit failed: NRMSE ", 0), 0u) << run.err;
     const nlohmann::json report = nlohmann::json::parse(Slurp(dir.File(mode + ".json")));
     EXPECT_EQ(report["trace"]["samples"].get<int>(), 19571 - 27);
   }

@@ -47,9 +47,10 @@ TEST(ProgressCli, ForcedIntoAFileItShowsTheStagesAndEndsWithTheCountAndANewline)
   EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
   ASSERT_FALSE(run.err.empty());
   EXPECT_EQ(run.err.back(), '\n');
-  // One fit: the final count is the fit's own count of evaluations, in the report.
+  // The fits (the first and the noise-weighted refits): the final count is theirs, in the
+  // report.
   const auto json = nlohmann::json::parse(Slurp(dir.File("r.json")));
-  const long evaluations = json["fit"]["evaluations"].get<long>();
+  const long evaluations = json["noise"]["evaluations"].get<long>();
   EXPECT_GT(evaluations, 0);
   EXPECT_EQ(DoneEvaluations(run.err), evaluations) << run.err;
   // The summary on stdout as without progress.

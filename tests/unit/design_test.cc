@@ -95,10 +95,19 @@ TEST(DesignPrediction, MatchesSensitivitiesSimulatedIndependently) {
   }
   const Eigen::Matrix2d cramer_rao = fisher.inverse();
   const Eigen::Matrix2d sandwich = bread.inverse() * meat * bread.inverse();
+  // The noise weighting (the default): the fit is the maximum-likelihood estimate, its
+  // covariance the inverse Fisher information. The variance weighting: the sandwich.
+  DesignProblem variance_weighted = problem;
+  variance_weighted.config.identification.weighting = "variance";
+  const PrecisionPrediction v =
+      PredictPrecision(variance_weighted, Response(variance_weighted, square));
+  ASSERT_TRUE(v.ok) << v.reason;
   for (int i = 0; i < 2; ++i) {
     for (int j = 0; j < 2; ++j) {
       EXPECT_NEAR(p.cramer_rao(i, j), cramer_rao(i, j), 1e-6 * std::abs(cramer_rao(i, i)));
-      EXPECT_NEAR(p.covariance(i, j), sandwich(i, j), 1e-6 * std::abs(sandwich(i, i)));
+      EXPECT_NEAR(p.covariance(i, j), cramer_rao(i, j), 1e-6 * std::abs(cramer_rao(i, i)));
+      EXPECT_NEAR(v.cramer_rao(i, j), cramer_rao(i, j), 1e-6 * std::abs(cramer_rao(i, i)));
+      EXPECT_NEAR(v.covariance(i, j), sandwich(i, j), 1e-6 * std::abs(sandwich(i, i)));
     }
     EXPECT_DOUBLE_EQ(
         p.ci95_halfwidth[static_cast<std::size_t>(i)],

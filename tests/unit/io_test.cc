@@ -539,11 +539,13 @@ TEST(ConfigErrors, UnknownKeysSuggestTheNearest) {
   EXPECT_EQ(
       ConfigError(Base("\"free\"", "\"fre\"")),
       "config.json:12:5: unknown key 'fre' in 'identification' (did you mean 'free'?); "
-      "valid keys: free, initial, bounds, observe, method, options, error, filter_hz, decimate");
+      "valid keys: free, initial, bounds, observe, method, options, error, filter_hz, decimate, "
+      "weighting, noise_std");
   // Nothing close: no suggestion.
   EXPECT_EQ(ConfigError(Base("\"free\"", "\"zzzzzz\"")),
             "config.json:12:5: unknown key 'zzzzzz' in 'identification'; valid keys: free, "
-            "initial, bounds, observe, method, options, error, filter_hz, decimate");
+            "initial, bounds, observe, method, options, error, filter_hz, decimate, weighting, "
+            "noise_std");
 }
 
 TEST(ConfigErrors, MissingOrUnknownModel) {

@@ -234,13 +234,16 @@ TEST(ProgressOfIdentify, CountsEveryEvaluationOfTheFitAndNamesItsStages) {
   request.options.progress = &progress;
   const IdentOutcome outcome = Identify(std::move(request));
   ASSERT_TRUE(outcome.converged());
-  EXPECT_EQ(progress.stages, (std::vector<std::string>{"first fit (ceres)", "report"}));
-  // One fit: the observer saw exactly the evaluations the fit counted, and its best cost is
-  // no higher than the fit's final cost.
+  EXPECT_EQ(progress.stages,
+            (std::vector<std::string>{"first fit (ceres)", "noise-weighted refit (ceres)", "report",
+                                      "adequacy check"}));
+  // The fits (the first and the noise-weighted refits): the observer saw exactly the
+  // evaluations they counted.
   const ProgressSnapshot s = progress.Snapshot();
   EXPECT_GT(outcome.first_fit.summary.evaluations, 0);
-  EXPECT_EQ(s.evaluations, outcome.first_fit.summary.evaluations);
-  EXPECT_EQ(s.stage_evaluations, 0);  // the report's stage evaluates nothing it counts
+  EXPECT_GE(outcome.noise.fits, 2);
+  EXPECT_EQ(s.evaluations, outcome.noise.evaluations);
+  EXPECT_EQ(s.stage_evaluations, 0);  // the adequacy check evaluates nothing it counts
 }
 
 TEST(ProgressOfIdentify, ThreeTracesAddTheLeaveOneTraceOutRefitsAsSteps) {
@@ -249,11 +252,12 @@ TEST(ProgressOfIdentify, ThreeTracesAddTheLeaveOneTraceOutRefitsAsSteps) {
   request.options.progress = &progress;
   const IdentOutcome outcome = Identify(std::move(request));
   ASSERT_TRUE(outcome.converged());
-  EXPECT_EQ(progress.stages, (std::vector<std::string>{"first fit (ceres)",
-                                                       "leave-one-trace-out refits", "report"}));
+  EXPECT_EQ(progress.stages,
+            (std::vector<std::string>{"first fit (ceres)", "noise-weighted refit (ceres)",
+                                      "leave-one-trace-out refits", "report", "adequacy check"}));
   const ProgressSnapshot s = progress.Snapshot();
-  EXPECT_EQ(s.stage_number, 3);
-  EXPECT_GT(s.evaluations, outcome.first_fit.summary.evaluations);  // + the three refits
+  EXPECT_EQ(s.stage_number, 5);
+  EXPECT_GT(s.evaluations, outcome.noise.evaluations);  // + the three refits
 }
 
 TEST(ProgressOfIdentify, NoObserverNoChange) {

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "blmd/ident/discovery/discovery.h"
+#include "blmd/ident/fit/noise_model.h"
 #include "blmd/ident/fit/problem.h"
 #include "blmd/ident/optimizers/optimizer.h"
 #include "blmd/io/config.h"
@@ -37,12 +38,17 @@ struct IdentRequest {
   DiscoveryOptions discovery;
   // A stored report to guard against (--baseline, docs/export.md): empty for none.
   std::string baseline_path;
+  // How the cost weights the observed columns (ident/fit/noise_model.h): by their noise,
+  // estimated from the residual unless fixed, or by their variance.
+  NoiseSettings noise;
 };
 
 struct IdentOutcome {
   IdentReport report;  // the final model first; nlohmann::json(report) is the --report JSON
-  std::unique_ptr<FitProblem> problem;         // the first fit's problem
-  FitResult first_fit;                         // as the optimiser returned it
+  // The first fit's problem, its traces carrying the noise the cost was weighted by.
+  std::unique_ptr<FitProblem> problem;
+  FitResult first_fit;  // as the optimiser returned it (after the noise reweighting)
+  NoiseModel noise;     // the first model's noise weights
   std::unique_ptr<DiscoveryResult> discovery;  // when request.discover
   // The final model (after discovery, else the first fit): its config, its parameters at
   // the fitted values and its free parameters with their bounds (--write-config).

@@ -30,6 +30,11 @@ struct IdentificationSettings {
   std::string error = "output";
   double filter_hz = 0.0;  // equation: Butterworth cut-off of the measured motion, Hz; 0: fs/10
   int decimate = 1;        // equation: keep every N-th sample, after an anti-alias filter
+  // How the cost weights the observed columns (docs/identification.md §1a): "noise" (each
+  // column by 1/sigma^2 of its noise, estimated from the residual unless fixed in
+  // noise_std; maximum likelihood) or "variance" (by 1/its signal variance, as before 0.3).
+  std::string weighting = "noise";
+  std::map<std::string, double> noise_std;  // fixed sigma per observed column, its units
 };
 
 struct Config {

@@ -14,6 +14,7 @@
 
 #include "blmd/ident/discovery/discovery.h"
 #include "blmd/ident/fit/fit_errors.h"
+#include "blmd/ident/fit/noise_model.h"
 #include "blmd/ident/fit/problem.h"
 #include "blmd/ident/fit/units_check.h"
 #include "blmd/ident/optimizers/optimizer.h"
@@ -195,6 +196,14 @@ struct IdentReport {
   // Signs that a measured column is in other units than the model's (ident/fit/units_check.h):
   // each becomes a warning units_suspect.
   std::vector<UnitsHint> units_hints;
+  // How the cost weighted the observed columns, and each column's noise (noise_model.h).
+  NoiseModel noise;
+  // A plain fit's adequacy check (no discovery; with discovery it is discovery->adequacy):
+  // what its residual still depends on (residual/adequacy.h). Set by Identify.
+  std::optional<AdequacyReport> adequacy;
+  // Facts about how the data was used that are not warnings (a closed-loop config fitted from
+  // the recorded u; coloured residual noise), one line each.
+  std::vector<std::string> notes;
 
   // The first fit: discovery->before when discovery ran, else the headline.
   const ModelReport& first_fit() const { return discovery ? discovery->before : final_model; }

@@ -271,7 +271,7 @@ CandidateRun ScreenCandidate(const FitProblem& base, const std::vector<double>& 
   run.screen_values = values;
   run.screen_bic = Bic(problem, evaluation, problem.num_free()) - bic_before;
   run.outcome.delta_bic = run.screen_bic;
-  run.outcome.nrmse = std::sqrt(evaluation.cost);
+  run.outcome.nrmse = std::sqrt(evaluation.nrmse2);
   return run;
 }
 
@@ -351,7 +351,7 @@ CrossValidation BlockCrossValidate(const Config& config, const std::vector<FreeP
       out.reason = "a fold's prediction failed: " + score.reason;
       return out;
     }
-    sum += score.cost;
+    sum += score.nrmse2;
   }
   out.ok = true;
   out.nrmse = std::sqrt(0.5 * sum);
@@ -383,7 +383,7 @@ RoundBase MakeRoundBase(const FitProblem& base, const std::vector<double>& value
   RoundBase round;
   // The free-running model's error, as every candidate's is scored.
   const FitProblem free_run(base.config(), base.traces(), base.observe(), base.free());
-  round.nrmse = std::sqrt(free_run.Evaluate(values).cost);
+  round.nrmse = std::sqrt(free_run.Evaluate(values).nrmse2);
   round.floor_nrmse = floor_nrmse;
   const bool held_out = options.held_out && !options.held_out->empty();
   if (!held_out && options.prewhiten && !free_run.Evaluate(values, &round.residuals).ok) {
@@ -454,8 +454,8 @@ void RefitCandidate(const FitProblem& base, const RoundBase& round, const Candid
     run->outcome.evidence_rule = "held_out";
     run->outcome.has_held_out = round.held_out.ok && after.ok;
     if (run->outcome.has_held_out) {
-      run->outcome.held_out_before = std::sqrt(round.held_out.cost);
-      run->outcome.held_out_after = std::sqrt(after.cost);
+      run->outcome.held_out_before = std::sqrt(round.held_out.nrmse2);
+      run->outcome.held_out_after = std::sqrt(after.nrmse2);
       run->outcome.held_out_better = run->outcome.held_out_after <
                                      (1.0 - options.held_out_margin) * run->outcome.held_out_before;
     } else {
@@ -475,7 +475,7 @@ void RefitCandidate(const FitProblem& base, const RoundBase& round, const Candid
       }
     }
   }
-  run->outcome.nrmse = std::sqrt(run->fit.evaluation.cost);
+  run->outcome.nrmse = std::sqrt(run->fit.evaluation.nrmse2);
   run->outcome.explained_share = ExplainedShare(round.nrmse, run->outcome.nrmse, round.floor_nrmse);
   run->outcome.material = run->outcome.explained_share >= options.min_explained_share;
   const std::size_t offset = base.num_free();
@@ -788,7 +788,22 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
         tied.push_back(runs[qualifying[q]].outcome.effect);
       }
     }
+    std::vector<std::string> ambiguous_with;
     if (tied.size() > 1) {
+      // The best of equals is added (the model with none of them fits clearly worse than
+      // each: it must not head the report) and the others are reported beside it, the
+      // headline's intervals widened to cover their values (WidenForAmbiguity).
+      ambiguous_with.assign(tied.begin() + 1, tied.end());
+      std::vector<CandidateOutcome> models;
+      for (const auto& name : tied) {
+        for (std::size_t k : order) {
+          if (runs[k].outcome.effect == name && runs[k].outcome.fitted) {
+            models.push_back(runs[k].outcome);
+            break;
+          }
+        }
+      }
+      result.ambiguous_models.push_back(models);
       // Listed by name: which of equals comes first carries no information.
       std::sort(tied.begin(), tied.end());
       result.ambiguous.push_back(tied);
@@ -810,17 +825,16 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
                  "alike: record motion in both directions to tell them apart"
                : ": an experiment that drives them differently (other speeds, amplitudes or "
                  "directions; blmd-design) would tell them apart");
-      result.last_round = outcomes;
-      break;
     }
     DiscoveryStep step;
     step.effect = best.outcome.effect;
-    step.nrmse_before = std::sqrt(current_fit.evaluation.cost);
+    step.nrmse_before = std::sqrt(current_fit.evaluation.nrmse2);
     step.nrmse_after = best.outcome.nrmse;
     step.bic_before = current_bic;
     step.bic_after = best.outcome.bic;
     step.candidates = outcomes;
     step.fixed_parameters = best.fixed;
+    step.ambiguous_with = ambiguous_with;
     const std::size_t offset = current_problem->num_free();
     for (std::size_t k = offset; k < best.fit.estimates.size(); ++k) {
       step.effect_parameters.push_back(best.fit.estimates[k]);
@@ -892,9 +906,7 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     best = " (best candidate " + top.effect + ": BIC " + G(top.delta_bic, 4) +
            (top.reason.empty() ? std::string() : "; " + top.reason) + ")";
   }
-  if (!result.ambiguous.empty() && result.added.empty()) {
-    result.conclusion = "ambiguous: " + result.ambiguity_reason;
-  } else if (result.added.empty()) {
+  if (result.added.empty()) {
     result.conclusion =
         !unexplained.empty()
             ? unexplained + best
@@ -907,7 +919,8 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     for (const auto& n : result.added) names += (names.empty() ? "" : ", ") + n;
     result.conclusion = "added " + names;
     if (!result.ambiguous.empty())
-      result.conclusion += "; then ambiguous: " + result.ambiguity_reason;
+      result.conclusion +=
+          " (the best of models that fit as well: " + result.ambiguity_reason + ")";
     if (!unexplained.empty()) result.conclusion += "; then " + unexplained;
   }
   return result;

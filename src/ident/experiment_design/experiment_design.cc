@@ -384,16 +384,19 @@ std::vector<ColumnSensitivity> Sensitivities(const DesignProblem& dp, const Trac
   return columns;
 }
 
-// The covariance of the cost's estimate (the sandwich with weights a_c = 1/(C N_c (Var_c +
-// sigma_c^2))) and the inverse Fisher information; false when either is singular.
+// The covariance of the cost's estimate and the inverse Fisher information; false when either
+// is singular. The fit's weights (identification.weighting): "noise", a_c = 1/(C N_c
+// sigma_c^2), the maximum-likelihood estimate, whose covariance is the inverse Fisher
+// information itself; "variance", a_c = 1/(C N_c (Var_c + sigma_c^2)), the sandwich.
 bool Covariances(const std::vector<ColumnSensitivity>& columns, const std::vector<double>& sigma,
-                 PrecisionPrediction* out) {
+                 bool noise_weighted, PrecisionPrediction* out) {
   const Index p = columns.front().product.rows();
   MatrixXd bread = MatrixXd::Zero(p, p), meat = MatrixXd::Zero(p, p), fisher = MatrixXd::Zero(p, p);
   for (std::size_t c = 0; c < columns.size(); ++c) {
     const double sigma2 = sigma[c] * sigma[c];
-    const double weight = 1.0 / (static_cast<double>(columns.size()) * columns[c].samples *
-                                 (columns[c].variance + sigma2));  // a_c: the noisy variance
+    const double scale = noise_weighted ? sigma2 : columns[c].variance + sigma2;
+    const double weight =
+        1.0 / (static_cast<double>(columns.size()) * columns[c].samples * scale);  // a_c
     bread += weight * columns[c].product;
     meat += weight * weight * sigma2 * columns[c].product;
     fisher += columns[c].product / sigma2;
@@ -424,7 +427,9 @@ PrecisionPrediction PredictPrecision(const DesignProblem& dp, const Trace& respo
   }
   const std::vector<ColumnSensitivity> columns =
       Sensitivities(dp, response, out.values, &out.reason);
-  if (columns.empty() || !Covariances(columns, dp.sigma, &out)) return out;
+  if (columns.empty() ||
+      !Covariances(columns, dp.sigma, dp.config.identification.weighting == "noise", &out))
+    return out;
   const Eigen::LDLT<MatrixXd> ldlt(out.covariance);
   if (!out.covariance.allFinite() || ldlt.info() != Eigen::Success ||
       !(ldlt.vectorD().minCoeff() > 0.0)) {

@@ -98,6 +98,13 @@ bool NormalisedResidualJacobian(const FitProblem& problem, const std::vector<dou
 void SetSandwichIntervals(const FitProblem& problem, const Eigen::MatrixXd& jacobian,
                           const Eigen::VectorXd& residuals, FitResult* result);
 
+// The inverse Fisher information of white Gaussian noise (search coordinates), from the
+// cost's weighted residuals r and their Jacobian J: the Cramer-Rao bound of the experiment
+// with each trace's column's noise variance (the cost's noise weights when the traces carry
+// them, else SSE/(n - p/C) of the residual). Empty when singular.
+Eigen::MatrixXd CramerRaoCovariance(const FitProblem& problem, const Eigen::MatrixXd& jacobian,
+                                    const Eigen::VectorXd& residuals);
+
 // Rejects method options that the method does not know (InputError listing valid ones).
 void CheckMethodOptions(const std::string& method, const nlohmann::json& options,
                         const std::vector<std::string>& valid);

@@ -12,8 +12,8 @@ ErrorFigures ComputeErrors(const FitProblem& problem, const std::vector<double>&
   errors.reason = evaluation.reason;
   if (!evaluation.ok) return errors;
   for (double mse : evaluation.mse) errors.rmse.push_back(std::sqrt(mse));
-  errors.mse = evaluation.cost;
-  errors.nrmse = std::sqrt(evaluation.cost);
+  errors.mse = evaluation.nrmse2;
+  errors.nrmse = std::sqrt(evaluation.nrmse2);
   return errors;
 }
 

@@ -85,7 +85,51 @@ FitProblem::FitProblem(Config config, std::vector<FitTrace> traces,
   for (std::size_t k = 0; k < traces_.size(); ++k) {
     for (std::size_t c = 0; c < observe_.size(); ++c) {
       residual_columns_.insert(residual_columns_.end(), measured(k).rows(), static_cast<int>(c));
+      residual_traces_.insert(residual_traces_.end(), measured(k).rows(), static_cast<int>(k));
     }
+  }
+  weight_variance_.assign(traces_.size(), variance_);
+  // Noise weights when every trace knows the noise of every observed column.
+  bool noise_known = !traces_.empty();
+  for (const auto& fit_trace : traces_) {
+    for (const auto& column : observe_) {
+      const auto found = fit_trace.noise_variance.find(column);
+      noise_known = noise_known && found != fit_trace.noise_variance.end() && found->second > 0.0 &&
+                    std::isfinite(found->second);
+    }
+  }
+  if (noise_known) {
+    std::vector<std::vector<double>> noise(traces_.size(), std::vector<double>(observe_.size()));
+    for (std::size_t k = 0; k < traces_.size(); ++k) {
+      for (std::size_t c = 0; c < observe_.size(); ++c) {
+        noise[k][c] = traces_[k].noise_variance.at(observe_[c]);
+      }
+    }
+    SetWeightVariances(std::move(noise));
+  }
+}
+
+void FitProblem::SetWeightVariances(std::vector<std::vector<double>> variances) {
+  if (variances.size() != traces_.size()) {
+    throw InputError("weight variances: " + std::to_string(variances.size()) + " rows for " +
+                     std::to_string(traces_.size()) + " traces");
+  }
+  for (const auto& row : variances) {
+    if (row.size() != observe_.size()) {
+      throw InputError("weight variances: " + std::to_string(row.size()) + " columns for " +
+                       std::to_string(observe_.size()) + " observed columns");
+    }
+    for (double v : row) {
+      if (!(v > 0.0) || !std::isfinite(v)) {
+        throw InputError("weight variances: each must be finite and > 0 (got " + FormatNumber(v) +
+                         ")");
+      }
+    }
+  }
+  weight_variance_ = std::move(variances);
+  uniform_weights_ = true;
+  for (std::size_t k = 1; k < weight_variance_.size(); ++k) {
+    if (weight_variance_[k] != weight_variance_[0]) uniform_weights_ = false;
   }
 }
 
@@ -97,23 +141,39 @@ std::string FitProblem::Where() const {
   return where.empty() ? where : where + ": ";
 }
 
-double FitProblem::column_weight(std::size_t c) const {
+double FitProblem::column_weight(std::size_t c, std::size_t k) const {
   return 1.0 / std::sqrt(static_cast<double>(observe_.size()) *
-                         static_cast<double>(samples_per_column_[c]) * variance_[c]);
+                         static_cast<double>(samples_per_column_[c]) * weight_variance_[k][c]);
 }
 
 std::vector<double> FitProblem::NoiseNormalisation(const Evaluation& evaluation) const {
   const double p_per_column =
       static_cast<double>(free_.size()) / static_cast<double>(observe_.size());
-  std::vector<double> factor_per_column(observe_.size(), 0.0);
-  for (std::size_t c = 0; c < observe_.size(); ++c) {
-    const double n = static_cast<double>(samples_per_column_[c]);
-    const double s2 = evaluation.mse[c] * n / std::max(1.0, n - p_per_column);
-    factor_per_column[c] = s2 > 0.0 ? 1.0 / (column_weight(c) * std::sqrt(s2)) : 0.0;
-  }
   std::vector<double> factors(residual_columns_.size());
+  if (uniform_weights_) {  // s_c pooled over the traces
+    std::vector<double> factor_per_column(observe_.size(), 0.0);
+    for (std::size_t c = 0; c < observe_.size(); ++c) {
+      const double n = static_cast<double>(samples_per_column_[c]);
+      const double s2 = evaluation.mse[c] * n / std::max(1.0, n - p_per_column);
+      factor_per_column[c] = s2 > 0.0 ? 1.0 / (column_weight(c) * std::sqrt(s2)) : 0.0;
+    }
+    for (std::size_t k = 0; k < factors.size(); ++k) {
+      factors[k] = factor_per_column[static_cast<std::size_t>(residual_columns_[k])];
+    }
+    return factors;
+  }
+  // Each trace's column its own noise level s_kc (its own weight).
+  std::vector<std::vector<double>> factor(traces_.size(), std::vector<double>(observe_.size()));
+  for (std::size_t t = 0; t < traces_.size(); ++t) {
+    const double n = static_cast<double>(measured(t).rows());
+    for (std::size_t c = 0; c < observe_.size(); ++c) {
+      const double s2 = evaluation.mse_per_trace[t][c] * n / std::max(1.0, n - p_per_column);
+      factor[t][c] = s2 > 0.0 ? 1.0 / (column_weight(c, t) * std::sqrt(s2)) : 0.0;
+    }
+  }
   for (std::size_t k = 0; k < factors.size(); ++k) {
-    factors[k] = factor_per_column[static_cast<std::size_t>(residual_columns_[k])];
+    factors[k] = factor[static_cast<std::size_t>(residual_traces_[k])]
+                       [static_cast<std::size_t>(residual_columns_[k])];
   }
   return factors;
 }
@@ -227,7 +287,7 @@ bool FitProblem::Compare(std::size_t k, const Trace& simulated, std::vector<doub
     const auto& meas = reference.Column(observe_[c]);
     const double weight =
         1.0 / std::sqrt(static_cast<double>(columns) * static_cast<double>(samples_per_column_[c]) *
-                        variance_[c]);
+                        weight_variance_[k][c]);
     double trace_sum = 0.0;
     for (std::size_t r = 0; r < meas.size(); ++r) {
       const double e = sim[r] - meas[r];
@@ -247,12 +307,21 @@ bool FitProblem::Compare(std::size_t k, const Trace& simulated, std::vector<doub
 void FitProblem::Finish(const std::vector<double>& sum_sq, Evaluation* evaluation) const {
   const std::size_t columns = observe_.size();
   evaluation->mse.resize(columns);
-  double cost = 0.0;
+  double cost = 0.0, nrmse2 = 0.0;
   for (std::size_t c = 0; c < columns; ++c) {
     evaluation->mse[c] = sum_sq[c] / static_cast<double>(samples_per_column_[c]);
-    cost += evaluation->mse[c] / variance_[c];
+    nrmse2 += evaluation->mse[c] / variance_[c];
+    if (uniform_weights_) {
+      cost += evaluation->mse[c] / weight_variance_[0][c];
+    } else {
+      for (std::size_t k = 0; k < traces_.size(); ++k) {
+        cost += evaluation->mse_per_trace[k][c] * static_cast<double>(measured(k).rows()) /
+                static_cast<double>(samples_per_column_[c]) / weight_variance_[k][c];
+      }
+    }
   }
   evaluation->cost = cost / static_cast<double>(columns);
+  evaluation->nrmse2 = nrmse2 / static_cast<double>(columns);
   evaluation->ok = true;
 }
 
@@ -262,7 +331,7 @@ namespace {
 // non-finite parameter value.
 Evaluation Unevaluated(const std::vector<double>& values, std::size_t traces, std::size_t columns) {
   Evaluation evaluation;
-  evaluation.cost = std::numeric_limits<double>::infinity();
+  evaluation.cost = evaluation.nrmse2 = std::numeric_limits<double>::infinity();
   for (double v : values) {
     if (!std::isfinite(v)) {
       evaluation.reason = "non-finite parameter value";

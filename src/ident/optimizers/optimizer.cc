@@ -63,8 +63,61 @@ bool NormalisedResidualJacobian(const FitProblem& problem, const std::vector<dou
   return residuals->allFinite();
 }
 
+Eigen::MatrixXd CramerRaoCovariance(const FitProblem& problem, const Eigen::MatrixXd& jacobian,
+                                    const Eigen::VectorXd& residuals) {
+  // Residual i is w_kc e_i (trace k, column c); the Fisher information of white Gaussian
+  // noise of variance sigma_kc^2 is sum_i (dr_i/dx)^T (dr_i/dx) / (w_kc^2 sigma_kc^2), with
+  // sigma_kc^2 the noise the cost was weighted by, else the residual's own SSE/(n - p/C).
+  const std::size_t traces = problem.traces().size(), columns = problem.observe().size();
+  const auto& column_of = problem.residual_columns();
+  const auto& trace_of = problem.residual_traces();
+  const Eigen::Index p = jacobian.cols();
+  if (jacobian.rows() != residuals.size() ||
+      static_cast<std::size_t>(jacobian.rows()) != column_of.size() || p == 0)
+    return {};
+  std::vector<std::vector<double>> sum_sq(traces, std::vector<double>(columns, 0.0));
+  std::vector<std::vector<double>> count(traces, std::vector<double>(columns, 0.0));
+  for (Eigen::Index i = 0; i < residuals.size(); ++i) {
+    const auto k = static_cast<std::size_t>(trace_of[static_cast<std::size_t>(i)]);
+    const auto c = static_cast<std::size_t>(column_of[static_cast<std::size_t>(i)]);
+    sum_sq[k][c] += residuals(i) * residuals(i);
+    count[k][c] += 1.0;
+  }
+  bool noise_weighted = true;
+  for (const auto& trace : problem.traces()) {
+    for (const auto& column : problem.observe())
+      noise_weighted = noise_weighted && trace.noise_variance.count(column) > 0;
+  }
+  const double p_per_column = static_cast<double>(p) / static_cast<double>(columns);
+  // 1 / (w_kc^2 sigma_kc^2) per trace and column.
+  std::vector<std::vector<double>> factor(traces, std::vector<double>(columns, 0.0));
+  for (std::size_t k = 0; k < traces; ++k) {
+    for (std::size_t c = 0; c < columns; ++c) {
+      const double w = problem.column_weight(c, k);
+      double sigma2 = 0.0;
+      if (noise_weighted) {
+        sigma2 = problem.weight_variances()[k][c];
+      } else if (count[k][c] > p_per_column) {
+        sigma2 = sum_sq[k][c] / (w * w) / (count[k][c] - p_per_column);
+      }
+      factor[k][c] = sigma2 > 0.0 ? 1.0 / (w * w * sigma2) : 0.0;
+    }
+  }
+  Eigen::MatrixXd fisher = Eigen::MatrixXd::Zero(p, p);
+  for (Eigen::Index i = 0; i < jacobian.rows(); ++i) {
+    const auto k = static_cast<std::size_t>(trace_of[static_cast<std::size_t>(i)]);
+    const auto c = static_cast<std::size_t>(column_of[static_cast<std::size_t>(i)]);
+    fisher.noalias() += factor[k][c] * jacobian.row(i).transpose() * jacobian.row(i);
+  }
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(fisher);
+  if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().minCoeff() > 0.0)) return {};
+  Eigen::MatrixXd covariance = ldlt.solve(Eigen::MatrixXd::Identity(p, p));
+  return covariance.allFinite() ? covariance : Eigen::MatrixXd{};
+}
+
 void SetSandwichIntervals(const FitProblem& problem, const Eigen::MatrixXd& jacobian,
                           const Eigen::VectorXd& residuals, FitResult* result) {
+  const Eigen::MatrixXd crb = CramerRaoCovariance(problem, jacobian, residuals);
   ResidualLayout layout;
   layout.columns = problem.observe().size();
   for (std::size_t k = 0; k < problem.traces().size(); ++k) {
@@ -80,6 +133,15 @@ void SetSandwichIntervals(const FitProblem& problem, const Eigen::MatrixXd& jaco
     e.std_white = e.ci95_white_low = e.ci95_white_high = 0.0;
     e.interval_method.clear();
     e.white_method.clear();
+    e.has_crb = false;
+    e.std_crb = 0.0;
+    if (crb.rows() == static_cast<Eigen::Index>(result->estimates.size()) &&
+        crb(index, index) > 0.0) {
+      ParameterEstimate bound = e;
+      SetInterval(problem.free()[k], std::sqrt(crb(index, index)), "cramer_rao", &bound);
+      e.has_crb = bound.has_interval;
+      e.std_crb = bound.std;
+    }
     if (!sandwich.ok) continue;
     // A variance of exactly 0 (the cost does not depend on the parameter) is no interval.
     if (sandwich.white(index, index) > 0.0) {

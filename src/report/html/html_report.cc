@@ -270,7 +270,7 @@ void WriteParameters(Page& page, const IdentReport& report, const FitProblem& pr
   // The headline is the final model; the first fit beside it when discovery added effects.
   const std::map<std::string, ParameterReport>& before = report.first_fit().parameters;
   std::vector<std::string> head = {"parameter", "unit",          "initial", "estimate",
-                                   "std",       "95 % interval", "bounds"};
+                                   "± (95 %)",  "95 % interval", "× CRB",   "bounds"};
   if (after) {
     head.emplace_back("before discovery");
     head.emplace_back("95 % interval before");
@@ -292,14 +292,16 @@ void WriteParameters(Page& page, const IdentReport& report, const FitProblem& pr
     if (p.has_bounds) bounds = G(p.lower, 3) + " … " + G(p.upper, 3);
     if (p.has_bounds && p.at_bound) note = " <b>at its bound</b>";
     if (!p.free) note = " (classic estimate)";
-    std::vector<std::string> cells = {"<b>" + Escape(name) + "</b>",
-                                      Escape(p.unit),
-                                      p.free ? G(e.initial, 4) : "n/a",
-                                      G(e.value, 6) + note,
-                                      interval ? G(e.std, 3) : "n/a",
-                                      interval ? Interval(e.ci95_low, e.ci95_high, 5) : "—",
-                                      bounds};
-    std::vector<bool> numeric = {false, false, true, true, true, true, true};
+    std::vector<std::string> cells = {
+        "<b>" + Escape(name) + "</b>",
+        Escape(p.unit),
+        p.free ? G(e.initial, 4) : "n/a",
+        G(e.value, 6) + note,
+        interval ? G(0.5 * (e.ci95_high - e.ci95_low), 3) : "n/a",
+        interval ? Interval(e.ci95_low, e.ci95_high, 5) : "—",
+        interval && e.has_crb && e.std_crb > 0.0 ? G(e.std / e.std_crb, 3) : "—",
+        bounds};
+    std::vector<bool> numeric = {false, false, true, true, true, true, true, true};
     if (after) {
       const auto found = before.find(name);
       const ParameterReport* b = found == before.end() ? nullptr : &found->second;
@@ -313,6 +315,10 @@ void WriteParameters(Page& page, const IdentReport& report, const FitProblem& pr
     h += Row(cells, " class=\"parameter\" data-name=\"" + Escape(name) + "\"", numeric);
   }
   h += "</table>\n";
+  h += "<p class=\"note\">± is the half-width of the 95 % interval (the JSON report keeps the "
+       "standard deviation, <code>std</code>); × CRB is the standard deviation over the "
+       "experiment's Cramér–Rao bound at the columns' noise (1: as precise as the data "
+       "allow).</p>\n";
   if (report.final_model.intervals_optimistic) {
     h += "<p class=\"note warn\">The intervals assume white residuals; the residual is not white, "
          "so "

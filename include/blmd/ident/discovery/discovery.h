@@ -109,6 +109,9 @@ struct DiscoveryStep {
   double bic_before = 0.0, bic_after = 0.0;
   std::vector<CandidateOutcome> candidates;  // every candidate of the round, best first
   std::string evidence;                      // one line: why this effect
+  // Effects that explained the residual as well (BIC within the ambiguity margin): this one
+  // was added as the best of them, so that the model is not left clearly worse than any.
+  std::vector<std::string> ambiguous_with;
 };
 
 struct DiscoveryResult {
@@ -116,6 +119,8 @@ struct DiscoveryResult {
   std::vector<DiscoveryStep> steps;
   // Rounds that stopped because the best candidates could not be told apart.
   std::vector<std::vector<std::string>> ambiguous;
+  // Each ambiguous round's competing models as refit (in the order of `ambiguous`).
+  std::vector<std::vector<CandidateOutcome>> ambiguous_models;
   std::string ambiguity_reason;
   std::vector<CandidateOutcome> last_round;  // the round that added nothing, best first
   std::string conclusion;                    // one line for people

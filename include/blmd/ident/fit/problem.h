@@ -2,9 +2,14 @@
 // the observed columns and the free parameters. Evaluate() simulates every trace with its
 // own recorded input u and compares the observed columns at the trace's own sample times.
 //
-// Cost = (1/C) sum_c MSE_c / Var_c   (C observed columns, MSE and variance of the measured
-// column pooled over all traces), so columns of different units count alike and
-// NRMSE = sqrt(cost): 0 is a perfect fit, 1 no better than each column's mean.
+// Cost = (1/C) sum_c (1/N_c) sum_k SSE_kc / S_kc   (C observed columns, N_c samples of
+// column c over all traces, SSE_kc trace k's squared errors in column c) with the weight
+// variance S_kc: by default the measured column's variance Var_c pooled over the traces
+// (cost = (1/C) sum_c MSE_c / Var_c = NRMSE^2, columns of different units alike), or after
+// SetWeightVariances, or when every trace carries FitTrace::noise_variance for every observed
+// column, each trace's column's noise variance (maximum likelihood with Gaussian noise;
+// docs/identification.md §1a). Evaluation::nrmse2 is always (1/C) sum_c MSE_c / Var_c:
+// NRMSE = sqrt(nrmse2), 0 is a perfect fit, 1 no better than each column's mean.
 // A point whose simulation diverges or is invalid has an infinite cost and a reason.
 //
 // The free parameters are searched in scaled coordinates s in [0,1]: log scale between the
@@ -12,6 +17,7 @@
 #pragma once
 
 #include <cstddef>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -34,6 +40,10 @@ struct FitTrace {
   Trace trace;           // t, u and the observed columns (after mapping and scaling)
   InputSignal input;     // zero-order hold of the trace's u (and `open`, if present)
   InitialState initial;  // state at the first sample
+  // The noise variance of each measured column (column -> sigma^2, the column's units
+  // squared), when known: the cost then weights this trace's column by 1/sigma^2 (maximum
+  // likelihood; docs/identification.md §1a). Empty: weighted by the column's variance.
+  std::map<std::string, double> noise_variance;
 };
 
 struct FreeParameter {
@@ -46,9 +56,10 @@ struct FreeParameter {
 // The outcome of one cost evaluation.
 struct Evaluation {
   bool ok = false;
-  std::string reason;                              // why not ok
-  double cost = 0.0;                               // +inf when !ok
-  std::vector<double> mse;                         // per observed column, pooled over traces
+  std::string reason;       // why not ok
+  double cost = 0.0;        // +inf when !ok
+  double nrmse2 = 0.0;      // (1/C) sum_c MSE_c / Var_c, whatever the weights; +inf when !ok
+  std::vector<double> mse;  // per observed column, pooled over traces
   std::vector<std::vector<double>> mse_per_trace;  // [trace][column]
 };
 
@@ -70,16 +81,26 @@ class FitProblem {
   const std::vector<std::string>& observe() const { return observe_; }
   const std::vector<FreeParameter>& free() const { return free_; }
   std::size_t num_free() const { return free_.size(); }
-  // Measured variance of each observed column (pooled), the cost's weights.
+  // Measured variance of each observed column (pooled): NRMSE's scale, and the cost's
+  // weights unless SetWeightVariances replaced them.
   const std::vector<double>& variance() const { return variance_; }
   std::size_t num_residuals() const { return num_residuals_; }
-  // Observed-column index of each residual, in Evaluate's order, and each column's weight
-  // 1/sqrt(C N_c Var_c) (residual = weight * (sim - meas)).
+  // The weight variances S_kc, [trace][observed column]: Var_c in every trace by default.
+  const std::vector<std::vector<double>>& weight_variances() const { return weight_variance_; }
+  // Replaces the weight variances (each finite and > 0; one row per trace, one value per
+  // observed column). InputError otherwise.
+  void SetWeightVariances(std::vector<std::vector<double>> variances);
+  // True when every trace's column c has the same weight variance (the default).
+  bool uniform_weights() const { return uniform_weights_; }
+  // Observed-column index of each residual, in Evaluate's order, its trace, and each
+  // column's weight 1/sqrt(C N_c S_kc) (residual = weight * (sim - meas)).
   const std::vector<int>& residual_columns() const { return residual_columns_; }
-  double column_weight(std::size_t c) const;
+  const std::vector<int>& residual_traces() const { return residual_traces_; }
+  double column_weight(std::size_t c, std::size_t k = 0) const;
   // Per-residual factors that turn weighted residuals into noise-normalised ones, e/s_c,
-  // with s_c^2 = SSE_c / (N_c - p/C) estimated from `evaluation` (the fit's residual):
-  // the covariance of a fit with unequal noise across columns needs these.
+  // with s_c^2 = SSE_c / (N_c - p/C) estimated from `evaluation` (the fit's residual; per
+  // trace and column when the weights differ between traces): the white covariance of a fit
+  // needs these.
   std::vector<double> NoiseNormalisation(const Evaluation& evaluation) const;
 
   // Physical values <-> scaled coordinates in [0,1].
@@ -132,8 +153,11 @@ class FitProblem {
   std::vector<std::string> observe_;
   std::vector<FreeParameter> free_;
   std::vector<double> variance_;
+  std::vector<std::vector<double>> weight_variance_;  // [trace][column], S_kc
+  bool uniform_weights_ = true;
   std::vector<std::size_t> samples_per_column_;
   std::vector<int> residual_columns_;
+  std::vector<int> residual_traces_;
   std::size_t num_residuals_ = 0;
   std::vector<std::vector<double>> effect_angles_;  // per trace, when forced
   std::vector<EquationTrace> equation_;             // per trace, with the equation error

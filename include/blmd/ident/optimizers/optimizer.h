@@ -76,6 +76,12 @@ struct ParameterEstimate {
   bool has_hac_interval = false;
   double std_hac = 0.0;
   double ci95_hac_low = 0.0, ci95_hac_high = 0.0;
+  // The Cramer-Rao bound of this experiment: the standard deviation no unbiased estimator
+  // beats with white Gaussian noise of each column's noise variance (the cost's noise weights,
+  // else the residual's), sqrt of the diagonal of the inverse Fisher information
+  // (docs/uncertainty.md §5). std / std_crb is how far the interval is from the bound.
+  bool has_crb = false;
+  double std_crb = 0.0;
 };
 
 struct FitResult {
