@@ -87,12 +87,15 @@ IdentOutcome Identify(IdentRequest request) {
     discovery_options.refit.verbose = options.verbose;
     discovery_options.refit.progress = progress;
     if (validation) discovery_options.held_out = &validation->traces();
+    // Discovery decides on the variance-weighted problem, as it was calibrated (its evidence
+    // rules and studies, docs/discovery.md); the noise weights of the first model's residual
+    // would hold that model's misfit. The final model is then refit with its own noise.
     outcome.discovery =
-        std::make_unique<DiscoveryResult>(Discover(problem, outcome.first_fit, discovery_options));
+        std::make_unique<DiscoveryResult>(Discover(unweighted, unweighted_fit, discovery_options));
     const DiscoveryResult& discovery = *outcome.discovery;
     // The final model is the answer: its parameters, fit, residual and
     // validation head the report; the first fit moves to discovery.before.
-    std::unique_ptr<FitProblem> final_problem = FinalProblem(problem, discovery);
+    std::unique_ptr<FitProblem> final_problem = FinalProblem(unweighted, discovery);
     NoiseModel final_noise = outcome.noise;
     if (final_problem && outcome.noise.weighting == "noise") {
       // The final model's own residual sets its weights: the first model's residual held the
@@ -109,7 +112,7 @@ IdentOutcome Identify(IdentRequest request) {
           std::make_unique<FitProblem>(discovery.final_config, validation->traces(),
                                        request.observe, NamedFreeParameters(discovery.final_free));
     }
-    DiscoveryReport block = MakeDiscoveryReport(problem, outcome.first_fit, discovery,
+    DiscoveryReport block = MakeDiscoveryReport(unweighted, unweighted_fit, discovery,
                                                 validation.get(), validation_after.get());
     IdentReport headline = report;
     if (final_problem) {
@@ -131,7 +134,12 @@ IdentOutcome Identify(IdentRequest request) {
   if (!request.discover) {
     // A plain fit's verdict on its model: what its residual still depends on.
     Stage(progress, "adequacy check");
-    report.adequacy = CheckResidualStructure(problem, outcome.first_fit.values);
+    // Materiality for this verdict: 0.5 % of the residual's variance (a structure of about 7 %
+    // of the noise's amplitude); significance, family-wise 1e-3, is what keeps it off correct
+    // models. Discovery's "unexplained" keeps its 10 % (what no effect may be left to explain).
+    AdequacyOptions plain;
+    plain.min_share = 0.005;
+    report.adequacy = CheckResidualStructure(problem, outcome.first_fit.values, plain);
   }
   if (problem.config().experiment.closed_loop) {
     report.notes.push_back(

@@ -7,6 +7,7 @@
 #include <cstdio>
 
 #include "blmd/error.h"
+#include "blmd/sim/effects.h"
 #include "report/text.h"
 
 namespace blmd {
@@ -355,7 +356,8 @@ void AddWarnings(IdentReport* report) {
     }
     if (!e.has_interval) {
       no_interval += (no_interval.empty() ? "" : ", ") + name;
-    } else if (std::isfinite(e.value) && std::isfinite(e.ci95_low) && std::isfinite(e.ci95_high)) {
+    } else if (std::isfinite(e.value) && std::isfinite(e.ci95_low) && std::isfinite(e.ci95_high) &&
+               !IsPeriodicParameter(name)) {  // a phase has no scale to be ±50 % of
       const double half = 0.5 * (e.ci95_high - e.ci95_low);
       if (!(half <= 0.5 * std::abs(e.value))) {
         add("parameter_poorly_determined",

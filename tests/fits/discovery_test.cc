@@ -65,9 +65,12 @@ TEST_P(HiddenEffect, IsFoundFittedAndExplainsTheResidual) {
             << 100 * (B_after / c.B - 1) << " %\n";
   EXPECT_NEAR(J_after, c.J, 0.02 * c.J);
   EXPECT_NEAR(B_after, c.B, 0.02 * c.B);
-  // Before, the model without the effect absorbs it into J and B: visibly biased means at
-  // least one of them off by more than 2 %, the same bound they meet after.
-  EXPECT_TRUE(std::abs(J_before / c.J - 1) > 0.02 || std::abs(B_before / c.B - 1) > 0.02);
+  // Before, the model without the effect absorbs it into J and B, and discovery does not
+  // leave them worse. (Weighted by each column's noise, the first fit is no longer visibly
+  // biased on every case: a current offset of 0.04 A moved J by -0.08 % and B by +0.5 %, where
+  // the variance weighting had moved B by more than 2 %.)
+  EXPECT_LE(std::abs(J_after / c.J - 1) + std::abs(B_after / c.B - 1),
+            std::abs(J_before / c.J - 1) + std::abs(B_before / c.B - 1) + 0.002);
 }
 
 const double kJ = 2.26e-5, kB = 2.261e-5;  // Ganesh no-load motor
@@ -183,14 +186,21 @@ TEST(Discovery, CoulombAndLoadAreAmbiguousWhenTheShaftNeverStops) {
                      ""};
   const nlohmann::json report = Discover(c);
   const auto& d = report["discovery"];
-  EXPECT_EQ(d["added"], nlohmann::json::array());
+  // The best of the two by BIC is added (the model with neither fits clearly worse than each,
+  // NRMSE 0.074 against 0.043: it must not head the report), the other reported beside it.
+  ASSERT_EQ(d["added"].size(), 1u);
+  const std::string added = d["added"][0];
+  EXPECT_TRUE(added == "coulomb_friction" || added == "load_torque") << added;
   ASSERT_EQ(d["ambiguous"].size(), 1u);
   EXPECT_EQ(d["ambiguous"][0]["effects"],
             nlohmann::json::array({"coulomb_friction", "load_torque"}));
-  EXPECT_EQ(d["conclusion"].get<std::string>().rfind("ambiguous: ", 0), 0u) << d["conclusion"];
-  // Issue 19: each competing model is reported with its J and B and error, and the
-  // headline's intervals cover them (here they also cover the truth, which the first fit's
-  // biased B, +52 %, did not).
+  EXPECT_EQ(d["conclusion"].get<std::string>().rfind(
+                "added " + added + " (the best of models that fit as well", 0),
+            0u)
+      << d["conclusion"];
+  // Each competing model is reported with its J and B and error, and the headline's
+  // intervals cover them, and the truth (J 2.26e-5, B 2.261e-5), which the first fit's B,
+  // +52 %, missed.
   const auto& models = d["ambiguous"][0]["models"];
   ASSERT_EQ(models.size(), 2u);
   for (const auto& m : models) {
@@ -200,15 +210,20 @@ TEST(Discovery, CoulombAndLoadAreAmbiguousWhenTheShaftNeverStops) {
       EXPECT_LE(ci[0].get<double>(), v) << m["effect"] << " " << name;
       EXPECT_GE(ci[1].get<double>(), v) << m["effect"] << " " << name;
     }
-    EXPECT_LT(m["nrmse"].get<double>(), report["fit"]["nrmse"].get<double>());
+    EXPECT_NEAR(m["nrmse"].get<double>(), report["fit"]["nrmse"].get<double>(), 0.001);
   }
-  const auto& B = report["parameters"]["B"];
-  EXPECT_EQ(B["interval_method"], "hac_prewhitened+ambiguity");
-  EXPECT_TRUE(B["ci95_before_ambiguity"][0].get<double>() > 2.261e-5);  // missed the truth
-  EXPECT_LE(B["ci95"][0].get<double>(), 2.261e-5);                      // covers it now
-  bool warned = false;
-  for (const auto& w : report["warnings"]) warned = warned || w["code"] == "discovery_ambiguous";
-  EXPECT_TRUE(warned);
+  for (const auto& [name, truth] : {std::pair{"J", 2.26e-5}, std::pair{"B", 2.261e-5}}) {
+    const auto& ci = report["parameters"][name]["ci95"];
+    EXPECT_LE(ci[0].get<double>(), truth) << name;
+    EXPECT_GE(ci[1].get<double>(), truth) << name;
+  }
+  EXPECT_GT(report["discovery"]["before"]["parameters"]["B"]["value"].get<double>(),
+            1.4 * 2.261e-5);
+  std::string message;
+  for (const auto& w : report["warnings"])
+    if (w["code"] == "discovery_ambiguous") message = w["message"];
+  EXPECT_NE(message.find("it added " + added + ", the best by BIC"), std::string::npos) << message;
+  EXPECT_NE(message.find("agree across them"), std::string::npos) << message;
 }
 
 }  // namespace

@@ -185,7 +185,7 @@ TEST(ResidualStructure, NothingFlaggedOnWhiteNoise) {
     for (const StructureTest& test : report.tests) {
       EXPECT_LT(test.share, 0.02) << test.column << " " << test.Describe();
     }
-    EXPECT_EQ(report.tests.size(), 14u);  // 7 bases x 2 columns
+    EXPECT_EQ(report.tests.size(), 16u);  // 8 bases (the mean among them) x 2 columns
   }
 }
 
@@ -211,6 +211,18 @@ TEST(ResidualStructure, NamesAPeriodicDisturbanceInTime) {
   ASSERT_FALSE(harmonic.flagged.empty());
   EXPECT_EQ(harmonic.flagged.front().input_harmonic, 5);
   EXPECT_EQ(harmonic.flagged.front().Describe(), "t (periodic, 5 Hz, harmonic 5 of the input)");
+}
+
+// A residual offset (a current sensor's, a constant torque's): the mean, which every other
+// basis keeps in its null model, is named when nothing else explains the residual.
+TEST(ResidualStructure, NamesAnOffsetAsTheMean) {
+  const AdequacyReport offset = CheckTrace(
+      7, [](double, double, double) { return 1.0; }, 0.5);
+  ASSERT_TRUE(offset.ok) << offset.reason;
+  ASSERT_FALSE(offset.flagged.empty());
+  EXPECT_EQ(offset.flagged.front().state, "mean") << offset.StructureMessage();
+  // Half the noise's RMS: a fifth of the residual's mean square.
+  EXPECT_NEAR(offset.flagged.front().share, 0.2, 0.03);
 }
 
 TEST(ResidualStructure, NamesTheAngleAndTheSpeed) {

@@ -235,7 +235,7 @@ void BinResidual(const Pooled& pooled, std::size_t c, StructureTest* test) {
   } else if (test->state == "u") {
     x = pooled.u;
     test->x_label = "u";
-  } else if (test->state == "t") {
+  } else if (test->state == "t" || test->state == "mean") {
     x = pooled.t;
     test->x_label = "t";
     test->x_unit = "s";
@@ -328,6 +328,43 @@ FglsTest FglsFTest(const std::vector<double>& response,
   if (!(extra > 0.0) || !(dof > 0.0) || !(sse1 > 0.0)) return out;
   out.f = std::max(0.0, (sse0 - sse1) / extra / (sse1 / dof));
   out.p_value = FSurvival(out.f, extra, dof);
+  out.ok = std::isfinite(out.f) && std::isfinite(out.p_value);
+  return out;
+}
+
+FglsTest FglsMeanTest(const std::vector<double>& response, const std::vector<std::size_t>& segments,
+                      int ar_max_order) {
+  FglsTest out;
+  const auto n = static_cast<Eigen::Index>(response.size());
+  const auto K = static_cast<Eigen::Index>(segments.size());
+  if (n < 8 || K == 0) return out;
+  Eigen::MatrixXd Xy = Eigen::MatrixXd::Zero(n, K + 1);
+  for (Eigen::Index s = 0; s < K; ++s) {
+    const auto begin = static_cast<Eigen::Index>(segments[static_cast<std::size_t>(s)]);
+    const Eigen::Index end =
+        s + 1 < K ? static_cast<Eigen::Index>(segments[static_cast<std::size_t>(s) + 1]) : n;
+    Xy.block(begin, s, end - begin, 1).setOnes();
+  }
+  const Eigen::VectorXd y = Eigen::Map<const Eigen::VectorXd>(response.data(), n);
+  Xy.col(K) = y;
+  // OLS: the share of the residual's mean square that its per-trace means make up.
+  Eigen::VectorXd fitted;
+  const double total = y.squaredNorm();
+  const double sse_means = LeastSquares(Xy.leftCols(K), y, &fitted).first;
+  if (!(total > 0.0) || !std::isfinite(total)) return out;
+  out.share = std::clamp(1.0 - sse_means / total, 0.0, 1.0);
+  const Eigen::VectorXd e = y - fitted;
+  const std::vector<double> a =
+      FitAutoregression(std::vector<double>(e.data(), e.data() + e.size()), ar_max_order);
+  out.ar_order = static_cast<int>(a.size());
+  const Eigen::MatrixXd W = Whiten(Xy, segments, a);
+  const Eigen::VectorXd yw = W.col(K);
+  const double sse0 = yw.squaredNorm();
+  const auto [sse1, rank1] = LeastSquares(W.leftCols(K), yw);
+  const double dof = static_cast<double>(W.rows() - rank1);
+  if (!(rank1 > 0) || !(dof > 0.0) || !(sse1 > 0.0)) return out;
+  out.f = std::max(0.0, (sse0 - sse1) / static_cast<double>(rank1) / (sse1 / dof));
+  out.p_value = FSurvival(out.f, static_cast<double>(rank1), dof);
   out.ok = std::isfinite(out.f) && std::isfinite(out.p_value);
   return out;
 }
@@ -455,6 +492,23 @@ AdequacyReport CheckResidualStructure(const FitProblem& problem, const std::vect
   double tests_run = 0.0;
   for (std::size_t c = 0; c < problem.observe().size(); ++c) {
     const std::vector<double>& y = pooled.residual[c];
+    // mean: the residual's own level, each trace's, against zero (an offset, a constant
+    // torque the fit could not take up); every other basis has the means in its null model.
+    if (options.test_mean) {
+      const FglsTest test = FglsMeanTest(y, pooled.segments, options.ar_max_order);
+      if (test.ok) {
+        tests_run += 1.0;
+        StructureTest out;
+        out.state = "mean";
+        out.column = problem.observe()[c];
+        out.regressors = static_cast<int>(traces);
+        out.f = test.f;
+        out.p_value = test.p_value;
+        out.share = test.share;
+        out.ar_order = test.ar_order;
+        report.tests.push_back(out);
+      }
+    }
     std::vector<Basis> column_bases = bases;
     // The residual about each trace's mean, what the periodic searches fit.
     std::vector<double> centred(n);
@@ -567,6 +621,17 @@ AdequacyReport CheckResidualStructure(const FitProblem& problem, const std::vect
     test.p_value = std::min(1.0, test.p_value * tests_run);
     test.significant = test.p_value < options.family_level;
     test.flagged = test.significant && test.share >= options.min_share;
+  }
+  // The mean is named only when nothing else explains the column's residual: a residual
+  // that follows the angle or the time has a mean too, and the state is the better name.
+  for (StructureTest& test : report.tests) {
+    if (test.state != "mean" || !test.flagged) continue;
+    for (const StructureTest& other : report.tests) {
+      if (other.column == test.column && other.state != "mean" && other.flagged)
+        test.flagged = false;
+    }
+  }
+  for (StructureTest& test : report.tests) {
     if (!test.flagged) continue;
     const auto c = static_cast<std::size_t>(std::find(observe.begin(), observe.end(), test.column) -
                                             observe.begin());

@@ -15,6 +15,8 @@
 //   sign(w)          the sign of w                                   (friction)
 //   u                indicators of the quantile bins of u            (the input's level)
 //   t                Legendre polynomials P1..P_degree of t, per trace (drift, a growing load)
+//   mean             the residual's own mean per trace against zero (an offset, a constant
+//                    torque; every other basis keeps the means in its null model)
 //   t (periodic)     sin 2 pi f t, cos 2 pi f t per trace at the periodogram's peak f
 //                    (named a harmonic of the input when it is one: a dynamic misfit
 //                    repeats with the input, a disturbance need not)
@@ -56,6 +58,9 @@ struct AdequacyOptions {
   double max_frequency_hz = 0;        // t (periodic): up to this (0: the Nyquist frequency)
   int ar_max_order = 2;               // the FGLS noise model
   double min_relative_change = 0.10;  // effect stability: the smallest change that matters
+  // mean: also test each trace's residual mean against zero (FglsMeanTest): an offset or a
+  // constant torque the model lacks, which every other basis takes into its null model.
+  bool test_mean = true;
 };
 
 // One basis against one observed column.
@@ -139,5 +144,10 @@ struct FglsTest {
 FglsTest FglsFTest(const std::vector<double>& response,
                    const std::vector<std::vector<double>>& regressors,
                    const std::vector<std::size_t>& segments, int ar_max_order);
+
+// The FGLS F test of `response`'s per-segment means against zero (the same AR noise model,
+// fitted to the residual about the means); share: the means' part of the mean square.
+FglsTest FglsMeanTest(const std::vector<double>& response, const std::vector<std::size_t>& segments,
+                      int ar_max_order);
 
 }  // namespace blmd
