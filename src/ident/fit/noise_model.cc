@@ -83,16 +83,6 @@ std::vector<FitTrace> WithResidualNoise(const FitProblem& problem,
   return traces;
 }
 
-std::vector<FitTrace> WithNoise(std::vector<FitTrace> traces, const NoiseModel& noise) {
-  if (noise.weighting != "noise") return traces;
-  for (FitTrace& trace : traces) {
-    for (const ColumnNoise& column : noise.columns) {
-      trace.noise_variance[column.column] = column.std * column.std;
-    }
-  }
-  return traces;
-}
-
 namespace {
 
 // The problem over `traces` with its free parameters started at `values`.

@@ -99,37 +99,13 @@ FitProblem::FitProblem(Config config, std::vector<FitTrace> traces,
     }
   }
   if (noise_known) {
-    std::vector<std::vector<double>> noise(traces_.size(), std::vector<double>(observe_.size()));
     for (std::size_t k = 0; k < traces_.size(); ++k) {
       for (std::size_t c = 0; c < observe_.size(); ++c) {
-        noise[k][c] = traces_[k].noise_variance.at(observe_[c]);
+        weight_variance_[k][c] = traces_[k].noise_variance.at(observe_[c]);
       }
+      uniform_weights_ = uniform_weights_ && weight_variance_[k] == weight_variance_[0];
     }
-    SetWeightVariances(std::move(noise));
-  }
-}
-
-void FitProblem::SetWeightVariances(std::vector<std::vector<double>> variances) {
-  if (variances.size() != traces_.size()) {
-    throw InputError("weight variances: " + std::to_string(variances.size()) + " rows for " +
-                     std::to_string(traces_.size()) + " traces");
-  }
-  for (const auto& row : variances) {
-    if (row.size() != observe_.size()) {
-      throw InputError("weight variances: " + std::to_string(row.size()) + " columns for " +
-                       std::to_string(observe_.size()) + " observed columns");
-    }
-    for (double v : row) {
-      if (!(v > 0.0) || !std::isfinite(v)) {
-        throw InputError("weight variances: each must be finite and > 0 (got " + FormatNumber(v) +
-                         ")");
-      }
-    }
-  }
-  weight_variance_ = std::move(variances);
-  uniform_weights_ = true;
-  for (std::size_t k = 1; k < weight_variance_.size(); ++k) {
-    if (weight_variance_[k] != weight_variance_[0]) uniform_weights_ = false;
+    noise_weighted_ = true;
   }
 }
 

@@ -83,11 +83,6 @@ Eigen::MatrixXd CramerRaoCovariance(const FitProblem& problem, const Eigen::Matr
     sum_sq[k][c] += residuals(i) * residuals(i);
     count[k][c] += 1.0;
   }
-  bool noise_weighted = true;
-  for (const auto& trace : problem.traces()) {
-    for (const auto& column : problem.observe())
-      noise_weighted = noise_weighted && trace.noise_variance.count(column) > 0;
-  }
   const double p_per_column = static_cast<double>(p) / static_cast<double>(columns);
   // 1 / (w_kc^2 sigma_kc^2) per trace and column.
   std::vector<std::vector<double>> factor(traces, std::vector<double>(columns, 0.0));
@@ -95,7 +90,7 @@ Eigen::MatrixXd CramerRaoCovariance(const FitProblem& problem, const Eigen::Matr
     for (std::size_t c = 0; c < columns; ++c) {
       const double w = problem.column_weight(c, k);
       double sigma2 = 0.0;
-      if (noise_weighted) {
+      if (problem.noise_weighted()) {
         sigma2 = problem.weight_variances()[k][c];
       } else if (count[k][c] > p_per_column) {
         sigma2 = sum_sq[k][c] / (w * w) / (count[k][c] - p_per_column);

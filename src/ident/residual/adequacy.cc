@@ -285,6 +285,25 @@ struct Basis {
 
 }  // namespace
 
+namespace {
+
+// An n-row matrix whose first columns are each segment's intercept (1 on its rows) followed by
+// `extra` zero columns for the caller to fill.
+Eigen::MatrixXd SegmentIntercepts(Eigen::Index n, const std::vector<std::size_t>& segments,
+                                  Eigen::Index extra) {
+  const auto K = static_cast<Eigen::Index>(segments.size());
+  Eigen::MatrixXd X = Eigen::MatrixXd::Zero(n, K + extra);
+  for (Eigen::Index s = 0; s < K; ++s) {
+    const auto begin = static_cast<Eigen::Index>(segments[static_cast<std::size_t>(s)]);
+    const Eigen::Index end =
+        s + 1 < K ? static_cast<Eigen::Index>(segments[static_cast<std::size_t>(s) + 1]) : n;
+    X.block(begin, s, end - begin, 1).setOnes();
+  }
+  return X;
+}
+
+}  // namespace
+
 FglsTest FglsFTest(const std::vector<double>& response,
                    const std::vector<std::vector<double>>& regressors,
                    const std::vector<std::size_t>& segments, int ar_max_order) {
@@ -293,14 +312,7 @@ FglsTest FglsFTest(const std::vector<double>& response,
   const auto K = static_cast<Eigen::Index>(segments.size());
   const auto q = static_cast<Eigen::Index>(regressors.size());
   if (n < 8 || K == 0 || q == 0) return out;
-  Eigen::MatrixXd X(n, K + q);
-  X.setZero();
-  for (Eigen::Index s = 0; s < K; ++s) {
-    const auto begin = static_cast<Eigen::Index>(segments[static_cast<std::size_t>(s)]);
-    const Eigen::Index end =
-        s + 1 < K ? static_cast<Eigen::Index>(segments[static_cast<std::size_t>(s) + 1]) : n;
-    X.block(begin, s, end - begin, 1).setOnes();
-  }
+  Eigen::MatrixXd X = SegmentIntercepts(n, segments, q);
   for (Eigen::Index j = 0; j < q; ++j) {
     X.col(K + j) =
         Eigen::Map<const Eigen::VectorXd>(regressors[static_cast<std::size_t>(j)].data(), n);
@@ -338,13 +350,7 @@ FglsTest FglsMeanTest(const std::vector<double>& response, const std::vector<std
   const auto n = static_cast<Eigen::Index>(response.size());
   const auto K = static_cast<Eigen::Index>(segments.size());
   if (n < 8 || K == 0) return out;
-  Eigen::MatrixXd Xy = Eigen::MatrixXd::Zero(n, K + 1);
-  for (Eigen::Index s = 0; s < K; ++s) {
-    const auto begin = static_cast<Eigen::Index>(segments[static_cast<std::size_t>(s)]);
-    const Eigen::Index end =
-        s + 1 < K ? static_cast<Eigen::Index>(segments[static_cast<std::size_t>(s) + 1]) : n;
-    Xy.block(begin, s, end - begin, 1).setOnes();
-  }
+  Eigen::MatrixXd Xy = SegmentIntercepts(n, segments, 1);
   const Eigen::VectorXd y = Eigen::Map<const Eigen::VectorXd>(response.data(), n);
   Xy.col(K) = y;
   // OLS: the share of the residual's mean square that its per-trace means make up.

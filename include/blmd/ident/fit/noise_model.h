@@ -81,8 +81,4 @@ std::unique_ptr<FitProblem> FitNoiseWeighted(const FitProblem& problem, const Fi
                                              const NoiseSettings& settings, FitResult* fit,
                                              NoiseModel* noise);
 
-// The same problem over other traces with the same noise per column (pooled): for
-// validation traces, whose noise is not estimated.
-std::vector<FitTrace> WithNoise(std::vector<FitTrace> traces, const NoiseModel& noise);
-
 }  // namespace blmd

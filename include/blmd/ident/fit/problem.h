@@ -5,9 +5,9 @@
 // Cost = (1/C) sum_c (1/N_c) sum_k SSE_kc / S_kc   (C observed columns, N_c samples of
 // column c over all traces, SSE_kc trace k's squared errors in column c) with the weight
 // variance S_kc: by default the measured column's variance Var_c pooled over the traces
-// (cost = (1/C) sum_c MSE_c / Var_c = NRMSE^2, columns of different units alike), or after
-// SetWeightVariances, or when every trace carries FitTrace::noise_variance for every observed
-// column, each trace's column's noise variance (maximum likelihood with Gaussian noise;
+// (cost = (1/C) sum_c MSE_c / Var_c = NRMSE^2, columns of different units alike), or, when
+// every trace carries FitTrace::noise_variance for every observed column, each trace's
+// column's noise variance (maximum likelihood with Gaussian noise;
 // docs/identification.md §1a). Evaluation::nrmse2 is always (1/C) sum_c MSE_c / Var_c:
 // NRMSE = sqrt(nrmse2), 0 is a perfect fit, 1 no better than each column's mean.
 // A point whose simulation diverges or is invalid has an infinite cost and a reason.
@@ -82,16 +82,13 @@ class FitProblem {
   const std::vector<FreeParameter>& free() const { return free_; }
   std::size_t num_free() const { return free_.size(); }
   // Measured variance of each observed column (pooled): NRMSE's scale, and the cost's
-  // weights unless SetWeightVariances replaced them.
+  // weights unless the traces carry their noise.
   const std::vector<double>& variance() const { return variance_; }
   std::size_t num_residuals() const { return num_residuals_; }
   // The weight variances S_kc, [trace][observed column]: Var_c in every trace by default.
   const std::vector<std::vector<double>>& weight_variances() const { return weight_variance_; }
-  // Replaces the weight variances (each finite and > 0; one row per trace, one value per
-  // observed column). InputError otherwise.
-  void SetWeightVariances(std::vector<std::vector<double>> variances);
-  // True when every trace's column c has the same weight variance (the default).
-  bool uniform_weights() const { return uniform_weights_; }
+  // True when the weights are the traces' noise variances (FitTrace::noise_variance).
+  bool noise_weighted() const { return noise_weighted_; }
   // Observed-column index of each residual, in Evaluate's order, its trace, and each
   // column's weight 1/sqrt(C N_c S_kc) (residual = weight * (sim - meas)).
   const std::vector<int>& residual_columns() const { return residual_columns_; }
@@ -155,6 +152,7 @@ class FitProblem {
   std::vector<double> variance_;
   std::vector<std::vector<double>> weight_variance_;  // [trace][column], S_kc
   bool uniform_weights_ = true;
+  bool noise_weighted_ = false;
   std::vector<std::size_t> samples_per_column_;
   std::vector<int> residual_columns_;
   std::vector<int> residual_traces_;
