@@ -347,6 +347,7 @@ PYBIND11_MODULE(_blmd, m) {
   py::class_<blmd::IdentSettings>(m, "IdentSettings")
       .def(py::init<>())
       .def_readwrite("method", &blmd::IdentSettings::method)
+      .def_readwrite("baseline", &blmd::IdentSettings::baseline)
       .def_readwrite("observe", &blmd::IdentSettings::observe)
       .def_readwrite("free", &blmd::IdentSettings::free)
       .def_readwrite("candidates", &blmd::IdentSettings::candidates)

@@ -114,6 +114,7 @@ blmd::IdentSettings Settings(const CLI::App& app, const IdentFlags& f) {
   for (const auto& path : f.traces) settings.traces.push_back({path, std::nullopt});
   for (const auto& path : f.validates) settings.validation.push_back({path, std::nullopt});
   settings.method = f.method;
+  settings.baseline = f.baseline_path;
   if (app.count("--observe") > 0) settings.observe = f.observe_text;
   if (app.count("--free") > 0) settings.free = f.free_text;
   if (app.count("--candidates") > 0) settings.candidates = f.candidates_text;
@@ -246,7 +247,6 @@ int main(int argc, char** argv) {
                            input_files);
         blmd::IdentRequest request = blmd::MakeIdentRequest(
             blmd::LoadConfig(flags.config_path), flags.config_path, Settings(app, flags));
-        request.baseline_path = flags.baseline_path;
         if (!flags.report_path.empty() || !flags.html_path.empty() ||
             !flags.write_config_path.empty() || !flags.matlab_path.empty()) {
           blmd::InstallCleanupOnSignal();

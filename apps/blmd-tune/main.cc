@@ -1,15 +1,13 @@
 // blmd-tune: PI (speed loop) or PID (position loop) gains from the identified model for a
 // requested crossover and phase margin, checked over the parameters' 95 % box and on the
 // nonlinear model in closed loop (docs/tuning.md, docs/cli.md §4).
-// Flags -> TuneRequest -> blmd::LoadTuneInput, blmd::Tune (tune/tune.h) -> the report, the
-// closed-loop config, the summary, the exit code.
+// Flags -> TuneSettings -> blmd::RunTune (app/tune_run.h: the plant, the request, the tuning)
+// -> the typed report, rendered as JSON, the closed-loop config and the summary; the exit code.
 #include <iostream>
 
 #include "../common/app_main.h"
+#include "app/tune_run.h"
 #include "blmd/io/files.h"
-#include "blmd/report/tune_report.h"
-#include "blmd/tune/tune.h"
-#include "io/flags.h"
 
 namespace {
 
@@ -61,73 +59,41 @@ struct TuneFlags {
   }
 };
 
-// --limit u=V, i=A; u defaults to the config's experiment.pid.u_max when it has a pid.
-void ReadLimits(const TuneFlags& f, const blmd::Config& config, blmd::TuneRequest* request) {
-  for (const std::string& text : f.limits) {
-    const auto [name, value] = blmd::ParseAssignment(text, "--limit");
-    if (name != "u" && name != "i") {
-      throw blmd::InputError("--limit: unknown limit '" + blmd::InputError::Excerpt(name) +
-                             "' (valid: u=VOLTS, i=AMPS)");
-    }
-    if (!(value > 0.0)) throw blmd::InputError("--limit " + text + ": the limit must be > 0");
-    (name == "u" ? request->u_max : request->i_max) = value;
-  }
-  if (request->u_max > 0.0) return;
-  if (!config.experiment.closed_loop) {
-    throw blmd::InputError("--limit u=VOLTS is needed: the drive's voltage limit (" + config.path +
-                           " has no experiment.pid.u_max)");
-  }
-  request->u_max = config.experiment.pid.u_max;
-}
-
-blmd::TuneRequest MakeRequest(const CLI::App& app, const TuneFlags& f, const blmd::Config& config) {
-  blmd::TuneRequest request;
-  const bool speed = f.loop == "speed";
-  if (speed) {
-    for (const char* flag : {"--integral-ratio", "--filter-ratio"}) {
-      if (app.count(flag) > 0) {
-        throw blmd::InputError(std::string(flag) +
-                               " applies to the position loop's PID (the speed loop is a PI)");
-      }
-    }
-  }
-  request.design.loop =
-      speed ? blmd::PidSettings::Loop::kSpeed : blmd::PidSettings::Loop::kPosition;
-  request.design.crossover_hz = f.crossover_hz;
-  request.design.phase_margin_deg = f.phase_margin_deg;
-  request.design.integral_ratio = f.integral_ratio;
-  request.design.filter_ratio = f.filter_ratio;
-  request.step = f.step;
-  request.duration = f.duration;
-  request.threads = f.threads;
-  ReadLimits(f, config, &request);
-  if (const std::string error = request.Validate(); !error.empty()) throw blmd::InputError(error);
-  return request;
+blmd::TuneSettings Settings(const CLI::App& app, const TuneFlags& f) {
+  blmd::TuneSettings settings;
+  settings.loop = f.loop;
+  settings.crossover_hz = f.crossover_hz;
+  settings.phase_margin_deg = f.phase_margin_deg;
+  settings.limits = f.limits;
+  settings.step = f.step;
+  settings.duration = f.duration;
+  if (app.count("--integral-ratio") > 0) settings.integral_ratio = f.integral_ratio;
+  if (app.count("--filter-ratio") > 0) settings.filter_ratio = f.filter_ratio;
+  settings.threads = f.threads;
+  return settings;
 }
 
 int Run(const CLI::App& app, TuneFlags& f) {
   f.threads = blmd::app::CapThreads(f.threads);
   blmd::CheckOutputs({{"--report", f.report_path}, {"--write-config", f.write_config_path}},
                      {{"--config", f.config_path}, {"--from-report", f.report_in_path}});
-  const blmd::TuneInput input = blmd::LoadTuneInput(f.config_path, f.report_in_path);
-  const blmd::TuneRequest request = MakeRequest(app, f, input.config);
   if (!f.report_path.empty() || !f.write_config_path.empty()) blmd::InstallCleanupOnSignal();
-  const blmd::TuneResult result = blmd::Tune(input, request);
-  if (result.refused) {
+  const blmd::TuneReport tuned = blmd::RunTune(f.config_path, f.report_in_path, Settings(app, f));
+  if (tuned.result.refused) {
     // A request the plant cannot meet: exit 1, the reason, nothing written.
-    std::cerr << "error: cannot tune: " << result.refusal << "\n";
+    std::cerr << "error: cannot tune: " << tuned.result.refusal << "\n";
     return blmd::kExitFailed;
   }
-  const nlohmann::json report = blmd::TuneReportJson(input, request, result);
+  const nlohmann::json report = tuned;
   if (!f.report_path.empty()) blmd::WriteFileAtomically(f.report_path, report.dump(2) + "\n");
   if (!f.write_config_path.empty()) {
-    const nlohmann::json config = blmd::ClosedLoopConfigJson(input, request, result);
+    const nlohmann::json config = blmd::ClosedLoopConfigJson(tuned);
     blmd::WriteFileAtomically(f.write_config_path, config.dump(2) + "\n");
   }
   if (f.json) {
     std::cout << report.dump(2) << "\n";
   } else if (!f.quiet) {
-    std::cout << blmd::TuneSummary(input, request, result);
+    std::cout << blmd::TuneSummary(tuned);
     if (!f.report_path.empty()) std::cout << "report: " << f.report_path << "\n";
     if (!f.write_config_path.empty()) std::cout << "config: " << f.write_config_path << "\n";
   }

@@ -252,7 +252,7 @@ def identify(config, traces, method=None, discover=False, candidates=None, obser
              bic_margin=10.0, min_share=0.1, max_effects=3, error=None, filter_hz=None, decimate=None,
              columns=None, scales=None, derive=None, select=None, split=None,
              initial_state="config", delimiter=None, duplicate_time=None, verbose=False,
-             **options):
+             baseline=None, **options):
     """Identifies the free parameters, as blmd-ident; returns its --report JSON as a dict.
 
     config: a path or a dict. traces: a CSV path or a mapping column -> 1-D array (a pandas
@@ -262,10 +262,13 @@ def identify(config, traces, method=None, discover=False, candidates=None, obser
     names (None: the config's). validate: held-out traces. initial: {name: start value}.
     Every other keyword is a method option (--option KEY=VALUE), e.g. algorithm='praxis'.
     The keyword-only arguments are blmd-ident's flags of the same name (docs/cli.md §2).
+    baseline: a stored report (a path) whose free parameters this fit is compared with, as
+    blmd-ident --baseline; the comparison is the report's "baseline" entry.
     Raises InputError for bad input and FitError when the fit did not converge (its
     `report` attribute holds the report).
     """
     settings = _blmd.IdentSettings()
+    settings.baseline = "" if baseline is None else os.fspath(baseline)
     settings.method = method or ""
     settings.discover = bool(discover)
     settings.candidates = _names_text(candidates)

@@ -136,6 +136,26 @@ def test_identify_discover_equals_cli(tmp_path):
     assert_same_report(report, expected, ignore={"path", "sha256"})
 
 
+def test_identify_baseline_equals_cli(tmp_path):
+    # The drift guard reads the stored report with the commands' reader: the same comparison,
+    # and the same one-line refusal of a file that is not a report.
+    stored = tmp_path / "stored.json"
+    run_command("blmd-ident", "--config", NOLOAD, "--trace", NOLOAD_STEP, "--report", stored)
+    expected = cli_report(tmp_path, "--config", NOLOAD, "--trace", NOLOAD_STEP, "--baseline",
+                          stored)
+    report = blmd.identify(NOLOAD, [NOLOAD_STEP], baseline=stored)
+    assert report["baseline"]["verdict"] == "unchanged"
+    assert {name: p["verdict"] for name, p in report["baseline"]["parameters"].items()} == {
+        "J": "same", "B": "same"}
+    assert_same_report(report, expected)
+    message = cli_error("blmd-ident", "--config", NOLOAD, "--trace", NOLOAD_STEP, "--baseline",
+                        NOLOAD)
+    with pytest.raises(blmd.InputError) as raised:
+        blmd.identify(NOLOAD, [NOLOAD_STEP], baseline=NOLOAD)
+    assert str(raised.value) == message
+    assert message.endswith(":1:1: not a blmd-ident report (no \"tool\": \"blmd-ident\")")
+
+
 def test_identify_config_dict_equals_path():
     by_path = blmd.identify(NOLOAD, [NOLOAD_STEP])
     by_dict = blmd.identify(load_json(NOLOAD), [NOLOAD_STEP])

@@ -165,6 +165,7 @@ IdentRequest MakeIdentRequest(Config config_in, const std::string& config_path,
                               const IdentSettings& settings) {
   IdentRequest request;
   request.config_path = config_path;
+  request.baseline_path = settings.baseline;
   Config& config = request.config;
   config = std::move(config_in);
   RefuseEmptySelections(settings, config);

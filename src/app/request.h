@@ -95,6 +95,7 @@ struct IdentSettings {
   int max_effects = 3;
   std::string weighting;                // --weighting noise|variance ("": the config's)
   std::vector<std::string> noise_stds;  // --noise-std NAME=SIGMA (repeatable)
+  std::string baseline;                 // --baseline: a stored report to compare with
   ErrorSettings error;
   TraceSettings preparation;
 };

@@ -12,6 +12,7 @@
 #include "blmd/run.h"
 #include "blmd/version.h"
 #include "io/flags.h"
+#include "report/config_document.h"
 
 namespace blmd {
 
@@ -197,22 +198,21 @@ nlohmann::json DesignReportJson(const DesignReport& report) {
 namespace {
 
 std::string Describe(const DesignCandidate& c) {
-  const json s = Settings(c);
-  std::string text = c.family;
+  using Kind = InputSignal::Kind;
   if (c.family == "recorded") return "the recorded input";
-  text += ", amplitude " + Sig(c.input.amplitude);
-  if (s.contains("period_s")) text += ", period " + Sig(s["period_s"]) + " s";
-  if (s.contains("dwell_s")) {
+  std::string text = c.family + ", amplitude " + Sig(c.input.amplitude);
+  // The same settings as the report's "settings" (Settings above), from the candidate itself.
+  if (c.input.kind == Kind::kSquare) {
+    text += ", period " + Sig(c.input.period) + " s";
+  } else if (c.family == "steps") {
     text += c.levels == 1 ? std::string(" (+a, 0, -a, 0)")
                           : ", a staircase of " + std::to_string(c.levels) + " levels each way";
-    text += ", " + Sig(s["dwell_s"]) + " s per level";
-  }
-  if (s.contains("clock_s")) {
-    text += ", clock " + Sig(s["clock_s"]) + " s, order " + std::to_string(c.input.order);
-  }
-  if (s.contains("f0_hz")) {
-    text +=
-        ", " + Sig(c.input.f0) + " -> " + Sig(c.input.f1) + " Hz " + s["shape"].get<std::string>();
+    text += ", " + Sig(c.dwell) + " s per level";
+  } else if (c.input.kind == Kind::kPrbs) {
+    text += ", clock " + Sig(c.input.clock) + " s, order " + std::to_string(c.input.order);
+  } else if (c.input.kind == Kind::kChirp) {
+    text += ", " + Sig(c.input.f0) + " -> " + Sig(c.input.f1) + " Hz " +
+            (c.input.shape == InputSignal::ChirpShape::kLog ? "log" : "linear");
   }
   return text;
 }
@@ -251,8 +251,7 @@ std::string DesignSummary(const DesignReport& report) {
 }
 
 nlohmann::json DesignConfigJson(const Config& config, const DesignReport& report) {
-  json doc = config.document.is_object() ? config.document : json::object();
-  doc["model"] = std::string(config.model->name());
+  json doc = ConfigDocumentOf(config);
   doc["name"] = config.name + "-design";
   doc["description"] =
       "blmd-design: " + Describe(report.chosen) + ", " + report.criterion + " for " +
@@ -272,9 +271,7 @@ nlohmann::json DesignConfigJson(const Config& config, const DesignReport& report
                 {"from_config", report.config_path},
                 {"criterion", report.criterion},
                 {"predicted_ci95_halfwidth", predicted}};
-  if (!config.notes.is_null()) notes["config_notes"] = config.notes;
-  doc["notes"] = notes;
-  SanitizeJson(&doc);
+  SetNotes(config, std::move(notes), &doc);
   return doc;
 }
 

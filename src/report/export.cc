@@ -8,6 +8,7 @@
 #include "blmd/io/files.h"
 #include "blmd/sim/effects.h"
 #include "blmd/version.h"
+#include "report/config_document.h"
 
 namespace blmd {
 namespace {
@@ -81,25 +82,9 @@ json LinearModelJson(const LinearModel& model) {
 
 json ModelConfigJson(const Config& config, const ParameterSet& values,
                      const std::vector<FreeParameter>& free, const IdentReport& report) {
-  json doc = config.document.is_object() ? config.document : json::object();
-  doc["model"] = std::string(config.model->name());
+  json doc = ConfigDocumentOf(config);
   if (!doc.contains("name")) doc["name"] = config.name;
-  json parameters = json::object();
-  for (const auto& info : config.model->parameters()) {
-    if (values.Has(info.name)) parameters[info.name] = values.Get(info.name);
-  }
-  doc["parameters"] = parameters;
-  json effects = json::object();
-  for (const auto& name : config.effects) {
-    json effect = json::object();
-    for (const auto& p : FindEffect(name).parameters) effect[p.config_key()] = values.Get(p.name);
-    effects[name] = effect;
-  }
-  if (effects.empty()) {
-    doc.erase("effects");
-  } else {
-    doc["effects"] = effects;
-  }
+  SetModelValues(config, values, &doc);
   json& ident = doc["identification"];
   if (!ident.is_object()) ident = json::object();
   ident.erase("initial");  // the fitted values are the start
@@ -130,9 +115,7 @@ json ModelConfigJson(const Config& config, const ParameterSet& values,
   const ErrorFigures& fit = report.final_model.fit.errors;
   if (fit.ok && std::isfinite(fit.nrmse)) notes["fit_nrmse"] = fit.nrmse;
   if (report.discovery) notes["discovery_added"] = report.discovery->added;
-  if (!config.notes.is_null()) notes["config_notes"] = config.notes;
-  doc["notes"] = notes;
-  SanitizeJson(&doc);
+  SetNotes(config, std::move(notes), &doc);
   return doc;
 }
 

@@ -1,6 +1,7 @@
 // The report as JSON (docs/report.md): to_json of IdentReport
 // and its parts. Rendering only: every figure was computed when the report was built.
 #include <cmath>
+#include <variant>
 
 #include "blmd/report/export.h"
 #include "blmd/report/report.h"
@@ -250,7 +251,7 @@ void ModelJson(const ModelReport& model, json* out) {
                               {"wall_time_s", Number(s.wall_time_s)},
                               {"seed", model.seed},
                               {"threads", model.threads},
-                              {"details", s.details}};
+                              {"details", MethodDetailsJson(s)}};
   (*out)["residual"] = ToJson(model.residual);
   (*out)["intervals_optimistic"] = model.intervals_optimistic;
   if (model.validation) (*out)["validation"] = ToJson(*model.validation);
@@ -316,6 +317,92 @@ void SanitizeJson(json* value) {
   } else if (value->is_structured()) {
     for (auto& item : *value) SanitizeJson(&item);
   }
+}
+
+namespace {
+
+struct FiguresJson {
+  json operator()(const std::monostate&) const { return json::object(); }
+  json operator()(const CeresFigures& f) const {
+    json out = {{"fd_step", f.fd_step},
+                {"initial_cost", f.initial_cost},
+                {"final_cost", f.final_cost},
+                {"successful_steps", f.successful_steps},
+                {"unsuccessful_steps", f.unsuccessful_steps}};
+    if (!f.residual_rms.empty()) out["residual_rms"] = f.residual_rms;
+    return out;
+  }
+  json operator()(const PowellFigures& f) const {
+    return {{"initial_step_scaled", f.initial_step_scaled},
+            {"xtol_abs_scaled", f.xtol_abs_scaled},
+            {"ftol_rel", f.ftol_rel},
+            {"max_evaluations", f.max_evaluations}};
+  }
+  json operator()(const FsdFigures& f) const {
+    json polished = json::array();
+    for (const auto& p : f.polished)
+      polished.push_back(
+          {{"source", p.source}, {"start_cost", p.start_cost}, {"end_cost", p.end_cost}});
+    json walkers = json::array();
+    for (double best : f.walker_best_cost)
+      walkers.push_back({{"best_cost", std::isfinite(best) ? json(best) : json(nullptr)}});
+    return {{"seed", f.seed},
+            {"polished", polished},
+            {"winner", f.winner},
+            {"walkers", f.walkers},
+            {"bursts", f.bursts},
+            {"burst_steps", f.burst_steps},
+            {"quench_evaluations", f.quench_evaluations},
+            {"quench_step", f.quench_step},
+            {"probes", f.probes},
+            {"cost_scale", f.cost_scale},
+            {"t0", f.t0},
+            {"schedule", f.schedule},
+            {"step_a", f.step_a},
+            {"initial_spread", f.initial_spread},
+            {"fd_step", f.fd_step},
+            {"max_step", f.max_step},
+            {"polish", f.polish},
+            {"polish_evaluations", f.polish_evaluations},
+            {"polish_step", f.polish_step},
+            {"walker_results", walkers}};
+  }
+  json operator()(const ClassicFigures& f) const {
+    return {{"notes", f.notes}, {"tau_s", f.tau_s}, {"plateaus", f.plateaus}};
+  }
+};
+
+json IntervalJson(const IntervalRecord& r) {
+  json out = json::object();
+  if (!r.method.empty()) out["method"] = r.method;
+  if (!r.variance_ratio.empty()) out["variance_ratio"] = r.variance_ratio;
+  if (r.has_bandwidth) {
+    out["bandwidth"] = r.bandwidth;
+    out["prewhitening_gain"] = r.prewhitening_gain;
+  }
+  if (!r.unavailable.empty()) out["unavailable"] = r.unavailable;
+  if (r.leave_one_trace_out) {
+    const JackknifeRecord& j = *r.leave_one_trace_out;
+    json record = {{"traces", j.traces}};
+    if (!j.ok) {
+      record["unavailable"] = j.unavailable;
+    } else {
+      record["t_quantile"] = j.t_quantile;
+      json spread = json::object();
+      for (const auto& p : j.parameters) spread[p.name] = {{"std", p.std}, {"refits", p.refits}};
+      record["parameters"] = spread;
+    }
+    out["leave_one_trace_out"] = record;
+  }
+  return out;
+}
+
+}  // namespace
+
+json MethodDetailsJson(const OptimizerSummary& summary) {
+  json out = std::visit(FiguresJson{}, summary.figures);
+  if (summary.interval) out["interval"] = IntervalJson(*summary.interval);
+  return out;
 }
 
 void to_json(json& out, const ErrorFigures& errors) {

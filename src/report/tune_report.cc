@@ -9,6 +9,7 @@
 #include "blmd/report/report.h"
 #include "blmd/sim/effects.h"
 #include "blmd/version.h"
+#include "report/config_document.h"
 
 namespace blmd {
 namespace {
@@ -37,12 +38,22 @@ std::string InputUnit(const TuneInput& input) {
 }
 
 // The gains' units: the input's unit over the measured output's (rad, or rad/s), times s^k.
-json GainUnits(const TuneInput& input, const TuneRequest& request) {
+GainUnits UnitsOfGains(const TuneInput& input, const TuneRequest& request) {
   const std::string u = InputUnit(input);
-  if (IsSpeed(request)) {
-    return {{"kp", u + "·s/rad"}, {"ki", u + "/rad"}, {"kd", u + "·s²/rad"}};
-  }
-  return {{"kp", u + "/rad"}, {"ki", u + "/(rad·s)"}, {"kd", u + "·s/rad"}};
+  if (IsSpeed(request)) return {u + "·s/rad", u + "/rad", u + "·s²/rad"};
+  return {u + "/rad", u + "/(rad·s)", u + "·s/rad"};
+}
+
+// experiment.pid of the tuned loop's checked step, as blmd-sim reads it.
+json PidExperimentJson(const TuneRequest& request, const TuneResult& result) {
+  const Experiment e = StepExperiment(request.design.loop, result.design.controller, request.u_max,
+                                      result.step, result.duration, result.sample_rate);
+  return {{"loop", IsSpeed(request) ? "speed" : "position"},
+          {"Kp", e.pid.Kp},
+          {"Ki", e.pid.Ki},
+          {"Kd", e.pid.Kd},
+          {"tau_d", e.pid.tau_d},
+          {"u_max", e.pid.u_max}};
 }
 
 json StepJson(const ClosedLoopStep& s) {
@@ -159,23 +170,15 @@ json PlantJson(const TuneInput& input, const TuneResult& result) {
           {"effects", input.config.effects}};
 }
 
-json ControllerJson(const TuneInput& input, const TuneRequest& request, const TuneResult& result) {
-  const Controller& c = result.design.controller;
-  const Experiment e = StepExperiment(request.design.loop, c, request.u_max, result.step,
-                                      result.duration, result.sample_rate);
-  return {{"structure", IsSpeed(request) ? "PI" : "PID"},
+json ControllerJson(const TuneReport& report) {
+  const Controller& c = report.result.design.controller;
+  return {{"structure", IsSpeed(report.request) ? "PI" : "PID"},
           {"kp", c.kp},
           {"ki", c.ki},
           {"kd", c.kd},
           {"derivative_filter_hz", c.derivative_filter_hz},
-          {"units", GainUnits(input, request)},
-          {"pid_experiment",
-           {{"loop", IsSpeed(request) ? "speed" : "position"},
-            {"Kp", e.pid.Kp},
-            {"Ki", e.pid.Ki},
-            {"Kd", e.pid.Kd},
-            {"tau_d", e.pid.tau_d},
-            {"u_max", e.pid.u_max}}}};
+          {"units", {{"kp", report.units.kp}, {"ki", report.units.ki}, {"kd", report.units.kd}}},
+          {"pid_experiment", PidExperimentJson(report.request, report.result)}};
 }
 
 json PolesJson(const ClosedLoopPoles& poles) {
@@ -186,8 +189,20 @@ json PolesJson(const ClosedLoopPoles& poles) {
 
 }  // namespace
 
-json TuneReportJson(const TuneInput& input, const TuneRequest& request, const TuneResult& result) {
-  json out = json::object();
+TuneReport MakeTuneReport(TuneInput input, TuneRequest request, TuneResult result) {
+  TuneReport report;
+  report.units = UnitsOfGains(input, request);
+  report.input = std::move(input);
+  report.request = std::move(request);
+  report.result = std::move(result);
+  return report;
+}
+
+void to_json(json& out, const TuneReport& report) {
+  const TuneInput& input = report.input;
+  const TuneRequest& request = report.request;
+  const TuneResult& result = report.result;
+  out = json::object();
   out["tool"] = "blmd-tune";
   out["version"] = kVersion;
   out["schema_version"] = kTuneReportSchemaVersion;
@@ -207,7 +222,7 @@ json TuneReportJson(const TuneInput& input, const TuneRequest& request, const Tu
       {"source",
        "Astrom & Hagglund, PID Controllers: Theory, Design, and Tuning (1995), ch. 4; "
        "docs/tuning.md"}};
-  out["controller"] = ControllerJson(input, request, result);
+  out["controller"] = ControllerJson(report);
   json achieved = MarginsJson(result.nominal);
   achieved["closed_loop_poles"] = PolesJson(result.nominal.poles);
   out["achieved"] = achieved;
@@ -219,13 +234,14 @@ json TuneReportJson(const TuneInput& input, const TuneRequest& request, const Tu
     warnings.push_back({{"code", code}, {"message", message}});
   out["warnings"] = warnings;
   SanitizeJson(&out);
-  return out;
 }
 
-std::string TuneSummary(const TuneInput& input, const TuneRequest& request,
-                        const TuneResult& result) {
+std::string TuneSummary(const TuneReport& report) {
+  const TuneInput& input = report.input;
+  const TuneRequest& request = report.request;
+  const TuneResult& result = report.result;
   const Controller& c = result.design.controller;
-  const json units = GainUnits(input, request);
+  const GainUnits& units = report.units;
   const LoopMargins& m = result.nominal.margins;
   const ClosedLoopStep& s = result.nominal.step;
   const WorstCase& w = result.worst;
@@ -235,10 +251,9 @@ std::string TuneSummary(const TuneInput& input, const TuneRequest& request,
       << input.config.model->name() << " '" << input.config.name << "' for "
       << Text(request.design.crossover_hz) << " Hz, " << Text(request.design.phase_margin_deg)
       << " deg\n";
-  out << "  kp " << Text(c.kp, 6) << " " << units["kp"].get<std::string>() << "   ki "
-      << Text(c.ki, 6) << " " << units["ki"].get<std::string>() << "   kd " << Text(c.kd, 6) << " "
-      << units["kd"].get<std::string>() << "   derivative filter " << Text(c.derivative_filter_hz)
-      << " Hz\n";
+  out << "  kp " << Text(c.kp, 6) << " " << units.kp << "   ki " << Text(c.ki, 6) << " " << units.ki
+      << "   kd " << Text(c.kd, 6) << " " << units.kd << "   derivative filter "
+      << Text(c.derivative_filter_hz) << " Hz\n";
   out << "  achieved: crossover " << Text(m.crossover_hz) << " Hz, phase margin "
       << Text(m.phase_margin_deg) << " deg, gain margin " << Text(m.gain_margin_db) << " dB\n";
   out << "  step " << Text(result.step) << " " << unit << ": rise " << Text(s.rise_time_s)
@@ -258,46 +273,27 @@ std::string TuneSummary(const TuneInput& input, const TuneRequest& request,
   return out.str();
 }
 
-json ClosedLoopConfigJson(const TuneInput& input, const TuneRequest& request,
-                          const TuneResult& result) {
+json ClosedLoopConfigJson(const TuneReport& report) {
+  const TuneInput& input = report.input;
+  const TuneRequest& request = report.request;
+  const TuneResult& result = report.result;
   const Config& config = input.config;
-  json doc = config.document.is_object() ? config.document : json::object();
-  doc["model"] = std::string(config.model->name());
-  if (doc.contains("description")) doc.erase("description");  // it described the old experiment
+  json doc = ConfigDocumentOf(config);
   doc["description"] = std::string("The ") + (IsSpeed(request) ? "speed" : "position") +
                        " loop tuned by blmd-tune for " + Text(request.design.crossover_hz) +
                        " Hz and " + Text(request.design.phase_margin_deg) +
                        " deg of phase margin: a step of the reference from rest.";
-  json parameters = json::object();
-  for (const auto& info : config.model->parameters()) {
-    if (config.parameters.Has(info.name)) parameters[info.name] = config.parameters.Get(info.name);
-  }
-  doc["parameters"] = parameters;
-  json effects = json::object();
-  for (const auto& name : config.effects) {
-    json effect = json::object();
-    for (const auto& p : FindEffect(name).parameters)
-      effect[p.config_key()] = config.parameters.Get(p.name);
-    effects[name] = effect;
-  }
-  if (effects.empty()) {
-    doc.erase("effects");
-  } else {
-    doc["effects"] = effects;
-  }
-  const json controller = ControllerJson(input, request, result);
+  SetModelValues(config, config.parameters, &doc);
   doc["experiment"] = {{"input", {{"type", "step"}, {"amplitude", result.step}}},
-                       {"pid", controller["pid_experiment"]},
+                       {"pid", PidExperimentJson(request, result)},
                        {"duration", result.duration},
                        {"sample_rate", result.sample_rate}};
   json notes = {{"tuned_by", std::string("blmd-tune ") + kVersion},
                 {"from_config", config.path},
                 {"request", RequestJson(request, result)},
-                {"controller", controller}};
+                {"controller", ControllerJson(report)}};
   if (!input.report_path.empty()) notes["from_report"] = input.report_path;
-  if (!config.notes.is_null()) notes["config_notes"] = config.notes;
-  doc["notes"] = notes;
-  SanitizeJson(&doc);
+  SetNotes(config, std::move(notes), &doc);
   return doc;
 }
 

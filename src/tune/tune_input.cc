@@ -4,6 +4,7 @@
 
 #include "blmd/error.h"
 #include "blmd/io/files.h"
+#include "blmd/io/stored_report.h"
 #include "blmd/sim/effects.h"
 #include "blmd/tune/tune.h"
 
@@ -51,89 +52,61 @@ ParameterInterval Interval(const Config& config, const std::string& name, double
 
 // The report's final effects that the config lacks, added with the report's values; a
 // config effect the report's final model lacks means the report is of another config.
-void ApplyEffects(const JsonDocument& document, Config* config) {
-  const json& root = document.root();
-  if (!root.contains("effects") || !root["effects"].is_array()) {
-    document.Fail(root.contains("effects") ? "/effects" : "",
-                  "the report has no \"effects\" list (its final model's effects)");
+void ApplyEffects(const StoredReport& report, Config* config) {
+  if (!report.has_effects()) {
+    report.Fail("", "the report has no \"effects\" list (its final model's effects)");
   }
-  std::vector<std::string> effects;
-  for (std::size_t k = 0; k < root["effects"].size(); ++k) {
-    const json& name = root["effects"][k];
-    if (!name.is_string()) document.Fail("/effects/" + std::to_string(k), "not an effect name");
-    effects.push_back(name.get<std::string>());
-  }
+  const std::vector<std::string>& effects = report.effects();
   for (const auto& declared : config->effects) {
     if (std::find(effects.begin(), effects.end(), declared) == effects.end()) {
-      document.Fail("/effects", "the report's final model lacks the effect '" + declared +
-                                    "' that " + config->path +
-                                    " declares: a report of another config");
+      report.Fail("/effects", "the report's final model lacks the effect '" + declared + "' that " +
+                                  config->path + " declares: a report of another config");
     }
   }
-  const json& parameters = root["parameters"];
   for (const auto& name : effects) {
     if (std::find(config->effects.begin(), config->effects.end(), name) != config->effects.end())
       continue;
     ParameterSet values;
     try {
       for (const auto& p : FindEffect(name).parameters) {
-        const json& entry = parameters.contains(p.name) ? parameters[p.name] : json();
-        if (entry.is_object() && entry.contains("value") && entry["value"].is_number())
-          values.Set(p.name, entry["value"].get<double>());
+        if (const StoredParameter* stored = report.FindParameter(p.name))
+          values.Set(p.name, stored->value);
       }
       config->AddEffect(name, values);
     } catch (const InputError& error) {
-      document.Fail("/effects", error.what());
+      report.Fail("/effects", error.what());
     }
   }
 }
 
 // The report's final values replace the config's; its free parameters' ci95 are the box.
 void ApplyReport(const std::string& path, TuneInput* input) {
-  const JsonDocument document =
-      JsonDocument::Load(path, 256u << 20, "identification report (a blmd-ident --report JSON)");
-  const json& root = document.root();
+  const StoredReport report = StoredReport::Load(path, "identification report");
   Config& config = input->config;
-  if (!root.is_object() || root.value("tool", std::string()) != "blmd-ident") {
-    document.Fail("", "not a blmd-ident report (no \"tool\": \"blmd-ident\")");
-  }
   const std::string model(config.model->name());
-  if (!root.contains("model") || !root["model"].is_string() || root["model"] != model) {
-    document.Fail(root.contains("model") ? "/model" : "",
-                  "the report is of model " +
-                      (root.contains("model") ? root["model"].dump() : std::string("(none)")) +
-                      ", the config's model is " + model);
-  }
-  if (!root.contains("parameters") || !root["parameters"].is_object()) {
-    document.Fail("", "the report has no \"parameters\" object");
-  }
-  ApplyEffects(document, &config);
-  for (const auto& [name, entry] : root["parameters"].items()) {
-    const std::string pointer = "/parameters/" + name;
-    if (!entry.is_object() || !entry.contains("value") || !entry["value"].is_number()) {
-      document.Fail(pointer, "parameter '" + name + "' has no numeric \"value\"");
-    }
-    const ParamInfo* info = config.FindParameterInfo(name);
+  report.RequireModel(model, "the report is of model", "the config's model is");
+  ApplyEffects(report, &config);
+  for (const StoredParameter& entry : report.parameters()) {
+    const std::string pointer = "/parameters/" + entry.name;
+    const ParamInfo* info = config.FindParameterInfo(entry.name);
     if (!info) {
-      document.Fail(pointer, "'" + name + "' is not a parameter of model " + model +
-                                 " or of the effects " + Join(config.effects));
+      report.Fail(pointer, "'" + entry.name + "' is not a parameter of model " + model +
+                               " or of the effects " + Join(config.effects));
     }
-    const double value = entry["value"].get<double>();
-    if ((info->positive && !(value > 0.0)) || (info->non_negative && value < 0.0)) {
-      document.Fail(pointer + "/value",
-                    "parameter '" + name + "' must be " + (info->positive ? "> 0" : ">= 0"));
+    if ((info->positive && !(entry.value > 0.0)) || (info->non_negative && entry.value < 0.0)) {
+      report.Fail(pointer + "/value",
+                  "parameter '" + entry.name + "' must be " + (info->positive ? "> 0" : ">= 0"));
     }
-    config.parameters.Set(name, value);
+    config.parameters.Set(entry.name, entry.value);
   }
-  for (const auto& [name, entry] : root["parameters"].items()) {
-    const json& ci = entry.contains("ci95") ? entry["ci95"] : json();
-    if (entry.value("free", false) && IsPair(ci)) {
-      input->box.push_back(Interval(config, name, ci[0].get<double>(), ci[1].get<double>()));
+  for (const StoredParameter& entry : report.parameters()) {
+    if (entry.free && entry.has_ci95) {
+      input->box.push_back(Interval(config, entry.name, entry.ci95_low, entry.ci95_high));
     }
   }
   input->box_source = input->box.empty() ? "" : "report";
   input->report_path = path;
-  input->report_sha256 = Sha256Hex(ReadFileText(path, 256u << 20, "identification report"));
+  input->report_sha256 = report.sha256();
 }
 
 // The intervals blmd-ident --write-config records in a config's notes (docs/export.md §1).

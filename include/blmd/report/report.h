@@ -216,6 +216,9 @@ void to_json(nlohmann::json& out, const IdentReport& report);
 void to_json(nlohmann::json& out, const ErrorFigures& errors);
 void to_json(nlohmann::json& out, const ResidualAnalysis& analysis);
 void to_json(nlohmann::json& out, const DiscoveryReport& discovery);
+// The report's method_summary.details: the method's own figures and how the intervals were
+// computed (OptimizerSummary::figures, interval).
+nlohmann::json MethodDetailsJson(const OptimizerSummary& summary);
 
 // A discovery step's parameters by name, as the summary and the page list them: the
 // effect's fitted ones (`fitted` points at the estimate, with its interval) and its fixed

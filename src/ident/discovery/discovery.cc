@@ -404,7 +404,7 @@ void RefitCandidate(const FitProblem& base, const RoundBase& round, const Candid
   for (std::size_t k = 0; k < run->free.size(); ++k) run->free[k].initial = run->screen_values[k];
   const FitProblem problem = MakeProblem(run->config, base.traces(), base.observe(), run->free);
   OptimizerOptions refit = options.refit;
-  if (!refit.method_options.contains("max_iterations")) refit.method_options["max_iterations"] = 50;
+  refit.default_max_iterations = 50;  // unless the user's --option max_iterations says otherwise
   run->fit = FindOptimizer("ceres").Minimize(problem, refit);
   if (run->fit.evaluation.ok && problem.effect_angle_forced()) {
     // Fitted at the measured angle: polish on the free-running model from there (its basin
@@ -576,18 +576,378 @@ double Bic(const FitProblem& problem, const Evaluation& evaluation, std::size_t 
   return bic + static_cast<double>(k) * std::log(static_cast<double>(total));
 }
 
-DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
-                         const DiscoveryOptions& options) {
-  DiscoveryResult result;
-  std::vector<std::string> candidates = options.candidates;
-  const std::string model(problem.config().model->name());
-  if (candidates.empty()) {
-    for (const auto& effect : EffectRegistry()) {
-      if (std::find(effect.models.begin(), effect.models.end(), model) != effect.models.end()) {
-        candidates.push_back(effect.name);
+namespace {
+
+// The effects a round tries: the user's list, else every effect declared for the model.
+std::vector<std::string> CandidateEffects(const DiscoveryOptions& options,
+                                          const std::string& model) {
+  if (!options.candidates.empty()) return options.candidates;
+  std::vector<std::string> candidates;
+  for (const auto& effect : EffectRegistry()) {
+    if (std::find(effect.models.begin(), effect.models.end(), model) != effect.models.end()) {
+      candidates.push_back(effect.name);
+    }
+  }
+  return candidates;
+}
+
+// One round of the search: the candidates planned, screened and refit, and their order.
+struct Round {
+  int number = 1;  // from 1, for the progress stages and the report's words
+  std::vector<CandidatePlan> plans;
+  std::vector<CandidateRun> runs;  // one per plan
+  std::vector<std::size_t> order;  // indices into runs, best first
+  RoundBase base;                  // what every candidate is compared with
+};
+
+// `work` on each of `items`, on `threads` threads.
+void ForEachItem(const std::vector<std::size_t>& items, int threads,
+                 const std::function<void(std::size_t)>& work) {
+  internal::ParallelFor(items.size(), threads, [&](std::size_t k) { work(items[k]); });
+}
+
+// Plans every candidate not yet in the model, screens each with one Gauss-Newton step, refits
+// the promising ones and orders them best first. False when no candidate is left to try.
+bool ScreenAndRefit(const FitProblem& current, const FitResult& fit, double current_bic,
+                    const std::vector<std::string>& candidates, const ResidualAnalysis& analysis,
+                    double noise_floor_nrmse, const DiscoveryOptions& options, Round* round) {
+  std::vector<CandidatePlan>& plans = round->plans;
+  for (const auto& effect : candidates) {
+    const auto& declared = current.config().effects;
+    if (std::find(declared.begin(), declared.end(), effect) != declared.end()) continue;
+    plans.push_back(PlanCandidate(effect, current, analysis, fit.values));
+  }
+  if (plans.empty()) return false;
+  std::vector<CandidateRun>& runs = round->runs;
+  runs.resize(plans.size());
+  const int threads = internal::ThreadCount(options.refit.threads);
+  std::vector<std::size_t> all(plans.size());
+  for (std::size_t k = 0; k < all.size(); ++k) all[k] = k;
+  ProgressObserver* const progress = options.refit.progress;
+  const std::string round_name = "discovery round " + std::to_string(round->number);
+  if (progress) progress->BeginStage(round_name + ": screening", static_cast<int>(plans.size()));
+  ForEachItem(all, threads, [&](std::size_t k) {
+    runs[k] = ScreenCandidate(current, fit.values, plans[k], current_bic, progress);
+    if (progress) progress->StepDone();
+  });
+  round->base = MakeRoundBase(current, fit.values, noise_floor_nrmse, options);
+  // Refit the most promising candidates by their screening BIC (deterministic order).
+  // Only candidates whose screening already lowers BIC are worth a full refit.
+  std::vector<std::size_t> screened;
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    if (!runs[k].screen_values.empty() && runs[k].screen_bic < 0.0) screened.push_back(k);
+  }
+  std::stable_sort(screened.begin(), screened.end(), [&](std::size_t l, std::size_t r) {
+    return runs[l].screen_bic < runs[r].screen_bic;
+  });
+  // The best `refits`, and every position-dependent candidate (cogging, gravity, spring)
+  // whose screening lowers BIC: their screening is the least reliable (a narrow
+  // free-running basin around the measured-angle fit), and behind slow candidates that
+  // bend the simulation a little everywhere a cogging ripple was never refit (a case:
+  // Coulomb friction beside cogging, gravity added in its place).
+  std::vector<std::size_t> refit;
+  for (std::size_t q = 0; q < screened.size(); ++q) {
+    if (q < static_cast<std::size_t>(options.refits) ||
+        FindEffect(plans[screened[q]].effect).position_dependent)
+      refit.push_back(screened[q]);
+  }
+  if (progress && !refit.empty())
+    progress->BeginStage(round_name + ": refits", static_cast<int>(refit.size()));
+  ForEachItem(refit, threads, [&](std::size_t k) {
+    RefitCandidate(current, round->base, plans[k], current_bic, options, &runs[k]);
+    runs[k].refitted = true;
+    if (progress) progress->StepDone();
+  });
+  for (auto& run : runs) {
+    if (!run.refitted && !run.screen_values.empty()) {
+      run.outcome.reason = run.screen_bic >= 0.0
+                               ? "screened out: one Gauss-Newton step does not lower BIC (" +
+                                     G(run.screen_bic, 4) + ")"
+                               : "screened out (one-step BIC " + G(run.screen_bic, 4) +
+                                     "; only the best " + std::to_string(options.refits) +
+                                     " are refit)";
+    }
+  }
+  // Best first: fitted before not, then by BIC; ties by name (deterministic).
+  std::vector<std::size_t>& order = round->order;
+  order.resize(runs.size());
+  for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t l, std::size_t r) {
+    const auto& a = runs[l].outcome;
+    const auto& b = runs[r].outcome;
+    if (a.fitted != b.fitted) return a.fitted;
+    if (a.fitted && a.bic != b.bic) return a.bic < b.bic;
+    if (!a.fitted && runs[l].screen_bic != runs[r].screen_bic)
+      return runs[l].screen_bic < runs[r].screen_bic;
+    return a.effect < b.effect;
+  });
+  return true;
+}
+
+// The stopping rule (docs/discovery.md §3b): the evidence, physically valid, material, and
+// generalising to the part of the record it was not fitted to.
+bool PassesEvidence(const CandidateOutcome& o, const DiscoveryOptions& options) {
+  return o.fitted && o.valid && o.held_out_better && o.delta_bic < -options.bic_margin &&
+         o.material;
+}
+
+// Block cross-validation of every candidate that passes the evidence, best first: each must
+// predict the record's parts it was not fitted to better than the current model does.
+void CrossValidateCandidates(const FitProblem& problem, const FitProblem& current,
+                             const FitResult& fit, const DiscoveryOptions& options, Round* round,
+                             DiscoveryResult* result) {
+  if (!options.cross_validate || (options.held_out && !options.held_out->empty())) return;
+  ProgressObserver* const progress = options.refit.progress;
+  std::optional<CrossValidation> base_cv;
+  for (std::size_t k : round->order) {
+    CandidateRun& run = round->runs[k];
+    CandidateOutcome& o = run.outcome;
+    if (!PassesEvidence(o, options)) continue;
+    if (!base_cv) {
+      base_cv = BlockCrossValidate(current.config(), StartingAt(current.free(), fit.values),
+                                   problem.traces(), problem.observe(), fit.values, options.refit);
+      result->cross_validation_parts = base_cv->parts;
+    }
+    if (!base_cv->ok) break;  // nothing to compare with: the evidence alone decides
+    // Parts that do not predict each other even with the current model (a cross-validated
+    // NRMSE over twice the fitted one) cannot judge a candidate: the evidence alone decides,
+    // and the report says why (cross_validation_parts).
+    if (!(base_cv->nrmse <= 2.0 * round->base.nrmse)) {
+      result->cross_validation_parts += " (not used in round " + std::to_string(round->number) +
+                                        ": the parts predict each other with NRMSE " +
+                                        G(base_cv->nrmse) + " against " + G(round->base.nrmse) +
+                                        " fitted)";
+      break;
+    }
+    if (progress) {
+      progress->BeginStage(
+          "discovery round " + std::to_string(round->number) + ": cross-validating " + o.effect, 0);
+    }
+    const CrossValidation cv =
+        BlockCrossValidate(run.config, StartingAt(run.free, run.fit.values), problem.traces(),
+                           problem.observe(), run.fit.values, options.refit);
+    if (!cv.ok) continue;  // the candidate keeps its evidence-only verdict
+    o.cross_validated = true;
+    o.cv_before = base_cv->nrmse;
+    o.cv_after = cv.nrmse;
+    o.generalises = cv.nrmse < (1.0 - options.held_out_margin) * base_cv->nrmse;
+    if (!o.generalises) {
+      o.reason = "tried, not needed: does not generalise (cross-validated NRMSE " + G(o.cv_before) +
+                 " -> " + G(o.cv_after) + ", needs a fall of more than " +
+                 G(100.0 * options.held_out_margin) + " %)";
+    }
+  }
+}
+
+// The candidates that qualify, best first, after parsimony and generalisation: the best by BIC
+// gives way to another qualifying one with fewer parameters unless it predicts the data they
+// were not fitted to better (by the margin: a Stribeck curve must show its dip, not reshape a
+// Coulomb friction), and to one with as many parameters that predicts those data better by
+// the margin (a case: gravity's one period per revolution ahead of a cogging ripple by BIC,
+// the cogging 2 % better on the held-out blocks).
+std::vector<std::size_t> QualifyingCandidates(const DiscoveryOptions& options, Round* round) {
+  std::vector<CandidateRun>& runs = round->runs;
+  std::vector<std::size_t> qualifying;
+  for (std::size_t k : round->order) {
+    const auto& o = runs[k].outcome;
+    if (PassesEvidence(o, options) && o.generalises) qualifying.push_back(k);
+  }
+  auto out_of_sample = [&](const CandidateOutcome& o) {
+    if (o.cross_validated) return o.cv_after;
+    if (o.has_held_out) return o.held_out_after;
+    return std::numeric_limits<double>::quiet_NaN();
+  };
+  if (qualifying.size() <= 1) return qualifying;
+  const std::size_t first = qualifying.front();
+  for (std::size_t q = 1; q < qualifying.size(); ++q) {
+    const std::size_t other = qualifying[q];
+    const double first_score = out_of_sample(runs[first].outcome);
+    const double other_score = out_of_sample(runs[other].outcome);
+    const std::size_t first_size = round->plans[first].free.size();
+    const std::size_t other_size = round->plans[other].free.size();
+    if (other_size > first_size || !std::isfinite(first_score) || !std::isfinite(other_score))
+      continue;
+    const bool simpler = other_size < first_size;
+    const bool gives_way = simpler ? !(first_score < (1.0 - options.held_out_margin) * other_score)
+                                   : other_score < (1.0 - options.held_out_margin) * first_score;
+    if (!gives_way) continue;
+    runs[first].outcome.reason =
+        simpler ? "tried, not needed: its " + std::to_string(first_size) +
+                      " parameters do not predict the data they were not fitted to better "
+                      "than " +
+                      runs[other].outcome.effect + "'s " + std::to_string(other_size) + " (" +
+                      G(first_score) + " against " + G(other_score) + ")"
+                : "tried, not needed: " + runs[other].outcome.effect +
+                      ", with as many parameters, predicts the data they were not fitted "
+                      "to better by more than " +
+                      G(100.0 * options.held_out_margin) + " % (" + G(other_score) + " against " +
+                      G(first_score) + ")";
+    qualifying.erase(qualifying.begin());
+    std::stable_sort(qualifying.begin(), qualifying.end(), [&](std::size_t l, std::size_t r) {
+      if (l == other) return r != other;
+      return false;
+    });
+    break;
+  }
+  return qualifying;
+}
+
+// The qualifying candidates whose BIC is within the ambiguity margin of the best: recorded in
+// `result` (the models, their names and what would tell them apart) when there are several.
+// Returns the names beside the best.
+std::vector<std::string> RecordAmbiguity(const Round& round,
+                                         const std::vector<std::size_t>& qualifying,
+                                         const ResidualAnalysis& analysis,
+                                         const DiscoveryOptions& options, DiscoveryResult* result) {
+  const CandidateRun& best = round.runs[qualifying.front()];
+  std::vector<std::string> tied = {best.outcome.effect};
+  for (std::size_t q = 1; q < qualifying.size(); ++q) {
+    const CandidateOutcome& o = round.runs[qualifying[q]].outcome;
+    if (std::abs(o.bic - best.outcome.bic) < options.ambiguity_margin) tied.push_back(o.effect);
+  }
+  if (tied.size() <= 1) return {};
+  // The best of equals is added (the model with none of them fits clearly worse than each: it
+  // must not head the report) and the others are reported beside it, the headline's
+  // intervals widened to cover their values (WidenForAmbiguity).
+  std::vector<std::string> ambiguous_with(tied.begin() + 1, tied.end());
+  std::vector<CandidateOutcome> models;
+  for (const auto& name : tied) {
+    for (std::size_t k : round.order) {
+      if (round.runs[k].outcome.effect == name && round.runs[k].outcome.fitted) {
+        models.push_back(round.runs[k].outcome);
+        break;
       }
     }
   }
+  result->ambiguous_models.push_back(models);
+  // Listed by name: which of equals comes first carries no information.
+  std::sort(tied.begin(), tied.end());
+  result->ambiguous.push_back(tied);
+  std::string names;
+  for (const auto& n : tied) names += (names.empty() ? "" : " and ") + n;
+  // The hint names what would separate these effects: the direction of motion only when one
+  // of them is a friction (sign of w) and another a constant torque.
+  bool friction = false, constant = false;
+  for (const auto& n : tied) {
+    const internal::EffectSearch* search = internal::FindEffectSearch(n);
+    friction = friction || (search && search->pointer == internal::Pointer::kSignOfW);
+    constant = constant || (search && search->pointer == internal::Pointer::kResidualMean);
+  }
+  result->ambiguity_reason =
+      names + " explain the residual equally well (BIC within " + G(options.ambiguity_margin) +
+      ")" +
+      (!analysis.w_changes_sign && friction && constant
+           ? "; w never changes sign on this data, so friction and a constant load look "
+             "alike: record motion in both directions to tell them apart"
+           : ": an experiment that drives them differently (other speeds, amplitudes or "
+             "directions; blmd-design) would tell them apart");
+  return ambiguous_with;
+}
+
+// The round's line in the report: the winner `winner` (an index into round.runs) added to the
+// current model, with its evidence.
+DiscoveryStep MakeStep(const Round& round, std::size_t winner, const FitResult& current_fit,
+                       double current_bic, std::size_t current_free,
+                       const ResidualAnalysis& analysis) {
+  const CandidateRun& best = round.runs[winner];
+  DiscoveryStep step;
+  step.effect = best.outcome.effect;
+  step.nrmse_before = std::sqrt(current_fit.evaluation.nrmse2);
+  step.nrmse_after = best.outcome.nrmse;
+  step.bic_before = current_bic;
+  step.bic_after = best.outcome.bic;
+  for (std::size_t k : round.order) step.candidates.push_back(round.runs[k].outcome);
+  step.fixed_parameters = best.fixed;
+  for (std::size_t k = current_free; k < best.fit.estimates.size(); ++k) {
+    step.effect_parameters.push_back(best.fit.estimates[k]);
+  }
+  // The alternative added (cogging: its order), whose own evidence the line cites.
+  const CandidatePlan& best_plan = round.plans[winner];
+  int added_order = 0;
+  std::string alternative_evidence;
+  for (std::size_t a = 0; a < best_plan.fixed_alternatives.size(); ++a) {
+    if (best_plan.fixed_alternatives[a] != best.fixed) continue;
+    const auto periods = best.fixed.find("periods");
+    if (periods != best.fixed.end()) added_order = static_cast<int>(std::lround(periods->second));
+    if (a < best_plan.alternative_evidence.size())
+      alternative_evidence = best_plan.alternative_evidence[a];
+  }
+  step.evidence = Evidence(step.effect, analysis, best.outcome, step.nrmse_before, added_order);
+  if (!best_plan.evidence.empty()) step.evidence += "; " + best_plan.evidence;
+  if (!alternative_evidence.empty()) step.evidence += "; " + alternative_evidence;
+  return step;
+}
+
+// The final model as it runs free (its free parameters start at the winner's values), the
+// model the report scores: fitted to convergence and checked for adequacy.
+void FinishFinalModel(const FitProblem& problem, const FitProblem& current, FitResult current_fit,
+                      const DiscoveryOptions& options, DiscoveryResult* result) {
+  const FitProblem final_problem(current.config(), problem.traces(), problem.observe(),
+                                 current.free());
+  ProgressObserver* const progress = options.refit.progress;
+  if (!result->added.empty() && !current_fit.summary.converged) {
+    // The winner's refit stops after a few iterations (its free-running polish, 20): the
+    // final model, which heads the report, is fitted to convergence from there (a
+    // free-running cogging fit creeps along a narrow valley: 3 of 6 Coulomb + cogging cases
+    // of the adequacy study stopped at 20 iterations, their answers right, the report saying
+    // "not converged"). The user's Ceres options, else Ceres's own iteration limit, 100.
+    if (progress) progress->BeginStage("final model: fitted to convergence", 0);
+    FitResult converged = FindOptimizer("ceres").Minimize(final_problem, options.refit);
+    if (converged.evaluation.ok && converged.evaluation.cost <= current_fit.evaluation.cost)
+      current_fit = std::move(converged);
+  }
+  result->final_config = current.config();
+  for (const auto& p : current.free()) result->final_free.push_back(p.name);
+  result->final_free_parameters = current.free();
+  result->final_fit = std::move(current_fit);
+  if (options.check_adequacy) {
+    if (progress) progress->BeginStage("adequacy check", 0);
+    result->adequacy =
+        CheckResidualStructure(final_problem, result->final_fit.values, options.adequacy);
+    if (!result->added.empty()) {
+      CheckEffectStability(final_problem, result->final_fit.values, result->added, options.refit,
+                           options.adequacy, &result->adequacy);
+    }
+  }
+}
+
+// The conclusion in words: what was added, "nothing missing", or "unexplained" when the
+// adequacy check finds structure that no effect of the vocabulary took up.
+std::string Conclusion(const DiscoveryResult& result, const DiscoveryOptions& options) {
+  const std::string unexplained = result.adequacy.ok && !result.adequacy.flagged.empty()
+                                      ? "unexplained: " + result.adequacy.StructureMessage() +
+                                            ", and no effect of the vocabulary explains it"
+                                      : std::string();
+  std::string best;
+  if (!result.last_round.empty() && result.last_round.front().fitted) {
+    const CandidateOutcome& top = result.last_round.front();
+    best = " (best candidate " + top.effect + ": BIC " + G(top.delta_bic, 4) +
+           (top.reason.empty() ? std::string() : "; " + top.reason) + ")";
+  }
+  if (result.added.empty()) {
+    return !unexplained.empty()
+               ? unexplained + best
+               : "nothing missing: no effect lowers BIC by more than " + G(options.bic_margin) +
+                     " with valid parameters, a material share of the residual and a lower "
+                     "error on the data it was not fitted to" +
+                     best;
+  }
+  std::string names;
+  for (const auto& n : result.added) names += (names.empty() ? "" : ", ") + n;
+  std::string conclusion = "added " + names;
+  if (!result.ambiguous.empty())
+    conclusion += " (the best of models that fit as well: " + result.ambiguity_reason + ")";
+  if (!unexplained.empty()) conclusion += "; then " + unexplained;
+  return conclusion;
+}
+
+}  // namespace
+
+DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
+                         const DiscoveryOptions& options) {
+  DiscoveryResult result;
+  const std::vector<std::string> candidates =
+      CandidateEffects(options, std::string(problem.config().model->name()));
   // The current model: problem + fit.
   auto current_problem = std::make_unique<FitProblem>(problem);
   FitResult current_fit = initial;
@@ -602,260 +962,27 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
   }
   // The measured columns' noise floor: the same for every round.
   result.noise_floor_nrmse = NoiseFloorNrmse(problem);
-  for (int round = 0; round < options.max_effects; ++round) {
+  for (int number = 1; number <= options.max_effects; ++number) {
     const ResidualAnalysis analysis = AnalyseResidual(*current_problem, current_fit.values);
-    std::vector<CandidatePlan> plans;
-    for (const auto& effect : candidates) {
-      const auto& declared = current_problem->config().effects;
-      if (std::find(declared.begin(), declared.end(), effect) != declared.end()) continue;
-      plans.push_back(PlanCandidate(effect, *current_problem, analysis, current_fit.values));
-    }
-    if (plans.empty()) break;
-    std::vector<CandidateRun> runs(plans.size());
-    const int threads = internal::ThreadCount(options.refit.threads);
-    auto parallel = [&](const std::vector<std::size_t>& items,
-                        const std::function<void(std::size_t)>& work) {
-      internal::ParallelFor(items.size(), threads, [&](std::size_t k) { work(items[k]); });
-    };
-    std::vector<std::size_t> all(plans.size());
-    for (std::size_t k = 0; k < all.size(); ++k) all[k] = k;
-    ProgressObserver* const progress = options.refit.progress;
-    const std::string round_name = "discovery round " + std::to_string(round + 1);
-    if (progress) progress->BeginStage(round_name + ": screening", static_cast<int>(plans.size()));
-    parallel(all, [&](std::size_t k) {
-      runs[k] =
-          ScreenCandidate(*current_problem, current_fit.values, plans[k], current_bic, progress);
-      if (progress) progress->StepDone();
-    });
-    const RoundBase round_base =
-        MakeRoundBase(*current_problem, current_fit.values, result.noise_floor_nrmse, options);
-    // Refit the most promising candidates by their screening BIC (deterministic order).
-    // Only candidates whose screening already lowers BIC are worth a full refit.
-    std::vector<std::size_t> screened;
-    for (std::size_t k = 0; k < runs.size(); ++k) {
-      if (!runs[k].screen_values.empty() && runs[k].screen_bic < 0.0) screened.push_back(k);
-    }
-    std::stable_sort(screened.begin(), screened.end(), [&](std::size_t l, std::size_t r) {
-      return runs[l].screen_bic < runs[r].screen_bic;
-    });
-    // The best `refits`, and every position-dependent candidate (cogging, gravity, spring)
-    // whose screening lowers BIC: their screening is the least reliable (a narrow
-    // free-running basin around the measured-angle fit), and behind slow candidates that
-    // bend the simulation a little everywhere a cogging ripple was never refit (a case:
-    // Coulomb friction beside cogging, gravity added in its place).
-    std::vector<std::size_t> refit;
-    for (std::size_t q = 0; q < screened.size(); ++q) {
-      if (q < static_cast<std::size_t>(options.refits) ||
-          FindEffect(plans[screened[q]].effect).position_dependent)
-        refit.push_back(screened[q]);
-    }
-    screened = refit;
-    if (progress && !screened.empty())
-      progress->BeginStage(round_name + ": refits", static_cast<int>(screened.size()));
-    parallel(screened, [&](std::size_t k) {
-      RefitCandidate(*current_problem, round_base, plans[k], current_bic, options, &runs[k]);
-      runs[k].refitted = true;
-      if (progress) progress->StepDone();
-    });
-    for (auto& run : runs) {
-      if (!run.refitted && !run.screen_values.empty()) {
-        run.outcome.reason = run.screen_bic >= 0.0
-                                 ? "screened out: one Gauss-Newton step does not lower BIC (" +
-                                       G(run.screen_bic, 4) + ")"
-                                 : "screened out (one-step BIC " + G(run.screen_bic, 4) +
-                                       "; only the best " + std::to_string(options.refits) +
-                                       " are refit)";
-      }
-    }
-    // Best first: fitted before not, then by BIC; ties by name (deterministic).
-    std::vector<std::size_t> order(runs.size());
-    for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
-    std::stable_sort(order.begin(), order.end(), [&](std::size_t l, std::size_t r) {
-      const auto& a = runs[l].outcome;
-      const auto& b = runs[r].outcome;
-      if (a.fitted != b.fitted) return a.fitted;
-      if (a.fitted && a.bic != b.bic) return a.bic < b.bic;
-      if (!a.fitted && runs[l].screen_bic != runs[r].screen_bic)
-        return runs[l].screen_bic < runs[r].screen_bic;
-      return a.effect < b.effect;
-    });
-    // The stopping rule (docs/discovery.md §3b): the evidence, physically valid, material,
-    // and generalising to the part of the record it was not fitted to.
-    auto passes_evidence = [&](const CandidateOutcome& o) {
-      return o.fitted && o.valid && o.held_out_better && o.delta_bic < -options.bic_margin &&
-             o.material;
-    };
-    const bool cross_validate =
-        options.cross_validate && !(options.held_out && !options.held_out->empty());
-    std::optional<CrossValidation> base_cv;
-    for (std::size_t k : order) {
-      CandidateRun& run = runs[k];
-      CandidateOutcome& o = run.outcome;
-      if (!cross_validate || !passes_evidence(o)) continue;
-      if (!base_cv) {
-        base_cv = BlockCrossValidate(
-            current_problem->config(), StartingAt(current_problem->free(), current_fit.values),
-            problem.traces(), problem.observe(), current_fit.values, options.refit);
-        result.cross_validation_parts = base_cv->parts;
-      }
-      if (!base_cv->ok) break;  // nothing to compare with: the evidence alone decides
-      // Parts that do not predict each other even with the current model (a cross-validated
-      // NRMSE over twice the fitted one) cannot judge a candidate: the evidence alone decides,
-      // and the report says why (cross_validation_parts).
-      if (!(base_cv->nrmse <= 2.0 * round_base.nrmse)) {
-        result.cross_validation_parts += " (not used in round " + std::to_string(round + 1) +
-                                         ": the parts predict each other with NRMSE " +
-                                         G(base_cv->nrmse) + " against " + G(round_base.nrmse) +
-                                         " fitted)";
-        break;
-      }
-      if (progress) progress->BeginStage(round_name + ": cross-validating " + o.effect, 0);
-      const CrossValidation cv =
-          BlockCrossValidate(run.config, StartingAt(run.free, run.fit.values), problem.traces(),
-                             problem.observe(), run.fit.values, options.refit);
-      if (!cv.ok) continue;  // the candidate keeps its evidence-only verdict
-      o.cross_validated = true;
-      o.cv_before = base_cv->nrmse;
-      o.cv_after = cv.nrmse;
-      o.generalises = cv.nrmse < (1.0 - options.held_out_margin) * base_cv->nrmse;
-      if (!o.generalises) {
-        o.reason = "tried, not needed: does not generalise (cross-validated NRMSE " +
-                   G(o.cv_before) + " -> " + G(o.cv_after) + ", needs a fall of more than " +
-                   G(100.0 * options.held_out_margin) + " %)";
-      }
-    }
-    std::vector<std::size_t> qualifying;
-    for (std::size_t k : order) {
-      const auto& o = runs[k].outcome;
-      if (passes_evidence(o) && o.generalises) qualifying.push_back(k);
-    }
-    // Parsimony and generalisation: the best candidate by BIC gives way to another
-    // qualifying one with fewer parameters unless it predicts the data they were not fitted
-    // to better (by the margin: a Stribeck curve must show its dip, not reshape a Coulomb
-    // friction), and to one with as many parameters that predicts those data better by the
-    // margin (a case: gravity's one period per revolution ahead of a cogging ripple by BIC,
-    // the cogging 2 % better on the held-out blocks).
-    auto out_of_sample = [&](const CandidateOutcome& o) {
-      if (o.cross_validated) return o.cv_after;
-      if (o.has_held_out) return o.held_out_after;
-      return std::numeric_limits<double>::quiet_NaN();
-    };
-    if (qualifying.size() > 1) {
-      const std::size_t first = qualifying.front();
-      for (std::size_t q = 1; q < qualifying.size(); ++q) {
-        const std::size_t other = qualifying[q];
-        const double first_score = out_of_sample(runs[first].outcome);
-        const double other_score = out_of_sample(runs[other].outcome);
-        const std::size_t first_size = plans[first].free.size();
-        const std::size_t other_size = plans[other].free.size();
-        if (other_size > first_size || !std::isfinite(first_score) || !std::isfinite(other_score))
-          continue;
-        const bool simpler = other_size < first_size;
-        const bool gives_way = simpler
-                                   ? !(first_score < (1.0 - options.held_out_margin) * other_score)
-                                   : other_score < (1.0 - options.held_out_margin) * first_score;
-        if (!gives_way) continue;
-        runs[first].outcome.reason =
-            simpler ? "tried, not needed: its " + std::to_string(first_size) +
-                          " parameters do not predict the data they were not fitted to better "
-                          "than " +
-                          runs[other].outcome.effect + "'s " + std::to_string(other_size) + " (" +
-                          G(first_score) + " against " + G(other_score) + ")"
-                    : "tried, not needed: " + runs[other].outcome.effect +
-                          ", with as many parameters, predicts the data they were not fitted "
-                          "to better by more than " +
-                          G(100.0 * options.held_out_margin) + " % (" + G(other_score) +
-                          " against " + G(first_score) + ")";
-        qualifying.erase(qualifying.begin());
-        std::stable_sort(qualifying.begin(), qualifying.end(), [&](std::size_t l, std::size_t r) {
-          if (l == other) return r != other;
-          return false;
-        });
-        break;
-      }
-    }
-    std::vector<CandidateOutcome> outcomes;
-    outcomes.reserve(order.size());
-    for (std::size_t k : order) outcomes.push_back(runs[k].outcome);
+    Round round;
+    round.number = number;
+    if (!ScreenAndRefit(*current_problem, current_fit, current_bic, candidates, analysis,
+                        result.noise_floor_nrmse, options, &round))
+      break;
+    CrossValidateCandidates(problem, *current_problem, current_fit, options, &round, &result);
+    const std::vector<std::size_t> qualifying = QualifyingCandidates(options, &round);
     if (qualifying.empty()) {
-      result.last_round = outcomes;
+      for (std::size_t k : round.order) result.last_round.push_back(round.runs[k].outcome);
       break;
     }
-    const CandidateRun& best = runs[qualifying.front()];
-    std::vector<std::string> tied = {best.outcome.effect};
-    for (std::size_t q = 1; q < qualifying.size(); ++q) {
-      if (std::abs(runs[qualifying[q]].outcome.bic - best.outcome.bic) < options.ambiguity_margin) {
-        tied.push_back(runs[qualifying[q]].outcome.effect);
-      }
-    }
-    std::vector<std::string> ambiguous_with;
-    if (tied.size() > 1) {
-      // The best of equals is added (the model with none of them fits clearly worse than
-      // each: it must not head the report) and the others are reported beside it, the
-      // headline's intervals widened to cover their values (WidenForAmbiguity).
-      ambiguous_with.assign(tied.begin() + 1, tied.end());
-      std::vector<CandidateOutcome> models;
-      for (const auto& name : tied) {
-        for (std::size_t k : order) {
-          if (runs[k].outcome.effect == name && runs[k].outcome.fitted) {
-            models.push_back(runs[k].outcome);
-            break;
-          }
-        }
-      }
-      result.ambiguous_models.push_back(models);
-      // Listed by name: which of equals comes first carries no information.
-      std::sort(tied.begin(), tied.end());
-      result.ambiguous.push_back(tied);
-      std::string names;
-      for (const auto& n : tied) names += (names.empty() ? "" : " and ") + n;
-      // The hint names what would separate these effects: the direction of motion only
-      // when one of them is a friction (sign of w) and another a constant torque.
-      bool friction = false, constant = false;
-      for (const auto& n : tied) {
-        const internal::EffectSearch* search = internal::FindEffectSearch(n);
-        friction = friction || (search && search->pointer == internal::Pointer::kSignOfW);
-        constant = constant || (search && search->pointer == internal::Pointer::kResidualMean);
-      }
-      result.ambiguity_reason =
-          names + " explain the residual equally well (BIC within " + G(options.ambiguity_margin) +
-          ")" +
-          (!analysis.w_changes_sign && friction && constant
-               ? "; w never changes sign on this data, so friction and a constant load look "
-                 "alike: record motion in both directions to tell them apart"
-               : ": an experiment that drives them differently (other speeds, amplitudes or "
-                 "directions; blmd-design) would tell them apart");
-    }
-    DiscoveryStep step;
-    step.effect = best.outcome.effect;
-    step.nrmse_before = std::sqrt(current_fit.evaluation.nrmse2);
-    step.nrmse_after = best.outcome.nrmse;
-    step.bic_before = current_bic;
-    step.bic_after = best.outcome.bic;
-    step.candidates = outcomes;
-    step.fixed_parameters = best.fixed;
-    step.ambiguous_with = ambiguous_with;
-    const std::size_t offset = current_problem->num_free();
-    for (std::size_t k = offset; k < best.fit.estimates.size(); ++k) {
-      step.effect_parameters.push_back(best.fit.estimates[k]);
-    }
-    // The alternative added (cogging: its order), whose own evidence the line cites.
-    const CandidatePlan& best_plan = plans[qualifying.front()];
-    int added_order = 0;
-    std::string alternative_evidence;
-    for (std::size_t a = 0; a < best_plan.fixed_alternatives.size(); ++a) {
-      if (best_plan.fixed_alternatives[a] != best.fixed) continue;
-      const auto periods = best.fixed.find("periods");
-      if (periods != best.fixed.end()) added_order = static_cast<int>(std::lround(periods->second));
-      if (a < best_plan.alternative_evidence.size())
-        alternative_evidence = best_plan.alternative_evidence[a];
-    }
-    step.evidence = Evidence(step.effect, analysis, best.outcome, step.nrmse_before, added_order);
-    if (!best_plan.evidence.empty()) step.evidence += "; " + best_plan.evidence;
-    if (!alternative_evidence.empty()) step.evidence += "; " + alternative_evidence;
+    const std::size_t winner = qualifying.front();
+    DiscoveryStep step =
+        MakeStep(round, winner, current_fit, current_bic, current_problem->num_free(), analysis);
+    step.ambiguous_with = RecordAmbiguity(round, qualifying, analysis, options, &result);
     result.steps.push_back(step);
     result.added.push_back(step.effect);
     // The winner becomes the current model, its fitted values its parameters.
+    const CandidateRun& best = round.runs[winner];
     Config config = best.config;
     for (std::size_t k = 0; k < best.free.size(); ++k)
       config.parameters.Set(best.free[k].name, best.fit.values[k]);
@@ -866,63 +993,8 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     current_fit = best.fit;
     current_bic = best.outcome.bic;
   }
-  // The final model as it runs free (its free parameters start at the winner's values), the
-  // model the report scores: fitted to convergence and checked for adequacy.
-  const FitProblem final_problem(current_problem->config(), problem.traces(), problem.observe(),
-                                 current_problem->free());
-  ProgressObserver* const progress = options.refit.progress;
-  if (!result.added.empty() && !current_fit.summary.converged) {
-    // The winner's refit stops after a few iterations (its free-running polish, 20): the
-    // final model, which heads the report, is fitted to convergence from there (a
-    // free-running cogging fit creeps along a narrow valley: 3 of 6 Coulomb + cogging cases
-    // of the adequacy study stopped at 20 iterations, their answers right, the report saying
-    // "not converged"). The user's Ceres options, else Ceres's own iteration limit, 100.
-    if (progress) progress->BeginStage("final model: fitted to convergence", 0);
-    FitResult converged = FindOptimizer("ceres").Minimize(final_problem, options.refit);
-    if (converged.evaluation.ok && converged.evaluation.cost <= current_fit.evaluation.cost)
-      current_fit = std::move(converged);
-  }
-  result.final_config = current_problem->config();
-  for (const auto& p : current_problem->free()) result.final_free.push_back(p.name);
-  result.final_free_parameters = current_problem->free();
-  result.final_fit = current_fit;
-  if (options.check_adequacy) {
-    if (progress) progress->BeginStage("adequacy check", 0);
-    result.adequacy = CheckResidualStructure(final_problem, current_fit.values, options.adequacy);
-    if (!result.added.empty()) {
-      CheckEffectStability(final_problem, current_fit.values, result.added, options.refit,
-                           options.adequacy, &result.adequacy);
-    }
-  }
-  // What is left, in words: "unexplained" when the adequacy check finds structure that no
-  // effect of the vocabulary took up.
-  const std::string unexplained = result.adequacy.ok && !result.adequacy.flagged.empty()
-                                      ? "unexplained: " + result.adequacy.StructureMessage() +
-                                            ", and no effect of the vocabulary explains it"
-                                      : std::string();
-  std::string best;
-  if (!result.last_round.empty() && result.last_round.front().fitted) {
-    const CandidateOutcome& top = result.last_round.front();
-    best = " (best candidate " + top.effect + ": BIC " + G(top.delta_bic, 4) +
-           (top.reason.empty() ? std::string() : "; " + top.reason) + ")";
-  }
-  if (result.added.empty()) {
-    result.conclusion =
-        !unexplained.empty()
-            ? unexplained + best
-            : "nothing missing: no effect lowers BIC by more than " + G(options.bic_margin) +
-                  " with valid parameters, a material share of the residual and a lower error "
-                  "on the data it was not fitted to" +
-                  best;
-  } else {
-    std::string names;
-    for (const auto& n : result.added) names += (names.empty() ? "" : ", ") + n;
-    result.conclusion = "added " + names;
-    if (!result.ambiguous.empty())
-      result.conclusion +=
-          " (the best of models that fit as well: " + result.ambiguity_reason + ")";
-    if (!unexplained.empty()) result.conclusion += "; then " + unexplained;
-  }
+  FinishFinalModel(problem, *current_problem, std::move(current_fit), options, &result);
+  result.conclusion = Conclusion(result, options);
   return result;
 }
 

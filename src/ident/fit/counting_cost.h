@@ -94,7 +94,7 @@ bool NormalisedResidualJacobian(const FitProblem& problem, const std::vector<dou
 // fields and sets the headline interval from the prewhitened HAC sandwich of the cost's
 // weighted residuals r and their Jacobian J
 // (interval_method "hac_prewhitened"); records the sandwich's bandwidth, prewhitening gain
-// and variance ratios in summary.details.interval, or why it is unavailable.
+// and variance ratios in summary.interval, or why it is unavailable.
 void SetSandwichIntervals(const FitProblem& problem, const Eigen::MatrixXd& jacobian,
                           const Eigen::VectorXd& residuals, FitResult* result);
 

@@ -104,19 +104,19 @@ void SetIntervals(const FitProblem& problem, CountingCost* cost, double fd_step,
     summary.interval_unavailable =
         "the Jacobian at the optimum could not be evaluated (a simulation failed or a "
         "derivative is not finite)";
-    summary.details["interval"] = {{"method", "hac_prewhitened"},
-                                   {"unavailable", summary.interval_unavailable}};
+    summary.interval = IntervalRecord{};
+    summary.interval->method = "hac_prewhitened";
+    summary.interval->unavailable = summary.interval_unavailable;
     for (ParameterEstimate& e : result->estimates) e.has_interval = e.has_white_interval = false;
     return;
   }
   const Eigen::MatrixXd jacobian = central.RememberedJacobian();
   const Eigen::VectorXd residuals = central.RememberedResiduals();
   SetSandwichIntervals(problem, jacobian, residuals, result);
-  nlohmann::json noise = nlohmann::json::object();
+  auto& figures = std::get<CeresFigures>(summary.figures);
   for (std::size_t c = 0; c < problem.observe().size(); ++c) {
-    noise[problem.observe()[c]] = std::sqrt(result->evaluation.mse[c]);
+    figures.residual_rms[problem.observe()[c]] = std::sqrt(result->evaluation.mse[c]);
   }
-  summary.details["residual_rms"] = noise;
 }
 
 // Ceres logs through glog, whose default writes WARNING and above to stderr (with a "Logging
@@ -167,8 +167,9 @@ FitResult CeresOptimizer::Minimize(const FitProblem& problem,
 
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = ceres::DENSE_QR;
-  solver_options.max_num_iterations =
-      OptionWholeNumber("ceres", o, "max_iterations", 100, 1, 1000000);
+  solver_options.max_num_iterations = OptionWholeNumber(
+      "ceres", o, "max_iterations",
+      options.default_max_iterations > 0 ? options.default_max_iterations : 100, 1, 1000000);
   if (options.max_evaluations > 0) {
     // Each iteration costs about p + 2 evaluations (forward differences and the step).
     solver_options.max_num_iterations =
@@ -210,11 +211,13 @@ FitResult CeresOptimizer::Minimize(const FitProblem& problem,
   summary.message = ceres_summary.message;
   summary.iterations = static_cast<long>(ceres_summary.iterations.size());
   summary.fd_step = fd_step;
-  summary.details = {{"fd_step", fd_step},
-                     {"initial_cost", ceres_summary.initial_cost},
-                     {"final_cost", ceres_summary.final_cost},
-                     {"successful_steps", ceres_summary.num_successful_steps},
-                     {"unsuccessful_steps", ceres_summary.num_unsuccessful_steps}};
+  CeresFigures figures;
+  figures.fd_step = fd_step;
+  figures.initial_cost = ceres_summary.initial_cost;
+  figures.final_cost = ceres_summary.final_cost;
+  figures.successful_steps = ceres_summary.num_successful_steps;
+  figures.unsuccessful_steps = ceres_summary.num_unsuccessful_steps;
+  summary.figures = figures;
 
   CheckProgress(problem, &result);
   if (result.evaluation.ok && problem.num_residuals() > p) {

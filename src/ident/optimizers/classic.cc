@@ -74,7 +74,7 @@ FitResult ClassicOptimizer::Minimize(const FitProblem& problem,
   double Kt = config.parameters.Get("Kt");
   std::vector<Plateau> plateaus;
   std::vector<double> taus, tau_B;  // coast-down time constants and the B before each
-  nlohmann::json notes = nlohmann::json::array();
+  std::vector<std::string> notes;
   for (const auto& fit_trace : problem.traces()) {
     const Trace& trace = fit_trace.trace;
     for (const char* column : {"i", "w"}) {
@@ -201,7 +201,7 @@ FitResult ClassicOptimizer::Minimize(const FitProblem& problem,
                     std::to_string(taus.size()) + " coast-down(s)";
   summary.iterations = 1;
   summary.evaluations = 1;
-  summary.details = {{"notes", notes}, {"tau_s", taus}, {"plateaus", plateaus.size()}};
+  summary.figures = ClassicFigures{notes, taus, plateaus.size()};
   summary.wall_time_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   return result;

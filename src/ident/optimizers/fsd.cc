@@ -292,7 +292,7 @@ struct PolishOutcome {
   std::vector<double> x;  // empty when no candidate had a finite cost
   LocalResult polish;
   std::string winner;
-  nlohmann::json polished = nlohmann::json::array();
+  std::vector<FsdPolished> polished;
 };
 PolishOutcome BestCandidate(const std::vector<PolishCandidate>& candidates, bool polish_on) {
   PolishOutcome out;
@@ -300,8 +300,7 @@ PolishOutcome BestCandidate(const std::vector<PolishCandidate>& candidates, bool
   for (const auto& c : candidates) {
     const bool improved = polish_on && c.local.cost <= c.start_cost;
     const double end_cost = improved ? c.local.cost : c.start_cost;
-    out.polished.push_back(
-        {{"source", c.source}, {"start_cost", c.start_cost}, {"end_cost", end_cost}});
+    out.polished.push_back({c.source, c.start_cost, end_cost});
     if (end_cost < best_cost) {
       best_cost = end_cost;
       out.x = improved ? c.local.scaled : c.start;
@@ -312,35 +311,35 @@ PolishOutcome BestCandidate(const std::vector<PolishCandidate>& candidates, bool
   return out;
 }
 
-// The method summary's details: the settings, the schedule and what each walker reached.
-nlohmann::json Details(const FsdSettings& s, const OptimizerOptions& options,
-                       const std::vector<Walker>& walkers, const PolishOutcome& outcome,
-                       double scale, double a) {
-  nlohmann::json walker_json = nlohmann::json::array();
+// The method summary's figures: the settings, the schedule and what each walker reached.
+FsdFigures Figures(const FsdSettings& s, const OptimizerOptions& options,
+                   const std::vector<Walker>& walkers, const PolishOutcome& outcome, double scale,
+                   double a) {
+  FsdFigures f;
+  f.seed = options.seed;
+  f.polished = outcome.polished;
+  f.winner = outcome.winner;
+  f.walkers = s.walkers;
+  f.bursts = s.bursts;
+  f.burst_steps = s.burst_steps;
+  f.quench_evaluations = s.quench_evaluations;
+  f.quench_step = s.quench_step;
+  f.probes = s.probes;
+  f.cost_scale = scale;
+  f.t0 = s.t0;
+  f.schedule = "T_k = t0 ln 2 / ln(2 + k), in units of cost_scale";
+  f.step_a = a;
+  f.initial_spread = s.initial_spread;
+  f.fd_step = s.fd_step;
+  f.max_step = s.max_step;
+  f.polish = s.polish;
+  f.polish_evaluations = s.polish_evaluations;
+  f.polish_step = s.polish_step;
   for (const auto& w : walkers) {
-    walker_json.push_back({{"best_cost", std::isfinite(w.best) ? nlohmann::json(w.best * scale)
-                                                               : nlohmann::json(nullptr)}});
+    f.walker_best_cost.push_back(std::isfinite(w.best) ? w.best * scale
+                                                       : std::numeric_limits<double>::quiet_NaN());
   }
-  return {{"seed", options.seed},
-          {"polished", outcome.polished},
-          {"winner", outcome.winner},
-          {"walkers", s.walkers},
-          {"bursts", s.bursts},
-          {"burst_steps", s.burst_steps},
-          {"quench_evaluations", s.quench_evaluations},
-          {"quench_step", s.quench_step},
-          {"probes", s.probes},
-          {"cost_scale", scale},
-          {"t0", s.t0},
-          {"schedule", "T_k = t0 ln 2 / ln(2 + k), in units of cost_scale"},
-          {"step_a", a},
-          {"initial_spread", s.initial_spread},
-          {"fd_step", s.fd_step},
-          {"max_step", s.max_step},
-          {"polish", s.polish},
-          {"polish_evaluations", s.polish_evaluations},
-          {"polish_step", s.polish_step},
-          {"walker_results", walker_json}};
+  return f;
 }
 
 }  // namespace
@@ -421,7 +420,7 @@ FitResult FsdOptimizer::Minimize(const FitProblem& problem, const OptimizerOptio
   long steps = 0;
   for (const auto& w : walkers) steps += w.steps;
   summary.iterations = steps;
-  summary.details = Details(s, options, walkers, outcome, scale, a);
+  summary.figures = Figures(s, options, walkers, outcome, scale, a);
   FinishFit(problem, cost, started, &result);
   return result;
 }

@@ -119,7 +119,8 @@ void SetSandwichIntervals(const FitProblem& problem, const Eigen::MatrixXd& jaco
     layout.rows.push_back(problem.measured(k).rows());
   }
   const SandwichCovariance sandwich = HacSandwichCovariance(jacobian, residuals, layout);
-  nlohmann::json details = {{"method", "hac_prewhitened"}};
+  IntervalRecord record;
+  record.method = "hac_prewhitened";
   for (std::size_t k = 0; k < result->estimates.size(); ++k) {
     ParameterEstimate& e = result->estimates[k];
     const auto index = static_cast<Eigen::Index>(k);
@@ -152,17 +153,18 @@ void SetSandwichIntervals(const FitProblem& problem, const Eigen::MatrixXd& jaco
     if (sandwich.covariance(index, index) > 0.0) {
       SetInterval(problem.free()[k], std::sqrt(sandwich.covariance(index, index)),
                   "hac_prewhitened", &e);
-      details["variance_ratio"][e.name] = sandwich.variance_ratio[k];
+      record.variance_ratio[e.name] = sandwich.variance_ratio[k];
     }
   }
   if (sandwich.ok) {
-    details["bandwidth"] = sandwich.bandwidth;
-    details["prewhitening_gain"] = sandwich.max_var_eigenvalue;
+    record.has_bandwidth = true;
+    record.bandwidth = sandwich.bandwidth;
+    record.prewhitening_gain = sandwich.max_var_eigenvalue;
   } else {
-    details["unavailable"] = sandwich.reason;
+    record.unavailable = sandwich.reason;
   }
   result->summary.interval_unavailable = sandwich.ok ? "" : sandwich.reason;
-  result->summary.details["interval"] = details;
+  result->summary.interval = std::move(record);
 }
 
 void SetInterval(const FreeParameter& parameter, double std_search, const std::string& method,

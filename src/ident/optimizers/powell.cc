@@ -144,10 +144,7 @@ FitResult PowellOptimizer::Minimize(const FitProblem& problem,
   summary.message = "NLopt " + summary.algorithm + ": " + local.message;
   summary.raw_code = local.code;
   summary.iterations = local.evaluations;
-  summary.details = {{"initial_step_scaled", initial_step},
-                     {"xtol_abs_scaled", xtol},
-                     {"ftol_rel", ftol},
-                     {"max_evaluations", budget}};
+  summary.figures = PowellFigures{initial_step, xtol, ftol, budget};
   CheckProgress(problem, &result);
   FinishFit(problem, cost, started, &result);
   return result;

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <complex>
 #include <limits>
+#include <optional>
 #include <unsupported/Eigen/FFT>
 
 #include "blmd/constants.h"
@@ -404,18 +405,17 @@ std::string AdequacyReport::StructureMessage() const {
   return text;
 }
 
-AdequacyReport CheckResidualStructure(const FitProblem& problem, const std::vector<double>& values,
-                                      const AdequacyOptions& options) {
-  AdequacyReport report;
-  report.family_level = options.family_level;
-  report.min_share = options.min_share;
-  Pooled pooled;
-  if (!Gather(problem, values, &pooled, &report.reason)) return report;
-  const std::size_t n = pooled.t.size();
-  const std::size_t traces = pooled.segments.size();
-  auto segment_end = [&](std::size_t s) { return s + 1 < traces ? pooled.segments[s + 1] : n; };
+namespace {
 
-  // The state bases that do not depend on the column.
+// One past the last row of trace `s` in the pooled rows.
+std::size_t SegmentEnd(const Pooled& pooled, std::size_t s) {
+  return s + 1 < pooled.segments.size() ? pooled.segments[s + 1] : pooled.t.size();
+}
+
+// The state bases that do not depend on the column: the angle (linear, sin, cos), the speed
+// (quantile bins) and its sign, the input (quantile bins), and each trace's time (Legendre).
+std::vector<Basis> StateBases(const Pooled& pooled, const AdequacyOptions& options) {
+  const std::size_t n = pooled.t.size();
   std::vector<Basis> bases;
   if (pooled.has_theta) {
     double lo = pooled.theta.front(), hi = lo;
@@ -439,214 +439,259 @@ AdequacyReport CheckResidualStructure(const FitProblem& problem, const std::vect
     Basis w{"w", QuantileBins(pooled.w, options.bins), 1.0, 0.0, 0};
     if (!w.columns.empty()) bases.push_back(std::move(w));
     std::vector<double> sign(n);
-    bool both = false, positive = false, negative = false;
+    bool positive = false, negative = false;
     for (std::size_t r = 0; r < n; ++r) {
       sign[r] = pooled.w[r] > 0.0 ? 1.0 : (pooled.w[r] < 0.0 ? -1.0 : 0.0);
       positive = positive || sign[r] > 0.0;
       negative = negative || sign[r] < 0.0;
     }
-    both = positive && negative;
-    if (both) bases.push_back({"sign(w)", {sign}, 1.0, 0.0, 0});
+    if (positive && negative) bases.push_back({"sign(w)", {sign}, 1.0, 0.0, 0});
   }
   {
     Basis u{"u", QuantileBins(pooled.u, options.bins), 1.0, 0.0, 0};
     if (!u.columns.empty()) bases.push_back(std::move(u));
   }
-  {
-    Basis t{"t", {}, 1.0, 0.0, 0};
-    for (std::size_t s = 0; s < traces; ++s) {
-      const std::size_t begin = pooled.segments[s], end = segment_end(s);
-      const double t0 = pooled.t[begin], t1 = pooled.t[end - 1];
-      std::vector<std::vector<double>> columns(static_cast<std::size_t>(options.legendre_degree),
-                                               std::vector<double>(n, 0.0));
-      for (std::size_t r = begin; r < end; ++r) {
-        const double x = t1 > t0 ? 2.0 * (pooled.t[r] - t0) / (t1 - t0) - 1.0 : 0.0;
-        const std::vector<double> p = Legendre(x, options.legendre_degree);
-        for (std::size_t d = 1; d < p.size(); ++d) columns[d - 1][r] = p[d];
-      }
-      for (auto& column : columns) t.columns.push_back(std::move(column));
+  Basis t{"t", {}, 1.0, 0.0, 0};
+  for (std::size_t s = 0; s < pooled.segments.size(); ++s) {
+    const std::size_t begin = pooled.segments[s], end = SegmentEnd(pooled, s);
+    const double t0 = pooled.t[begin], t1 = pooled.t[end - 1];
+    std::vector<std::vector<double>> columns(static_cast<std::size_t>(options.legendre_degree),
+                                             std::vector<double>(n, 0.0));
+    for (std::size_t r = begin; r < end; ++r) {
+      const double x = t1 > t0 ? 2.0 * (pooled.t[r] - t0) / (t1 - t0) - 1.0 : 0.0;
+      const std::vector<double> p = Legendre(x, options.legendre_degree);
+      for (std::size_t d = 1; d < p.size(); ++d) columns[d - 1][r] = p[d];
     }
-    bases.push_back(std::move(t));
+    for (auto& column : columns) t.columns.push_back(std::move(column));
   }
+  bases.push_back(std::move(t));
+  return bases;
+}
 
-  // The frequencies the t (periodic) test searches: from two periods over the longest trace
-  // up to the Nyquist frequency (or max_frequency_hz), on the grid of the longest trace's
-  // two-fold zero-padded FFT. The input's strongest line is kept to say when the residual's
-  // period is a harmonic of the input's (a dynamic misfit repeats with the input).
+// The frequencies the t (periodic) test searches: from two periods over the longest trace up
+// to the Nyquist frequency (or max_frequency_hz), on the grid of the longest trace's two-fold
+// zero-padded FFT. The input's strongest line is kept to say when the residual's period is a
+// harmonic of the input's (a dynamic misfit repeats with the input).
+struct FrequencyGrid {
+  std::vector<std::size_t> allowed;  // bins searched; empty: no periodic test
+  double df = 0.0;                   // Hz per bin
+  double input_hz = 0.0;             // the input's strongest line, 0 when none
+};
+
+FrequencyGrid TimeFrequencyGrid(const Pooled& pooled, const AdequacyOptions& options) {
   double longest = 0.0, finest_dt = std::numeric_limits<double>::infinity();
-  for (std::size_t s = 0; s < traces; ++s) {
-    longest = std::max(longest, pooled.t[segment_end(s) - 1] - pooled.t[pooled.segments[s]]);
+  for (std::size_t s = 0; s < pooled.segments.size(); ++s) {
+    longest = std::max(longest, pooled.t[SegmentEnd(pooled, s) - 1] - pooled.t[pooled.segments[s]]);
     finest_dt = std::min(finest_dt, pooled.dt[s]);
   }
-  std::vector<std::size_t> allowed;
-  double df = 0.0, input_hz = 0.0;
-  if (longest > 0.0 && finest_dt > 0.0) {
-    df = 0.5 / longest;  // the grid of a two-fold zero-padded FFT
-    double top = 0.5 / finest_dt;
-    if (options.max_frequency_hz > 0.0) top = std::min(top, options.max_frequency_hz);
-    const auto bins = static_cast<std::size_t>(top / df);
-    const std::vector<double> input = Periodogram(pooled.u, pooled.segments, pooled.dt, df, bins);
-    std::size_t strongest = 0;
-    for (std::size_t j = 1; j < bins; ++j) {
-      if (input[j] > input[strongest]) strongest = j;
-    }
-    if (strongest > 0 && input[strongest] > 0.0) input_hz = static_cast<double>(strongest) * df;
-    for (std::size_t j = static_cast<std::size_t>(std::ceil(2.0 / longest / df)); j < bins; ++j)
-      allowed.push_back(j);
+  FrequencyGrid grid;
+  if (!(longest > 0.0 && finest_dt > 0.0)) return grid;
+  grid.df = 0.5 / longest;  // the grid of a two-fold zero-padded FFT
+  double top = 0.5 / finest_dt;
+  if (options.max_frequency_hz > 0.0) top = std::min(top, options.max_frequency_hz);
+  const auto bins = static_cast<std::size_t>(top / grid.df);
+  const std::vector<double> input =
+      Periodogram(pooled.u, pooled.segments, pooled.dt, grid.df, bins);
+  std::size_t strongest = 0;
+  for (std::size_t j = 1; j < bins; ++j) {
+    if (input[j] > input[strongest]) strongest = j;
   }
+  if (strongest > 0 && input[strongest] > 0.0)
+    grid.input_hz = static_cast<double>(strongest) * grid.df;
+  for (std::size_t j = static_cast<std::size_t>(std::ceil(2.0 / longest / grid.df)); j < bins; ++j)
+    grid.allowed.push_back(j);
+  return grid;
+}
 
-  double tests_run = 0.0;
-  for (std::size_t c = 0; c < problem.observe().size(); ++c) {
-    const std::vector<double>& y = pooled.residual[c];
-    // mean: the residual's own level, each trace's, against zero (an offset, a constant
-    // torque the fit could not take up); every other basis has the means in its null model.
-    if (options.test_mean) {
-      const FglsTest test = FglsMeanTest(y, pooled.segments, options.ar_max_order);
-      if (test.ok) {
-        tests_run += 1.0;
-        StructureTest out;
-        out.state = "mean";
-        out.column = problem.observe()[c];
-        out.regressors = static_cast<int>(traces);
-        out.f = test.f;
-        out.p_value = test.p_value;
-        out.share = test.share;
-        out.ar_order = test.ar_order;
-        report.tests.push_back(out);
-      }
+// `y` about each trace's mean, what the periodic searches fit.
+std::vector<double> CentredPerTrace(const Pooled& pooled, const std::vector<double>& y) {
+  std::vector<double> centred(y.size());
+  for (std::size_t s = 0; s < pooled.segments.size(); ++s) {
+    const std::size_t begin = pooled.segments[s], end = SegmentEnd(pooled, s);
+    double mean = 0.0;
+    for (std::size_t r = begin; r < end; ++r) mean += y[r];
+    mean /= static_cast<double>(end - begin);
+    for (std::size_t r = begin; r < end; ++r) centred[r] = y[r] - mean;
+  }
+  return centred;
+}
+
+// theta (periodic): the order whose sin/cos explain most of the residual (about each trace's
+// mean), among those completing at least three periods over the angle travelled. None when no
+// order qualifies.
+std::optional<Basis> AngleHarmonicBasis(const Pooled& pooled, const std::vector<double>& centred,
+                                        const AdequacyOptions& options) {
+  const std::size_t n = pooled.t.size();
+  double travelled = 0.0;
+  for (std::size_t s = 0; s < pooled.segments.size(); ++s) {
+    for (std::size_t r = pooled.segments[s] + 1; r < SegmentEnd(pooled, s); ++r)
+      travelled += std::abs(pooled.theta[r] - pooled.theta[r - 1]);
+  }
+  // (in double first: a shaft that hardly turns would overflow the int)
+  const double fewest = std::ceil(3.0 * 2.0 * kPi / std::max(travelled, 1e-300));
+  const int lowest =
+      fewest > options.max_order ? options.max_order + 1 : std::max(2, static_cast<int>(fewest));
+  int best_order = 0;
+  double best_reduction = 0.0;
+  int searched = 0;
+  for (int m = lowest; m <= options.max_order; ++m) {
+    const double reduction =
+        SinCosReduction(centred, 0, n, [&](std::size_t r) { return m * pooled.theta[r]; });
+    if (reduction < 0.0) continue;
+    ++searched;
+    if (reduction > best_reduction) {
+      best_reduction = reduction;
+      best_order = m;
     }
-    std::vector<Basis> column_bases = bases;
-    // The residual about each trace's mean, what the periodic searches fit.
-    std::vector<double> centred(n);
+  }
+  if (best_order == 0) return std::nullopt;
+  std::vector<double> s(n), co(n);
+  for (std::size_t r = 0; r < n; ++r) {
+    s[r] = std::sin(best_order * pooled.theta[r]);
+    co[r] = std::cos(best_order * pooled.theta[r]);
+  }
+  return Basis{"theta (periodic)", {s, co}, static_cast<double>(searched), 0.0, best_order};
+}
+
+// t (periodic): the periodogram's highest allowed bin, refined, as a sin/cos pair per trace.
+Basis TimeHarmonicBasis(const Pooled& pooled, const std::vector<double>& y,
+                        const std::vector<double>& centred, const FrequencyGrid& grid) {
+  const std::size_t n = pooled.t.size();
+  const std::size_t traces = pooled.segments.size();
+  const std::vector<double> power =
+      Periodogram(y, pooled.segments, pooled.dt, grid.df, grid.allowed.back() + 1);
+  std::size_t best = grid.allowed.front();
+  for (std::size_t j : grid.allowed) {
+    if (power[j] > power[best]) best = j;
+  }
+  // The grid is coarse against the Hann main lobe: refine the frequency to the one whose
+  // sinusoid (per trace, about each trace's mean) explains most, within two bins.
+  double f = static_cast<double>(best) * grid.df, best_reduction = -1.0;
+  for (int step = -40; step <= 40; ++step) {
+    const double trial = (static_cast<double>(best) + step / 20.0) * grid.df;
+    if (!(trial > 0.0)) continue;
+    double reduction = 0.0;
     for (std::size_t s = 0; s < traces; ++s) {
-      double mean = 0.0;
-      for (std::size_t r = pooled.segments[s]; r < segment_end(s); ++r) mean += y[r];
-      mean /= static_cast<double>(segment_end(s) - pooled.segments[s]);
-      for (std::size_t r = pooled.segments[s]; r < segment_end(s); ++r) centred[r] = y[r] - mean;
+      reduction += std::max(
+          0.0, SinCosReduction(centred, pooled.segments[s], SegmentEnd(pooled, s),
+                               [&](std::size_t r) { return 2.0 * kPi * trial * pooled.t[r]; }));
     }
-    // theta (periodic): the order whose sin/cos explain most of the residual (about each
-    // trace's mean), among those completing at least three periods over the angle travelled.
-    if (pooled.has_theta) {
-      double travelled = 0.0;
-      for (std::size_t s = 0; s < traces; ++s) {
-        for (std::size_t r = pooled.segments[s] + 1; r < segment_end(s); ++r)
-          travelled += std::abs(pooled.theta[r] - pooled.theta[r - 1]);
-      }
-      // (in double first: a shaft that hardly turns would overflow the int)
-      const double fewest = std::ceil(3.0 * 2.0 * kPi / std::max(travelled, 1e-300));
-      const int lowest = fewest > options.max_order ? options.max_order + 1
-                                                    : std::max(2, static_cast<int>(fewest));
-      int best_order = 0;
-      double best_reduction = 0.0;
-      int searched = 0;
-      for (int m = lowest; m <= options.max_order; ++m) {
-        const double reduction =
-            SinCosReduction(centred, 0, n, [&](std::size_t r) { return m * pooled.theta[r]; });
-        if (reduction < 0.0) continue;
-        ++searched;
-        if (reduction > best_reduction) {
-          best_reduction = reduction;
-          best_order = m;
-        }
-      }
-      if (best_order > 0) {
-        std::vector<double> s(n), co(n);
-        for (std::size_t r = 0; r < n; ++r) {
-          s[r] = std::sin(best_order * pooled.theta[r]);
-          co[r] = std::cos(best_order * pooled.theta[r]);
-        }
-        column_bases.push_back(
-            {"theta (periodic)", {s, co}, static_cast<double>(searched), 0.0, best_order});
-      }
+    if (reduction > best_reduction) {
+      best_reduction = reduction;
+      f = trial;
     }
-    // t (periodic): the periodogram's highest allowed bin.
-    if (!allowed.empty()) {
-      const std::vector<double> power =
-          Periodogram(y, pooled.segments, pooled.dt, df, allowed.back() + 1);
-      std::size_t best = allowed.front();
-      for (std::size_t j : allowed) {
-        if (power[j] > power[best]) best = j;
-      }
-      // The grid is coarse against the Hann main lobe: refine the frequency to the one whose
-      // sinusoid (per trace, about each trace's mean) explains most, within two bins.
-      double f = static_cast<double>(best) * df, best_reduction = -1.0;
-      for (int step = -40; step <= 40; ++step) {
-        const double trial = (static_cast<double>(best) + step / 20.0) * df;
-        if (!(trial > 0.0)) continue;
-        double reduction = 0.0;
-        for (std::size_t s = 0; s < traces; ++s) {
-          reduction += std::max(
-              0.0, SinCosReduction(centred, pooled.segments[s], segment_end(s),
-                                   [&](std::size_t r) { return 2.0 * kPi * trial * pooled.t[r]; }));
-        }
-        if (reduction > best_reduction) {
-          best_reduction = reduction;
-          f = trial;
-        }
-      }
-      Basis periodic{"t (periodic)", {}, 1.0, f, 0};
-      if (input_hz > 0.0) {
-        const double harmonic = std::round(f / input_hz);
-        if (harmonic >= 1.0 && std::abs(f - harmonic * input_hz) <= df)
-          periodic.input_harmonic = static_cast<int>(harmonic);
-      }
-      for (std::size_t s = 0; s < traces; ++s) {
-        std::vector<double> sine(n, 0.0), cosine(n, 0.0);
-        for (std::size_t r = pooled.segments[s]; r < segment_end(s); ++r) {
-          sine[r] = std::sin(2.0 * kPi * f * pooled.t[r]);
-          cosine[r] = std::cos(2.0 * kPi * f * pooled.t[r]);
-        }
-        periodic.columns.push_back(std::move(sine));
-        periodic.columns.push_back(std::move(cosine));
-      }
-      // The zero-padded grid is twice as fine as the independent frequencies.
-      periodic.alternatives = std::max(1.0, 0.5 * static_cast<double>(allowed.size()));
-      column_bases.push_back(std::move(periodic));
+  }
+  Basis periodic{"t (periodic)", {}, 1.0, f, 0};
+  if (grid.input_hz > 0.0) {
+    const double harmonic = std::round(f / grid.input_hz);
+    if (harmonic >= 1.0 && std::abs(f - harmonic * grid.input_hz) <= grid.df)
+      periodic.input_harmonic = static_cast<int>(harmonic);
+  }
+  for (std::size_t s = 0; s < traces; ++s) {
+    std::vector<double> sine(n, 0.0), cosine(n, 0.0);
+    for (std::size_t r = pooled.segments[s]; r < SegmentEnd(pooled, s); ++r) {
+      sine[r] = std::sin(2.0 * kPi * f * pooled.t[r]);
+      cosine[r] = std::cos(2.0 * kPi * f * pooled.t[r]);
     }
-    for (const Basis& basis : column_bases) {
-      const FglsTest test = FglsFTest(y, basis.columns, pooled.segments, options.ar_max_order);
-      if (!test.ok) continue;
-      tests_run += 1.0;
+    periodic.columns.push_back(std::move(sine));
+    periodic.columns.push_back(std::move(cosine));
+  }
+  // The zero-padded grid is twice as fine as the independent frequencies.
+  periodic.alternatives = std::max(1.0, 0.5 * static_cast<double>(grid.allowed.size()));
+  return periodic;
+}
+
+// Every test of column `c` appended to report->tests: the mean, then each basis.
+void TestColumn(const Pooled& pooled, std::size_t c, const std::string& column,
+                const std::vector<Basis>& bases, const FrequencyGrid& grid,
+                const AdequacyOptions& options, AdequacyReport* report) {
+  const std::vector<double>& y = pooled.residual[c];
+  // mean: the residual's own level, each trace's, against zero (an offset, a constant torque
+  // the fit could not take up); every other basis has the means in its null model.
+  if (options.test_mean) {
+    const FglsTest test = FglsMeanTest(y, pooled.segments, options.ar_max_order);
+    if (test.ok) {
       StructureTest out;
-      out.state = basis.state;
-      out.column = problem.observe()[c];
-      out.regressors = static_cast<int>(basis.columns.size());
+      out.state = "mean";
+      out.column = column;
+      out.regressors = static_cast<int>(pooled.segments.size());
       out.f = test.f;
-      out.p_value = std::min(1.0, test.p_value * basis.alternatives);  // the search's factor
+      out.p_value = test.p_value;
       out.share = test.share;
       out.ar_order = test.ar_order;
-      out.frequency_hz = basis.frequency_hz;
-      out.order = basis.order;
-      out.input_harmonic = basis.input_harmonic;
-      report.tests.push_back(out);
+      report->tests.push_back(out);
     }
   }
-  // The family: every test of every column.
-  const std::vector<std::string>& observe = problem.observe();
-  for (StructureTest& test : report.tests) {
+  std::vector<Basis> column_bases = bases;
+  const std::vector<double> centred = CentredPerTrace(pooled, y);
+  if (pooled.has_theta) {
+    std::optional<Basis> angle = AngleHarmonicBasis(pooled, centred, options);
+    if (angle) column_bases.push_back(std::move(*angle));
+  }
+  if (!grid.allowed.empty()) column_bases.push_back(TimeHarmonicBasis(pooled, y, centred, grid));
+  for (const Basis& basis : column_bases) {
+    const FglsTest test = FglsFTest(y, basis.columns, pooled.segments, options.ar_max_order);
+    if (!test.ok) continue;
+    StructureTest out;
+    out.state = basis.state;
+    out.column = column;
+    out.regressors = static_cast<int>(basis.columns.size());
+    out.f = test.f;
+    out.p_value = std::min(1.0, test.p_value * basis.alternatives);  // the search's factor
+    out.share = test.share;
+    out.ar_order = test.ar_order;
+    out.frequency_hz = basis.frequency_hz;
+    out.order = basis.order;
+    out.input_harmonic = basis.input_harmonic;
+    report->tests.push_back(out);
+  }
+}
+
+// The family's verdict: every test's p-value times the number of tests run, flagged when
+// significant and material; the mean named only when nothing else explains its column (a
+// residual that follows the angle or the time has a mean too, and the state is the better
+// name); the flagged tests binned for the plot, largest share first.
+void FlagStructure(const Pooled& pooled, const std::vector<std::string>& observe,
+                   const AdequacyOptions& options, AdequacyReport* report) {
+  const double tests_run = static_cast<double>(report->tests.size());
+  for (StructureTest& test : report->tests) {
     test.p_value = std::min(1.0, test.p_value * tests_run);
     test.significant = test.p_value < options.family_level;
     test.flagged = test.significant && test.share >= options.min_share;
   }
-  // The mean is named only when nothing else explains the column's residual: a residual
-  // that follows the angle or the time has a mean too, and the state is the better name.
-  for (StructureTest& test : report.tests) {
+  for (StructureTest& test : report->tests) {
     if (test.state != "mean" || !test.flagged) continue;
-    for (const StructureTest& other : report.tests) {
+    for (const StructureTest& other : report->tests) {
       if (other.column == test.column && other.state != "mean" && other.flagged)
         test.flagged = false;
     }
   }
-  for (StructureTest& test : report.tests) {
+  for (StructureTest& test : report->tests) {
     if (!test.flagged) continue;
     const auto c = static_cast<std::size_t>(std::find(observe.begin(), observe.end(), test.column) -
                                             observe.begin());
     BinResidual(pooled, c, &test);
-    report.flagged.push_back(test);
+    report->flagged.push_back(test);
   }
   std::stable_sort(
-      report.flagged.begin(), report.flagged.end(),
+      report->flagged.begin(), report->flagged.end(),
       [](const StructureTest& a, const StructureTest& b) { return a.share > b.share; });
+}
+
+}  // namespace
+
+AdequacyReport CheckResidualStructure(const FitProblem& problem, const std::vector<double>& values,
+                                      const AdequacyOptions& options) {
+  AdequacyReport report;
+  report.family_level = options.family_level;
+  report.min_share = options.min_share;
+  Pooled pooled;
+  if (!Gather(problem, values, &pooled, &report.reason)) return report;
+  const std::vector<Basis> bases = StateBases(pooled, options);
+  const FrequencyGrid grid = TimeFrequencyGrid(pooled, options);
+  for (std::size_t c = 0; c < problem.observe().size(); ++c)
+    TestColumn(pooled, c, problem.observe()[c], bases, grid, options, &report);
+  FlagStructure(pooled, problem.observe(), options, &report);
   report.ok = true;
   return report;
 }

@@ -62,24 +62,24 @@ TraceJackknife LeaveOneTraceOut(const FitProblem& problem, const std::vector<dou
 
 void WidenByTraceJackknife(const FitProblem& problem, const TraceJackknife& jackknife,
                            FitResult* result) {
-  nlohmann::json& details = result->summary.details["interval"];
-  nlohmann::json record = {{"traces", jackknife.traces}};
+  if (!result->summary.interval) result->summary.interval = IntervalRecord{};
+  JackknifeRecord& record = result->summary.interval->leave_one_trace_out.emplace();
+  record.traces = jackknife.traces;
   if (!jackknife.ok) {
-    record["unavailable"] = jackknife.reason;
-    details["leave_one_trace_out"] = record;
+    record.unavailable = jackknife.reason;
     return;
   }
   const double t = boost::math::quantile(
       boost::math::complement(boost::math::students_t(jackknife.traces - 1.0), 0.025));
-  record["t_quantile"] = t;
-  nlohmann::json spread = nlohmann::json::object();
+  record.ok = true;
+  record.t_quantile = t;
   for (std::size_t p = 0; p < problem.num_free() && p < result->estimates.size(); ++p) {
     ParameterEstimate& e = result->estimates[p];
     const FreeParameter& f = problem.free()[p];
     const double sd = jackknife.std_search[p];
     std::vector<double> fold_values;
     for (const auto& refit : jackknife.refits) fold_values.push_back(refit[p]);
-    spread[e.name] = {{"std", f.log_scale ? e.value * sd : sd}, {"refits", fold_values}};
+    record.parameters.push_back({e.name, f.log_scale ? e.value * sd : sd, fold_values});
     ParameterEstimate widened = e;
     internal::SetInterval(f, sd, "leave_one_trace_out", &widened, t);
     if (!widened.has_interval) continue;
@@ -91,8 +91,6 @@ void WidenByTraceJackknife(const FitProblem& problem, const TraceJackknife& jack
     widened.ci95_hac_high = e.ci95_high;
     e = widened;
   }
-  record["parameters"] = spread;
-  details["leave_one_trace_out"] = record;
 }
 
 }  // namespace blmd

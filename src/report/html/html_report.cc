@@ -41,7 +41,7 @@ using internal::Row;
 
 using internal::Escape;  // report/markup.h
 
-// The free-form values of the method's details (OptimizerSummary::details).
+// The method's figures as the JSON report gives them (MethodDetailsJson), as text.
 std::string Text(const json& v) {
   if (v.is_string()) return v.get<std::string>();
   if (v.is_number_float()) return G(v.get<double>(), 6);
@@ -771,9 +771,8 @@ void WriteMethod(Page& page, const ModelReport& model) {
   row("seed", std::to_string(model.seed));
   row("threads", std::to_string(model.threads));
   if (!s.failure_reasons.empty()) row("failure_reasons", json(s.failure_reasons).dump());
-  if (s.details.is_object()) {
-    for (const auto& [key, value] : s.details.items()) row("details." + Escape(key), Text(value));
-  }
+  const json details = MethodDetailsJson(s);
+  for (const auto& [key, value] : details.items()) row("details." + Escape(key), Text(value));
   h += "</table>\n";
   page.EndSection();
 }

@@ -1,7 +1,7 @@
 // Optimisers behind one interface (docs/identification.md): Options in, FitResult with a
 // Summary out. One registry knows every method; an unknown name lists the valid ones.
 //   ceres   - Ceres Solver nonlinear least squares on the per-sample residuals, numeric
-//             (central) derivatives, bounds, ceres::Covariance for the intervals.
+//             (central) derivatives, bounds; the prewhitened HAC sandwich for the intervals.
 //   powell  - NLopt's Powell family in scaled coordinates: BOBYQA (default) or PRAXIS.
 //   fsd     - Fast Simulated Diffusion (our reconstruction, docs/fsd.md), seeded, with a
 //             final BOBYQA polish; deterministic for a seed whatever the thread count.
@@ -11,8 +11,10 @@
 #include <cstdint>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <string_view>
+#include <variant>
 #include <vector>
 
 #include "blmd/ident/fit/problem.h"
@@ -30,9 +32,72 @@ struct OptimizerOptions {
   // Method-specific options by name, e.g. {"algorithm": "praxis"} for powell; unknown names
   // are an InputError listing the valid ones.
   nlohmann::json method_options = nlohmann::json::object();
+  // The iteration limit of a method that has one (ceres's max_iterations) when
+  // method_options sets none: a caller's budget for an inner fit (discovery's refits) that the
+  // user's own option still overrides. 0: the method's own default.
+  int default_max_iterations = 0;
   // Where the fit reports its cost evaluations (progress.h); null: nowhere. Not owned; every
   // fit made with these options (jackknife and discovery refits too) reports to it.
   ProgressObserver* progress = nullptr;
+};
+
+// The method's own figures for the report's method_summary.details (settings, schedule, what it
+// reached): written, never read by the program (the typed fields of OptimizerSummary carry
+// what it reads). One struct per method; report_json.cc renders them.
+struct CeresFigures {
+  double fd_step = 0.0;                         // search coordinates
+  double initial_cost = 0.0, final_cost = 0.0;  // Ceres's: half the weighted sum of squares
+  int successful_steps = 0, unsuccessful_steps = 0;
+  std::map<std::string, double> residual_rms;  // per observed column, with the intervals
+};
+struct PowellFigures {
+  double initial_step_scaled = 0.0, xtol_abs_scaled = 0.0, ftol_rel = 0.0;
+  int max_evaluations = 0;
+};
+struct FsdPolished {
+  std::string source;  // "walker K" or "probe"
+  double start_cost = 0.0, end_cost = 0.0;
+};
+struct FsdFigures {
+  std::uint64_t seed = 0;
+  std::vector<FsdPolished> polished;
+  std::string winner;
+  int walkers = 0, bursts = 0, burst_steps = 0, quench_evaluations = 0, probes = 0;
+  int polish_evaluations = 0;
+  double quench_step = 0.0, cost_scale = 0.0, t0 = 0.0, step_a = 0.0, initial_spread = 0.0;
+  double fd_step = 0.0, max_step = 0.0, polish_step = 0.0;
+  bool polish = false;
+  std::string schedule;
+  std::vector<double> walker_best_cost;  // per walker; not finite: none reached (null)
+};
+struct ClassicFigures {
+  std::vector<std::string> notes;
+  std::vector<double> tau_s;  // the coast-downs' time constants
+  std::size_t plateaus = 0;
+};
+using MethodFigures =
+    std::variant<std::monostate, CeresFigures, PowellFigures, FsdFigures, ClassicFigures>;
+
+// How the 95 % intervals were computed (the report's details.interval).
+struct JackknifeRecord {  // leave-one-trace-out (uncertainty/trace_jackknife.h)
+  bool ok = false;        // it ran
+  int traces = 0;
+  std::string unavailable;  // why not, "" when it ran
+  double t_quantile = 0.0;  // Student t, K - 1 degrees of freedom (when it ran)
+  struct Parameter {
+    std::string name;
+    double std = 0.0;            // physical units
+    std::vector<double> refits;  // per left-out trace
+  };
+  std::vector<Parameter> parameters;  // when it ran
+};
+struct IntervalRecord {
+  std::string method;                            // "hac_prewhitened"; "": no sandwich attempted
+  std::map<std::string, double> variance_ratio;  // per free parameter: HAC over white variance
+  bool has_bandwidth = false;                    // the sandwich ran
+  double bandwidth = 0.0, prewhitening_gain = 0.0;
+  std::string unavailable;  // why the sandwich gave no interval
+  std::optional<JackknifeRecord> leave_one_trace_out;
 };
 
 struct OptimizerSummary {
@@ -52,9 +117,8 @@ struct OptimizerSummary {
   double fd_step = 0.0;
   // Why there is no interval ("" when there is one, or none was attempted).
   std::string interval_unavailable;
-  // The method's own figures for the report (seed, schedule, constants ...): written, never
-  // read back by the program (the typed fields above carry what it reads).
-  nlohmann::json details = nlohmann::json::object();
+  MethodFigures figures;                   // the method's own, for the report
+  std::optional<IntervalRecord> interval;  // how the intervals were computed, when attempted
 };
 
 struct ParameterEstimate {

@@ -37,7 +37,7 @@ TraceJackknife LeaveOneTraceOut(const FitProblem& problem, const std::vector<dou
 
 // Widens each estimate of `result` whose jackknife interval is wider than its HAC one:
 // interval_method "leave_one_trace_out", the HAC interval kept in std_hac / ci95_hac.
-// Records the jackknife in result->summary.details["interval"]["leave_one_trace_out"].
+// Records the jackknife in result->summary.interval->leave_one_trace_out.
 void WidenByTraceJackknife(const FitProblem& problem, const TraceJackknife& jackknife,
                            FitResult* result);
 

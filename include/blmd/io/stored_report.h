@@ -1,0 +1,64 @@
+// A blmd-ident report (the --report JSON) read back from its file, checked once: what the drift
+// guard (blmd-ident --baseline), blmd-tune --from-report and the Python package take from it.
+#pragma once
+
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "blmd/io/config.h"
+
+namespace blmd {
+
+// One entry of the report's "parameters": the final model's value, whether it was fitted,
+// and its 95 % interval when the report gives one.
+struct StoredParameter {
+  std::string name;
+  double value = 0.0;
+  bool free = false;
+  bool has_ci95 = false;
+  double ci95_low = std::numeric_limits<double>::quiet_NaN();
+  double ci95_high = std::numeric_limits<double>::quiet_NaN();
+};
+
+class StoredReport {
+ public:
+  // Reads `path` (at most 256 MiB) as a blmd-ident report: a JSON object with "tool":
+  // "blmd-ident", whose "parameters" object has a numeric "value" for each entry, and whose
+  // "effects" (when present) is a list of names. `role` names the file in messages
+  // ("baseline report", "identification report"). InputError "PATH:LINE:COL: why" otherwise.
+  static StoredReport Load(const std::string& path, const std::string& role);
+
+  const std::string& path() const { return document_.path(); }
+  const std::string& sha256() const { return sha256_; }
+  // The report's model; empty when it names none.
+  const std::string& model() const { return model_; }
+  // The final model's effects; has_effects() false when the report has no "effects" list.
+  bool has_effects() const { return has_effects_; }
+  const std::vector<std::string>& effects() const { return effects_; }
+  // In the report's order.
+  const std::vector<StoredParameter>& parameters() const { return parameters_; }
+  const StoredParameter* FindParameter(const std::string& name) const;
+
+  // InputError unless the report's model is `model`: "<theirs> "X", <ours> Y" (the report's
+  // model first, quoted, or "(none)"), at the report's "model" value.
+  void RequireModel(const std::string& model, const std::string& theirs,
+                    const std::string& ours) const;
+  // InputError naming the file and the line and column of the value at the JSON `pointer`.
+  [[noreturn]] void Fail(const std::string& pointer, const std::string& message) const {
+    document_.Fail(pointer, message);
+  }
+
+ private:
+  explicit StoredReport(JsonDocument document) : document_(std::move(document)) {}
+
+  JsonDocument document_;
+  std::string sha256_;
+  std::string model_;
+  bool has_model_ = false;
+  bool has_effects_ = false;
+  std::vector<std::string> effects_;
+  std::vector<StoredParameter> parameters_;
+};
+
+}  // namespace blmd

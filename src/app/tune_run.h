@@ -1,0 +1,39 @@
+// blmd-tune's run (docs/tuning.md, docs/cli.md §4): the flags' text forms checked against the
+// config and turned into a tuning request, and the tuning that fills the typed report
+// (report/tune_report.h).
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "blmd/report/tune_report.h"
+#include "blmd/tune/tune.h"
+
+namespace blmd {
+
+// The flags of blmd-tune as given.
+struct TuneSettings {
+  std::string loop;                 // --loop speed|position
+  double crossover_hz = 0.0;        // --crossover
+  double phase_margin_deg = 0.0;    // --phase-margin
+  std::vector<std::string> limits;  // --limit u=VOLTS, i=AMPS
+  double step = 0.0;                // --step (0: the default)
+  double duration = 0.0;            // --duration (0: from the closed loop's poles)
+  // --integral-ratio, --filter-ratio: position loop only (nullopt: not given, the defaults).
+  std::optional<double> integral_ratio, filter_ratio;
+  int threads = 0;
+};
+
+// Checks the settings against the plant's config in blmd-tune's order: the loop's flags, the
+// limits (u defaults to the config's experiment.pid.u_max), the request's own checks.
+// InputError naming the flag for bad input.
+TuneRequest MakeTuneRequest(const TuneSettings& settings, const Config& config);
+
+// Loads the plant (the config, and the identified model of `report_path` when not empty),
+// builds the request and tunes. The report's result is refused (result.refused) when the plant
+// cannot meet the request.
+TuneReport RunTune(const std::string& config_path, const std::string& report_path,
+                   const TuneSettings& settings);
+
+}  // namespace blmd
