@@ -26,10 +26,7 @@
 namespace {
 
 std::string G(double v, int digits = 5) {
-  if (!std::isfinite(v)) return "inf";
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%.*g", digits, v);
-  return buffer;
+  return std::isfinite(v) ? blmd::FormatSignificant(v, digits) : "inf";
 }
 
 std::string Clock(double seconds) {

@@ -598,28 +598,6 @@ std::string HeaderSummary(const std::vector<std::string>& names) {
   return out;
 }
 
-std::string FormatSignificant(double value, int digits) {
-  char text[64];
-  std::snprintf(text, sizeof text, "%.*g", digits, value);
-  return text;
-}
-
-std::string FormatNumber(double value) {
-  char buffer[64];
-  const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
-  return std::string(buffer, result.ptr);
-}
-
-std::string DisplayNumber(double value) {
-  std::string shortest = FormatNumber(value);
-  char buffer[400];
-  const auto result =
-      std::to_chars(buffer, buffer + sizeof buffer, value, std::chars_format::fixed);
-  if (result.ec != std::errc()) return shortest;
-  std::string fixed(buffer, result.ptr);
-  return fixed.size() <= shortest.size() + 2 ? fixed : shortest;
-}
-
 namespace {
 
 // A column name as a header field: double-quoted (RFC 4180, "" for ") when it would not read

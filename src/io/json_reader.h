@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "blmd/error.h"
+#include "blmd/format.h"
 #include "blmd/io/config.h"
 #include "blmd/io/csv.h"
 
@@ -225,11 +226,7 @@ inline std::string Printable(const std::string& text) {
 }
 
 // A number for a message, %g with `digits` significant digits (1/dt prints as 100000).
-inline std::string Short(double value, int digits = 6) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.*g", digits, value);
-  return buffer;
-}
+inline std::string Short(double value, int digits = 6) { return FormatSignificant(value, digits); }
 
 // The usual reason behind a JSON syntax error, from the text the parser read last
 // ("last read: '...'"): a comment, single quotes, NaN or Infinity.

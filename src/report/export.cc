@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "blmd/error.h"
+#include "blmd/format.h"
 #include "blmd/io/files.h"
 #include "blmd/sim/effects.h"
 #include "blmd/version.h"
@@ -26,11 +27,7 @@ json Matrix(const Eigen::MatrixXd& m) {
 }
 
 // Round-trip exact text of a double for a script (%.17g).
-std::string Exact(double v) {
-  char buffer[40];
-  std::snprintf(buffer, sizeof buffer, "%.17g", v);
-  return buffer;
-}
+std::string Exact(double v) { return FormatExact17(v); }
 
 std::string MatlabMatrix(const Eigen::MatrixXd& m) {
   std::string out = "[";

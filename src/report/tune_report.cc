@@ -6,6 +6,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "blmd/format.h"
 #include "blmd/report/report.h"
 #include "blmd/sim/effects.h"
 #include "blmd/version.h"
@@ -18,13 +19,7 @@ using nlohmann::json;
 
 json Number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
-std::string Text(double value, int digits = 4) {
-  if (!std::isfinite(value))
-    return std::isinf(value) ? (value > 0 ? "infinite" : "-infinite") : "n/a";
-  char buffer[48];
-  std::snprintf(buffer, sizeof buffer, "%.*g", digits, value);
-  return buffer;
-}
+std::string Text(double value, int digits = 4) { return FormatSignificantOrWord(value, digits); }
 
 bool IsSpeed(const TuneRequest& request) {
   return request.design.loop == PidSettings::Loop::kSpeed;

@@ -5,17 +5,14 @@
 #include <numbers>
 
 #include "blmd/constants.h"
+#include "blmd/format.h"
 
 namespace blmd {
 namespace {
 
 constexpr double kDegree = kRadiansPerDegree;
 
-std::string Text(double value, int digits = 4) {
-  char buffer[48];
-  std::snprintf(buffer, sizeof buffer, "%.*g", digits, value);
-  return buffer;
-}
+std::string Text(double value, int digits = 4) { return FormatSignificant(value, digits); }
 
 double WrapDegrees(double degrees) {
   double wrapped = std::fmod(degrees, 360.0);

@@ -8,6 +8,7 @@
 
 #include "blmd/constants.h"
 #include "blmd/error.h"
+#include "blmd/format.h"
 #include "blmd/run.h"
 #include "parallel.h"
 
@@ -19,11 +20,7 @@ constexpr double kSearchDecades = 1e4;
 // More parameters with intervals than this would make 2^k corners too many to simulate.
 constexpr std::size_t kMaxBoxParameters = 12;
 
-std::string Text(double value, int digits = 4) {
-  char buffer[48];
-  std::snprintf(buffer, sizeof buffer, "%.*g", digits, value);
-  return buffer;
-}
+std::string Text(double value, int digits = 4) { return FormatSignificant(value, digits); }
 
 bool IsSpeed(const TuneRequest& request) {
   return request.design.loop == PidSettings::Loop::kSpeed;

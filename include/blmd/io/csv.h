@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "blmd/format.h"
 #include "blmd/sim/trace.h"
 
 namespace blmd {
@@ -47,14 +48,6 @@ Trace ParseTraceCsv(const std::string& text, const std::string& path,
 // ",... (N columns)" so that one line stays one readable line.
 std::string HeaderSummary(const std::vector<std::string>& names);
 
-// Shortest text that reads back to the same double (round trip exact).
-std::string FormatNumber(double value);
-// For messages: the number as a person writes it, 0.0001 rather than 1e-04 (the plain form
-// when it is at most two characters longer than the shortest); still round-trip exact.
-std::string DisplayNumber(double value);
-// `digits` significant digits, printf's %g ("500", "0.0009", "1.2e-05"): for messages and
-// summaries where the round trip does not matter.
-std::string FormatSignificant(double value, int digits);
 std::string FormatTraceCsv(const Trace& trace);
 // Written to a temporary file in the same folder, then renamed (atomic).
 void WriteTraceCsv(const Trace& trace, const std::string& path);

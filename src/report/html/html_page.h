@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "blmd/format.h"
 #include "blmd/report/html/html_report.h"
 #include "blmd/report/report.h"
 #include "report/markup.h"
@@ -26,23 +27,7 @@ inline constexpr const char* kBandColour = "#7f7f7f";
 
 // `digits` significant digits: plain from 1e-3 to 1e6, else with a compact exponent
 // ("2.2613e-5"); "n/a" when not finite.
-inline std::string G(double v, int digits = 5) {
-  if (!std::isfinite(v)) return "n/a";
-  char buffer[64];
-  const double a = std::abs(v);
-  const bool exponent_form = a != 0.0 && (a < 1e-3 || a >= 1e6);
-  std::snprintf(buffer, sizeof buffer, exponent_form ? "%.*e" : "%.*g",
-                exponent_form ? digits - 1 : digits, v);
-  std::string text = buffer;
-  const auto e = text.find('e');
-  if (e == std::string::npos) return text;
-  std::string mantissa = text.substr(0, e);
-  if (mantissa.find('.') != std::string::npos) {
-    while (mantissa.back() == '0') mantissa.pop_back();
-    if (mantissa.back() == '.') mantissa.pop_back();
-  }
-  return mantissa + "e" + std::to_string(std::atoi(text.c_str() + e + 1));
-}
+inline std::string G(double v, int digits = 5) { return FormatReadable(v, digits); }
 
 struct ColumnInfo {
   std::string quantity, unit;

@@ -15,6 +15,7 @@
 #include <unordered_map>
 #include <utility>
 
+#include "blmd/format.h"
 #include "blmd/io/csv.h"
 #include "blmd/report/svg/plot.h"
 #include "report/markup.h"
@@ -45,19 +46,7 @@ inline constexpr const char* kPalette[] = {"#0072b2", "#d55e00", "#009e73", "#cc
 // ---- text -------------------------------------------------------------------------------
 
 // A coordinate with at most `decimals` decimals; never "nan" or "inf".
-inline std::string Num(double v, int decimals = 2) {
-  if (!std::isfinite(v)) v = 0.0;
-  v = std::clamp(v, -1e6, 1e6);
-  char buffer[48];
-  std::snprintf(buffer, sizeof buffer, "%.*f", decimals, v);
-  std::string text = buffer;
-  if (text.find('.') != std::string::npos) {
-    while (text.back() == '0') text.pop_back();
-    if (text.back() == '.') text.pop_back();
-  }
-  if (text == "-0") text = "0";
-  return text;
-}
+inline std::string Num(double v, int decimals = 2) { return FormatFixedTrimmed(v, decimals); }
 
 // Exact round-trip value for data attributes; non-finite values never reach here.
 inline std::string Exact(double v) { return std::isfinite(v) ? FormatNumber(v) : "0"; }
