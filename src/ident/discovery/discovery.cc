@@ -101,7 +101,7 @@ FitProblem CandidateProblem(const FitProblem& base, const std::vector<double>& b
   return MakeProblem(config, base.traces(), base.observe(), free);
 }
 
-// One damped Gauss-Newton step on all free parameters from `values` (the issue's "one-step
+// One damped Gauss-Newton step on all free parameters from `values` (the "one-step
 // Gauss-Newton fit"): cheap, and it lets J and B move with the new effect, which a scan with
 // J and B held cannot. Returns the better of the start and the step. The Jacobian is the
 // shared one (ident/fit/jacobian.h) with a coarser floor for linear parameters (1 % of the
