@@ -212,6 +212,7 @@ DiscoveryReport MakeDiscoveryReport(const FitProblem& problem, const FitResult& 
   report.steps = result.steps;
   report.ambiguous = AmbiguousGroups(result);
   report.last_round = result.last_round;
+  report.unstable = result.unstable;
   report.conclusion = result.conclusion;
   report.noise_floor_nrmse = result.noise_floor_nrmse;
   report.cross_validation_parts = result.cross_validation_parts;
@@ -438,6 +439,18 @@ void AddWarnings(IdentReport* report) {
                             : "; " + depend +
                                   " depend on the choice (the intervals cover every "
                                   "model's value)"));
+  }
+  if (!discovery.unstable.empty()) {
+    std::string names;
+    for (const auto& o : discovery.unstable) names += (names.empty() ? "" : ", ") + o.effect;
+    add("decision_unstable",
+        "whether to add " + names +
+            " hinges on the data's last bits: a change far below their noise moves its "
+            "evidence by more than the tolerance (discovery.unstable), so it was not added; "
+            "the free-running model with it is chaotic on this record (e.g. a simulated shaft "
+            "settling in one detent or the next). Next: a record that keeps the shaft moving "
+            "through the effect's field (a higher or steadier speed), or a held-out record "
+            "(--validate) to judge it");
   }
   if (discovery.has_adequacy && discovery.adequacy.ok && !discovery.adequacy.flagged.empty()) {
     add("unexplained_structure",

@@ -16,6 +16,12 @@ json Number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
 json Pair(double low, double high) { return json::array({Number(low), Number(high)}); }
 
+json NumberList(const std::vector<double>& values) {
+  json out = json::array();
+  for (double v : values) out.push_back(Number(v));
+  return out;
+}
+
 json NumberMap(const std::map<std::string, double>& values) {
   json out = json::object();
   for (const auto& [name, value] : values) out[name] = Number(value);
@@ -285,6 +291,11 @@ json CandidatesJson(const std::vector<CandidateOutcome>& outcomes) {
       }
       c["parameters"] = NumberMap(o.parameters);
     }
+    if (o.stability_checked) {
+      c["stability"] = {{"stable", o.stable},
+                        {"delta_bic_plain", Number(o.stability_delta_bic)},
+                        {"perturbed", NumberList(o.stability_perturbed)}};
+    }
     if (!o.reason.empty()) c["reason"] = o.reason;
     list.push_back(c);
   }
@@ -539,6 +550,7 @@ void to_json(json& out, const DiscoveryReport& d) {
         {{"effects", group.effects}, {"reason", group.reason}, {"models", models}});
   }
   out["last_round"] = CandidatesJson(d.last_round);
+  if (!d.unstable.empty()) out["unstable"] = CandidatesJson(d.unstable);
   out["conclusion"] = d.conclusion;
   out["error_before"] = d.error_before;
   out["error_after"] = d.error_after;

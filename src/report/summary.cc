@@ -147,6 +147,7 @@ void Discovery(const IdentReport& report, std::ostringstream& out) {
     if (o.reason.rfind("tried, not needed", 0) == 0)
       out << "  " << o.effect << ": " << o.reason << "\n";
   }
+  for (const auto& o : d.unstable) out << "  " << o.effect << ": " << o.reason << "\n";
   if (!d.added.empty()) {
     out << "  parameters before discovery:";
     for (const auto& [name, p] : before.parameters)

@@ -128,6 +128,8 @@ struct DiscoveryReport {
   std::vector<DiscoveryStep> steps;
   std::vector<AmbiguousGroup> ambiguous;
   std::vector<CandidateOutcome> last_round;
+  // Candidates whose decision did not hold under the stability check (never added).
+  std::vector<CandidateOutcome> unstable;
   std::string conclusion;
   ErrorFigures error_before, error_after;
   std::vector<ParameterEstimate> parameters_after;  // the final fit's, with intervals

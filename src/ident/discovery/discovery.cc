@@ -9,6 +9,7 @@
 
 #include "blmd/ident/discovery/evidence.h"
 #include "blmd/io/csv.h"
+#include "blmd/random.h"
 #include "blmd/sim/effects.h"
 #include "ident/discovery/effect_search.h"
 #include "ident/fit/counting_cost.h"
@@ -685,10 +686,97 @@ bool ScreenAndRefit(const FitProblem& current, const FitResult& fit, double curr
 }
 
 // The stopping rule (docs/discovery.md §3b): the evidence, physically valid, material, and
-// generalising to the part of the record it was not fitted to.
+// generalising to the part of the record it was not fitted to; and a decision that holds when
+// the data change far below their noise (§3d).
 bool PassesEvidence(const CandidateOutcome& o, const DiscoveryOptions& options) {
   return o.fitted && o.valid && o.held_out_better && o.delta_bic < -options.bic_margin &&
-         o.material;
+         o.material && o.stable;
+}
+
+// A copy of the data with every measured value, the recorded input and the initial state
+// scaled by 1 + relative·z, z standard normal from `seed` (time stays as recorded).
+std::vector<FitTrace> PerturbedTraces(const std::vector<FitTrace>& traces, std::uint64_t seed,
+                                      double relative) {
+  Random random(seed);
+  std::vector<FitTrace> out = traces;
+  for (FitTrace& f : out) {
+    for (std::size_t c = 0; c < f.trace.num_columns(); ++c) {
+      if (f.trace.names()[c] == "t") continue;
+      for (double& v : f.trace.Column(c)) v *= 1.0 + relative * random.Normal();
+    }
+    for (double& v : f.input.values) v *= 1.0 + relative * random.Normal();
+    for (double* v : {&f.initial.i, &f.initial.w, &f.initial.theta})
+      *v *= 1.0 + relative * random.Normal();
+  }
+  return out;
+}
+
+// The plain BIC of `config` with `free` at `values` on `traces`, free running; +inf when it
+// does not simulate.
+double PlainBic(const Config& config, const std::vector<FreeParameter>& free,
+                const std::vector<FitTrace>& traces, const std::vector<std::string>& observe,
+                const std::vector<double>& values) {
+  const FitProblem problem(config, traces, observe, free);
+  const Evaluation evaluation = problem.Evaluate(values);
+  return evaluation.ok ? Bic(problem, evaluation, problem.num_free())
+                       : std::numeric_limits<double>::infinity();
+}
+
+// The stability check (DiscoveryOptions::stability_checks, docs/discovery.md §3d): every
+// candidate with a screened or refit point is scored again on the perturbed copies; one whose
+// plain ΔBIC moves by more than the tolerance is marked unstable (never added), its reason
+// saying by how much, and listed in result->unstable.
+void CheckStability(const FitProblem& problem, const FitProblem& current, const FitResult& fit,
+                    const std::vector<std::vector<FitTrace>>& perturbed,
+                    const DiscoveryOptions& options, Round* round, DiscoveryResult* result) {
+  if (perturbed.empty()) return;
+  const std::vector<std::string>& observe = problem.observe();
+  // The current model on the data as given, then on each copy.
+  std::vector<double> base = {
+      PlainBic(current.config(), current.free(), problem.traces(), observe, fit.values)};
+  for (const auto& traces : perturbed)
+    base.push_back(PlainBic(current.config(), current.free(), traces, observe, fit.values));
+  for (double b : base) {
+    if (!std::isfinite(b)) return;  // nothing to compare with
+  }
+  std::vector<std::size_t> checked;
+  for (std::size_t k = 0; k < round->runs.size(); ++k) {
+    if (!round->runs[k].screen_values.empty()) checked.push_back(k);
+  }
+  ForEachItem(checked, internal::ThreadCount(options.refit.threads), [&](std::size_t k) {
+    CandidateRun& run = round->runs[k];
+    CandidateOutcome& o = run.outcome;
+    const std::vector<double>& values = o.fitted ? run.fit.values : run.screen_values;
+    o.stability_checked = true;
+    o.stability_delta_bic =
+        PlainBic(run.config, run.free, problem.traces(), observe, values) - base[0];
+    for (std::size_t c = 0; c < perturbed.size(); ++c) {
+      const double moved =
+          PlainBic(run.config, run.free, perturbed[c], observe, values) - base[c + 1];
+      o.stability_perturbed.push_back(moved);
+      // Only a move that could change the decision counts: one side of it passes the
+      // evidence threshold, and it is large against the score itself (a model with sticking
+      // friction moves its score by a few units under any change; a chaotic one by its size).
+      const double delta = o.stability_delta_bic;
+      const double tolerance =
+          std::max(options.stability_tolerance, options.stability_relative * std::abs(delta));
+      const bool could_pass = std::min(delta, moved) < -options.bic_margin;
+      if (could_pass && !(std::abs(moved - delta) <= tolerance)) o.stable = false;
+    }
+  });
+  for (std::size_t k : checked) {
+    CandidateOutcome& o = round->runs[k].outcome;
+    if (o.stable) continue;
+    std::string moved;
+    for (double d : o.stability_perturbed) moved += (moved.empty() ? "" : ", ") + G(d, 4);
+    o.reason = "unstable: a change of the data of " + G(options.stability_perturbation, 2) +
+               " of their values moves its plain BIC change from " + G(o.stability_delta_bic, 4) +
+               " to " + moved + ", so the record cannot decide it (not added)";
+    auto same = [&](const CandidateOutcome& u) { return u.effect == o.effect; };
+    result->unstable.erase(std::remove_if(result->unstable.begin(), result->unstable.end(), same),
+                           result->unstable.end());
+    result->unstable.push_back(o);
+  }
 }
 
 // Block cross-validation of every candidate that passes the evidence, best first: each must
@@ -911,6 +999,15 @@ void FinishFinalModel(const FitProblem& problem, const FitProblem& current, FitR
   }
 }
 
+// "; undecided: E (...)" when a candidate failed the stability check, else "".
+std::string Undecided(const DiscoveryResult& result) {
+  if (result.unstable.empty()) return "";
+  std::string names;
+  for (const auto& o : result.unstable) names += (names.empty() ? "" : ", ") + o.effect;
+  return "; undecided: " + names +
+         " (its evidence moves under a change of the data far below their noise)";
+}
+
 // The conclusion in words: what was added, "nothing missing", or "unexplained" when the
 // adequacy check finds structure that no effect of the vocabulary took up.
 std::string Conclusion(const DiscoveryResult& result, const DiscoveryOptions& options) {
@@ -925,12 +1022,13 @@ std::string Conclusion(const DiscoveryResult& result, const DiscoveryOptions& op
            (top.reason.empty() ? std::string() : "; " + top.reason) + ")";
   }
   if (result.added.empty()) {
-    return !unexplained.empty()
-               ? unexplained + best
-               : "nothing missing: no effect lowers BIC by more than " + G(options.bic_margin) +
-                     " with valid parameters, a material share of the residual and a lower "
-                     "error on the data it was not fitted to" +
-                     best;
+    return (!unexplained.empty()
+                ? unexplained + best
+                : "nothing missing: no effect lowers BIC by more than " + G(options.bic_margin) +
+                      " with valid parameters, a material share of the residual and a lower "
+                      "error on the data it was not fitted to" +
+                      best) +
+           Undecided(result);
   }
   std::string names;
   for (const auto& n : result.added) names += (names.empty() ? "" : ", ") + n;
@@ -938,7 +1036,7 @@ std::string Conclusion(const DiscoveryResult& result, const DiscoveryOptions& op
   if (!result.ambiguous.empty())
     conclusion += " (the best of models that fit as well: " + result.ambiguity_reason + ")";
   if (!unexplained.empty()) conclusion += "; then " + unexplained;
-  return conclusion;
+  return conclusion + Undecided(result);
 }
 
 }  // namespace
@@ -962,6 +1060,12 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
   }
   // The measured columns' noise floor: the same for every round.
   result.noise_floor_nrmse = NoiseFloorNrmse(problem);
+  // The stability check's copies of the data, the same for every round and every run.
+  std::vector<std::vector<FitTrace>> perturbed;
+  for (int k = 0; k < options.stability_checks; ++k) {
+    perturbed.push_back(PerturbedTraces(problem.traces(), 0x5eed0000u + static_cast<unsigned>(k),
+                                        options.stability_perturbation));
+  }
   for (int number = 1; number <= options.max_effects; ++number) {
     const ResidualAnalysis analysis = AnalyseResidual(*current_problem, current_fit.values);
     Round round;
@@ -969,6 +1073,7 @@ DiscoveryResult Discover(const FitProblem& problem, const FitResult& initial,
     if (!ScreenAndRefit(*current_problem, current_fit, current_bic, candidates, analysis,
                         result.noise_floor_nrmse, options, &round))
       break;
+    CheckStability(problem, *current_problem, current_fit, perturbed, options, &round, &result);
     CrossValidateCandidates(problem, *current_problem, current_fit, options, &round, &result);
     const std::vector<std::size_t> qualifying = QualifyingCandidates(options, &round);
     if (qualifying.empty()) {

@@ -63,6 +63,19 @@ struct DiscoveryOptions {
   // The model-adequacy check on the final model (adequacy.h); false: skip it.
   bool check_adequacy = true;
   AdequacyOptions adequacy;
+  // Stability of each decision (docs/discovery.md §3d): every screened or refit candidate's
+  // plain ΔBIC is scored again, at the same parameter values, on `stability_checks` copies of
+  // the data whose every measured value (and recorded input and initial state) is scaled by
+  // 1 + `stability_perturbation`·z, z standard normal (seeded: the same copies on every run).
+  // A candidate whose ΔBIC, on the data as given or on a copy, passes the evidence threshold
+  // (below -bic_margin) and moves by more than `stability_relative` of itself (at least
+  // `stability_tolerance`) on a copy hinges on the data's last bits (a simulated shaft
+  // settling in one detent or the next): it is never added and the report says so.
+  // 0 checks: off.
+  int stability_checks = 2;
+  double stability_perturbation = 1e-9;
+  double stability_tolerance = 1.0;
+  double stability_relative = 0.1;
 };
 
 struct CandidateOutcome {
@@ -99,6 +112,13 @@ struct CandidateOutcome {
   // Every free parameter of the model with this effect (J, B, ... and the effect's), as
   // refit: what an ambiguous round reports for each competing model.
   std::map<std::string, double> model_parameters;
+  // The stability check (DiscoveryOptions::stability_checks): the plain ΔBIC, free running,
+  // at the values judged (refit, else screened) on the data as given and on each perturbed
+  // copy; `stable` false when one moved by more than the tolerance (or failed to simulate).
+  bool stability_checked = false;
+  bool stable = true;
+  double stability_delta_bic = 0.0;
+  std::vector<double> stability_perturbed;
 };
 
 struct DiscoveryStep {
@@ -122,6 +142,9 @@ struct DiscoveryResult {
   // Each ambiguous round's competing models as refit (in the order of `ambiguous`).
   std::vector<std::vector<CandidateOutcome>> ambiguous_models;
   std::string ambiguity_reason;
+  // Candidates whose decision did not hold under the stability check, the latest round's
+  // outcome of each (never added).
+  std::vector<CandidateOutcome> unstable;
   std::vector<CandidateOutcome> last_round;  // the round that added nothing, best first
   std::string conclusion;                    // one line for people
   Config final_config;                       // with the added effects at their fitted values

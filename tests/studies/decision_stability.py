@@ -1,0 +1,210 @@
+#!/usr/bin/env python3
+"""Decision stability of the committed real-rig commands (docs/real-data.md, "Stable decisions").
+
+Every blmd-ident command of docs/real-data.md that writes a report under docs/real-data/ is run
+once on the data as recorded and RUNS times on copies whose measured columns (those the command
+maps to u, w, theta, i or open) are scaled by 1 + REL*z, z standard normal (seeded per run):
+a change far below any sensor's noise. Per command it prints the effects added, how many of the
+perturbed runs added the same, whether every differing run's report marks the decision
+(discovery.unstable or discovery.ambiguous), and the largest relative change of the headline
+J and B. Exit 1 when a perturbed run adds other effects without marking the decision.
+
+With --variant K=V (repeatable) it instead runs each command on the data as recorded under
+each environment variant (e.g. BLMD_BATCH_ISA=baseline) and prints whether the effects added
+are the same and the largest relative difference of every fitted parameter's value.
+
+Usage: decision_stability.py [--runs N] [--rel R] [--filter REGEX] [--bin DIR] [--env K=V]
+                             [--variant K=V ...]
+(run from the repository root; the data from ../shared/realdata or $BLMD_REALDATA)
+"""
+import argparse
+import csv
+import json
+import os
+import random
+import re
+import shlex
+import subprocess
+import sys
+import tempfile
+
+MAPPED = {"u", "w", "theta", "i", "open"}
+
+
+def commands(page, data):
+    """(report name, argv list) of every blmd-ident call with --report docs/real-data/."""
+    out = []
+    for block in re.findall(r"```sh\n(.*?)```", page, flags=re.S):
+        if "--report docs/real-data/" not in block:
+            continue
+        script = block.replace("../shared/realdata", data)
+        script = script.replace("build/bin/blmd-ident", "echo BLMD_IDENT")
+        lines = subprocess.run(["bash", "-c", script], capture_output=True, text=True,
+                               check=True).stdout.splitlines()
+        for line in lines:
+            if not line.startswith("BLMD_IDENT "):
+                continue
+            argv = shlex.split(line)[1:]
+            report = argv[argv.index("--report") + 1]
+            out.append((os.path.basename(report)[:-5], argv))
+    return out
+
+
+def mapped_headers(argv):
+    """The CSV headers the command reads as measured columns."""
+    headers = set(MAPPED)
+    for k, a in enumerate(argv):
+        if a == "--column" and k + 1 < len(argv):
+            name, _, header = argv[k + 1].partition("=")
+            if name in MAPPED:
+                headers.add(header)
+    return headers
+
+
+def perturb(path, headers, rel, rng, out_dir):
+    target = os.path.join(out_dir, os.path.basename(path))
+    with open(path, newline="", encoding="utf-8") as src, \
+            open(target, "w", newline="", encoding="utf-8") as dst:
+        header = None
+        for line in src:
+            if header is None and (line.startswith("#") or not line.strip()):
+                dst.write(line)
+                continue
+            if header is None:
+                header = next(csv.reader([line]))
+                dst.write(line)
+                columns = [k for k, h in enumerate(header) if h.strip() in headers]
+                continue
+            fields = line.rstrip("\n").split(",")
+            for k in columns:
+                try:
+                    value = float(fields[k])
+                except (ValueError, IndexError):
+                    continue
+                fields[k] = repr(value * (1.0 + rel * rng.gauss(0.0, 1.0)))
+            dst.write(",".join(fields) + "\n")
+    return target
+
+
+def run(binary, argv, env):
+    argv = list(argv)
+    k = argv.index("--report")
+    del argv[k:k + 2]
+    done = subprocess.run([binary, *argv, "--json", "--quiet"], capture_output=True, text=True,
+                          env=env)
+    if done.returncode not in (0, 1, 3):
+        return None, done.stderr.strip()
+    return json.loads(done.stdout), ""
+
+
+def summary(report):
+    d = report.get("discovery") or {}
+    marked = {c["effect"] for c in d.get("unstable", [])}
+    for group in d.get("ambiguous", []):
+        marked.update(group["effects"])
+    p = report["parameters"]
+    return (tuple(d.get("added", [])), marked, p.get("J", {}).get("value"),
+            p.get("B", {}).get("value"))
+
+
+def variants(page, data, binary, env, args):
+    print("| command | added | " + " | ".join(f"{v}: same effects, max rel. diff." for v in args.variant) + " |")
+    print("|---|---|" + "---|" * len(args.variant))
+    bad = 0
+    for name, argv in commands(page, data):
+        if not re.search(args.filter, name):
+            continue
+        report, error = run(binary, argv, env)
+        if report is None:
+            print(f"| {name} | error: {error} |")
+            bad += 1
+            continue
+        added = tuple((report.get("discovery") or {}).get("added", []))
+        cells = []
+        for variant in args.variant:
+            key, _, value = variant.partition("=")
+            other, error = run(binary, argv, {**env, key: value})
+            if other is None:
+                cells.append("error")
+                bad += 1
+                continue
+            o_added = tuple((other.get("discovery") or {}).get("added", []))
+            diff = 0.0
+            for pname, p in report["parameters"].items():
+                q = other["parameters"].get(pname)
+                if q and p["value"]:
+                    diff = max(diff, abs(q["value"] - p["value"]) / abs(p["value"]))
+            same = o_added == added
+            bad += 0 if same and diff <= 1e-6 else 1
+            cells.append(f"{'yes' if same else 'NO'}, {diff:.2g}")
+        print(f"| {name} | {', '.join(added) or '—'} | " + " | ".join(cells) + " |")
+        sys.stdout.flush()
+    return 1 if bad else 0
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--runs", type=int, default=10)
+    parser.add_argument("--rel", type=float, default=1e-9)
+    parser.add_argument("--filter", default=".")
+    parser.add_argument("--bin", default=os.environ.get("BUILD_DIR", "build") + "/bin")
+    parser.add_argument("--env", action="append", default=[])
+    parser.add_argument("--variant", action="append", default=[])
+    args = parser.parse_args()
+    data = os.environ.get("BLMD_REALDATA", "../shared/realdata")
+    env = dict(os.environ)
+    for item in args.env:
+        key, _, value = item.partition("=")
+        env[key] = value
+    page = open("docs/real-data.md", encoding="utf-8").read()
+    binary = os.path.join(args.bin, "blmd-ident")
+    bad = 0
+    if args.variant:
+        return variants(page, data, binary, env, args)
+    print("| command | added | same in perturbed runs | differing runs marked | max rel. change J, B |")
+    print("|---|---|---|---|---|")
+    for name, argv in commands(page, data):
+        if not re.search(args.filter, name):
+            continue
+        report, error = run(binary, argv, env)
+        if report is None:
+            print(f"| {name} | error: {error} | | | |")
+            bad += 1
+            continue
+        added, marked, J, B = summary(report)
+        same, differing, differing_marked, change = 0, 0, 0, 0.0
+        headers = mapped_headers(argv)
+        for r in range(args.runs):
+            rng = random.Random(1000 + r)
+            with tempfile.TemporaryDirectory() as tmp:
+                perturbed = list(argv)
+                for k, a in enumerate(argv):
+                    if a in ("--trace", "--validate"):
+                        k2 = k + 1
+                        while k2 < len(argv) and not argv[k2].startswith("--"):
+                            perturbed[k2] = perturb(argv[k2], headers, args.rel, rng, tmp)
+                            k2 += 1
+                other, error = run(binary, perturbed, env)
+            if other is None:
+                differing += 1
+                continue
+            o_added, o_marked, oJ, oB = summary(other)
+            if o_added == added:
+                same += 1
+            else:
+                differing += 1
+                if (set(o_added) ^ set(added)) <= (marked | o_marked):
+                    differing_marked += 1
+            for a, b in ((J, oJ), (B, oB)):
+                if a and b:
+                    change = max(change, abs(b - a) / abs(a))
+        if differing > differing_marked:
+            bad += 1
+        print(f"| {name} | {', '.join(added) or '—'}{' (undecided: ' + ', '.join(sorted(marked)) + ')' if marked else ''}"
+              f" | {same}/{args.runs} | {differing_marked}/{differing} | {change:.2g} |")
+        sys.stdout.flush()
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
