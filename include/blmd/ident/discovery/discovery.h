@@ -76,6 +76,10 @@ struct DiscoveryOptions {
   double stability_perturbation = 1e-9;
   double stability_tolerance = 1.0;
   double stability_relative = 0.1;
+  // The cross-validation's verdict is checked the same way, on the copies, with its fits
+  // started `stability_start` (relative) off the values, which earlier fits reach only to
+  // their tolerance: a verdict that flips is not a finding either.
+  double stability_start = 1e-6;
 };
 
 struct CandidateOutcome {
