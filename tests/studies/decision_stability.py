@@ -107,18 +107,25 @@ def summary(report):
             p.get("B", {}).get("value"))
 
 
-def variants(page, data, binary, env, args):
-    print("| command | added | " + " | ".join(f"{v}: same effects, max rel. diff." for v in args.variant) + " |")
-    print("|---|---|" + "---|" * len(args.variant))
-    bad = 0
+def selected(page, data, binary, env, args, errors):
+    """(name, argv, report) of each command matching --filter, run on the data as recorded;
+    a command that fails is printed as an error row and appended to `errors`."""
     for name, argv in commands(page, data):
         if not re.search(args.filter, name):
             continue
         report, error = run(binary, argv, env)
         if report is None:
             print(f"| {name} | error: {error} |")
-            bad += 1
+            errors.append(name)
             continue
+        yield name, argv, report
+
+
+def variants(page, data, binary, env, args):
+    print("| command | added | " + " | ".join(f"{v}: same effects, max rel. diff." for v in args.variant) + " |")
+    print("|---|---|" + "---|" * len(args.variant))
+    bad, errors = 0, []
+    for name, argv, report in selected(page, data, binary, env, args, errors):
         added = tuple((report.get("discovery") or {}).get("added", []))
         cells = []
         for variant in args.variant:
@@ -139,7 +146,7 @@ def variants(page, data, binary, env, args):
             cells.append(f"{'yes' if same else 'NO'}, {diff:.2g}")
         print(f"| {name} | {', '.join(added) or '—'} | " + " | ".join(cells) + " |")
         sys.stdout.flush()
-    return 1 if bad else 0
+    return 1 if bad or errors else 0
 
 
 def main():
@@ -163,14 +170,8 @@ def main():
         return variants(page, data, binary, env, args)
     print("| command | added | same in perturbed runs | differing runs marked | max rel. change J, B |")
     print("|---|---|---|---|---|")
-    for name, argv in commands(page, data):
-        if not re.search(args.filter, name):
-            continue
-        report, error = run(binary, argv, env)
-        if report is None:
-            print(f"| {name} | error: {error} | | | |")
-            bad += 1
-            continue
+    errors = []
+    for name, argv, report in selected(page, data, binary, env, args, errors):
         added, marked, J, B = summary(report)
         same, differing, differing_marked, change = 0, 0, 0, 0.0
         headers = mapped_headers(argv)
@@ -203,7 +204,7 @@ def main():
         print(f"| {name} | {', '.join(added) or '—'}{' (undecided: ' + ', '.join(sorted(marked)) + ')' if marked else ''}"
               f" | {same}/{args.runs} | {differing_marked}/{differing} | {change:.2g} |")
         sys.stdout.flush()
-    return 1 if bad else 0
+    return 1 if bad or errors else 0
 
 
 if __name__ == "__main__":

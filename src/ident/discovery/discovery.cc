@@ -22,12 +22,8 @@ namespace blmd {
 namespace {
 
 using internal::CandidatePlan;
-using internal::DifferenceRule;
-using internal::FiniteDifferenceJacobian;
-using internal::FromSearchCoordinates;
 using internal::PlanCandidate;
 using internal::PointingDiagnostic;
-using internal::ToSearchCoordinates;
 
 std::string G(double v, int digits = 4) { return FormatSignificant(v, digits); }
 using internal::CandidateRun;
@@ -491,6 +487,14 @@ double PlainBic(const Config& config, const std::vector<FreeParameter>& free,
                        : std::numeric_limits<double>::infinity();
 }
 
+// Records `o` in result->unstable, replacing an earlier round's outcome of the same effect.
+void RecordUnstable(const CandidateOutcome& o, DiscoveryResult* result) {
+  auto same = [&](const CandidateOutcome& u) { return u.effect == o.effect; };
+  result->unstable.erase(std::remove_if(result->unstable.begin(), result->unstable.end(), same),
+                         result->unstable.end());
+  result->unstable.push_back(o);
+}
+
 // The stability check (DiscoveryOptions::stability_checks, docs/discovery.md §3d): every
 // candidate with a screened or refit point is scored again on the perturbed copies; one whose
 // plain ΔBIC moves by more than the tolerance is marked unstable (never added), its reason
@@ -541,10 +545,7 @@ void CheckStability(const FitProblem& problem, const FitProblem& current, const 
     o.reason = "unstable: a change of the data of " + G(options.stability_perturbation, 2) +
                " of their values moves its plain BIC change from " + G(o.stability_delta_bic, 4) +
                " to " + moved + ", so the record cannot decide it (not added)";
-    auto same = [&](const CandidateOutcome& u) { return u.effect == o.effect; };
-    result->unstable.erase(std::remove_if(result->unstable.begin(), result->unstable.end(), same),
-                           result->unstable.end());
-    result->unstable.push_back(o);
+    RecordUnstable(o, result);
   }
 }
 
@@ -622,10 +623,7 @@ void CrossValidateCandidates(const FitProblem& problem, const FitProblem& curren
                  " of their values reverses its cross-validated verdict (NRMSE " + G(o.cv_before) +
                  " -> " + G(o.cv_after) + " on the data, " + G(base_copies[c]->nrmse) + " -> " +
                  G(copy.nrmse) + " on a copy), so the record cannot decide it (not added)";
-      auto same = [&](const CandidateOutcome& u) { return u.effect == o.effect; };
-      result->unstable.erase(std::remove_if(result->unstable.begin(), result->unstable.end(), same),
-                             result->unstable.end());
-      result->unstable.push_back(o);
+      RecordUnstable(o, result);
     }
   }
 }

@@ -24,13 +24,17 @@ bool UsesMeasuredAngle(const Config& config) {
   });
 }
 
-FitProblem MakeProblemImpl(const Config& config, const std::vector<FitTrace>& traces,
-                           const std::vector<std::string>& observe,
-                           const std::vector<FreeParameter>& free) {
+}  // namespace
+
+FitProblem MakeProblem(const Config& config, const std::vector<FitTrace>& traces,
+                       const std::vector<std::string>& observe,
+                       const std::vector<FreeParameter>& free) {
   FitProblem problem(config, traces, observe, free);
   if (UsesMeasuredAngle(config)) problem.ForceEffectAngle();  // unchanged without theta or w
   return problem;
 }
+
+namespace {
 
 // `evaluation`, reported to `progress` (when there is one) as one cost evaluation.
 Evaluation Counted(ProgressObserver* progress, Evaluation evaluation) {
@@ -117,12 +121,14 @@ std::pair<std::vector<double>, Evaluation> OneStepGaussNewton(const FitProblem& 
   return {best_values, best};
 }
 
+}  // namespace
+
 // Screening: a deterministic scan of the effect's start points (and cogging periods) with
 // the other parameters held, then one Gauss-Newton step on all of them. Its evaluations are
 // reported to `progress` (may be null).
-CandidateRun ScreenCandidateImpl(const FitProblem& base, const std::vector<double>& base_values,
-                                 const CandidatePlan& plan, double bic_before,
-                                 ProgressObserver* progress) {
+CandidateRun ScreenCandidate(const FitProblem& base, const std::vector<double>& base_values,
+                             const CandidatePlan& plan, double bic_before,
+                             ProgressObserver* progress) {
   CandidateRun run;
   run.outcome.effect = plan.effect;
   if (!plan.applicable) {
@@ -244,20 +250,6 @@ CandidateRun ScreenCandidateImpl(const FitProblem& base, const std::vector<doubl
   run.outcome.delta_bic = run.screen_bic;
   run.outcome.nrmse = std::sqrt(evaluation.nrmse2);
   return run;
-}
-
-}  // namespace
-
-FitProblem MakeProblem(const Config& config, const std::vector<FitTrace>& traces,
-                       const std::vector<std::string>& observe,
-                       const std::vector<FreeParameter>& free) {
-  return MakeProblemImpl(config, traces, observe, free);
-}
-
-CandidateRun ScreenCandidate(const FitProblem& base, const std::vector<double>& base_values,
-                             const CandidatePlan& plan, double bic_before,
-                             ProgressObserver* progress) {
-  return ScreenCandidateImpl(base, base_values, plan, bic_before, progress);
 }
 
 }  // namespace blmd::internal
