@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
-"""The docs check against the binary (scripts/check-docs): it passes on the committed docs,
-fails on a planted change of an expected number (naming the file and line), and ignores a
-change of a wall time. Usage: check_docs_test.py SOURCE_DIR BUILD_DIR"""
+"""The docs check against the binary (scripts/check-docs): it fails on a planted change of an
+expected number (naming the file and line), and ignores a change of a wall time. (That it
+passes on the committed docs is the test docs_outputs, which runs the same pages.)
+Usage: check_docs_test.py SOURCE_DIR BUILD_DIR"""
 import os
 import re
 import subprocess
@@ -19,8 +20,6 @@ def check(path):
 
 
 readme = os.path.join(source, "README.md")
-committed = check(readme)
-assert committed.returncode == 0, committed.stderr
 text = open(readme, encoding="utf-8").read()
 with tempfile.TemporaryDirectory() as tmp:
     # A planted change of an expected number: the NRMSE of the fit line.
@@ -39,4 +38,4 @@ with tempfile.TemporaryDirectory() as tmp:
     open(path, "w", encoding="utf-8").write(timed)
     result = check(path)
     assert result.returncode == 0, result.stderr
-print("check-docs: passes on the committed docs, fails on a planted number, ignores wall times")
+print("check-docs: fails on a planted number, ignores wall times")
