@@ -544,7 +544,7 @@ void ReadIdentification(const Reader& reader, const json& root, Config* out) {
     reader.RequireObject(id, "/identification");
     reader.CheckKeys(id, "/identification",
                      {"free", "initial", "bounds", "observe", "method", "options", "error",
-                      "filter_hz", "decimate", "weighting", "noise_std"});
+                      "filter_hz", "decimate", "weighting", "noise_std", "effect_angle"});
     if (id.contains("free")) ident.free = reader.Strings(id["free"], "/identification/free");
     if (id.contains("observe")) {
       ident.observe = reader.Strings(id["observe"], "/identification/observe");
@@ -586,6 +586,14 @@ void ReadIdentification(const Reader& reader, const json& root, Config* out) {
         reader.Fail("/identification/weighting", "weighting '" +
                                                      InputError::Excerpt(ident.weighting) +
                                                      "' is not one of: noise, variance");
+      }
+    }
+    if (id.contains("effect_angle")) {
+      ident.effect_angle = reader.String(id["effect_angle"], "/identification/effect_angle");
+      if (ident.effect_angle != "measured" && ident.effect_angle != "simulated") {
+        reader.Fail("/identification/effect_angle",
+                    "effect_angle '" + InputError::Excerpt(ident.effect_angle) +
+                        "' is not one of: measured, simulated");
       }
     }
     if (id.contains("noise_std")) {

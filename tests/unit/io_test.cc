@@ -527,6 +527,18 @@ TEST(ConfigErrors, InvalidJsonWithLineAndColumn) {
             "config.json:1:1: '(top level)' must be an object, not an array");
 }
 
+TEST(ConfigErrors, EffectAngleIsMeasuredOrSimulated) {
+  EXPECT_EQ(ParseConfig(Base(), "config.json").identification.effect_angle, "measured");
+  EXPECT_EQ(ParseConfig(Base("\"free\": [\"J\", \"B\"],",
+                             "\"free\": [\"J\", \"B\"], \"effect_angle\": \"simulated\","),
+                        "config.json")
+                .identification.effect_angle,
+            "simulated");
+  EXPECT_EQ(ConfigError(Base("\"free\": [\"J\", \"B\"],",
+                             "\"free\": [\"J\", \"B\"], \"effect_angle\": \"free\",")),
+            "config.json:12:25: effect_angle 'free' is not one of: measured, simulated");
+}
+
 TEST(ConfigErrors, UnknownKeysSuggestTheNearest) {
   EXPECT_EQ(
       ConfigError(Base("\"model\": \"dc_servo\",", "\"model\": \"dc_servo\", \"experimnet\": {},")),
@@ -540,12 +552,12 @@ TEST(ConfigErrors, UnknownKeysSuggestTheNearest) {
       ConfigError(Base("\"free\"", "\"fre\"")),
       "config.json:12:5: unknown key 'fre' in 'identification' (did you mean 'free'?); "
       "valid keys: free, initial, bounds, observe, method, options, error, filter_hz, decimate, "
-      "weighting, noise_std");
+      "weighting, noise_std, effect_angle");
   // Nothing close: no suggestion.
   EXPECT_EQ(ConfigError(Base("\"free\"", "\"zzzzzz\"")),
             "config.json:12:5: unknown key 'zzzzzz' in 'identification'; valid keys: free, "
             "initial, bounds, observe, method, options, error, filter_hz, decimate, weighting, "
-            "noise_std");
+            "noise_std, effect_angle");
 }
 
 TEST(ConfigErrors, MissingOrUnknownModel) {

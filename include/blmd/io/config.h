@@ -35,6 +35,12 @@ struct IdentificationSettings {
   // noise_std; maximum likelihood) or "variance" (by 1/its signal variance, as before 0.3).
   std::string weighting = "noise";
   std::map<std::string, double> noise_std;  // fixed sigma per observed column, its units
+  // The angle a position-dependent effect (cogging, spring, gravity) sees when the model is
+  // fitted or scored (docs/discovery.md §6): "measured" (the trace's theta, else the integral
+  // of its w; the effect's torque is then a known function of time, and the fit and its
+  // score do not hinge on where a simulated shaft settles in a detent) or "simulated" (the
+  // free-running model's own angle, as before 0.3).
+  std::string effect_angle = "measured";
 };
 
 struct Config {

@@ -161,9 +161,11 @@ void RefitCandidate(const FitProblem& base, const RoundBase& round, const Candid
   OptimizerOptions refit = options.refit;
   refit.default_max_iterations = 50;  // unless the user's --option max_iterations says otherwise
   run->fit = FindOptimizer("ceres").Minimize(problem, refit);
-  if (run->fit.evaluation.ok && problem.effect_angle_forced()) {
-    // Fitted at the measured angle: polish on the free-running model from there (its basin
-    // is narrow but the measured-angle fit lands in it), keeping whichever runs better.
+  if (run->fit.evaluation.ok && problem.effect_angle_forced() &&
+      run->config.identification.effect_angle == "simulated") {
+    // Fitted at the measured angle, scored free running (effect_angle "simulated"): polish on
+    // the free-running model from there (its basin is narrow but the measured-angle fit lands
+    // in it), keeping whichever runs better.
     std::vector<FreeParameter> free = run->free;
     for (std::size_t k = 0; k < free.size(); ++k) free[k].initial = run->fit.values[k];
     const FitProblem free_run(run->config, base.traces(), base.observe(), free);

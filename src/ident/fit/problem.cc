@@ -7,6 +7,7 @@
 
 #include "blmd/error.h"
 #include "blmd/io/csv.h"
+#include "blmd/sim/effects.h"
 
 namespace blmd {
 
@@ -49,6 +50,14 @@ FitProblem::FitProblem(Config config, std::vector<FitTrace> traces,
         throw InputError(fit_trace.path + ": " + error);
       }
     }
+  }
+  // A position-dependent effect sees the measured angle unless the config asks for the
+  // simulated one (IdentificationSettings::effect_angle); unchanged when no trace records an
+  // angle or a speed, and for the equation error, which has no simulated angle.
+  if (config_.identification.effect_angle == "measured" && equation_.empty() &&
+      std::any_of(config_.effects.begin(), config_.effects.end(),
+                  [](const std::string& effect) { return FindEffect(effect).position_dependent; })) {
+    ForceEffectAngle();
   }
   variance_.assign(observe_.size(), 0.0);
   samples_per_column_.assign(observe_.size(), 0);
