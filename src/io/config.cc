@@ -591,9 +591,9 @@ void ReadIdentification(const Reader& reader, const json& root, Config* out) {
     if (id.contains("effect_angle")) {
       ident.effect_angle = reader.String(id["effect_angle"], "/identification/effect_angle");
       if (ident.effect_angle != "measured" && ident.effect_angle != "simulated") {
-        reader.Fail("/identification/effect_angle",
-                    "effect_angle '" + InputError::Excerpt(ident.effect_angle) +
-                        "' is not one of: measured, simulated");
+        reader.Fail("/identification/effect_angle", "effect_angle '" +
+                                                        InputError::Excerpt(ident.effect_angle) +
+                                                        "' is not one of: measured, simulated");
       }
     }
     if (id.contains("noise_std")) {

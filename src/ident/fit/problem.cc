@@ -55,8 +55,9 @@ FitProblem::FitProblem(Config config, std::vector<FitTrace> traces,
   // simulated one (IdentificationSettings::effect_angle); unchanged when no trace records an
   // angle or a speed, and for the equation error, which has no simulated angle.
   if (config_.identification.effect_angle == "measured" && equation_.empty() &&
-      std::any_of(config_.effects.begin(), config_.effects.end(),
-                  [](const std::string& effect) { return FindEffect(effect).position_dependent; })) {
+      std::any_of(config_.effects.begin(), config_.effects.end(), [](const std::string& effect) {
+        return FindEffect(effect).position_dependent;
+      })) {
     ForceEffectAngle();
   }
   variance_.assign(observe_.size(), 0.0);
