@@ -227,7 +227,8 @@ CandidateRun ScreenCandidate(const FitProblem& base, const std::vector<double>& 
   auto [values, fitted] = OneStepGaussNewton(problem, problem.InitialValues(), at_start, progress);
   Evaluation evaluation = FreeRunEvaluation(problem, values, fitted);
   if (FindEffect(plan.effect).position_dependent && problem.effect_angle_forced() &&
-      run.config.identification.effect_angle == "simulated" && evaluation.ok && !(Bic(problem, evaluation, problem.num_free()) < bic_before)) {
+      run.config.identification.effect_angle == "simulated" && evaluation.ok &&
+      !(Bic(problem, evaluation, problem.num_free()) < bic_before)) {
     // Fitted at the measured angle, the point may sit just outside the free-running model's
     // narrow basin (a cogging torque captures the simulated shaft in other detents): a short
     // free-running search from there decides, as the refit's polish does.
