@@ -12,7 +12,10 @@ Headless Chromium opens the report and
      takes a screenshot of it: each must show a plot (enough non-white pixels, many
      colours, and pixels of the exact blue or vermilion of the curves);
   4. logs to stderr throughout: no console message (uncaught error, failed resource load)
-     may appear.
+     may appear;
+  5. lays the page out in a 1280x800 window (a laptop's first screen) inside a measuring
+     frame: the final model's J and B cards, with the report's values and 95 % intervals,
+     lie within it, above the figures of merit.
 Usage: check_report.py --chromium BIN --html REPORT.html --json REPORT.json --out DIR
 Exit 0 when every check passes, 1 otherwise (the failed checks are listed)."""
 import argparse
@@ -106,6 +109,67 @@ def check_linear_views(report, dom):
                   f"{kind} of {column}: {found} points (expected {len(output['f_hz'])})")
 
 
+MEASURE = """<!doctype html><html><body style="margin:0">
+<iframe id="f" src="REPORT" width="1280" height="800" style="border:0"></iframe>
+<pre id="out">pending</pre>
+<script>
+document.getElementById("f").addEventListener("load", function () {
+  var doc = document.getElementById("f").contentDocument, rows = [];
+  doc.querySelectorAll(".card").forEach(function (card) {
+    var r = card.getBoundingClientRect();
+    rows.push({name: card.getAttribute("data-name") || "", estimate: card.classList.contains("estimate"),
+               text: card.innerText.replace(/\\s+/g, " "), top: r.top, bottom: r.bottom});
+  });
+  document.getElementById("out").textContent = JSON.stringify(rows);
+});
+</script></body></html>"""
+
+
+def number_in(text, value):
+    """Whether `text` shows `value` to its printed digits (4-5 significant)."""
+    for word in re.findall(r"[-+]?\d*\.?\d+(?:[eE][-+]?\d+)?", text):
+        x = float(word)
+        if x == value or abs(x - value) <= 1e-3 * abs(value):
+            return True
+    return False
+
+
+def check_headline(binary, html, report, out):
+    page = os.path.join(out, "measure.html")
+    with open(page, "w", encoding="utf-8") as f:
+        f.write(MEASURE.replace("REPORT", "file://" + html))
+    log = os.path.join(out, "chromium-measure.log")
+    open(log, "wb").close()
+    dom = chromium(binary, ["--allow-file-access-from-files", "--virtual-time-budget=10000",
+                            "--dump-dom"], "file://" + page, log)
+    found = re.search(r'<pre id="out">(.*?)</pre>', dom, flags=re.S)
+    rows = []
+    if found:
+        try:
+            rows = json.loads(found.group(1).replace("&amp;", "&").replace("&lt;", "<")
+                              .replace("&gt;", ">").replace("&quot;", '"'))
+        except ValueError:
+            rows = []
+    check(bool(rows), f"the measuring page laid out the report's cards ({len(rows)} found)")
+    cards = {row["name"]: row for row in rows if row["estimate"]}
+    merit = [row for row in rows if not row["estimate"]]
+    for name in ("J", "B"):
+        p = report["parameters"][name]
+        card = cards.get(name)
+        check(card is not None, f"a headline card for {name}")
+        if card is None:
+            continue
+        check(card["bottom"] <= 800, f"{name}'s card lies in the first 1280x800 screen "
+              f"(bottom at {card['bottom']:.0f} px)")
+        check(number_in(card["text"], p["value"]), f"{name}'s card shows {p['value']:.5g}: {card['text']!r}")
+        ci = p.get("ci95")
+        if ci:
+            check(number_in(card["text"], ci[0]) and number_in(card["text"], ci[1]),
+                  f"{name}'s card shows its 95 % interval [{ci[0]:.4g}, {ci[1]:.4g}]")
+        check(all(card["bottom"] <= row["top"] + 1 for row in merit),
+              f"{name}'s card comes before the figures of merit")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--chromium", default="/usr/bin/chromium")
@@ -164,6 +228,11 @@ def main():
         check(s["non_white"] > 0.02 * s["pixels"] and s["distinct_colours"] > 50 and curve > 150,
               f"{figure_id} ({kind}) rendered enlarged: {s['non_white']} non-white px, "
               f"{s['distinct_colours']} colours, {curve} px of a curve colour")
+
+    # 5. The headline in the first screen: the page in a 1280x800 frame of a measuring page
+    # (the report itself runs no script), which writes each headline card's text and where
+    # it lies into its own DOM.
+    check_headline(args.chromium, os.path.abspath(args.html), report, args.out)
 
     # 4. The console.
     messages = [line for line in open(log, encoding="utf-8", errors="replace") if CONSOLE.search(line)]

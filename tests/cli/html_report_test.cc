@@ -231,10 +231,16 @@ TEST(HtmlReport, HasEveryPartOfAFitWithoutDiscovery) {
   EXPECT_EQ(Count(html, std::string("blmd-ident ") + std::string(kVersion)), 3u);
   // Parameter table: J and B, with initial values and intervals.
   EXPECT_EQ(Count(html, "<tr class=\"parameter\""), 2u);
-  EXPECT_EQ(Count(html, "data-name=\"J\""), 1u);
-  EXPECT_EQ(Count(html, "data-name=\"B\""), 1u);
-  EXPECT_LT(html.find("data-name=\"J\""), html.find("data-name=\"B\""));  // the config's order
-  EXPECT_EQ(Count(html, "<td class=\"num\">1e-5</td>"), 2u);              // both start at 1e-5
+  EXPECT_EQ(Count(html, "class=\"parameter\" data-name=\"J\""), 1u);
+  EXPECT_EQ(Count(html, "class=\"parameter\" data-name=\"B\""), 1u);
+  EXPECT_LT(html.find("class=\"parameter\" data-name=\"J\""),
+            html.find("class=\"parameter\" data-name=\"B\""));  // the config's order
+  // The headline: J and B with their intervals, first, before the figures of merit.
+  EXPECT_EQ(Count(html, "class=\"card estimate\" data-name=\"J\""), 1u);
+  EXPECT_EQ(Count(html, "class=\"card estimate\" data-name=\"B\""), 1u);
+  EXPECT_LT(html.find("class=\"card estimate\" data-name=\"B\""), html.find("NRMSE of the fit"));
+  EXPECT_EQ(Count(html, "before discovery"), 0u);
+  EXPECT_EQ(Count(html, "<td class=\"num\">1e-5</td>"), 2u);  // both start at 1e-5
   // Plots: per observed column (i, w) the trace, its first transient, the residual and its
   // autocorrelation; one cost slice per free parameter (J, B). Each is one inline SVG.
   const std::vector<std::string> figures = Figures(html);
@@ -307,7 +313,13 @@ TEST(HtmlReport, ShowsTheModelBeforeAndAfterDiscovery) {
   ExpectSelfContained(html);
   // Parameters: J, B and the added Tc of the final model, the first fit's beside them.
   EXPECT_EQ(Count(html, "<tr class=\"parameter\""), 3u);
-  EXPECT_EQ(Count(html, "data-name=\"Tc\""), 1u);
+  EXPECT_EQ(Count(html, "class=\"parameter\" data-name=\"Tc\""), 1u);
+  // The headline: J, B and the added Tc, each with its interval; the "before discovery" card.
+  EXPECT_EQ(Count(html, "class=\"card estimate\" data-name=\"Tc\""), 1u);
+  EXPECT_EQ(Count(html, "<div class=\"label\">before discovery</div>"), 1u);
+  // The initial column is the user's start (the first fit's), not the round's: Tc, which
+  // discovery added, has none.
+  EXPECT_EQ(Count(html, "— (discovery)"), 1u);
   EXPECT_EQ(Count(html, "<th>before discovery</th>"), 1u);
   EXPECT_EQ(Count(html, "— (added by discovery)"), 1u);  // Tc had no value before
   EXPECT_EQ(Count(html, "NRMSE of the final model"), 1u);

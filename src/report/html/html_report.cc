@@ -99,6 +99,7 @@ code { font-size: .85rem; word-break: break-all; }
 .card .label { font-size: .8rem; color: #555; }
 .card .value { font-size: 1.35rem; font-weight: bold; }
 .card .sub { font-size: .8rem; color: #555; }
+.headline .card { border-color: #0b5394; }
 .warn { border-left: 4px solid #d55e00; padding-left: .6rem; }
 ul.warnings { border-left: 4px solid #d55e00; padding-left: 1.6rem; max-width: 60rem; }
 .grid { display: grid; grid-template-columns: repeat(auto-fill, minmax(540px, 1fr)); gap: 14px;
@@ -228,7 +229,35 @@ void WriteKeyFigures(Page& page, const IdentReport& report) {
   const ErrorFigures& fit = model.fit.errors;
   const ResidualAnalysis* residual = model.residual.analysis ? &*model.residual.analysis : nullptr;
   const OptimizerSummary& summary = model.summary;
-  h += "<div class=\"cards\">\n";
+  // The headline: what the user came for, the final model's J and B and the values of the
+  // effects discovery added, each with its 95 % interval, before any figure of merit.
+  h += "<div class=\"cards headline\">\n";
+  std::vector<std::string> headline = {"J", "B"};
+  if (report.discovery) {
+    for (const DiscoveryStep& step : report.discovery->steps) {
+      for (const ParameterEstimate& estimate : step.effect_parameters) {
+        const std::string& name = estimate.name;
+        const auto found = model.parameters.find(name);
+        if (found != model.parameters.end() && found->second.free &&
+            std::find(headline.begin(), headline.end(), name) == headline.end())
+          headline.push_back(name);
+      }
+    }
+  }
+  for (const std::string& name : headline) {
+    const auto found = model.parameters.find(name);
+    if (found == model.parameters.end()) continue;
+    const ParameterReport& p = found->second;
+    const ParameterEstimate& e = p.estimate;
+    const std::string unit = p.unit.empty() ? "" : " " + p.unit;
+    const bool interval = p.free && e.has_interval;
+    h += "<div class=\"card estimate\" data-name=\"" + Escape(name) + "\"><div class=\"label\">" +
+         Escape(name) + "</div><div class=\"value\">" + Escape(G(e.value, 5) + unit) +
+         "</div><div class=\"sub\">" +
+         Escape(interval ? "95 % " + Interval(e.ci95_low, e.ci95_high, 4) : "no interval") +
+         (p.at_bound ? " <b>at its bound</b>" : "") + "</div></div>\n";
+  }
+  h += "</div>\n<div class=\"cards\">\n";
   h += Card(report.discovered() ? "NRMSE of the final model" : "NRMSE of the fit", Nrmse(fit),
             "fit " + (fit.ok ? G(100.0 * (1.0 - fit.nrmse), 4) : std::string("n/a")) +
                 " % (100 % = perfect)");
@@ -241,7 +270,7 @@ void WriteKeyFigures(Page& page, const IdentReport& report) {
             summary.termination + ", " + std::to_string(summary.evaluations) + " evaluations, " +
                 G(summary.wall_time_s, 3) + " s",
             !summary.converged);
-  if (report.discovery) {
+  if (report.discovered()) {  // only when discovery changed the model
     h += Card("before discovery", "NRMSE " + Nrmse(report.discovery->error_before),
               report.discovery->conclusion);
   }
@@ -260,6 +289,17 @@ void WriteKeyFigures(Page& page, const IdentReport& report) {
     }
     h += "</ul>\n";
   }
+}
+
+// The user's start of a parameter: the first fit's initial value (the final model's fit
+// starts from the previous round's values, which are not what the user gave); a parameter
+// that discovery added started where its screening put it.
+std::string UserStart(const std::string& name, const ParameterReport& p,
+                      const std::map<std::string, ParameterReport>& first) {
+  if (!p.free) return "n/a";
+  const auto found = first.find(name);
+  if (found == first.end()) return "— (discovery)";
+  return G(found->second.estimate.initial, 4);
 }
 
 void WriteParameters(Page& page, const IdentReport& report, const FitProblem& problem) {
@@ -295,7 +335,7 @@ void WriteParameters(Page& page, const IdentReport& report, const FitProblem& pr
     std::vector<std::string> cells = {
         "<b>" + Escape(name) + "</b>",
         Escape(p.unit),
-        p.free ? G(e.initial, 4) : "n/a",
+        UserStart(name, p, before),
         G(e.value, 6) + note,
         interval ? G(0.5 * (e.ci95_high - e.ci95_low), 3) : "n/a",
         interval ? Interval(e.ci95_low, e.ci95_high, 5) : "—",
