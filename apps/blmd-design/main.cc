@@ -16,15 +16,19 @@ namespace {
 // Every flag of blmd-design (docs/cli.md §5).
 struct DesignFlags {
   std::string config_path, report_path, write_config_path, write_input_path, trace_path;
+  std::string from_report;
   std::string family = "all", target;
   double duration = 0.0;
   std::vector<std::string> limits, noises;
   int threads = 0;
-  bool json = false, quiet = false;
-  blmd::app::DialectFlags dialect;
+  bool json = false, quiet = false, fail_on_warning = false;
+  blmd::app::TraceFlags trace;
 
   void Add(CLI::App& app) {
     app.add_option("--config", config_path, "the model at its prior values (JSON)")->required();
+    app.add_option("--from-report", from_report,
+                   "a blmd-ident report of the config's model: its final values and effects "
+                   "(the effects' fitted parameters free) replace the config's");
     app.add_option("--duration", duration,
                    "length of the experiment to design, s (required "
                    "without --trace)")
@@ -41,8 +45,8 @@ struct DesignFlags {
                    "A-optimal for these free parameters, e.g. J (default: D-optimal for all)");
     app.add_option("--trace", trace_path,
                    "evaluate this recorded trace's u column instead of searching (noise from "
-                   "its residual where --noise gives none)");
-    dialect.Add(app);
+                   "its residual where --noise gives none); read with blmd-ident's trace flags");
+    trace.Add(app);
     app.add_option("--report", report_path, "write the JSON report here");
     app.add_flag("--json", json, "print the JSON report on stdout instead of the summary");
     app.add_option("--write-config", write_config_path,
@@ -52,6 +56,9 @@ struct DesignFlags {
     app.add_option("--threads", threads, "worker threads (0: all cores)")
         ->check(blmd::app::NonNegativeWholeNumber());
     app.add_flag("--quiet", quiet, "print nothing but errors");
+    app.add_flag("--fail-on-warning", fail_on_warning,
+                 "exit 3 when the design has a warning (no friction, an inadequate report, an "
+                 "input below the breakaway)");
   }
 };
 
@@ -63,13 +70,22 @@ blmd::DesignSettings Settings(const CLI::App& app, const DesignFlags& f) {
   settings.family = f.family;
   settings.target = f.target;
   settings.trace_path = f.trace_path;
-  settings.dialect = f.dialect;
+  settings.trace = f.trace;
+  settings.from_report = f.from_report;
   settings.threads = f.threads;
   return settings;
 }
 
 int Run(const CLI::App& app, DesignFlags& f) {
   f.threads = blmd::app::CapThreads(f.threads);
+  if (f.trace_path.empty()) {
+    for (const char* flag :
+         {"--column", "--scale", "--derive", "--select", "--split", "--initial-state"}) {
+      if (app.count(flag) > 0) {
+        throw blmd::InputError(std::string(flag) + ": only with --trace (it prepares the trace)");
+      }
+    }
+  }
   if (!f.trace_path.empty()) {
     for (const char* flag : {"--write-config", "--write-input"}) {
       if (app.count(flag) > 0) {
@@ -78,10 +94,11 @@ int Run(const CLI::App& app, DesignFlags& f) {
       }
     }
   }
-  blmd::CheckOutputs({{"--report", f.report_path},
-                      {"--write-config", f.write_config_path},
-                      {"--write-input", f.write_input_path}},
-                     {{"--config", f.config_path}, {"--trace", f.trace_path}});
+  blmd::CheckOutputs(
+      {{"--report", f.report_path},
+       {"--write-config", f.write_config_path},
+       {"--write-input", f.write_input_path}},
+      {{"--config", f.config_path}, {"--trace", f.trace_path}, {"--from-report", f.from_report}});
   const blmd::Config config = blmd::LoadConfig(f.config_path);
   const blmd::DesignRequest request =
       blmd::MakeDesignRequest(config, f.config_path, Settings(app, f));
@@ -92,8 +109,8 @@ int Run(const CLI::App& app, DesignFlags& f) {
   const nlohmann::json report_json = blmd::DesignReportJson(report);
   if (!f.report_path.empty()) blmd::WriteFileAtomically(f.report_path, report_json.dump(2) + "\n");
   if (report.ok && !f.write_config_path.empty()) {
-    blmd::WriteFileAtomically(f.write_config_path,
-                              blmd::DesignConfigJson(config, report).dump(2) + "\n");
+    blmd::WriteFileAtomically(
+        f.write_config_path, blmd::DesignConfigJson(request.problem.config, report).dump(2) + "\n");
   }
   if (report.ok && !f.write_input_path.empty()) {
     blmd::WriteTraceCsv(blmd::DesignInputTable(report), f.write_input_path);
@@ -112,6 +129,7 @@ int Run(const CLI::App& app, DesignFlags& f) {
     std::cerr << "error: no design: " << report.reason << "\n";
     return blmd::kExitFailed;
   }
+  if (f.fail_on_warning && !report.warnings.empty()) return blmd::kExitGate;
   return blmd::kExitOk;
 }
 

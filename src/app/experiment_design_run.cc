@@ -8,6 +8,7 @@
 #include "blmd/error.h"
 #include "blmd/io/csv.h"
 #include "blmd/io/files.h"
+#include "blmd/io/stored_report.h"
 #include "blmd/report/report.h"
 #include "blmd/run.h"
 #include "blmd/version.h"
@@ -112,15 +113,17 @@ void SetNoise(const Config& config, const std::string& config_path, const Design
   }
 }
 
-// --trace: t, u (and open) and the observed columns whose noise it estimates.
+// --trace: t, u (and open) and the observed columns whose noise it estimates, read and
+// prepared by blmd-ident's own trace flags (--column, --scale, --derive, --select, ...).
 void ReadTrace(const Config& config, const DesignSettings& s, DesignRequest* request) {
-  CsvReadOptions options;
-  options.required = {"t", "u"};
-  options.strict_columns = {"t", "u", "open"};
-  for (const auto& column : request->problem.observe) options.strict_columns.push_back(column);
-  options.delimiter = s.dialect.Delimiter();
-  options.duplicate_time = s.dialect.Duplicates();
-  request->trace = ReadTraceCsv(s.trace_path, options, &request->trace_sha256);
+  const std::vector<FitTrace> traces = LoadTraceSource(
+      {s.trace_path, std::nullopt}, s.trace.Options({}, false), config.experiment.initial);
+  if (traces.size() != 1) {
+    throw InputError(s.trace_path + ": --split made " + std::to_string(traces.size()) +
+                     " experiments: blmd-design evaluates one recorded input (--select one)");
+  }
+  request->trace = traces.front().trace;
+  request->trace_sha256 = traces.front().sha256;
   if (request->trace.rows() < 3) {
     throw InputError(s.trace_path + ": " + std::to_string(request->trace.rows()) +
                      " rows: a recorded experiment needs at least 3");
@@ -128,6 +131,69 @@ void ReadTrace(const Config& config, const DesignSettings& s, DesignRequest* req
   request->recorded = RecordedInput(request->trace, s.trace_path, config);
   request->trace_path = s.trace_path;
   request->evaluate_trace = true;
+}
+
+// --from-report: the report's final model on the config; the effects' parameters the report
+// fitted become free, so that the design predicts their precision too. A report whose model
+// is not to be trusted is a warning (the design rests on that model).
+void ApplyDesignReport(const std::string& path, Config* config, DesignRequest* request) {
+  const StoredReport report = StoredReport::Load(path, "identification report");
+  ApplyFinalModel(report, config);
+  std::vector<std::string>& free = config->identification.free;
+  for (const StoredParameter& p : report.parameters()) {
+    if (p.free && std::find(free.begin(), free.end(), p.name) == free.end()) free.push_back(p.name);
+  }
+  request->report_path = path;
+  request->report_sha256 = report.sha256();
+  const std::vector<std::string> reasons = ReportInadequacy(report);
+  if (!reasons.empty()) {
+    request->warnings.emplace_back(
+        "report_inadequate", "the identified model is not to be trusted (" + Join(reasons, "; ") +
+                                 "): the design rests on it; identify again (--discover, a "
+                                 "better record) before relying on the predicted intervals");
+  }
+}
+
+// The margin over the breakaway torque a designed input must reach (docs/design.md §7): the
+// static friction is known to about ±20 % from one record (the real rigs' Coulomb friction
+// moved by 10-20 % between records and directions).
+constexpr double kBreakawayMargin = 1.2;
+
+// The drive torque per unit u at standstill (no back-EMF): rigid_load Kt (u is the torque
+// command), dc_servo Kt/R (u a voltage); 0 where it is not a constant (the blmd's current
+// loop and PWM).
+double StallTorquePerInput(const Config& config) {
+  const std::string model(config.model->name());
+  const ParameterSet& p = config.parameters;
+  if (model == "rigid_load") return std::abs(p.Get("Kt"));
+  if (model == "dc_servo") return std::abs(p.Get("Kt")) / p.Get("R");
+  return 0.0;
+}
+
+// The friction warning and the breakaway: the torque that holds a shaft at rest, the |u|
+// that overcomes it with the margin; the search rejects inputs below it.
+void SetBreakaway(const Config& config, DesignRequest* request) {
+  const auto has = [&](const char* effect) {
+    return std::find(config.effects.begin(), config.effects.end(), effect) != config.effects.end();
+  };
+  const ParameterSet& p = config.parameters;
+  if (!has("coulomb_friction") && !has("stribeck")) {
+    request->warnings.emplace_back(
+        "no_friction",
+        "the model declares no friction (coulomb_friction, stribeck): a real drive's breakaway "
+        "friction can hold the shaft still under a designed input of small amplitude; identify "
+        "with --discover and design from that report (--from-report)");
+  }
+  double torque = 0.0;
+  if (has("coulomb_friction")) torque = std::max(torque, std::abs(p.Get("Tc")));
+  if (has("stribeck")) torque = std::max(torque, std::abs(p.Get("Ts")));
+  if (has("cogging")) torque += std::abs(p.Get("Tcog"));
+  if (has("load_torque")) torque += std::abs(p.Get("TL"));
+  const double per_input = StallTorquePerInput(config);
+  if (!(torque > 0.0) || !(per_input > 0.0)) return;
+  request->breakaway_torque = torque;
+  request->breakaway_u = kBreakawayMargin * torque / per_input;
+  request->options.breakaway_input = request->breakaway_u;
 }
 
 std::vector<std::string> Families(const std::string& text) {
@@ -187,9 +253,11 @@ void SetTraceRun(const Config& config, const DesignSettings& s, DesignRequest* r
 
 }  // namespace
 
-DesignRequest MakeDesignRequest(const Config& config, const std::string& config_path,
+DesignRequest MakeDesignRequest(Config config, const std::string& config_path,
                                 const DesignSettings& s) {
   DesignRequest request;
+  if (!s.from_report.empty()) ApplyDesignReport(s.from_report, &config, &request);
+  SetBreakaway(config, &request);
   request.config_path = config_path;
   request.config_sha256 = Sha256Hex(ReadFileText(config_path, kMaxConfigBytes, "config"));
   request.problem = MakeDesignProblem(config);
@@ -344,6 +412,23 @@ DesignReport RunDesign(const DesignRequest& request) {
     report.rejected = result.rejected;
   }
   if (report.ok) AddReference(request, problem, &report);
+  report.report_path = request.report_path;
+  report.report_sha256 = request.report_sha256;
+  report.breakaway_torque = request.breakaway_torque;
+  report.breakaway_u = request.breakaway_u;
+  report.warnings = request.warnings;
+  if (report.ok && request.evaluate_trace && request.breakaway_u > 0.0) {
+    double peak = 0.0;
+    for (double v : request.trace.Column("u")) peak = std::max(peak, std::abs(v));
+    if (peak < request.breakaway_u) {
+      report.warnings.emplace_back(
+          "below_breakaway", "the recorded input's peak |u| " + FormatSignificant(peak, 4) +
+                                 " stays below the breakaway " +
+                                 FormatSignificant(request.breakaway_u, 4) +
+                                 " (friction, cogging and load with a 20 % margin): the shaft "
+                                 "may not move; raise the amplitude");
+    }
+  }
   return report;
 }
 

@@ -23,7 +23,8 @@ struct DesignSettings {
   std::string family = "all";       // --family square|steps|prbs|chirp|all
   std::string target;               // --target NAME[,NAME] ("": D-optimal)
   std::string trace_path;           // --trace: evaluate its u column instead of searching
-  DialectSettings dialect;          // how to read --trace
+  TraceSettings trace;              // how to read and prepare --trace (blmd-ident's flags)
+  std::string from_report;          // --from-report: a blmd-ident report of the config's model
   int threads = 0;
 };
 
@@ -34,13 +35,21 @@ struct DesignRequest {
   ExperimentDesignOptions options;
   bool evaluate_trace = false;
   std::string trace_path, trace_sha256;
-  Trace trace;           // --trace: t, u and the observed columns as read
-  InputSignal recorded;  // --trace: its u (and open) held between samples
+  Trace trace;                             // --trace: t, u and the observed columns as read
+  InputSignal recorded;                    // --trace: its u (and open) held between samples
+  std::string report_path, report_sha256;  // --from-report
+  // The drive torque the shaft must overcome to move (N·m; friction, cogging, load) and the
+  // |u| that gives it at standstill; 0 when the model has none or the model's torque per
+  // unit input at standstill is not known (docs/design.md §7).
+  double breakaway_torque = 0.0, breakaway_u = 0.0;
+  std::vector<std::pair<std::string, std::string>> warnings;  // code, message
 };
 
 // Checks the settings against the config in blmd-design's order (docs/cli.md §5): limits,
 // noise, duration or trace, family, target. InputError naming the flag for bad input.
-DesignRequest MakeDesignRequest(const Config& config, const std::string& config_path,
+// With --from-report, the report's final model (values and effects; the effects' parameters
+// that the report fitted become free) replaces the config's first.
+DesignRequest MakeDesignRequest(Config config, const std::string& config_path,
                                 const DesignSettings& settings);
 
 // Runs the request: SearchDesign, or the recorded input's prediction; and the config's own

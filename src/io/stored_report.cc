@@ -1,6 +1,11 @@
 #include "blmd/io/stored_report.h"
 
+#include <algorithm>
+
+#include "blmd/error.h"
+#include "blmd/format.h"
 #include "blmd/io/files.h"
+#include "blmd/sim/effects.h"
 
 namespace blmd {
 namespace {
@@ -39,6 +44,8 @@ StoredReport StoredReport::Load(const std::string& path, const std::string& role
     p.name = name;
     p.value = entry["value"].get<double>();
     p.free = entry.value("free", false);
+    p.at_bound = entry.contains("at_bound") && entry["at_bound"].is_boolean() &&
+                 entry["at_bound"].get<bool>();
     const json& ci = entry.contains("ci95") ? entry["ci95"] : json();
     if (IsPair(ci)) {
       p.has_ci95 = true;
@@ -53,6 +60,18 @@ StoredReport StoredReport::Load(const std::string& path, const std::string& role
       const json& name = root["effects"][k];
       if (!name.is_string()) document.Fail("/effects/" + std::to_string(k), "not an effect name");
       report.effects_.push_back(name.get<std::string>());
+    }
+  }
+  if (root.contains("fit") && root["fit"].is_object() && root["fit"].contains("nrmse") &&
+      root["fit"]["nrmse"].is_number()) {
+    report.nrmse_ = root["fit"]["nrmse"].get<double>();
+  }
+  if (root.contains("warnings") && root["warnings"].is_array()) {
+    for (const json& w : root["warnings"]) {
+      if (!w.is_object() || !w.contains("code") || !w["code"].is_string()) continue;
+      const std::string message =
+          w.contains("message") && w["message"].is_string() ? w["message"].get<std::string>() : "";
+      report.warnings_.emplace_back(w["code"].get<std::string>(), message);
     }
   }
   report.sha256_ = Sha256Hex(ReadFileText(path, kMaxReportBytes, role));
@@ -73,6 +92,69 @@ void StoredReport::RequireModel(const std::string& model, const std::string& the
   document_.Fail(root.contains("model") ? "/model" : "",
                  theirs + " " + (root.contains("model") ? root["model"].dump() : "(none)") + ", " +
                      ours + " " + model);
+}
+
+std::vector<std::string> ReportInadequacy(const StoredReport& report) {
+  std::vector<std::string> reasons;
+  if (report.nrmse() >= 1.0) {
+    reasons.push_back("its NRMSE is " + FormatSignificant(report.nrmse(), 4) +
+                      " (>= 1: no better than predicting each column's mean)");
+  }
+  for (const StoredParameter& p : report.parameters()) {
+    if (p.free && p.at_bound) reasons.push_back(p.name + " is at its bound (the bound set it)");
+  }
+  static const char* const kModelWarnings[] = {"model_inadequate",   "unexplained_structure",
+                                               "not_a_fit",          "not_converged",
+                                               "nrmse_at_least_one", "decision_unstable"};
+  for (const auto& [code, message] : report.warnings()) {
+    if (std::find(std::begin(kModelWarnings), std::end(kModelWarnings), code) !=
+        std::end(kModelWarnings)) {
+      reasons.push_back("warning " + code);
+    }
+  }
+  return reasons;
+}
+
+void ApplyFinalModel(const StoredReport& report, Config* config) {
+  const std::string model(config->model->name());
+  report.RequireModel(model, "the report is of model", "the config's model is");
+  if (!report.has_effects()) {
+    report.Fail("", "the report has no \"effects\" list (its final model's effects)");
+  }
+  const std::vector<std::string>& effects = report.effects();
+  for (const auto& declared : config->effects) {
+    if (std::find(effects.begin(), effects.end(), declared) == effects.end()) {
+      report.Fail("/effects", "the report's final model lacks the effect '" + declared + "' that " +
+                                  config->path + " declares: a report of another config");
+    }
+  }
+  for (const auto& name : effects) {
+    if (std::find(config->effects.begin(), config->effects.end(), name) != config->effects.end())
+      continue;
+    ParameterSet values;
+    try {
+      for (const auto& p : FindEffect(name).parameters) {
+        if (const StoredParameter* stored = report.FindParameter(p.name))
+          values.Set(p.name, stored->value);
+      }
+      config->AddEffect(name, values);
+    } catch (const InputError& error) {
+      report.Fail("/effects", error.what());
+    }
+  }
+  for (const StoredParameter& entry : report.parameters()) {
+    const std::string pointer = "/parameters/" + entry.name;
+    const ParamInfo* info = config->FindParameterInfo(entry.name);
+    if (!info) {
+      report.Fail(pointer, "'" + entry.name + "' is not a parameter of model " + model +
+                               " or of the effects " + Join(config->effects));
+    }
+    if ((info->positive && !(entry.value > 0.0)) || (info->non_negative && entry.value < 0.0)) {
+      report.Fail(pointer + "/value",
+                  "parameter '" + entry.name + "' must be " + (info->positive ? "> 0" : ">= 0"));
+    }
+    config->parameters.Set(entry.name, entry.value);
+  }
 }
 
 }  // namespace blmd

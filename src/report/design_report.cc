@@ -162,6 +162,16 @@ nlohmann::json DesignReportJson(const DesignReport& report) {
   if (report.evaluate_trace) {
     out["trace"] = {{"path", report.trace_path}, {"sha256", report.trace_sha256}};
   }
+  if (!report.report_path.empty()) {
+    out["from_report"] = {{"path", report.report_path}, {"sha256", report.report_sha256}};
+  }
+  out["breakaway"] = report.breakaway_u > 0.0
+                         ? json{{"torque", report.breakaway_torque}, {"u", report.breakaway_u}}
+                         : json();
+  json warnings = json::array();
+  for (const auto& [code, message] : report.warnings)
+    warnings.push_back({{"code", code}, {"message", message}});
+  out["warnings"] = warnings;
   if (!report.ok) {
     out["failure"] = report.reason;
   } else {
@@ -225,8 +235,13 @@ std::string DesignSummary(const DesignReport& report) {
       << (report.evaluate_trace ? "the recorded input of " + report.trace_path
                                 : report.criterion + " design")
       << " over " << Sig(report.options.duration) << " s\n";
+  const auto warnings = [&] {
+    for (const auto& [code, message] : report.warnings)
+      out << "warning [" << code << "]: " << message << "\n";
+  };
   if (!report.ok) {
     out << "  no design: " << report.reason << "\n";
+    warnings();
     return out.str();
   }
   out << "  experiment: " << Describe(report.chosen);
@@ -247,6 +262,15 @@ std::string DesignSummary(const DesignReport& report) {
     out << "\n";
   }
   if (!report.chosen_within_limits) out << "  note: the recorded response exceeds a --limit\n";
+  if (report.breakaway_u > 0.0) {
+    out << "  breakaway: " << Sig(report.breakaway_torque, 4)
+        << " N·m of friction, cogging and load at rest; |u| >= " << Sig(report.breakaway_u, 4)
+        << " moves the shaft with a 20 % margin";
+    if (!report.evaluate_trace)
+      out << " (the input's amplitude: " << Sig(report.chosen.input.amplitude, 4) << ")";
+    out << "\n";
+  }
+  warnings();
   return out.str();
 }
 

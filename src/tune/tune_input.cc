@@ -50,55 +50,11 @@ ParameterInterval Interval(const Config& config, const std::string& name, double
   return interval;
 }
 
-// The report's final effects that the config lacks, added with the report's values; a
-// config effect the report's final model lacks means the report is of another config.
-void ApplyEffects(const StoredReport& report, Config* config) {
-  if (!report.has_effects()) {
-    report.Fail("", "the report has no \"effects\" list (its final model's effects)");
-  }
-  const std::vector<std::string>& effects = report.effects();
-  for (const auto& declared : config->effects) {
-    if (std::find(effects.begin(), effects.end(), declared) == effects.end()) {
-      report.Fail("/effects", "the report's final model lacks the effect '" + declared + "' that " +
-                                  config->path + " declares: a report of another config");
-    }
-  }
-  for (const auto& name : effects) {
-    if (std::find(config->effects.begin(), config->effects.end(), name) != config->effects.end())
-      continue;
-    ParameterSet values;
-    try {
-      for (const auto& p : FindEffect(name).parameters) {
-        if (const StoredParameter* stored = report.FindParameter(p.name))
-          values.Set(p.name, stored->value);
-      }
-      config->AddEffect(name, values);
-    } catch (const InputError& error) {
-      report.Fail("/effects", error.what());
-    }
-  }
-}
-
 // The report's final values replace the config's; its free parameters' ci95 are the box.
 void ApplyReport(const std::string& path, TuneInput* input) {
   const StoredReport report = StoredReport::Load(path, "identification report");
   Config& config = input->config;
-  const std::string model(config.model->name());
-  report.RequireModel(model, "the report is of model", "the config's model is");
-  ApplyEffects(report, &config);
-  for (const StoredParameter& entry : report.parameters()) {
-    const std::string pointer = "/parameters/" + entry.name;
-    const ParamInfo* info = config.FindParameterInfo(entry.name);
-    if (!info) {
-      report.Fail(pointer, "'" + entry.name + "' is not a parameter of model " + model +
-                               " or of the effects " + Join(config.effects));
-    }
-    if ((info->positive && !(entry.value > 0.0)) || (info->non_negative && entry.value < 0.0)) {
-      report.Fail(pointer + "/value",
-                  "parameter '" + entry.name + "' must be " + (info->positive ? "> 0" : ">= 0"));
-    }
-    config.parameters.Set(entry.name, entry.value);
-  }
+  ApplyFinalModel(report, &config);
   for (const StoredParameter& entry : report.parameters()) {
     if (entry.free && entry.has_ci95) {
       input->box.push_back(Interval(config, entry.name, entry.ci95_low, entry.ci95_high));

@@ -99,6 +99,83 @@ TEST(DesignCli, TraceNoiseFromTheResidualAndThePredictionOfItsInput) {
   }
 }
 
+// The identified model with its effects (docs/design.md §7): the committed HSM150 report adds
+// Coulomb friction, a load torque and an asymmetric viscous friction to a config that has none.
+// Without it the config gets the no_friction warning (exit 3 with --fail-on-warning); with it
+// the design's input breaks the shaft free with the margin, the effects' fitted parameters are
+// predicted too, and the report's own unexplained_structure makes report_inadequate. A limit
+// below the breakaway leaves no candidate (exit 1).
+TEST(DesignCli, FromReportDesignsForTheIdentifiedFrictionAndMovesTheShaft) {
+  const std::string base = BinPath("blmd-design") + " --config " +
+                           SourcePath("configs/real/hsm150.json") +
+                           " --duration 20 --limit w=300 --noise w=0.63 --threads 2 --json";
+  CommandResult run = testing::Run(base + " --limit u=0.1");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  nlohmann::json r = nlohmann::json::parse(run.out);
+  ASSERT_EQ(r["warnings"].size(), 1u);
+  EXPECT_EQ(r["warnings"][0]["code"], "no_friction");
+  EXPECT_TRUE(r["breakaway"].is_null());
+  EXPECT_EQ(testing::Run(base + " --limit u=0.1 --fail-on-warning").exit_code, 3);
+
+  const std::string report = SourcePath("docs/real-data/hsm150.json");
+  run = testing::Run(base + " --limit u=0.1 --from-report " + report);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  r = nlohmann::json::parse(run.out);
+  std::vector<std::string> codes;
+  for (const auto& w : r["warnings"]) codes.push_back(w["code"]);
+  EXPECT_EQ(codes, std::vector<std::string>{"report_inadequate"});
+  const nlohmann::json stored = nlohmann::json::parse(Slurp(report));
+  const double Tc = stored["parameters"]["Tc"]["value"], TL = stored["parameters"]["TL"]["value"];
+  const double Kt = 1.0;  // configs/real/hsm150.json: u is the torque (N m)
+  EXPECT_NEAR(r["breakaway"]["torque"].get<double>(), Tc + std::abs(TL), 1e-12);
+  EXPECT_NEAR(r["breakaway"]["u"].get<double>(), 1.2 * (Tc + std::abs(TL)) / Kt, 1e-12);
+  EXPECT_GE(r["design"]["peaks"]["u"].get<double>(), r["breakaway"]["u"].get<double>());
+  for (const char* p : {"J", "B", "Tc", "TL", "dB"}) EXPECT_TRUE(r["predicted"].contains(p)) << p;
+  EXPECT_EQ(r["from_report"]["path"], report);
+
+  run = testing::Run(base + " --limit u=0.03 --from-report " + report);
+  EXPECT_EQ(run.exit_code, 1) << run.err;
+  r = nlohmann::json::parse(run.out);
+  EXPECT_FALSE(r["ok"].get<bool>());
+  EXPECT_EQ(r["search"]["rejected"].begin().key(),
+            "its peak |u| stays below the breakaway (the shaft would not move)");
+}
+
+// --trace reads a logger's CSV through blmd-ident's flags: renamed and rescaled columns give
+// the prediction of the standard file; a preparation flag without --trace is bad input.
+TEST(DesignCli, TraceTakesTheColumnAndScaleFlagsOfBlmdIdent) {
+  TempDir dir;
+  const std::string plain = SourcePath("testdata/ganesh-square.csv");
+  const Trace trace = ReadTraceCsv(plain, CsvReadOptions{});
+  Trace renamed;
+  renamed.Append("time_ms", trace.Column("t"));
+  for (double& t : renamed.Column("time_ms")) t *= 1000.0;
+  renamed.Append("volts", trace.Column("u"));
+  renamed.Append("amps", trace.Column("i"));
+  renamed.Append("speed", trace.Column("w"));
+  WriteTraceCsv(renamed, dir.File("log.csv"));
+  const std::string noise = " --noise i=0.013906856197717934 --noise w=2.482116377753937 --json";
+  CommandResult run = testing::Run(Design() + " --trace " + plain + noise);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json expected = nlohmann::json::parse(run.out);
+  run = testing::Run(Design() + " --trace " + dir.File("log.csv") +
+                     " --column t=time_ms --scale t=0.001 --column u=volts --column i=amps "
+                     "--column w=speed" +
+                     noise);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json got = nlohmann::json::parse(run.out);
+  for (const char* p : {"J", "B"}) {
+    EXPECT_NEAR(got["predicted"][p]["ci95_halfwidth"].get<double>(),
+                expected["predicted"][p]["ci95_halfwidth"].get<double>(),
+                1e-6 * expected["predicted"][p]["ci95_halfwidth"].get<double>());
+  }
+  run = testing::Run(Design() +
+                     " --duration 2 --limit u=12 --noise i=0.014 --noise w=2.5 "
+                     "--column t=time_ms");
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_EQ(run.err, "error: --column: only with --trace (it prepares the trace)\n");
+}
+
 TEST(DesignCli, NoDesignIsExitOneWithTheReport) {
   TempDir dir;
   // Six free parameters from w alone: the transfer function shows four coefficients.

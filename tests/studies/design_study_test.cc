@@ -183,5 +183,85 @@ TEST(DesignStudy, LimitedTravelDesignNarrowsJTwice) {
   EXPECT_GE(c.measured_narrowing_j, 2.0);
 }
 
+// With friction (docs/design.md §7): the Ganesh servo with a Coulomb friction of 10 % of its
+// stall torque (Tc = 0.004 N m against Kt 12 V / R = 0.038 N m), J, B and Tc free, 2 s at
+// |u| <= 12 V. `input`'s predicted half-widths of all three against the spread of 50 noisy
+// experiments fitted from the truth with Ceres; the ratios (predicted / measured).
+std::vector<double> FrictionRatios(const DesignProblem& problem, const InputSignal& input,
+                                   const PrecisionPrediction& predicted) {
+  const Config& config = problem.config;
+  Experiment e;
+  e.duration = 2.0;
+  e.sample_rate = config.experiment.sample_rate;
+  Trace clean;
+  EXPECT_TRUE(SimulateSampledInput(problem, input, e.SampleTimes(), &clean).ok());
+  const int runs = Runs();
+  std::vector<double> estimates[3];
+  int converged = 0;
+  for (int run = 0; run < runs; ++run) {
+    Random random(5000u + static_cast<std::uint64_t>(run));
+    Trace noisy = clean;
+    for (double& v : noisy.Column("i")) v += kSigmaI * random.Normal();
+    for (double& v : noisy.Column("w")) v += kSigmaW * random.Normal();
+    std::vector<FitTrace> traces;
+    traces.push_back(RecordedFitTrace(std::move(noisy), config.experiment.initial));
+    const FitProblem fit(config, std::move(traces), {"i", "w"},
+                         MakeFreeParameters(config, {"J", "B", "Tc"}));
+    OptimizerOptions options;
+    options.threads = 2;
+    const FitResult result = FindOptimizer("ceres").Minimize(fit, options);
+    converged += result.summary.converged;
+    for (std::size_t k = 0; k < 3; ++k) estimates[k].push_back(result.values[k]);
+  }
+  std::vector<double> ratios;
+  for (std::size_t k = 0; k < 3; ++k) {
+    double sum = 0.0, sum2 = 0.0;
+    for (double v : estimates[k]) sum += v;
+    const double mean = sum / runs;
+    for (double v : estimates[k]) sum2 += (v - mean) * (v - mean);
+    const double measured = 1.959963984540054 * std::sqrt(sum2 / (runs - 1));
+    std::printf(
+        "  %s: predicted half-width %.4g, measured 1.96*std %.4g over %d runs (ratio "
+        "%.3f), mean %.5g, truth %.5g (%d converged)\n",
+        predicted.names[k].c_str(), predicted.ci95_halfwidth[k], measured, runs,
+        predicted.ci95_halfwidth[k] / measured, mean, config.parameters.Get(predicted.names[k]),
+        converged);
+    ratios.push_back(predicted.ci95_halfwidth[k] / measured);
+  }
+  return ratios;
+}
+
+// The config's square wave (+-12 V, 1 s period): every prediction within 25 % of the measured
+// spread (measured 2026-11-28: 0.91, 0.83, 0.83). The D-optimal search picks a PRBS there,
+// whose B and Tc predictions are 40 % optimistic (0.84, 0.61, 0.61; docs/design.md §7: the
+// Fisher information of a friction that reverses at every PRBS edge), printed, not asserted.
+TEST(DesignStudy, PredictionsWithCoulombFrictionMatchTheSpread) {
+  Config config = LoadConfig(SourcePath("configs/ganesh-square.json"));
+  ParameterSet friction;
+  friction.Set("Tc", 0.004);
+  config.AddEffect("coulomb_friction", friction);
+  config.identification.free = {"J", "B", "Tc"};
+  config.identification.bounds["Tc"] = {1e-5, 0.05};
+  DesignProblem problem = MakeDesignProblem(config);
+  problem.sigma = {kSigmaI, kSigmaW};
+  DesignCandidate square;
+  square.family = "config";
+  square.input = config.experiment.input;
+  square = EvaluateCandidate(problem, Options(), square);
+  ASSERT_TRUE(square.feasible) << square.rejected;
+  ASSERT_EQ(square.prediction.names, (std::vector<std::string>{"J", "B", "Tc"}));
+  std::printf("the config's square wave, amplitude %.4g V:\n", square.input.amplitude);
+  const std::vector<double> ratios = FrictionRatios(problem, square.input, square.prediction);
+  for (std::size_t k = 0; k < 3; ++k)
+    EXPECT_NEAR(ratios[k], 1.0, 0.25) << square.prediction.names[k];
+  if (std::getenv("STUDY_DESIGN_WITH_FRICTION")) {
+    const ExperimentDesignResult design = SearchDesign(problem, Options());
+    ASSERT_TRUE(design.ok) << design.reason;
+    std::printf("the design: %s, amplitude %.4g V, best of %ld:\n", design.best.family.c_str(),
+                design.best.input.amplitude, design.evaluated);
+    FrictionRatios(problem, design.best.input, design.best.prediction);
+  }
+}
+
 }  // namespace
 }  // namespace blmd::testing

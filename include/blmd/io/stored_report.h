@@ -4,6 +4,7 @@
 
 #include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "blmd/io/config.h"
@@ -16,6 +17,7 @@ struct StoredParameter {
   std::string name;
   double value = 0.0;
   bool free = false;
+  bool at_bound = false;  // the report says the bound, not the data, set it
   bool has_ci95 = false;
   double ci95_low = std::numeric_limits<double>::quiet_NaN();
   double ci95_high = std::numeric_limits<double>::quiet_NaN();
@@ -39,6 +41,10 @@ class StoredReport {
   // In the report's order.
   const std::vector<StoredParameter>& parameters() const { return parameters_; }
   const StoredParameter* FindParameter(const std::string& name) const;
+  // The final model's NRMSE on its fit traces (fit.nrmse); NaN when the report gives none.
+  double nrmse() const { return nrmse_; }
+  // The report's warnings, code and message, in its order.
+  const std::vector<std::pair<std::string, std::string>>& warnings() const { return warnings_; }
 
   // InputError unless the report's model is `model`: "<theirs> "X", <ours> Y" (the report's
   // model first, quoted, or "(none)"), at the report's "model" value.
@@ -59,6 +65,23 @@ class StoredReport {
   bool has_effects_ = false;
   std::vector<std::string> effects_;
   std::vector<StoredParameter> parameters_;
+  double nrmse_ = std::numeric_limits<double>::quiet_NaN();
+  std::vector<std::pair<std::string, std::string>> warnings_;
 };
+
+// Why the report's final model is not to be acted on (tuned, or designed for), one line
+// each: NRMSE >= 1 (no better than predicting the mean), a parameter at its bound, and the
+// report's own warnings that say the model is incomplete or the fit failed
+// (model_inadequate, unexplained_structure, not_a_fit, not_converged, nrmse_at_least_one,
+// decision_unstable). Empty when none applies.
+std::vector<std::string> ReportInadequacy(const StoredReport& report);
+
+// The report's final model on `config` (of the same model): the report's effects that the
+// config lacks are added with the report's values, and every parameter of the report takes
+// its value. InputError at the report's line and column for a report of another model or
+// config (an effect the config declares and the report's final model lacks, a parameter
+// neither the model nor its effects know) or a value the parameter cannot take. What
+// blmd-tune --from-report and blmd-design --from-report start from.
+void ApplyFinalModel(const StoredReport& report, Config* config);
 
 }  // namespace blmd

@@ -36,6 +36,11 @@ struct DesignReport {
   std::vector<DesignCandidate> family_best;
   long evaluated = 0;
   std::map<std::string, long> rejected;
+  std::string report_path, report_sha256;  // --from-report ("" without)
+  // The torque that holds the shaft at rest (N·m) and the |u| that overcomes it with the
+  // margin (docs/design.md §7); 0: none or not known for the model.
+  double breakaway_torque = 0.0, breakaway_u = 0.0;
+  std::vector<std::pair<std::string, std::string>> warnings;  // code, message
 };
 
 // The JSON report (schema/design.schema.json).

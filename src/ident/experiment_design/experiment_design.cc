@@ -491,7 +491,17 @@ DesignCandidate EvaluateCandidate(const DesignProblem& problem,
         over = column;
       }
     }
-    if (factor >= 1.0) break;
+    if (factor >= 1.0) {
+      if (options.breakaway_input > 0.0) {
+        double peak = 0.0;
+        for (double v : response.Column("u")) peak = std::max(peak, std::abs(v));
+        if (peak < options.breakaway_input) {
+          candidate.rejected = "its peak |u| stays below the breakaway (the shaft would not move)";
+          return candidate;
+        }
+      }
+      break;
+    }
     if (attempt == 4) {
       candidate.rejected = "the response exceeds the limit on " + over;
       return candidate;

@@ -99,6 +99,10 @@ struct ExperimentDesignOptions {
   double input_limit = 0.0;  // |u| <= this, in the model input's unit (V)
   // Output column -> the largest |value| the noise-free response may reach (i in A, w in rad/s).
   std::map<std::string, double> output_limits;
+  // The |u| that breaks the shaft free of the model's friction, cogging and load with the
+  // margin of docs/design.md §7 (the model input's unit): a candidate whose peak |u| stays
+  // below it would leave the shaft stuck, and is rejected. 0: not checked.
+  double breakaway_input = 0.0;
   std::vector<std::string> families;  // of DesignFamilies(); empty: all
   // Empty: the D-criterion. Otherwise the A-criterion over these free parameters.
   std::vector<std::string> target;
