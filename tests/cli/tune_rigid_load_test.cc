@@ -353,6 +353,41 @@ TEST(TuneRigidLoad, SimulatedLoopIsTheDesignedDifferenceEquation) {
   EXPECT_LT(worst, 1e-9 * peak);
 }
 
+// The current loop as a first-order lag of bandwidth ω_b: the plant
+// K p1 p2/((s + p1)(s + p2)), p1 = B/J, p2 = ω_b, K = Kt/B, discretised with a zero-order hold
+// by partial fractions here: G(z) = K + r1 (z − 1)/(z − a1) + r2 (z − 1)/(z − a2) with
+// a_i = e^{−p_i Ts}, r1 = −K p2/(p2 − p1), r2 = K p1/(p2 − p1).
+TEST(TuneRigidLoad, CurrentLoopLagIsInTheSampledDesign) {
+  const double fb = 200.0;
+  const json report = TuneJson("--config " + Hsm150() +
+                               " --loop speed --crossover 20 --phase-margin 60 --limit u=0.3 "
+                               "--sample-rate 1000 --current-bandwidth " +
+                               std::to_string(fb));
+  ASSERT_TRUE(report.contains("sampled_loop"));
+  EXPECT_EQ(report["sampled_loop"]["current_bandwidth_hz"], fb);
+  const json& speed = report["sampled_loop"]["speed_loop"];
+  const double ts = 1e-3, kp = speed["kp"], ki = speed["ki"];
+  const double p1 = kHsm150.B / kHsm150.J, p2 = 2.0 * kPi * fb, k = kHsm150.Kt / kHsm150.B;
+  const double a1 = std::exp(-p1 * ts), a2 = std::exp(-p2 * ts);
+  const double r1 = -k * p2 / (p2 - p1), r2 = k * p1 / (p2 - p1);
+  auto loop = [&](double w) {
+    const Complex z = std::polar(1.0, w * ts);
+    const Complex g = k + r1 * (z - 1.0) / (z - a1) + r2 * (z - 1.0) / (z - a2);
+    return (kp + ki * ts * z / (z - 1.0)) * g / z;  // one sample of delay
+  };
+  const Margins hand = HandMargins(loop, 500.0);
+  std::cout << std::setprecision(7) << "[ measured ] current loop " << fb
+            << " Hz: sampled loop by hand " << hand.crossover_hz << " Hz / "
+            << hand.phase_margin_deg << " deg; kp " << kp << " ki " << ki << "\n";
+  EXPECT_NEAR(hand.crossover_hz, 20.0, 0.05 * 20.0);
+  EXPECT_NEAR(hand.phase_margin_deg, 60.0, 2.0);
+  // Without the lag the same request gives other gains: the lag's phase was designed for.
+  const json ideal = TuneJson("--config " + Hsm150() +
+                              " --loop speed --crossover 20 --phase-margin 60 --limit u=0.3 "
+                              "--sample-rate 1000");
+  EXPECT_GT(std::abs(ideal["sampled_loop"]["speed_loop"]["ki"].get<double>() / ki - 1.0), 0.05);
+}
+
 // An asymmetric drive: the lower limit reaches the report and the written config, and the
 // default step keeps within the smaller side.
 TEST(TuneRigidLoad, AsymmetricLimit) {
