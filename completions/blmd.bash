@@ -23,7 +23,7 @@ _blmd_columns="i ib ic theta u w"
 _blmd_ident_flags="--baseline --bic-margin --candidates --column --config --decimate --delimiter --derive --discover --duplicate-time --error --export-matlab --fail-above-nrmse --fail-on-warning --filter-hz --free --help --html --initial --initial-state --json --max-effects --max-evaluations --method --min-share --no-progress --noise-std --observe --option --progress --quiet --report --scale --seed --select --split --threads --trace --validate --verbose --version --weighting --write-config"
 _blmd_sim_flags="--config --delimiter --duplicate-time --effect --help --init-config --input --noise --out --quiet --seed --version"
 _blmd_surface_flags="--column --config --decimate --delimiter --derive --duplicate-time --error --filter-hz --force --grid --help --initial-state --json --observe --out --quiet --scale --select --shard --split --svg --threads --trace --version"
-_blmd_tune_flags="--config --crossover --duration --filter-ratio --from-report --help --integral-ratio --json --limit --loop --phase-margin --quiet --report --step --threads --version --write-config"
+_blmd_tune_flags="--config --crossover --current-bandwidth --delay --duration --filter-ratio --from-report --help --integral-ratio --json --limit --loop --phase-margin --position-crossover --quiet --report --sample-rate --step --threads --version --write-config"
 _blmd_design_flags="--config --delimiter --duplicate-time --duration --family --help --json --limit --noise --quiet --report --target --threads --trace --version --write-config --write-input"
 _blmd_surface_merge_flags="--help --out"
 _blmd_surface_plot_flags="--help --quiet --svg --title"
@@ -136,7 +136,8 @@ _blmd_complete() {
     --bic-margin | --min-share | --column | --decimate | --target | --fail-above-nrmse | --filter-hz | --free | \
       --grid | --initial | --max-effects | --max-evaluations | --option | --scale | --seed | --noise-std | \
       --select | --shard | --split | --threads | --title | --crossover | --phase-margin | \
-      --step | --duration | --integral-ratio | --filter-ratio)
+      --step | --duration | --integral-ratio | --filter-ratio | --sample-rate | --delay | \
+      --current-bandwidth | --position-crossover)
       COMPREPLY=() # a value of the user's own
       ;;
     *) value=0 ;;

@@ -7,9 +7,28 @@
 namespace blmd {
 namespace {
 
+// rigid_load's --limit u=LOW:HIGH: an asymmetric drive (LOW < 0 < HIGH).
+bool ReadAsymmetricLimit(const std::string& text, const Config& config, TuneRequest* request) {
+  const auto [name, value] = ParseTextAssignment(text, "--limit");
+  const auto colon = value.find(':');
+  if (name != "u" || colon == std::string::npos) return false;
+  if (!config.model->traits().sampled_pid) {
+    throw InputError("--limit " + text + ": u=LOW:HIGH applies to model rigid_load");
+  }
+  const double low = ParseNumber(value.substr(0, colon), "--limit u (LOW)");
+  const double high = ParseNumber(value.substr(colon + 1), "--limit u (HIGH)");
+  if (!(low < 0.0 && high > 0.0)) {
+    throw InputError("--limit " + text + ": LOW must be < 0 and HIGH > 0");
+  }
+  request->u_min = low;
+  request->u_max = high;
+  return true;
+}
+
 // --limit u=V, i=A; u defaults to the config's experiment.pid.u_max when it has a pid.
 void ReadLimits(const TuneSettings& settings, const Config& config, TuneRequest* request) {
   for (const std::string& text : settings.limits) {
+    if (ReadAsymmetricLimit(text, config, request)) continue;
     const auto [name, value] = ParseAssignment(text, "--limit");
     if (name != "u" && name != "i") {
       throw InputError("--limit: unknown limit '" + InputError::Excerpt(name) +
@@ -24,6 +43,52 @@ void ReadLimits(const TuneSettings& settings, const Config& config, TuneRequest*
                      " has no experiment.pid.u_max)");
   }
   request->u_max = config.experiment.pid.u_max;
+  request->u_min = config.experiment.pid.u_min;
+}
+
+// rigid_load: the drive's digital loop (--sample-rate, --delay, --current-bandwidth,
+// --position-crossover), the sample rate defaulting to the config's experiment.pid; refused
+// for a model whose loop is continuous (dc_servo), so that its runs stay as they were.
+void ReadDrive(const TuneSettings& settings, const Config& config, TuneRequest* request) {
+  const bool sampled = config.model->traits().sampled_pid;
+  if (!sampled) {
+    for (const auto& [flag, given] :
+         {std::pair<const char*, bool>{"--sample-rate", settings.sample_rate_hz.has_value()},
+          {"--delay", settings.delay_samples.has_value()},
+          {"--current-bandwidth", settings.current_bandwidth_hz.has_value()},
+          {"--position-crossover", settings.position_crossover_hz.has_value()}}) {
+      if (given) {
+        throw InputError(std::string(flag) + " applies to model rigid_load (the drive's sampled " +
+                         "loop); model " + std::string(config.model->name()) +
+                         " is tuned continuous");
+      }
+    }
+    return;
+  }
+  if (settings.integral_ratio || settings.filter_ratio) {
+    throw InputError(std::string(settings.integral_ratio ? "--integral-ratio" : "--filter-ratio") +
+                     " applies to dc_servo's position PID (rigid_load's position loop is a P "
+                     "over the speed PI)");
+  }
+  const PidSettings& pid = config.experiment.pid;
+  const bool has_pid = config.experiment.closed_loop;
+  SampledDrive& drive = request->drive;
+  drive.sample_rate_hz = settings.sample_rate_hz.value_or(has_pid ? pid.sample_rate : 0.0);
+  if (!(drive.sample_rate_hz > 0.0)) {
+    // Neither given nor in the config: the simulation's rate, said in a warning (a drive's
+    // controller rate is rarely that; the gains depend on it).
+    drive.sample_rate_hz = 1.0 / config.simulation.dt;
+    request->sample_rate_assumed = true;
+  }
+  drive.delay_samples = settings.delay_samples.value_or(has_pid ? pid.delay : 1);
+  drive.current_bandwidth_hz =
+      settings.current_bandwidth_hz.value_or(has_pid ? pid.current_bandwidth : 0.0);
+  if (settings.position_crossover_hz) {
+    if (settings.loop == "speed") {
+      throw InputError("--position-crossover applies to the position loop (--loop position)");
+    }
+    request->position_crossover_hz = *settings.position_crossover_hz;
+  }
 }
 
 }  // namespace
@@ -52,6 +117,7 @@ TuneRequest MakeTuneRequest(const TuneSettings& settings, const Config& config) 
   request.duration = settings.duration;
   request.threads = settings.threads;
   ReadLimits(settings, config, &request);
+  ReadDrive(settings, config, &request);
   if (const std::string error = request.Validate(); !error.empty()) throw InputError(error);
   return request;
 }

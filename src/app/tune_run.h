@@ -23,6 +23,11 @@ struct TuneSettings {
   // --integral-ratio, --filter-ratio: position loop only (nullopt: not given, the defaults).
   std::optional<double> integral_ratio, filter_ratio;
   int threads = 0;
+  // rigid_load: the drive's digital loop (nullopt: the config's experiment.pid, else the
+  // defaults: no sample rate, 1 sample of delay, an ideal current loop, a fifth of the speed
+  // crossover for the position loop).
+  std::optional<double> sample_rate_hz, current_bandwidth_hz, position_crossover_hz;
+  std::optional<int> delay_samples;
 };
 
 // Checks the settings against the plant's config in blmd-tune's order: the loop's flags, the

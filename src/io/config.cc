@@ -430,6 +430,45 @@ void CheckInputAgainstSamples(const Reader& reader, Experiment* experiment) {
   }
 }
 
+// rigid_load's digital loop (PidSettings): the inner speed PI, the lower limit, the
+// controller's sample rate (a whole number of simulation steps), delay and current loop.
+void ReadSampledPid(const Reader& reader, const json& pid, double dt, PidSettings* out) {
+  auto get = [&](const char* key, double* field) {
+    if (pid.contains(key)) *field = reader.Number(pid[key], std::string("/experiment/pid/") + key);
+  };
+  get("speed_Kp", &out->speed_Kp);
+  get("speed_Ki", &out->speed_Ki);
+  get("u_min", &out->u_min);
+  if (!(out->LowerLimit() < out->u_max)) {
+    reader.Fail("/experiment/pid/u_min", "u_min must be below u_max");
+  }
+  out->sample_rate = 1.0 / dt;
+  if (pid.contains("sample_rate")) {
+    out->sample_rate = reader.Positive(pid["sample_rate"], "/experiment/pid/sample_rate");
+    const double steps = 1.0 / (out->sample_rate * dt);
+    if (steps < 1.0 - 1e-9 || std::abs(steps - std::round(steps)) > 1e-6 * steps) {
+      reader.Fail("/experiment/pid/sample_rate",
+                  "the controller's period must be a whole number of simulation steps (dt = " +
+                      DisplayNumber(dt) + " s)");
+    }
+  }
+  if (pid.contains("delay")) {
+    const double delay = reader.Number(pid["delay"], "/experiment/pid/delay");
+    if (!(delay >= 0.0 && delay <= 100.0 && delay == std::floor(delay))) {
+      reader.Fail("/experiment/pid/delay", "delay must be a whole number of samples, 0 to 100");
+    }
+    out->delay = static_cast<int>(delay);
+  }
+  if (pid.contains("current_bandwidth")) {
+    out->current_bandwidth =
+        reader.Number(pid["current_bandwidth"], "/experiment/pid/current_bandwidth");
+    if (!(out->current_bandwidth >= 0.0) || !std::isfinite(out->current_bandwidth)) {
+      reader.Fail("/experiment/pid/current_bandwidth",
+                  "current_bandwidth must be >= 0 Hz (0: an ideal current loop)");
+    }
+  }
+}
+
 // The experiment (input, duration, sample rate, coast-down, PID, initial state), and whether
 // it can be run at this step.
 void ReadExperiment(const Reader& reader, const json& root, Config* out) {
@@ -464,12 +503,19 @@ void ReadExperiment(const Reader& reader, const json& root, Config* out) {
       }
     }
     if (exp.contains("pid")) {
-      if (!traits.coast_down_and_pid) {
-        reader.Fail("/experiment/pid", "closed-loop PID position control applies to dc_servo");
+      if (!traits.coast_down_and_pid && !traits.sampled_pid) {
+        reader.Fail("/experiment/pid",
+                    "closed-loop PID position control applies to dc_servo and rigid_load");
       }
       const json& pid = exp["pid"];
       reader.RequireObject(pid, "/experiment/pid");
-      reader.CheckKeys(pid, "/experiment/pid", {"loop", "Kp", "Ki", "Kd", "tau_d", "u_max"});
+      if (traits.sampled_pid) {
+        reader.CheckKeys(pid, "/experiment/pid",
+                         {"loop", "Kp", "Ki", "speed_Kp", "speed_Ki", "u_max", "u_min",
+                          "sample_rate", "delay", "current_bandwidth"});
+      } else {
+        reader.CheckKeys(pid, "/experiment/pid", {"loop", "Kp", "Ki", "Kd", "tau_d", "u_max"});
+      }
       experiment.closed_loop = true;
       if (pid.contains("loop")) {
         const std::string loop = reader.String(pid["loop"], "/experiment/pid/loop");
@@ -491,6 +537,7 @@ void ReadExperiment(const Reader& reader, const json& root, Config* out) {
       get("u_max", &experiment.pid.u_max);
       if (!(experiment.pid.u_max > 0.0)) reader.Fail("/experiment/pid/u_max", "u_max must be > 0");
       if (!(experiment.pid.tau_d > 0.0)) reader.Fail("/experiment/pid/tau_d", "tau_d must be > 0");
+      if (traits.sampled_pid) ReadSampledPid(reader, pid, config.simulation.dt, &experiment.pid);
     }
     if (exp.contains("initial")) {
       const json& initial = exp["initial"];
@@ -729,8 +776,8 @@ Config ParseConfig(const std::string& text, const std::string& path) {
     keys.erase("$schema");
   }
   reader.CheckKeys(keys, "",
-                   {"name", "description", "notes", "model", "parameters", "effects", "simulation",
-                    "experiment", "identification"});
+                   {"name", "description", "notes", "model", "axis", "parameters", "effects",
+                    "simulation", "experiment", "identification"});
 
   Config config;
   config.path = path;
@@ -746,6 +793,17 @@ Config ParseConfig(const std::string& text, const std::string& path) {
     config.model = &FindModel(model_name);
   } catch (const InputError& error) {
     reader.Fail("/model", error.what());
+  }
+  if (root.contains("axis")) {
+    const std::string axis = reader.String(root["axis"], "/axis");
+    if (axis != "rotary" && axis != "linear") {
+      reader.Fail("/axis",
+                  "unknown axis '" + InputError::Excerpt(axis) + "' (valid: rotary, linear)");
+    }
+    if (!config.model->traits().input_is_torque && axis == "linear") {
+      reader.Fail("/axis", "a linear axis applies to model rigid_load (a force input)");
+    }
+    config.linear_axis = axis == "linear";
   }
   ReadParameters(reader, root, &config);
   ReadEffects(reader, root, &config);

@@ -1,6 +1,7 @@
 // blmd-tune's JSON report, summary and closed-loop config (docs/tuning.md §5–6).
 #include "blmd/report/tune_report.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
@@ -34,6 +35,13 @@ std::string InputUnit(const TuneInput& input) {
 
 // The gains' units: the input's unit over the measured output's (rad, or rad/s), times s^k.
 GainUnits UnitsOfGains(const TuneInput& input, const TuneRequest& request) {
+  if (input.config.model->traits().sampled_pid) {
+    // rigid_load: the speed PI (u per speed), or the position P (speed per position: 1/s).
+    const std::string u = SampledInputUnit(input.config);
+    const std::string x = input.config.linear_axis ? "m" : "rad";
+    if (IsSpeed(request)) return {u + "·s/" + x, u + "/" + x, u + "·s²/" + x};
+    return {"1/s", "1/s²", "-"};
+  }
   const std::string u = InputUnit(input);
   if (IsSpeed(request)) return {u + "·s/rad", u + "/rad", u + "·s²/rad"};
   return {u + "/rad", u + "/(rad·s)", u + "·s/rad"};
@@ -41,6 +49,22 @@ GainUnits UnitsOfGains(const TuneInput& input, const TuneRequest& request) {
 
 // experiment.pid of the tuned loop's checked step, as blmd-sim reads it.
 json PidExperimentJson(const TuneRequest& request, const TuneResult& result) {
+  if (result.sampled.used) {
+    const Experiment e = SampledStepExperiment(request, result.sampled.gains, result.step,
+                                               result.duration, result.sample_rate);
+    json out = {
+        {"loop", IsSpeed(request) ? "speed" : "position"}, {"Kp", e.pid.Kp}, {"Ki", e.pid.Ki}};
+    if (!IsSpeed(request)) {
+      out["speed_Kp"] = e.pid.speed_Kp;
+      out["speed_Ki"] = e.pid.speed_Ki;
+    }
+    out["u_max"] = e.pid.u_max;
+    if (!std::isnan(e.pid.u_min)) out["u_min"] = e.pid.u_min;
+    out["sample_rate"] = e.pid.sample_rate;
+    out["delay"] = e.pid.delay;
+    out["current_bandwidth"] = e.pid.current_bandwidth;
+    return out;
+  }
   const Experiment e = StepExperiment(request.design.loop, result.design.controller, request.u_max,
                                       result.step, result.duration, result.sample_rate);
   return {{"loop", IsSpeed(request) ? "speed" : "position"},
@@ -66,6 +90,16 @@ json StepJson(const ClosedLoopStep& s) {
   out["peak_u"] = Number(s.peak_u);
   out["peak_i"] = Number(s.peak_i);
   out["saturated"] = s.saturated;
+  return out;
+}
+
+json LoopMarginsJson(const LoopMargins& m) {
+  json out = {{"crossover_hz", Number(m.crossover_hz)},
+              {"phase_margin_deg", Number(m.phase_margin_deg)},
+              {"gain_margin_db", Number(m.gain_margin_db)},
+              {"phase_crossover_hz", Number(m.phase_crossover_hz)},
+              {"gain_crossovers", m.gain_crossovers}};
+  if (!m.ok) out["failed"] = m.reason;
   return out;
 }
 
@@ -134,18 +168,64 @@ json RobustnessJson(const TuneInput& input, const TuneResult& result) {
           {"worst_case", worst}};
 }
 
+// rigid_load: the drive's digital loop, each loop's gains (continuous SI and per sample) and
+// margins on the sampled loop beside the continuous one's (docs/tuning.md §7).
+json SampledLoopJson(const TuneInput& input, const TuneRequest& request, const TuneResult& result) {
+  const SampledTuning& s = result.sampled;
+  const double ts = 1.0 / request.drive.sample_rate_hz;
+  const Config& config = input.config;
+  const std::string x = config.linear_axis ? "m" : "rad";
+  const std::string u = SampledInputUnit(config);
+  json speed = {{"crossover_hz_requested", request.design.crossover_hz},
+                {"kp", s.gains.speed_kp},
+                {"ki", s.gains.speed_ki},
+                {"units", {{"kp", u + "·s/" + x}, {"ki", u + "/" + x}}},
+                {"per_sample", {{"kp", s.gains.speed_kp}, {"ki_ts", s.gains.speed_ki * ts}}},
+                {"sampled", LoopMarginsJson(s.speed)},
+                {"continuous", LoopMarginsJson(s.speed_continuous)},
+                {"highest_feasible_crossover_hz", Number(s.design.highest_crossover_hz)},
+                {"stable", s.speed_poles.stable}};
+  json out = {
+      {"axis", config.linear_axis ? "linear" : "rotary"},
+      {"units", {{"u", u}, {"speed", config.linear_axis ? "m/s" : "rad/s"}, {"position", x}}},
+      {"controller_sample_rate_hz", request.drive.sample_rate_hz},
+      {"delay_samples", request.drive.delay_samples},
+      {"current_bandwidth_hz", request.drive.current_bandwidth_hz > 0.0
+                                   ? json(request.drive.current_bandwidth_hz)
+                                   : json(nullptr)},
+      {"limits", {{"u_min", request.LowerLimit()}, {"u_max", request.u_max}}},
+      {"discretisation",
+       "plant: exact zero-order hold of Kt/(J s + B) (and the current lag); z^-d delay; PI "
+       "C(z) = kp + ki Ts z/(z - 1) (backward Euler integral); anti-windup by conditional "
+       "integration"},
+      {"closed_loop_poles_plane", "z"},
+      {"speed_loop", speed}};
+  if (!IsSpeed(request)) {
+    out["position_loop"] = {{"crossover_hz_requested", s.design.position_crossover_hz},
+                            {"kp", s.gains.position_kp},
+                            {"units", {{"kp", "1/s"}}},
+                            {"sampled", LoopMarginsJson(s.position)},
+                            {"continuous", LoopMarginsJson(s.position_continuous)}};
+  }
+  return out;
+}
+
 json RequestJson(const TuneRequest& request, const TuneResult& result) {
   const bool speed = IsSpeed(request);
+  const std::string step_unit =
+      result.sampled.used
+          ? (result.sampled.linear_axis ? (speed ? "m/s" : "m") : (speed ? "rad/s" : "rad"))
+          : (speed ? "rad/s" : "rad");
   json out = {
       {"loop", speed ? "speed" : "position"},
       {"crossover_hz", request.design.crossover_hz},
       {"phase_margin_deg", request.design.phase_margin_deg},
       {"step", result.step},
-      {"step_unit", speed ? "rad/s" : "rad"},
+      {"step_unit", step_unit},
       {"limits", {{"u", request.u_max}, {"i", Number(request.i_max > 0 ? request.i_max : NAN)}}},
       {"duration_s", result.duration},
       {"sample_rate_hz", result.sample_rate}};
-  if (!speed) {
+  if (!speed && !result.sampled.used) {
     out["integral_ratio"] = request.design.integral_ratio;
     out["derivative_filter_ratio"] = request.design.filter_ratio;
   }
@@ -167,7 +247,10 @@ json PlantJson(const TuneInput& input, const TuneResult& result) {
 
 json ControllerJson(const TuneReport& report) {
   const Controller& c = report.result.design.controller;
-  return {{"structure", IsSpeed(report.request) ? "PI" : "PID"},
+  const char* structure = IsSpeed(report.request)      ? "PI"
+                          : report.result.sampled.used ? "P over the speed PI (cascade)"
+                                                       : "PID";
+  return {{"structure", structure},
           {"kp", c.kp},
           {"ki", c.ki},
           {"kd", c.kd},
@@ -180,6 +263,64 @@ json PolesJson(const ClosedLoopPoles& poles) {
   json out = json::array();
   for (const auto& p : poles.poles) out.push_back({Number(p.real()), Number(p.imag())});
   return out;
+}
+
+// rigid_load's summary: each loop's gains (continuous SI and per sample) and its margins on
+// the sampled loop beside the continuous loop's, the step, the box.
+std::string SampledSummary(const TuneReport& report) {
+  const TuneInput& input = report.input;
+  const TuneRequest& request = report.request;
+  const TuneResult& result = report.result;
+  const SampledTuning& t = result.sampled;
+  const Config& config = input.config;
+  const bool speed = IsSpeed(request);
+  const std::string x = config.linear_axis ? "m" : "rad";
+  const std::string u = SampledInputUnit(config);
+  const std::string unit = SampledOutputUnit(config, speed);
+  const double ts = 1.0 / request.drive.sample_rate_hz;
+  const ClosedLoopStep& s = result.nominal.step;
+  const WorstCase& w = result.worst;
+  auto margins = [](const LoopMargins& m) {
+    return "crossover " + Text(m.crossover_hz) + " Hz, phase margin " + Text(m.phase_margin_deg) +
+           " deg, gain margin " + Text(m.gain_margin_db) + " dB";
+  };
+  std::ostringstream out;
+  out << "blmd-tune: " << (speed ? "speed loop (PI)" : "position loop (P over the speed PI)")
+      << " of " << config.model->name() << " '" << config.name << "'"
+      << (config.linear_axis ? " (linear axis)" : "") << ", sampled at "
+      << Text(request.drive.sample_rate_hz) << " Hz with " << request.drive.delay_samples
+      << " sample(s) of delay, current loop "
+      << (request.drive.current_bandwidth_hz > 0.0
+              ? Text(request.drive.current_bandwidth_hz) + " Hz"
+              : std::string("ideal"))
+      << ", for " << Text(request.design.crossover_hz) << " Hz, "
+      << Text(request.design.phase_margin_deg) << " deg\n";
+  out << "  speed PI: kp " << Text(t.gains.speed_kp, 6) << " " << u << "·s/" << x << "   ki "
+      << Text(t.gains.speed_ki, 6) << " " << u << "/" << x << "   (per sample: kp "
+      << Text(t.gains.speed_kp, 6) << ", ki·Ts " << Text(t.gains.speed_ki * ts, 6) << ")\n";
+  out << "  speed loop, sampled: " << margins(t.speed) << "\n";
+  out << "  speed loop, continuous (same gains, no hold or delay): " << margins(t.speed_continuous)
+      << "\n";
+  if (!speed) {
+    out << "  position P: kp " << Text(t.gains.position_kp, 6) << " 1/s\n";
+    out << "  position loop, sampled: " << margins(t.position) << "\n";
+    out << "  position loop, continuous: " << margins(t.position_continuous) << "\n";
+  }
+  out << "  step " << Text(result.step) << " " << unit << ": rise " << Text(s.rise_time_s)
+      << " s, overshoot " << Text(s.overshoot_percent) << " %, settling " << Text(s.settling_time_s)
+      << " s, steady-state error " << Text(s.steady_state_error) << " " << unit << ", peak "
+      << Text(s.peak_u) << " " << u << "\n";
+  if (!result.corners.empty()) {
+    out << "  worst over the " << result.corners.size() << " corners of the 95 % box ("
+        << input.box_source << "): crossover " << Text(w.crossover_low_hz.value) << " to "
+        << Text(w.crossover_high_hz.value) << " Hz, phase margin " << Text(w.phase_margin_deg.value)
+        << " deg, gain margin " << Text(w.gain_margin_db.value) << " dB, overshoot "
+        << Text(w.overshoot_percent.value) << " %, settling " << Text(w.settling_time_s.value)
+        << " s, peak " << Text(w.peak_u.value) << " " << u << "\n";
+  }
+  for (const auto& [code, message] : result.warnings)
+    out << "  warning (" << code << "): " << message << "\n";
+  return out.str();
 }
 
 }  // namespace
@@ -209,14 +350,17 @@ void to_json(json& out, const TuneReport& report) {
                            : json{{"path", input.report_path}, {"sha256", input.report_sha256}};
   out["request"] = RequestJson(request, result);
   out["plant"] = PlantJson(input, result);
-  out["method"] = {
-      {"name", IsSpeed(request) ? "PI placing L(j w_c) at e^{j(PM - 180 deg)}"
-                                : "PID (Ti = a Td, derivative filter at n f_c) placing "
-                                  "L(j w_c) at e^{j(PM - 180 deg)}"},
-      {"controller_phase_deg", Number(result.design.controller_phase_deg)},
-      {"source",
-       "Astrom & Hagglund, PID Controllers: Theory, Design, and Tuning (1995), ch. 4; "
-       "docs/tuning.md"}};
+  const char* method = result.sampled.used
+                           ? "sampled PI placing L(e^{j w_c Ts}) at e^{j(PM - 180 deg)} (ZOH "
+                             "plant, z^-d delay); position: P for |L| = 1 at its crossover"
+                       : IsSpeed(request) ? "PI placing L(j w_c) at e^{j(PM - 180 deg)}"
+                                          : "PID (Ti = a Td, derivative filter at n f_c) placing "
+                                            "L(j w_c) at e^{j(PM - 180 deg)}";
+  out["method"] = {{"name", method},
+                   {"controller_phase_deg", Number(result.design.controller_phase_deg)},
+                   {"source",
+                    "Astrom & Hagglund, PID Controllers: Theory, Design, and Tuning (1995), ch. 4; "
+                    "docs/tuning.md"}};
   out["controller"] = ControllerJson(report);
   json achieved = MarginsJson(result.nominal);
   achieved["closed_loop_poles"] = PolesJson(result.nominal.poles);
@@ -224,6 +368,7 @@ void to_json(json& out, const TuneReport& report) {
   out["step_response"] = {{"nominal", StepJson(result.nominal.step)},
                           {"worst_case", WorstStepJson(result.worst)}};
   out["robustness"] = RobustnessJson(input, result);
+  if (result.sampled.used) out["sampled_loop"] = SampledLoopJson(input, request, result);
   json warnings = json::array();
   for (const auto& [code, message] : result.warnings)
     warnings.push_back({{"code", code}, {"message", message}});
@@ -240,6 +385,7 @@ std::string TuneSummary(const TuneReport& report) {
   const LoopMargins& m = result.nominal.margins;
   const ClosedLoopStep& s = result.nominal.step;
   const WorstCase& w = result.worst;
+  if (result.sampled.used) return SampledSummary(report);
   const std::string unit = IsSpeed(request) ? "rad/s" : "rad";
   std::ostringstream out;
   out << "blmd-tune: " << (IsSpeed(request) ? "speed loop (PI)" : "position loop (PID)") << " of "
@@ -279,6 +425,12 @@ json ClosedLoopConfigJson(const TuneReport& report) {
                        " Hz and " + Text(request.design.phase_margin_deg) +
                        " deg of phase margin: a step of the reference from rest.";
   SetModelValues(config, config.parameters, &doc);
+  if (result.sampled.used) {
+    // The step on the controller's grid, as Tune simulated it (a whole number of steps per
+    // sample).
+    const double ts = 1.0 / request.drive.sample_rate_hz, dt = config.simulation.dt;
+    doc["simulation"]["dt"] = ts / std::max(1.0, std::ceil(ts / dt * (1.0 - 1e-9)));
+  }
   doc["experiment"] = {{"input", {{"type", "step"}, {"amplitude", result.step}}},
                        {"pid", PidExperimentJson(request, result)},
                        {"duration", result.duration},

@@ -108,8 +108,14 @@ std::vector<double> PolyAdd(const std::vector<double>& a, const std::vector<doub
 
 LoopMargins ComputeMargins(const TransferFunction& plant, const Controller& controller,
                            double low_hz, double high_hz) {
+  return ComputeMargins(
+      [&](double omega) { return controller.At(omega) * FrequencyResponse(plant, omega); }, low_hz,
+      high_hz);
+}
+
+LoopMargins ComputeMargins(const std::function<Complex(double omega)>& loop, double low_hz,
+                           double high_hz) {
   LoopMargins margins;
-  auto loop = [&](double omega) { return controller.At(omega) * FrequencyResponse(plant, omega); };
   auto log_gain = [&](double omega) { return std::log(std::abs(loop(omega))); };
   auto imaginary = [&](double omega) { return loop(omega).imag(); };
   constexpr int kPerDecade = 400;

@@ -72,8 +72,17 @@ ClosedLoopStep SimulateStep(const Config& config, const ParameterSet& values,
   figures.steady_state_error = experiment.input.amplitude - figures.final_value;
   figures.peak_u = figures.peak_i = 0.0;
   for (double u : trace.Column("u")) figures.peak_u = std::max(figures.peak_u, std::abs(u));
-  for (double i : trace.Column("i")) figures.peak_i = std::max(figures.peak_i, std::abs(i));
   figures.saturated = figures.peak_u >= experiment.pid.u_max * (1.0 - 1e-12);
+  if (trace.Has("i")) {
+    for (double i : trace.Column("i")) figures.peak_i = std::max(figures.peak_i, std::abs(i));
+  } else {
+    // A torque-driven model (rigid_load): no current column; its lower limit may differ.
+    figures.peak_i = std::numeric_limits<double>::quiet_NaN();
+    const double low = experiment.pid.LowerLimit();
+    for (double u : trace.Column("u")) {
+      if (u <= low + std::abs(low) * 1e-12) figures.saturated = true;
+    }
+  }
   return figures;
 }
 
@@ -99,8 +108,12 @@ void ChooseTimeBase(const TuneRequest& request, const ClosedLoopPoles& poles, do
   result->sample_rate = 1.0 / (every * dt);
 }
 
+LoopCheck CheckSampledAt(const TuneInput& input, const TuneRequest& request,
+                         const TuneResult& result, const ParameterSet& values);
+
 LoopCheck CheckAt(const TuneInput& input, const TuneRequest& request, const TuneResult& result,
                   const ParameterSet& values) {
+  if (result.sampled.used) return CheckSampledAt(input, request, result, values);
   LoopCheck check;
   const TransferFunction plant = PlantAt(*input.config.model, values, result.plant_output);
   const double fc = request.design.crossover_hz;
@@ -118,24 +131,36 @@ LoopCheck CheckAt(const TuneInput& input, const TuneRequest& request, const Tune
 // same step with the limit lifted) or the current.
 void CheckLimits(const TuneInput& input, const TuneRequest& request, TuneResult* result) {
   const ClosedLoopStep& step = result->nominal.step;
-  const std::string what = "a " + Text(result->step) + " " + Unit(request) + " step";
+  const std::string what_unit =
+      result->sampled.used ? SampledOutputUnit(input.config, IsSpeed(request)) : Unit(request);
+  const std::string what = "a " + Text(result->step) + " " + what_unit + " step";
   if (!step.simulated) {
     result->refused = true;
     result->refusal = "the simulated closed loop failed for " + what + ": " + step.failure;
     return;
   }
   if (step.saturated) {
-    const Experiment unlimited =
-        StepExperiment(request.design.loop, result->design.controller, 1e12, result->step,
-                       result->duration, result->sample_rate);
+    Experiment unlimited = StepExperiment(request.design.loop, result->design.controller, 1e12,
+                                          result->step, result->duration, result->sample_rate);
+    std::string u_unit = "V";
+    double limit = request.u_max;
+    if (result->sampled.used) {
+      TuneRequest lifted = request;
+      lifted.u_max = 1e12;
+      lifted.u_min = -1e12;
+      unlimited = SampledStepExperiment(lifted, result->sampled.gains, result->step,
+                                        result->duration, result->sample_rate);
+      u_unit = SampledInputUnit(input.config);
+      limit = std::min(request.u_max, std::abs(request.LowerLimit()));
+    }
     const ClosedLoopStep demand =
         SimulateStep(input.config, input.config.parameters, unlimited, result->plant_output);
     result->demand_peak_u = demand.peak_u;
     result->refused = true;
-    result->refusal = "the loop needs " + Text(demand.peak_u) + " V for " + what +
-                      ", beyond the drive's " + Text(request.u_max) +
-                      " V: at this crossover the largest step within the limit is " +
-                      Text(result->step * request.u_max / demand.peak_u) + " " + Unit(request) +
+    result->refusal = "the loop needs " + Text(demand.peak_u) + " " + u_unit + " for " + what +
+                      ", beyond the drive's " + Text(limit) + " " + u_unit +
+                      ": at this crossover the largest step within the limit is " +
+                      Text(result->step * limit / demand.peak_u) + " " + what_unit +
                       " (ask for a lower crossover or a smaller --step)";
     return;
   }
@@ -207,6 +232,50 @@ void EvaluateBox(const TuneInput& input, const TuneRequest& request, TuneResult*
     AddToWorst(result->corners[c], static_cast<int>(c), &result->worst);
 }
 
+// The sampled loops of rigid_load (sampled_loop.h, docs/tuning.md §7).
+RigidPlant RigidAt(const ParameterSet& values) {
+  return {values.Get("J"), values.Get("B"), values.Get("Kt")};
+}
+
+// The margins of the tuned sampled loop (the speed loop, or the position loop of the
+// cascade) and its continuous counterpart, searched from four decades below its crossover
+// to just below the Nyquist frequency.
+void SampledMargins(const SampledRigidLoop& loop, const CascadeGains& gains, bool position,
+                    double crossover_hz, LoopMargins* sampled, LoopMargins* continuous) {
+  const double low = crossover_hz / kSearchDecades, high = loop.nyquist_hz() * (1.0 - 1e-6);
+  if (position) {
+    *sampled = ComputeMargins([&](double w) { return loop.PositionLoopAt(gains, w); }, low, high);
+    if (continuous) {
+      *continuous =
+          ComputeMargins([&](double w) { return loop.ContinuousPositionLoopAt(gains, w); }, low,
+                         crossover_hz * kSearchDecades);
+    }
+  } else {
+    *sampled = ComputeMargins([&](double w) { return loop.SpeedLoopAt(gains, w); }, low, high);
+    if (continuous) {
+      *continuous = ComputeMargins([&](double w) { return loop.ContinuousSpeedLoopAt(gains, w); },
+                                   low, crossover_hz * kSearchDecades);
+    }
+  }
+}
+
+LoopCheck CheckSampledAt(const TuneInput& input, const TuneRequest& request,
+                         const TuneResult& result, const ParameterSet& values) {
+  LoopCheck check;
+  const bool position = !IsSpeed(request);
+  const SampledRigidLoop loop(RigidAt(values), request.drive);
+  const CascadeGains& gains = result.sampled.gains;
+  SampledMargins(
+      loop, gains, position,
+      position ? result.sampled.design.position_crossover_hz : request.design.crossover_hz,
+      &check.margins, nullptr);
+  check.poles = loop.Poles(gains, position);
+  const Experiment experiment =
+      SampledStepExperiment(request, gains, result.step, result.duration, result.sample_rate);
+  check.step = SimulateStep(input.config, values, experiment, result.plant_output);
+  return check;
+}
+
 void Warn(TuneResult* result, const std::string& code, const std::string& message) {
   result->warnings.emplace_back(code, message);
 }
@@ -236,7 +305,9 @@ void AddBoxWarnings(const TuneInput& input, TuneResult* result) {
   }
   if (w.saturated > 0) {
     warn("saturated_corner", std::to_string(w.saturated) + " of " + std::to_string(corners) +
-                                 " corners of the 95 % box reach the voltage limit in the step");
+                                 " corners of the 95 % box reach the " +
+                                 (result->sampled.used ? "drive's limit" : "voltage limit") +
+                                 " in the step");
   }
 }
 
@@ -251,7 +322,7 @@ void AddStepWarnings(const TuneInput& input, const TuneRequest& request, TuneRes
   const double dt = input.config.simulation.dt;
   const double hold_deg = 180.0 * request.design.crossover_hz * dt;
   const double filter_steps = kTwoPi * result->design.controller.derivative_filter_hz * dt;
-  if (hold_deg > 1.0 || filter_steps > 0.1) {
+  if (!result->sampled.used && (hold_deg > 1.0 || filter_steps > 0.1)) {
     warn("sampled_controller",
          "the simulated PID runs at dt = " + Text(dt) + " s: its sample-and-hold costs " +
              Text(hold_deg) + " deg at the crossover and its derivative filter (2 pi f_d dt = " +
@@ -277,13 +348,55 @@ void AddStepWarnings(const TuneInput& input, const TuneRequest& request, TuneRes
 
 }  // namespace
 
+std::string SampledInputUnit(const Config& config) {
+  if (config.parameters.Get("Kt") != 1.0) return "u";
+  return config.linear_axis ? "N" : "N·m";
+}
+
+std::string SampledOutputUnit(const Config& config, bool speed) {
+  if (config.linear_axis) return speed ? "m/s" : "m";
+  return speed ? "rad/s" : "rad";
+}
+
 std::string TuneRequest::Validate() const {
   if (std::string error = design.Validate(); !error.empty()) return error;
   if (!(u_max > 0.0) || !std::isfinite(u_max)) return "the voltage limit u must be > 0";
   if (!(i_max >= 0.0) || !std::isfinite(i_max)) return "the current limit i must be > 0";
   if (!(step >= 0.0) || !std::isfinite(step)) return "the step must be > 0";
   if (!(duration >= 0.0) || !std::isfinite(duration)) return "the duration must be > 0";
+  if (drive.sample_rate_hz > 0.0) {
+    if (std::string error = drive.Validate(); !error.empty()) return error;
+    if (!(position_crossover_hz >= 0.0) || !std::isfinite(position_crossover_hz))
+      return "the position crossover must be > 0 Hz";
+    if (!std::isnan(u_min) && !(u_min < u_max)) return "the lower limit must be below the upper";
+  }
   return "";
+}
+
+Experiment SampledStepExperiment(const TuneRequest& request, const CascadeGains& gains, double step,
+                                 double duration, double sample_rate) {
+  Experiment experiment;
+  experiment.input.kind = InputSignal::Kind::kStep;
+  experiment.input.amplitude = step;
+  experiment.duration = duration;
+  experiment.sample_rate = sample_rate;
+  experiment.closed_loop = true;
+  PidSettings& pid = experiment.pid;
+  pid.loop = request.design.loop;
+  if (pid.loop == PidSettings::Loop::kSpeed) {
+    pid.Kp = gains.speed_kp;
+    pid.Ki = gains.speed_ki;
+  } else {
+    pid.Kp = gains.position_kp;
+    pid.speed_Kp = gains.speed_kp;
+    pid.speed_Ki = gains.speed_ki;
+  }
+  pid.u_max = request.u_max;
+  pid.u_min = request.u_min;
+  pid.sample_rate = request.drive.sample_rate_hz;
+  pid.delay = request.drive.delay_samples;
+  pid.current_bandwidth = request.drive.current_bandwidth_hz;
+  return experiment;
 }
 
 Experiment StepExperiment(PidSettings::Loop loop, const Controller& controller, double u_max,
@@ -305,8 +418,132 @@ Experiment StepExperiment(PidSettings::Loop loop, const Controller& controller, 
   return experiment;
 }
 
+namespace {
+
+// The simulation step for the sampled loop: the config's dt, shortened where needed to a
+// whole number of steps per controller sample.
+TuneInput WithControllerGrid(const TuneInput& input, const SampledDrive& drive) {
+  TuneInput out = input;
+  const double ts = 1.0 / drive.sample_rate_hz, dt = input.config.simulation.dt;
+  const double steps = std::ceil(ts / dt * (1.0 - 1e-9));
+  out.config.simulation.dt = ts / std::max(1.0, steps);
+  return out;
+}
+
+// The default step of the sampled loop: the dc_servo default, shortened so that the
+// proportional kick of the step (speed: kp·step; position: speed_kp·position_kp·step) is at
+// most half the drive's limit.
+double SampledDefaultStep(const TuneRequest& request, const TuneResult& result) {
+  const double limit = std::min(request.u_max, std::abs(request.LowerLimit()));
+  const CascadeGains& g = result.sampled.gains;
+  const double kick = IsSpeed(request) ? g.speed_kp : g.speed_kp * g.position_kp;
+  const double fallback = DefaultStep(request, result.plant);
+  const double step = IsSpeed(request) ? fallback * limit / request.u_max : fallback;
+  return kick > 0.0 ? std::min(step, 0.5 * limit / kick) : step;
+}
+
+TuneResult TuneSampled(const TuneInput& original, const TuneRequest& request) {
+  const TuneInput input = WithControllerGrid(original, request.drive);
+  TuneResult result;
+  const bool position = !IsSpeed(request);
+  result.plant_output = position ? "theta" : "w";
+  const Config& config = input.config;
+  result.plant = PlantAt(*config.model, config.parameters, result.plant_output);
+  SampledTuning& sampled = result.sampled;
+  sampled.used = true;
+  sampled.linear_axis = config.linear_axis;
+  const SampledRigidLoop loop(RigidAt(config.parameters), request.drive);
+  const double fc = request.design.crossover_hz;
+  sampled.design = DesignSampledSpeedPi(loop, fc, request.design.phase_margin_deg);
+  sampled.gains = sampled.design.gains;
+  // The dc_servo fields the report shares: the tuned loop's gains and the plant at f_c.
+  result.design.plant_gain = sampled.design.plant_gain;
+  result.design.plant_phase_deg = sampled.design.plant_phase_deg;
+  result.design.controller_phase_deg = sampled.design.controller_phase_deg;
+  if (!sampled.design.ok) {
+    result.refused = true;
+    result.refusal = sampled.design.reason;
+    return result;
+  }
+  SampledMargins(loop, sampled.gains, false, fc, &sampled.speed, &sampled.speed_continuous);
+  sampled.speed_poles = loop.Poles(sampled.gains, false);
+  if (!sampled.speed_poles.stable) {
+    result.refused = true;
+    result.refusal = "the sampled speed loop placed at " + Text(fc) +
+                     " Hz is unstable on the model: ask for another crossover or phase margin";
+    return result;
+  }
+  double tuned_hz = fc;
+  if (position) {
+    sampled.design.position_crossover_hz = request.position_crossover_hz > 0.0
+                                               ? request.position_crossover_hz
+                                               : kDefaultPositionRatio * fc;
+    tuned_hz = sampled.design.position_crossover_hz;
+    std::string reason;
+    if (!DesignSampledPositionP(loop, tuned_hz, &sampled.gains, &reason)) {
+      result.refused = true;
+      result.refusal = reason;
+      return result;
+    }
+    SampledMargins(loop, sampled.gains, true, tuned_hz, &sampled.position,
+                   &sampled.position_continuous);
+  }
+  result.design.ok = true;
+  result.design.controller.kp = position ? sampled.gains.position_kp : sampled.gains.speed_kp;
+  result.design.controller.ki = position ? 0.0 : sampled.gains.speed_ki;
+  result.nominal.margins = position ? sampled.position : sampled.speed;
+  result.nominal.poles = loop.Poles(sampled.gains, position);
+  if (!result.nominal.poles.stable) {
+    result.refused = true;
+    result.refusal = "the sampled position loop placed at " + Text(tuned_hz) +
+                     " Hz is unstable on the model: ask for a lower --position-crossover";
+    return result;
+  }
+  result.step = request.step > 0.0 ? request.step : SampledDefaultStep(request, result);
+  TuneRequest timing = request;
+  timing.design.crossover_hz = tuned_hz;
+  ChooseTimeBase(timing, result.nominal.poles, config.simulation.dt, &result);
+  if (const std::string error = RunLengthError(result.duration, config.simulation.dt,
+                                               result.duration * result.sample_rate);
+      !error.empty()) {
+    throw InputError(error);
+  }
+  const Experiment experiment = SampledStepExperiment(request, sampled.gains, result.step,
+                                                      result.duration, result.sample_rate);
+  result.nominal.step = SimulateStep(config, config.parameters, experiment, result.plant_output);
+  CheckLimits(input, request, &result);
+  if (result.refused) return result;
+  EvaluateBox(input, request, &result);
+  AddBoxWarnings(input, &result);
+  AddStepWarnings(input, request, &result);
+  if (request.sample_rate_assumed) {
+    Warn(&result, "sample_rate_assumed",
+         "no --sample-rate (nor experiment.pid.sample_rate): the controller is taken to run at "
+         "1/simulation.dt = " +
+             Text(request.drive.sample_rate_hz) +
+             " Hz; give the drive's own rate, the gains and margins depend on it");
+  }
+  if (position && sampled.position.ok &&
+      sampled.position.phase_margin_deg < request.design.phase_margin_deg) {
+    Warn(&result, "position_phase_margin",
+         "the position loop's phase margin on the sampled loop is " +
+             Text(sampled.position.phase_margin_deg) + " deg, below the " +
+             Text(request.design.phase_margin_deg) +
+             " deg asked of the speed loop (ask for a lower --position-crossover)");
+  }
+  return result;
+}
+
+}  // namespace
+
 TuneResult Tune(const TuneInput& input, const TuneRequest& request) {
   if (std::string error = request.Validate(); !error.empty()) throw InputError(error);
+  if (input.config.model->traits().sampled_pid) {
+    if (!(request.drive.sample_rate_hz > 0.0))
+      throw InputError("model " + std::string(input.config.model->name()) +
+                       " is tuned on the drive's sampled loop: give --sample-rate HZ");
+    return TuneSampled(input, request);
+  }
   TuneResult result;
   result.plant_output = IsSpeed(request) ? "w" : "theta";
   const Config& config = input.config;

@@ -13,13 +13,14 @@ namespace {
 
 using nlohmann::json;
 
-// The model must have the closed-loop experiment (the step is simulated through it) and a
+// The model must have a closed-loop experiment (the step is simulated through it) and a
 // linear part (the margins are computed on it).
 void CheckModel(const Config& config) {
-  if (!config.model->traits().coast_down_and_pid) {
+  const ModelTraits traits = config.model->traits();
+  if (!traits.coast_down_and_pid && !traits.sampled_pid) {
     throw InputError(config.path + ": model " + std::string(config.model->name()) +
-                     " has no closed-loop experiment (experiment.pid, dc_servo only): "
-                     "blmd-tune simulates the tuned loop through it (docs/tuning.md)");
+                     " has no closed-loop experiment (experiment.pid, dc_servo and rigid_load "
+                     "only): blmd-tune simulates the tuned loop through it (docs/tuning.md)");
   }
   const LinearModel linear = config.model->Linearise(config.parameters);
   if (!linear.available) {
@@ -107,7 +108,10 @@ TuneInput LoadTuneInput(const std::string& config_path, const std::string& repor
     RethrowForReport(config_path, error);
   }
   input.config_sha256 = Sha256Hex(ReadFileText(config_path, kMaxConfigBytes, "config"));
-  if (!input.config.model->traits().coast_down_and_pid) CheckModel(input.config);
+  if (!input.config.model->traits().coast_down_and_pid &&
+      !input.config.model->traits().sampled_pid) {
+    CheckModel(input.config);
+  }
   if (report_path.empty()) {
     ApplyConfigNotes(&input);
   } else {

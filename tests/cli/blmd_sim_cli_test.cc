@@ -154,11 +154,12 @@ TEST(BlmdSimCli, BadInputExitsTwoWithOneLineAndWritesNothing) {
   const std::string out = dir.File("out.csv");
   const std::string bad =
       dir.Write("bad.json", "{\n  \"model\": \"dc_servo\",\n  \"paramters\": {}\n}\n");
-  ExpectBadInput(Sim("--config " + bad + " --out " + out), out,
-                 "error: " + bad +
-                     ":3:3: unknown key 'paramters' in '(top level)' (did you mean "
-                     "'parameters'?); valid keys: name, description, notes, model, parameters, "
-                     "effects, simulation, experiment, identification");
+  ExpectBadInput(
+      Sim("--config " + bad + " --out " + out), out,
+      "error: " + bad +
+          ":3:3: unknown key 'paramters' in '(top level)' (did you mean "
+          "'parameters'?); valid keys: name, description, notes, model, axis, parameters, "
+          "effects, simulation, experiment, identification");
   ExpectBadInput(Sim("--config " + dir.File("missing.json") + " --out " + out), out,
                  "error: " + dir.File("missing.json") + ": cannot read: No such file or directory");
   ExpectBadInput(

@@ -204,9 +204,19 @@ def drift(args):
         experiment = defs["experiment"]["properties"]
         same("experiment keys", loader.valid_list(dict(good, experiment={"zz": 1}), keys),
              experiment)
-        same("experiment.pid keys",
-             loader.valid_list(dict(good, experiment={"pid": {"zz": 1}}), keys),
-             experiment["pid"]["properties"])
+        # experiment.pid: each model's keys are the shared definition's less those its
+        # branch of the schema forbids ("not": {}): dc_servo's PID, rigid_load's sampled loop.
+        for model in ("dc_servo", "rigid_load"):
+            branch = next(rule["then"] for rule in schema["allOf"]
+                          if rule.get("if", {}).get("properties", {}).get("model", {})
+                          .get("const") == model)
+            forbidden = (branch.get("properties", {}).get("experiment", {})
+                         .get("properties", {}).get("pid", {}).get("properties", {}))
+            same("experiment.pid keys (%s)" % model,
+                 loader.valid_list({"model": model, "parameters": BASE[model],
+                                    "experiment": {"pid": {"zz": 1}}}, keys),
+                 [k for k in experiment["pid"]["properties"]
+                  if forbidden.get(k) != {"not": {}} and "not" not in forbidden.get(k, {})])
         same("experiment.initial keys",
              loader.valid_list(dict(good, experiment={"initial": {"zz": 1}}), keys),
              experiment["initial"]["properties"])

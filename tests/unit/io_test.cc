@@ -543,7 +543,7 @@ TEST(ConfigErrors, UnknownKeysSuggestTheNearest) {
   EXPECT_EQ(
       ConfigError(Base("\"model\": \"dc_servo\",", "\"model\": \"dc_servo\", \"experimnet\": {},")),
       "config.json:2:24: unknown key 'experimnet' in '(top level)' (did you mean "
-      "'experiment'?); valid keys: name, description, notes, model, parameters, effects, "
+      "'experiment'?); valid keys: name, description, notes, model, axis, parameters, effects, "
       "simulation, experiment, identification");
   EXPECT_EQ(ConfigError(Base("\"B\": 2.261e-5", "\"b\": 2.261e-5")),
             "config.json:9:5: unknown key 'b' in 'parameters' (did you mean 'B'?); valid keys: R, "

@@ -53,6 +53,9 @@ struct Config {
   Experiment experiment;
   IdentificationSettings identification;
   nlohmann::json notes;  // free-form provenance ("notes" key), carried into reports
+  // "axis": "linear" (rigid_load): a linear axis, J a mass (kg), B in N·s/m, u a force (N),
+  // w and theta in m/s and m; what blmd-tune's report and text say (docs/model-rigid-load.md).
+  bool linear_axis = false;
   // The JSON document as loaded (null when built in code): what blmd-ident --write-config
   // starts from, so the written config keeps the experiment and settings as written.
   nlohmann::json document;

@@ -2,8 +2,10 @@
 // closed loop), the initial state, and the numerics. See docs/experiments.md.
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -83,10 +85,11 @@ class InputCursor {
   std::uint64_t prbs_run_begin_ = 0, prbs_run_end_ = 0;
 };
 
-// Closed-loop control (dc_servo): PID on the measured y (theta, or w for the speed loop),
-// output saturated at +-u_max. u = Kp e + Ki integral(e) - Kd dy_f/dt, e = r - y; derivative
-// on the measurement through a first-order filter (tau_d); the integrator stops while the
-// output saturates in the direction of the error (clamping anti-windup).
+// Closed-loop control (dc_servo; rigid_load: see the fields below u_max): PID on the
+// measured y (theta, or w for the speed loop), output saturated at +-u_max.
+// u = Kp e + Ki integral(e) - Kd dy_f/dt, e = r - y; derivative on the measurement through a
+// first-order filter (tau_d); the integrator stops while the output saturates in the
+// direction of the error (clamping anti-windup).
 struct PidSettings {
   // What the loop measures and the reference means: the shaft angle theta (rad, the
   // default) or the shaft speed w (rad/s). The gains' units follow: V/rad or V·s/rad, ...
@@ -97,6 +100,22 @@ struct PidSettings {
   double Kd = 0.0;      // V·s/rad (speed loop: V·s²/rad)
   double tau_d = 1e-3;  // s, derivative filter time constant
   double u_max = 24.0;  // V, saturation (the supply)
+  // rigid_load: the drive's digital cascade (docs/model-rigid-load.md, docs/tuning.md §7).
+  // The controller samples w and theta every 1/sample_rate s (a whole number of simulation
+  // steps), its output takes effect `delay` samples later and is held (zero-order hold), and
+  // the current (force) loop follows the command as a first-order lag of current_bandwidth
+  // Hz (0: ideal). The speed loop is a PI (Kp u·s/rad, Ki u/rad); the position loop a P (and
+  // I) on theta (Kp 1/s, Ki 1/s²) whose output is the speed reference of the inner PI
+  // (speed_Kp, speed_Ki). The integrals are backward Euler sums; the speed integral is held
+  // while the output saturates in the direction of the error (conditional integration). u is
+  // limited to [u_min, u_max]; u_min NaN means -u_max. dc_servo ignores these fields.
+  double sample_rate = 0.0;                                 // Hz; 0: every simulation step
+  int delay = 1;                                            // samples
+  double current_bandwidth = 0.0;                           // Hz; 0: ideal current loop
+  double speed_Kp = 0.0;                                    // u·s/rad, position loop's inner PI
+  double speed_Ki = 0.0;                                    // u/rad
+  double u_min = std::numeric_limits<double>::quiet_NaN();  // NaN: -u_max
+  double LowerLimit() const { return std::isnan(u_min) ? -u_max : u_min; }
 };
 
 struct InitialState {

@@ -46,6 +46,9 @@ struct ModelTraits {
   // The experiments of a DC servo: a coast-down (coast_off_time) and closed-loop PID
   // position control (dc_servo).
   bool coast_down_and_pid = false;
+  // Closed-loop control as a drive runs it (rigid_load): experiment.pid is a digital PI speed
+  // loop, or a P position loop over it, sampled with a computation delay (PidSettings).
+  bool sampled_pid = false;
   // The steady-state and coast-down estimators of Ganesh et al. (2012), method classic.
   bool classic_estimators = false;
   // A config's experiment without a duration (s) or sample rate (Hz) gets these.

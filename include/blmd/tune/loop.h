@@ -5,6 +5,7 @@
 #pragma once
 
 #include <complex>
+#include <functional>
 #include <limits>
 #include <string>
 #include <vector>
@@ -56,6 +57,10 @@ struct LoopMargins {
   double lower_gain_margin_db = -std::numeric_limits<double>::infinity();
 };
 LoopMargins ComputeMargins(const TransferFunction& plant, const Controller& controller,
+                           double low_hz, double high_hz);
+// The same for any open loop given by its frequency response L(ω), ω in rad/s (a sampled
+// loop: L(e^{jωTs}), high_hz then below the Nyquist frequency).
+LoopMargins ComputeMargins(const std::function<std::complex<double>(double omega)>& loop,
                            double low_hz, double high_hz);
 
 // The closed loop's poles: the roots of den_C·den_G + num_C·num_G (eigenvalues of the

@@ -7,6 +7,7 @@
 // an exception; bad input is an InputError.
 #pragma once
 
+#include <cmath>
 #include <limits>
 #include <string>
 #include <utility>
@@ -16,6 +17,7 @@
 #include "blmd/sim/linear_model.h"
 #include "blmd/tune/controller_design.h"
 #include "blmd/tune/loop.h"
+#include "blmd/tune/sampled_loop.h"
 
 namespace blmd {
 
@@ -53,9 +55,22 @@ struct TuneRequest {
   double step = 0.0;      // reference step (rad; speed loop rad/s); 0: the default
   double duration = 0.0;  // s, of the simulated step; 0: from the closed loop's poles
   int threads = 0;        // for the corners' simulations; 0: every hardware thread
+  // rigid_load (a model with the sampled_pid trait): the drive's digital loop, designed on
+  // the sampled loop (sampled_loop.h, docs/tuning.md §7). design.crossover_hz is then the
+  // speed loop's; the position loop (a P over it) crosses over at position_crossover_hz
+  // (0: kDefaultPositionRatio of the speed crossover). u_min: the lower limit (NaN: −u_max).
+  SampledDrive drive;
+  bool sample_rate_assumed = false;  // drive.sample_rate_hz not given: 1/simulation.dt
+  double position_crossover_hz = 0.0;
+  double u_min = std::numeric_limits<double>::quiet_NaN();
+  double LowerLimit() const { return std::isnan(u_min) ? -u_max : u_min; }
   // "" when the request can be used, else what is wrong (one line).
   std::string Validate() const;
 };
+
+// The position loop's crossover over the speed loop's when not given: a fifth, the usual
+// separation of a cascade's loops (the inner loop nearly 1 at the outer crossover).
+inline constexpr double kDefaultPositionRatio = 0.2;
 
 // The simulated closed-loop step response (ComputeStepMetrics, run.h) of the loop's measured
 // column (theta, or w), towards its own final value, and what the drive had to give.
@@ -99,6 +114,18 @@ struct WorstCase {
   int invalid = 0;    // corners without step metrics (the response never rose through 90 %)
 };
 
+// rigid_load's sampled design: the gains of the cascade and each loop's margins, on the
+// sampled loop and, with the same gains, on the continuous one (no hold, no delay).
+struct SampledTuning {
+  bool used = false;  // the model's loop is the drive's digital one (rigid_load)
+  bool linear_axis = false;
+  CascadeGains gains;
+  SampledDesignResult design;                 // the speed PI's (and the position crossover)
+  LoopMargins speed, speed_continuous;        // the speed loop (the cascade's inner loop)
+  LoopMargins position, position_continuous;  // the position loop (cascade only)
+  ClosedLoopPoles speed_poles;                // z plane
+};
+
 struct TuneResult {
   bool refused = false;
   std::string refusal;       // why the request cannot be met (refused)
@@ -112,6 +139,7 @@ struct TuneResult {
   std::vector<LoopCheck> corners;  // 2^k corners of the box (k = box size), in binary order
   WorstCase worst;
   std::vector<std::pair<std::string, std::string>> warnings;  // code, message
+  SampledTuning sampled;                                      // rigid_load only
 };
 
 // Designs, checks and evaluates (docs/tuning.md). Throws InputError for a request that does
@@ -123,5 +151,15 @@ TuneResult Tune(const TuneInput& input, const TuneRequest& request);
 // u_max, for `duration` s at `sample_rate` Hz.
 Experiment StepExperiment(PidSettings::Loop loop, const Controller& controller, double u_max,
                           double step, double duration, double sample_rate);
+
+// The units of a rigid_load's u (N·m, N for a linear axis, when Kt = 1; else "u", the
+// drive's own unit) and of its speed or position (rad/s, rad; m/s, m for a linear axis).
+std::string SampledInputUnit(const Config& config);
+std::string SampledOutputUnit(const Config& config, bool speed);
+
+// rigid_load's: the drive's digital loop of `gains` (PidSettings' sampled fields) limited to
+// [request.LowerLimit(), u_max].
+Experiment SampledStepExperiment(const TuneRequest& request, const CascadeGains& gains, double step,
+                                 double duration, double sample_rate);
 
 }  // namespace blmd

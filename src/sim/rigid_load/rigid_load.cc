@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 
+#include "blmd/constants.h"
 #include "blmd/sim/effects.h"
 #include "sim/discretise.h"
 #include "sim/sampler.h"
@@ -54,8 +55,147 @@ SimulationSettings RigidLoadModel::default_settings() const {
 ModelTraits RigidLoadModel::traits() const {
   ModelTraits traits;
   traits.input_is_torque = true;
+  traits.sampled_pid = true;
   traits.default_observe = {"w"};
   return traits;
+}
+
+namespace {
+
+// The drive's digital controller (PidSettings, docs/tuning.md §7): run every `period` steps,
+// its output queued for `delay` samples and then held. The integrals are backward Euler sums
+// (the sample's own error included), scaled by their gains; the speed integral is held while
+// the output saturates in the direction of the error (conditional integration, Åström &
+// Hägglund 1995, ch. 3, integrator windup): a position step that saturates the drive does not
+// wind it up. The position integral (Ki of the position loop; blmd-tune leaves it 0) is not
+// limited: its output, the speed reference, is not.
+class DigitalCascade {
+ public:
+  DigitalCascade(const PidSettings& pid, double Ts) : pid_(pid), Ts_(Ts) {
+    queue_.assign(static_cast<std::size_t>(std::max(0, pid.delay)), 0.0);
+  }
+
+  // The command that takes effect now, for the reference r and the sampled w, theta.
+  double Tick(double r, double w, double theta) {
+    const double low = pid_.LowerLimit(), high = pid_.u_max;
+    double w_ref = r, kp = pid_.Kp, ki = pid_.Ki;
+    if (pid_.loop == PidSettings::Loop::kPosition) {
+      // The position P (and I): its output is the speed reference, not limited (the drive's
+      // speed limit is the torque limit's consequence here).
+      const double e = r - theta;
+      position_integral_ += pid_.Ki * Ts_ * e;
+      w_ref = pid_.Kp * e + position_integral_;
+      kp = pid_.speed_Kp;
+      ki = pid_.speed_Ki;
+    }
+    const double e = w_ref - w;
+    const double candidate = speed_integral_ + ki * Ts_ * e;
+    const double u = kp * e + candidate;
+    if (!((u > high && e > 0.0) || (u < low && e < 0.0))) speed_integral_ = candidate;
+    const double command = std::clamp(kp * e + speed_integral_, low, high);
+    if (queue_.empty()) return command;
+    const double out = queue_.front();
+    queue_.erase(queue_.begin());
+    queue_.push_back(command);
+    return out;
+  }
+
+ private:
+  const PidSettings& pid_;
+  double Ts_;
+  double speed_integral_ = 0.0;     // u
+  double position_integral_ = 0.0;  // rad/s
+  std::vector<double> queue_;       // the commands computed, oldest first
+};
+
+}  // namespace
+
+// The closed loop: the controller samples at its own rate and holds its output; the current
+// (force) loop, a first-order lag, is a third state of the exact discretisation:
+// x = [w, theta, u_a], u_a' = ω_b (u − u_a), the shaft driven by Kt u_a.
+SimStatus RigidLoadModel::SimulateClosedLoop(const SimulationRequest& request, Trace* out) const {
+  const ParameterSet& values = *request.parameters;
+  const Experiment& experiment = *request.experiment;
+  const PidSettings& pid = experiment.pid;
+  const std::vector<double>& times = *request.sample_times;
+  const double dt = request.settings.dt;
+  const double J = values.Get("J"), B = values.Get("B"), Kt = values.Get("Kt");
+  const double Ts = pid.sample_rate > 0.0 ? 1.0 / pid.sample_rate : dt;
+  const long period = std::lround(Ts / dt);
+  if (period < 1 || std::abs(static_cast<double>(period) * dt - Ts) > 1e-6 * Ts) {
+    return {SimStatus::Code::kInvalidParameters,
+            "the controller's period is not a whole number of simulation steps", times.front()};
+  }
+  const ShaftEffects shaft =
+      ShaftEffects::From(values, *request.effects, request.settings.friction_smoothing_w);
+  const bool lag = pid.current_bandwidth > 0.0;
+  const double wb = kTwoPi * pid.current_bandwidth;
+  // Inputs [u, T_effects]; without the lag u_a is u itself and its state stays 0.
+  Eigen::Matrix3d A = Eigen::Matrix3d::Zero(), Ad;
+  Eigen::Matrix<double, 3, 2> Bm = Eigen::Matrix<double, 3, 2>::Zero(), Bd;
+  A(0, 0) = -B / J;
+  A(1, 0) = 1.0;
+  Bm(0, 1) = -1.0 / J;
+  if (lag) {
+    A(0, 2) = Kt / J;
+    A(2, 2) = -wb;
+    Bm(2, 0) = wb;
+  } else {
+    Bm(0, 0) = Kt / J;
+  }
+  internal::Discretise<3, 2>(A, Bm, dt, &Ad, &Bd);
+  const double lag_decay = lag ? std::exp(-wb * dt) : 0.0;  // u_a while the shaft sticks
+
+  internal::OutputSampler sampler(times, {"u", "w", "theta", "r"});
+  InputCursor input(experiment.input);
+  DigitalCascade controller(pid, Ts);
+  const double t_start = times.front();
+  double w = experiment.initial.w, theta = experiment.initial.theta, u_a = 0.0;
+  double reference = input.At(t_start + 0.5 * dt);
+  double u = controller.Tick(reference, w, theta);
+  std::array<double, 4> prev = {u, w, theta, reference};
+  sampler.Record(t_start, prev.data(), t_start, prev.data());
+  std::array<double, 4> now = prev;
+  EffectAngle effect_angle(request.sample_times, request.settings.effect_angle);
+  for (long step = 0; !sampler.done(); ++step) {
+    const double t = t_start + static_cast<double>(step) * dt;
+    const double t_next = t_start + static_cast<double>(step + 1) * dt;
+    const double drive = Kt * (lag ? u_a : u);
+    const double non_friction =
+        shaft.NonFrictionTorque(effect_angle.At(t, theta)) + shaft.DragTorque(w);
+    bool stuck = false;
+    const double friction = shaft.StepFriction(w, drive - non_friction, &stuck);
+    const double w_old = w, theta_old = theta;
+    if (stuck) {
+      u_a = lag_decay * u_a + (1.0 - lag_decay) * u;
+    } else {
+      const Eigen::Vector3d x =
+          Ad * Eigen::Vector3d(w, theta, u_a) + Bd * Eigen::Vector2d(u, friction + non_friction);
+      w = x(0);
+      theta = x(1);
+      u_a = x(2);
+      if (shaft.StopsWithin(w_old, w)) {
+        const double fraction = w_old / (w_old - w);
+        theta = theta_old + 0.5 * w_old * fraction * dt;
+        w = 0.0;
+      }
+    }
+    // The controller samples at t_next when it falls on its period; recorded with the state
+    // at t_next: the command that holds from t_next on (as dc_servo's u column).
+    if ((step + 1) % period == 0) {
+      reference = input.At(t_next + 0.5 * dt);
+      u = controller.Tick(reference, w, theta);
+    }
+    now = {u, w, theta, reference};
+    if (!internal::AllFinite(now.data() + 1, 2, request.settings.divergence_limit)) {
+      return {SimStatus::Code::kDiverged,
+              internal::DivergedMessage(request.settings.divergence_limit), t_next};
+    }
+    sampler.Record(t, prev.data(), t_next, now.data());
+    prev = now;
+  }
+  sampler.Finish(out);
+  return SimStatus::Ok();
 }
 
 SimStatus RigidLoadModel::Simulate(const SimulationRequest& request, Trace* out) const {
@@ -64,6 +204,7 @@ SimStatus RigidLoadModel::Simulate(const SimulationRequest& request, Trace* out)
   const std::vector<double>& times = *request.sample_times;
   const double dt = request.settings.dt;
   if (SimStatus status = CheckRequest(request); !status.ok()) return status;
+  if (experiment.closed_loop) return SimulateClosedLoop(request, out);
   const double J = values.Get("J"), B = values.Get("B"), Kt = values.Get("Kt");
   const ShaftEffects shaft =
       ShaftEffects::From(values, *request.effects, request.settings.friction_smoothing_w);

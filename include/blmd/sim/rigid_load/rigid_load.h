@@ -9,6 +9,9 @@
 //
 // States w (rad/s), theta (rad). Input u: torque in N·m when Kt = 1 (the default), or any
 // signal proportional to it (a current in A with Kt in N·m/A). Outputs: t, u, w, theta.
+// Closed loop (experiment.pid): the drive's digital speed PI, or a position P over it,
+// sampled with a computation delay and a first-order current loop (PidSettings); outputs
+// then also r, the reference.
 // Numerics: exact zero-order-hold discretisation over each step dt (as dc_servo), with the
 // effects' torque held over the step; Coulomb/Stribeck friction sticks at rest.
 #pragma once
@@ -30,6 +33,10 @@ class RigidLoadModel final : public Model {
   LinearModel Linearise(const ParameterSet& values) const override;
   double DriveTorqueScale(const ParameterSet& values, double i_max, double u_max,
                           double w_max) const override;
+
+ private:
+  // experiment.pid: the drive's digital PI speed loop or P-over-PI cascade (PidSettings).
+  SimStatus SimulateClosedLoop(const SimulationRequest& request, Trace* out) const;
 };
 
 }  // namespace blmd
