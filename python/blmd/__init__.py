@@ -57,7 +57,9 @@ _KEYWORD_OF_FLAG = {"column": "columns", "scale": "scales", "trace": "traces",
                     "option": "options", "init-config": "init_config"}
 
 
-def _keyword(flag):
+def _keyword(flag, renames=None):
+    if renames and flag in renames:
+        return renames[flag]
     return _KEYWORD_OF_FLAG.get(flag, flag.replace("-", "_"))
 
 
@@ -72,44 +74,65 @@ def _value_text(text):
         return text if text.isupper() else repr(text)
 
 
-def _python_terms(message):
+# Words that follow a flag in a sentence ("--duration is required") rather than its value.
+_NOT_A_VALUE = ("is", "or", "and", "to", "of", "with", "for", "applies", "needs", "prints",
+                "takes", "keeps", "not", "from", "=")
+
+
+def _python_terms(message, renames=None):
     """The library's message (shared with the commands) with each flag named by the keyword
     argument that sets it: "--column i=HEADER" -> "columns={'i': HEADER}", "--scale w=0.1"
     -> "scales={'w': 0.1}", "--observe: ..." -> "observe: ...", "--error equation" ->
-    "error='equation'". A Python user never typed a flag."""
+    "error='equation'". A Python user never typed a flag. `renames`: {flag: keyword} where a
+    function names a flag otherwise (design's trace=)."""
     def mapping(match):
         flag, name, value = match.group(1), match.group(2), match.group(3)
         if value is None:
-            return f"{_keyword(flag)}[{name!r}]"
-        return f"{_keyword(flag)}={{{name!r}: {_value_text(value)}}}"
+            return f"{_keyword(flag, renames)}[{name!r}]"
+        return f"{_keyword(flag, renames)}={{{name!r}: {_value_text(value)}}}"
 
-    message = re.sub(r"(?<![\w-])--(column|scale|initial|limit|noise) (\w+)(?:=([^\s:),]+))?", mapping,
-                     message)
+    message = re.sub(r"(?<![\w-])--(column|scale|initial|limit|noise) (\w+)(?:=([^\s:),]+))?",
+                     mapping, message)
 
     def flag(match):
         name, value = match.group(1), match.group(2)
         if value is None:
-            return _keyword(name)
-        return f"{_keyword(name)}={_value_text(value)}"
+            return _keyword(name, renames)
+        return f"{_keyword(name, renames)}={_value_text(value)}"
 
-    return re.sub(r"(?<![\w-])--([a-z][a-z0-9-]*)(?: (?!is |or |and |to |of |with |for |"
-                  r"applies |needs |prints |takes |keeps |not |from )([\w.%'/=-]+))?", flag,
-                  message)
+    words = "|".join(re.escape(word) + (" " if word != "=" else "") for word in _NOT_A_VALUE)
+    # A value: up to a space, a comma, a closing bracket, or a colon that ends a prefix
+    # ("--select t=2:3: no row" keeps "t=2:3").
+    return re.sub(r"(?<![\w-])--([a-z][a-z0-9-]*)(?: (?!" + words + r")"
+                  r"((?:[^\s,():]|:(?=[^\s]))+))?", flag, message)
 
 
-def _in_python_terms(function):
+def _in_python_terms(function=None, renames=None):
     """InputError raised by `function` with its message in Python's terms."""
-    @functools.wraps(function)
-    def wrapped(*args, **kwargs):
-        try:
-            return function(*args, **kwargs)
-        except InputError as error:
-            text = str(error)
-            translated = _python_terms(text)
-            if translated == text:
-                raise
-            raise InputError(translated) from None
-    return wrapped
+    def decorate(function):
+        @functools.wraps(function)
+        def wrapped(*args, **kwargs):
+            try:
+                return function(*args, **kwargs)
+            except InputError as error:
+                text = str(error)
+                translated = _python_terms(text, renames)
+                if translated == text:
+                    raise
+                raise InputError(translated) from None
+        return wrapped
+    return decorate(function) if function is not None else decorate
+
+
+def _unknown_flags(error, command):
+    """CLI11's "The following arguments were not expected: 2 --bogus" as the TypeError a
+    Python function gives for an unknown keyword."""
+    text = str(error)
+    if not text.startswith("The following argument"):
+        return error
+    names = [word[2:].replace("-", "_") for word in text.split() if word.startswith("--")]
+    return TypeError(f"{command}: unknown option(s) {', '.join(names) or text} "
+                     f"(not a flag of blmd-{command}; see blmd-{command} --help)")
 
 
 # The most worker threads the library uses (--threads caps at it, with a note).
@@ -761,13 +784,16 @@ def tune(config, report=None, loop="speed", crossover=None, phase_margin=None, l
             args += ["--from-report", report_path]
         args += _flags({"crossover": crossover, "phase_margin": phase_margin, "limit": limits})
         args += _flags(options, _OUTPUT_FLAGS + ("from_report", "loop"))
-        text, refused, refusal, closed_loop = _blmd.tune(args)
+        try:
+            text, refused, refusal, closed_loop = _blmd.tune(args)
+        except InputError as error:
+            raise _unknown_flags(error, "tune") from None
     if refused:
         raise FitError("cannot tune: " + refusal)
     return TuneResult(json.loads(text), json.loads(closed_loop))
 
 
-@_in_python_terms
+@_in_python_terms(renames={"trace": "trace"})
 def design(config, duration=None, limits=None, noise=None, *, family=None, target=None,
            trace=None, **options):
     """The experiment that best determines the free parameters within the drive's limits, as
@@ -788,7 +814,10 @@ def design(config, duration=None, limits=None, noise=None, *, family=None, targe
         if trace_path is not None:
             args += ["--trace", trace_path]
         args += _flags(options, _OUTPUT_FLAGS)
-        text, ok, reason, chosen = _blmd.design(args)
+        try:
+            text, ok, reason, chosen = _blmd.design(args)
+        except InputError as error:
+            raise _unknown_flags(error, "design") from None
     report = json.loads(text)
     if not ok:
         raise FitError("no design: " + reason, report)

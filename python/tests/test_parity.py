@@ -170,6 +170,12 @@ def test_tune_refusal_and_bad_input(tmp_path):
         blmd.tune(SQUARE, loop="speed", crossover=3, limits={"u": 24})
     with pytest.raises(TypeError):
         blmd.tune(SQUARE, loop="speed", crossover=3, phase_margin=60, write_config="x.json")
+    # A keyword that is no flag of the command: Python's TypeError, naming it.
+    with pytest.raises(TypeError, match=r"unknown option\(s\) bogus "):
+        blmd.tune(SQUARE, loop="speed", crossover=3, phase_margin=60, limits={"u": 24}, bogus=2)
+    with pytest.raises(blmd.InputError, match=r"^integral_ratio applies to the position loop"):
+        blmd.tune(SQUARE, loop="speed", crossover=3, phase_margin=60, limits={"u": 24},
+                  integral_ratio=2)
 
 
 def test_design_equals_blmd_design(tmp_path):
@@ -236,3 +242,8 @@ def test_errors_are_in_python_terms():
     with pytest.raises(blmd.InputError) as raised:
         blmd.identify(NOLOAD, NOLOAD_STEP, observe=["q"])
     assert str(raised.value).startswith("observe: 'q' is not an output"), str(raised.value)
+    with pytest.raises(blmd.InputError,
+                       match=r": no row matches select='t=2:3' \('t' holds 0 \.\.\. 1\)$"):
+        blmd.identify(NOLOAD, NOLOAD_STEP, select="t=2:3")
+    with pytest.raises(blmd.InputError, match=r": columns=\{'w': 'speed'\}: no column 'speed'"):
+        blmd.identify(NOLOAD, NOLOAD_STEP, columns={"w": "speed"})
