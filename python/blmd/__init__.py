@@ -380,7 +380,8 @@ class IdentifyResult(dict):
     success: the fit converged (False only with FitError's `report`); message: how it ended;
     fitted, residual: per fit trace (a list, the traces' order), {column: array}: the final
         model's observed columns simulated by the library on the trace's samples, and
-        measured - simulated;
+        measured - simulated ({} for a trace the final model cannot simulate, the reason then
+        in simulation_failure, else None);
     effects: {effect: {parameter: value}} of the final model (a config's "effects");
     report: the report as a plain dict.
     """
