@@ -230,6 +230,9 @@ def test_two_d_arrays_are_the_same_fit_as_columns():
     assert_same_report(blmd.identify(NOLOAD, structured), by_columns, rel=0.0)
     with pytest.raises(blmd.InputError, match=r"columns=\["):
         blmd.identify(NOLOAD, table)
+    grid = {"J": ("log", 1e-5, 5e-5, 5)}
+    assert np.array_equal(blmd.surface(NOLOAD, table, grid, columns=names)["cost"],
+                          blmd.surface(NOLOAD, columns, grid)["cost"])
 
 
 def test_errors_are_in_python_terms():
