@@ -378,6 +378,7 @@ class IdentifyResult(dict):
         diag(std) @ correlation @ diag(std) with the report's std and correlation
         (off-diagonal NaN when the report has no correlation matrix);
     success: the fit converged (False only with FitError's `report`); message: how it ended;
+    nfev, nit: the final fit's cost evaluations and iterations (the report's fit block);
     fitted, residual: per fit trace (a list, the traces' order), {column: array}: the final
         model's observed columns simulated by the library on the trace's samples, and
         measured - simulated ({} for a trace the final model cannot simulate, the reason then
@@ -395,6 +396,9 @@ class IdentifyResult(dict):
         self.cov = np.asarray(final["cov"], dtype=np.float64)
         self.success = bool(converged)
         self.message = termination
+        fit = report.get("fit", {})
+        self.nfev = fit.get("evaluations")
+        self.nit = fit.get("iterations")
         self.fitted = [dict(trace) for trace in final["fitted"]]
         self.residual = [dict(trace) for trace in final["residual"]]
         self.simulation_failure = final["simulation_failure"] or None

@@ -50,6 +50,8 @@ def test_identify_result_is_the_report_with_x_params_and_cov(tmp_path):
     assert_same_report(json.loads(json.dumps(result)), expected)
     assert result.report == dict(result)
     assert result.success is True and isinstance(result.message, str) and result.message
+    assert result.nfev == expected["fit"]["evaluations"]
+    assert result.nit == expected["fit"]["iterations"]
     # x in the order of the report's correlation matrix, params by name.
     names = expected["correlation"]["names"]
     assert result.names == names and set(names) == {"J", "B"}
