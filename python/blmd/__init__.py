@@ -533,8 +533,9 @@ def surface(config, traces, grid, observe=None, threads=0, *, force=False, error
     """The cost over a 1-D or 2-D grid of parameters, as blmd-surface.
 
     traces: one trace (a CSV path, a mapping column -> array, a 2-D array with columns=[names]
-    or a structured array; a list of one is accepted; split= cuts it into experiments). grid: {"J": (lo, hi, n), "B": ("log", lo, hi, n)}
-    (or "log:lo:hi:n" strings), the first axis outermost. Returns a dict: "axes" (names),
+    or a structured array; a list of one is accepted; split= cuts it into experiments).
+    grid: {"J": (lo, hi, n), "B": ("log", lo, hi, n)} (or "log:lo:hi:n" strings), the first
+    axis outermost. Returns a dict: "axes" (names),
     "grid" {name: values}, "cost" (shape (n1,) or (n1, n2); inf where the simulation failed),
     "mse" {column: array of that shape}, "observe", "minimum" and "local_minima"
     ({name: value, ..., "cost": c}), "failed_points", "failure_reasons", and "csv" (the
