@@ -97,6 +97,12 @@ def test_discovered_effects_carry_their_values_and_write_config_round_trips(tmp_
     assert set(result.effects) == {"coulomb_friction"}
     assert result.effects["coulomb_friction"]["Tc"] == result.params["Tc"]
     assert result.params["Tc"] == pytest.approx(0.012, rel=0.05)  # the hidden effect's truth
+    # The final model's three free parameters: x, cov as the report's headline.
+    assert result.names == result["correlation"]["names"] == ["J", "B", "Tc"]
+    std = np.array([result["parameters"][name]["std"] for name in result.names])
+    np.testing.assert_allclose(np.sqrt(np.diag(result.cov)), std, rtol=1e-12, atol=0.0)
+    np.testing.assert_allclose(result.cov / np.outer(std, std),
+                               np.array(result["correlation"]["matrix"]), rtol=1e-12, atol=1e-15)
     # blmd-ident --write-config's document, number for number.
     path = tmp_path / "written.json"
     written = blmd.write_config(result, path)
