@@ -1,8 +1,10 @@
 // _blmd: the C++ side of the Python package `blmd` (docs/python.md). It builds the requests
-// through the library's request layer (app/request.h, as the commands do), runs
-// Identify, Sweep or a simulation with the GIL released, and hands back plain values: the
-// report as JSON text, traces and surfaces as NumPy arrays. python/blmd/__init__.py turns
-// Python arguments into the settings' text forms and the results into the documented API.
+// through the library's request layer (app/request.h, as the commands do; blmd-tune's and
+// blmd-design's own flag sets for tune and design), runs Identify, Sweep, a simulation,
+// RunTune or RunDesign with the GIL released, and hands back plain values: reports and configs
+// as JSON text, traces, surfaces and the identified model's covariance and fit as NumPy
+// arrays. python/blmd/__init__.py turns Python arguments into the settings' text forms and the
+// results into the documented API.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
