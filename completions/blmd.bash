@@ -24,7 +24,7 @@ _blmd_ident_flags="--baseline --bic-margin --candidates --column --config --deci
 _blmd_sim_flags="--config --delimiter --duplicate-time --effect --help --init-config --input --noise --out --quiet --seed --version"
 _blmd_surface_flags="--column --config --decimate --delimiter --derive --duplicate-time --error --filter-hz --force --grid --help --initial-state --json --observe --out --quiet --scale --select --shard --split --svg --threads --trace --version"
 _blmd_tune_flags="--config --crossover --current-bandwidth --delay --duration --filter-ratio --from-report --help --integral-ratio --json --limit --loop --phase-margin --position-crossover --quiet --report --sample-rate --step --threads --version --write-config"
-_blmd_design_flags="--config --delimiter --duplicate-time --duration --family --help --json --limit --noise --quiet --report --target --threads --trace --version --write-config --write-input"
+_blmd_design_flags="--column --config --delimiter --derive --duplicate-time --duration --fail-on-warning --family --from-report --help --initial-state --json --limit --noise --quiet --report --scale --select --split --target --threads --trace --version --write-config --write-input"
 _blmd_surface_merge_flags="--help --out"
 _blmd_surface_plot_flags="--help --quiet --svg --title"
 

@@ -1,18 +1,22 @@
 // _blmd: the C++ side of the Python package `blmd` (docs/python.md). It builds the requests
-// through the library's request layer (app/request.h, as the commands do), runs
-// Identify, Sweep or a simulation with the GIL released, and hands back plain values: the
-// report as JSON text, traces and surfaces as NumPy arrays. python/blmd/__init__.py turns
-// Python arguments into the settings' text forms and the results into the documented API.
+// through the library's request layer (app/request.h, as the commands do; blmd-tune's and
+// blmd-design's own flag sets for tune and design), runs Identify, Sweep, a simulation,
+// RunTune or RunDesign with the GIL released, and hands back plain values: reports and configs
+// as JSON text, traces, surfaces and the identified model's covariance and fit as NumPy
+// arrays. python/blmd/__init__.py turns Python arguments into the settings' text forms and the
+// results into the documented API.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -20,16 +24,25 @@
 #include <utility>
 #include <vector>
 
+#include "../apps/blmd-design/design_flags.h"
+#include "../apps/blmd-tune/tune_flags.h"
+#include "app/experiment_design_run.h"
 #include "app/request.h"
+#include "app/tune_run.h"
 #include "blmd/app/identify.h"
 #include "blmd/app/sweep.h"
 #include "blmd/error.h"
 #include "blmd/io/config.h"
 #include "blmd/io/csv.h"
 #include "blmd/io/files.h"
+#include "blmd/io/starting_config.h"
+#include "blmd/report/design_report.h"
+#include "blmd/report/export.h"
+#include "blmd/report/tune_report.h"
 #include "blmd/run.h"
 #include "blmd/version.h"
 #include "io/flags.h"
+#include "report/config_document.h"
 
 namespace py = pybind11;
 
@@ -117,7 +130,130 @@ std::string ReportJsonText(const blmd::IdentOutcome& outcome) {
   return nlohmann::json(outcome.report).dump();
 }
 
-// identify(config, settings) -> (report JSON text, converged, termination)
+// What blmd.identify's result object adds to the report: the final model's free parameters
+// (their order: outcome.final_free), their covariance, the model re-simulated on the fit's
+// traces, and the config that --write-config writes.
+struct FinalModel {
+  std::vector<std::string> names;
+  std::vector<double> x;
+  Eigen::MatrixXd cov;
+  std::vector<std::string> columns;  // the observed columns
+  // Per trace, per observed column: the simulated values and measured - simulated, at the
+  // samples the cost compares (the trace's rows; with the equation error its filtered ones).
+  std::vector<std::vector<std::vector<double>>> fitted, residual;
+  std::string simulation_failure;  // why a trace could not be simulated ("" when all were)
+  std::string config_text;         // blmd-ident --write-config's document
+};
+
+// The covariance the report's intervals stand for: diag(std)·corr·diag(std), with std the
+// report's per-parameter standard deviation (physical units, after any widening by the
+// spread between traces) and corr the report's correlation (that of the HAC sandwich, which
+// a positive rescaling per parameter leaves unchanged). Without a correlation matrix only the
+// variances are known: the off-diagonal entries are NaN, as is a parameter without interval.
+Eigen::MatrixXd ReportCovariance(const blmd::IdentReport& report,
+                                 const std::vector<std::string>& names) {
+  const blmd::ModelReport& model = report.final_model;
+  const auto n = static_cast<Eigen::Index>(names.size());
+  std::vector<double> sd(names.size(), std::numeric_limits<double>::quiet_NaN());
+  std::vector<Eigen::Index> in_correlation(names.size(), -1);
+  for (std::size_t j = 0; j < names.size(); ++j) {
+    const auto found = model.parameters.find(names[j]);
+    if (found != model.parameters.end() && found->second.estimate.has_interval)
+      sd[j] = found->second.estimate.std;
+    const auto& listed = model.correlation.names;
+    const auto at = std::find(listed.begin(), listed.end(), names[j]);
+    if (model.correlation.available && at != listed.end())
+      in_correlation[j] = static_cast<Eigen::Index>(at - listed.begin());
+  }
+  Eigen::MatrixXd cov = Eigen::MatrixXd::Constant(n, n, std::numeric_limits<double>::quiet_NaN());
+  for (Eigen::Index j = 0; j < n; ++j) {
+    for (Eigen::Index k = 0; k < n; ++k) {
+      const auto uj = static_cast<std::size_t>(j), uk = static_cast<std::size_t>(k);
+      if (j == k) {
+        cov(j, k) = sd[uj] * sd[uj];
+      } else if (in_correlation[uj] >= 0 && in_correlation[uk] >= 0) {
+        cov(j, k) =
+            sd[uj] * model.correlation.correlation(in_correlation[uj], in_correlation[uk]) * sd[uk];
+      }
+    }
+  }
+  return cov;
+}
+
+FinalModel FinalModelOf(const blmd::IdentOutcome& outcome) {
+  FinalModel final_model;
+  for (const auto& p : outcome.final_free) {
+    final_model.names.push_back(p.name);
+    final_model.x.push_back(outcome.final_parameters.Get(p.name));
+  }
+  final_model.cov = ReportCovariance(outcome.report, final_model.names);
+  final_model.config_text = blmd::ModelConfigJson(outcome.final_config, outcome.final_parameters,
+                                                  outcome.final_free, outcome.report)
+                                .dump();
+  if (!outcome.problem) return final_model;
+  // The final model on the first problem's traces (the same data; the final problem of
+  // discovery is not kept by Identify), simulated by the library, as the cost does.
+  const blmd::FitProblem problem(outcome.final_config, outcome.problem->traces(),
+                                 outcome.problem->observe(), outcome.final_free);
+  final_model.columns = problem.observe();
+  for (std::size_t k = 0; k < problem.traces().size(); ++k) {
+    blmd::Trace simulated;
+    const blmd::SimStatus status = problem.Simulate(k, final_model.x, &simulated);
+    std::vector<std::vector<double>> fitted, residual;
+    if (!status.ok()) {
+      final_model.simulation_failure =
+          blmd::SimulationFailureMessage(problem.traces()[k].path, problem.config(), status);
+    } else {
+      const blmd::Trace& measured = problem.measured(k);
+      for (const auto& column : final_model.columns) {
+        const std::vector<double>& sim = simulated.Column(column);
+        const std::vector<double>& meas = measured.Column(column);
+        std::vector<double> difference(meas.size());
+        for (std::size_t r = 0; r < meas.size() && r < sim.size(); ++r)
+          difference[r] = meas[r] - sim[r];
+        fitted.push_back(sim);
+        residual.push_back(std::move(difference));
+      }
+    }
+    final_model.fitted.push_back(std::move(fitted));
+    final_model.residual.push_back(std::move(residual));
+  }
+  return final_model;
+}
+
+py::array_t<double> ToMatrix(const Eigen::MatrixXd& matrix) {
+  py::array_t<double> array(
+      {static_cast<py::ssize_t>(matrix.rows()), static_cast<py::ssize_t>(matrix.cols())});
+  auto view = array.mutable_unchecked<2>();
+  for (Eigen::Index j = 0; j < matrix.rows(); ++j)
+    for (Eigen::Index k = 0; k < matrix.cols(); ++k)
+      view(static_cast<py::ssize_t>(j), static_cast<py::ssize_t>(k)) = matrix(j, k);
+  return array;
+}
+
+py::dict FinalModelDict(const FinalModel& final_model) {
+  py::dict out;
+  out["names"] = final_model.names;
+  out["x"] = ToArray(final_model.x);
+  out["cov"] = ToMatrix(final_model.cov);
+  py::list fitted, residual;
+  for (std::size_t k = 0; k < final_model.fitted.size(); ++k) {
+    py::dict fitted_k, residual_k;
+    for (std::size_t c = 0; c < final_model.fitted[k].size(); ++c) {
+      fitted_k[py::str(final_model.columns[c])] = ToArray(final_model.fitted[k][c]);
+      residual_k[py::str(final_model.columns[c])] = ToArray(final_model.residual[k][c]);
+    }
+    fitted.append(fitted_k);
+    residual.append(residual_k);
+  }
+  out["fitted"] = fitted;
+  out["residual"] = residual;
+  out["simulation_failure"] = final_model.simulation_failure;
+  out["config"] = final_model.config_text;
+  return out;
+}
+
+// identify(config, settings) -> (report JSON text, converged, termination, final model dict)
 py::tuple Identify(const py::tuple& config_arg, blmd::IdentSettings settings,
                    const py::list& traces, const py::list& validation) {
   const ConfigSource config = ToConfigSource(config_arg);
@@ -126,6 +262,7 @@ py::tuple Identify(const py::tuple& config_arg, blmd::IdentSettings settings,
   std::string report;
   bool converged = false;
   std::string termination;
+  FinalModel final_model;
   {
     py::gil_scoped_release release;
     blmd::IdentRequest request =
@@ -134,8 +271,96 @@ py::tuple Identify(const py::tuple& config_arg, blmd::IdentSettings settings,
     report = ReportJsonText(outcome);
     converged = outcome.converged();
     termination = outcome.first_fit.summary.termination;
+    final_model = FinalModelOf(outcome);
   }
-  return py::make_tuple(report, converged, termination);
+  return py::make_tuple(report, converged, termination, FinalModelDict(final_model));
+}
+
+// model_config(config, effects, values) -> the config document with the model's parameters
+// at `values` and `effects` added where the config lacks them (JSON text): what
+// --write-config writes in "parameters" and "effects" (report/config_document.h), for a
+// report given without its result object.
+std::string ModelConfig(const py::tuple& config_arg,
+                        const std::map<std::string, std::map<std::string, double>>& effects,
+                        const std::map<std::string, double>& values) {
+  const ConfigSource source = ToConfigSource(config_arg);
+  py::gil_scoped_release release;
+  blmd::Config config = source.Load();
+  for (const auto& [name, parameters] : effects) {
+    if (std::find(config.effects.begin(), config.effects.end(), name) != config.effects.end())
+      continue;
+    blmd::ParameterSet effect_values;
+    for (const auto& [key, value] : parameters) effect_values.Set(key, value);
+    config.AddEffect(name, effect_values);
+  }
+  blmd::ParameterSet all = config.parameters;
+  for (const auto& [name, value] : values) {
+    if (!all.Has(name)) {
+      throw blmd::InputError("write_config: '" + name + "' is not a parameter of the config's " +
+                             std::string(config.model->name()) + " model or its effects");
+    }
+    all.Set(name, value);
+  }
+  nlohmann::json doc = blmd::ConfigDocumentOf(config);
+  blmd::SetModelValues(config, all, &doc);
+  blmd::SanitizeJson(&doc);
+  return doc.dump();
+}
+
+// Flags in their text forms parsed by the command's own flag set (apps/*/..._flags.h), so
+// that the package takes every option the command takes, checked by the same code.
+template <typename Flags>
+void ParseFlags(CLI::App& app, Flags& flags, std::vector<std::string> args) {
+  flags.Add(app);
+  std::reverse(args.begin(), args.end());  // CLI11 takes a vector last argument first
+  try {
+    app.parse(args);
+  } catch (const CLI::ParseError& error) {
+    throw blmd::InputError(error.what());
+  }
+}
+
+// tune(flags) -> (report JSON text, refused, refusal, closed-loop config JSON text)
+py::tuple Tune(const std::vector<std::string>& args) {
+  std::string report, refusal, config;
+  bool refused = false;
+  {
+    py::gil_scoped_release release;
+    CLI::App app;
+    blmd::app::TuneFlags flags;
+    ParseFlags(app, flags, args);
+    const blmd::TuneReport tuned = blmd::RunTune(flags.config_path, flags.report_in_path,
+                                                 blmd::app::TuneSettingsOf(app, flags));
+    refused = tuned.result.refused;
+    refusal = tuned.result.refusal;
+    if (!refused) {
+      report = nlohmann::json(tuned).dump();
+      config = blmd::ClosedLoopConfigJson(tuned).dump();
+    }
+  }
+  return py::make_tuple(report, refused, refusal, config);
+}
+
+// design(flags) -> (report JSON text, ok, reason, config JSON text ("" without a design))
+py::tuple Design(const std::vector<std::string>& args) {
+  std::string report, reason, config_text;
+  bool ok = false;
+  {
+    py::gil_scoped_release release;
+    CLI::App app;
+    blmd::app::DesignFlags flags;
+    ParseFlags(app, flags, args);
+    const blmd::Config config = blmd::LoadConfig(flags.config_path);
+    const blmd::DesignRequest request =
+        blmd::MakeDesignRequest(config, flags.config_path, blmd::app::DesignSettingsOf(app, flags));
+    const blmd::DesignReport designed = blmd::RunDesign(request);
+    report = blmd::DesignReportJson(designed).dump();
+    ok = designed.ok;
+    reason = designed.reason;
+    if (ok && !designed.evaluate_trace)
+      config_text = blmd::DesignConfigJson(config, designed).dump();
+  }
+  return py::make_tuple(report, ok, reason, config_text);
 }
 
 // Ctrl-C during a sweep: the progress callback checks Python's signals on the thread that
@@ -375,6 +600,12 @@ PYBIND11_MODULE(_blmd, m) {
 
   m.def("identify", &Identify, py::arg("config"), py::arg("settings"), py::arg("traces"),
         py::arg("validation"));
+  m.def("model_config", &ModelConfig, py::arg("config"), py::arg("effects"), py::arg("values"));
+  m.def(
+      "starting_config", [](const std::string& model) { return blmd::StartingConfigText(model); },
+      py::arg("model"));
+  m.def("tune", &Tune, py::arg("args"));
+  m.def("design", &Design, py::arg("args"));
   m.def("surface", &Surface, py::arg("config"), py::arg("settings"), py::arg("trace"));
   m.def("simulate", &Simulate, py::arg("config"), py::arg("effects"), py::arg("noise"),
         py::arg("seed"), py::arg("input"), py::arg("dialect"));

@@ -1,19 +1,28 @@
 """Identify a motor's inertia J and damping B (and any other parameter) from recorded traces.
 
-The same library as the commands blmd-sim, blmd-ident and blmd-surface, called in process
-(docs/python.md):
+The same library as the commands blmd-sim, blmd-ident, blmd-surface, blmd-tune and
+blmd-design, called in process (docs/python.md):
 
 - simulate(config, input=None, noise=None, seed=1) -> dict of NumPy arrays, as blmd-sim;
-- identify(config, traces, ...) -> the report of blmd-ident --report, as a dict;
-- surface(config, traces, grid, ...) -> the cost over a grid, as blmd-surface.
+- identify(config, traces, ...) -> an IdentifyResult: the report of blmd-ident --report (it is
+  that dict) with x, params, cov, success, message, fitted, residual and effects;
+- write_config(result, path=None) -> the config of the identified model (--write-config);
+- init_config(model) -> a starting config (blmd-sim --init-config);
+- surface(config, traces, grid, ...) -> the cost over a grid, as blmd-surface;
+- tune(config, report, loop, crossover, phase_margin, ...) -> blmd-tune's report;
+- design(config, duration, limits, noise, ...) -> blmd-design's report.
 
 Bad input raises InputError (a ValueError) with the commands' one-line message; a diverged
 simulation or a fit that did not converge raises FitError (a RuntimeError).
 """
 
+import copy
+import functools
 import json
 import numbers
 import os
+import re
+import tempfile
 import warnings
 
 import numpy as np
@@ -21,7 +30,9 @@ import numpy as np
 from . import _blmd
 from ._blmd import InputError
 
-__all__ = ["simulate", "identify", "surface", "InputError", "FitError", "__version__"]
+__all__ = ["simulate", "identify", "surface", "write_config", "init_config", "tune", "design",
+           "IdentifyResult", "TuneResult", "DesignResult", "InputError", "FitError",
+           "__version__"]
 __version__ = _blmd.__version__
 InputError.__module__ = __name__
 InputError.__doc__ = (
@@ -36,6 +47,92 @@ class FitError(RuntimeError):
     def __init__(self, message, report=None):
         super().__init__(message)
         self.report = report
+
+
+# ---- messages in Python's terms ----
+
+# The flags whose keyword is not the flag's name with '_' for '-'.
+_KEYWORD_OF_FLAG = {"column": "columns", "scale": "scales", "trace": "traces",
+                    "effect": "effects", "limit": "limits", "from-report": "report",
+                    "option": "options", "init-config": "init_config"}
+
+
+def _keyword(flag, renames=None):
+    if renames and flag in renames:
+        return renames[flag]
+    return _KEYWORD_OF_FLAG.get(flag, flag.replace("-", "_"))
+
+
+def _value_text(text):
+    """A flag's value as Python: a number or a placeholder (HEADER) as it is, else quoted."""
+    if text[:1] in "'\"":
+        return text
+    try:
+        float(text)
+        return text
+    except ValueError:
+        return text if text.isupper() else repr(text)
+
+
+# Words that follow a flag in a sentence ("--duration is required") rather than its value.
+_NOT_A_VALUE = ("is", "or", "and", "to", "of", "with", "for", "applies", "needs", "prints",
+                "takes", "keeps", "not", "from", "=")
+
+
+def _python_terms(message, renames=None):
+    """The library's message (shared with the commands) with each flag named by the keyword
+    argument that sets it: "--column i=HEADER" -> "columns={'i': HEADER}", "--scale w=0.1"
+    -> "scales={'w': 0.1}", "--observe: ..." -> "observe: ...", "--error equation" ->
+    "error='equation'". A Python user never typed a flag. `renames`: {flag: keyword} where a
+    function names a flag otherwise (design's trace=)."""
+    def mapping(match):
+        flag, name, value = match.group(1), match.group(2), match.group(3)
+        if value is None:
+            return f"{_keyword(flag, renames)}[{name!r}]"
+        return f"{_keyword(flag, renames)}={{{name!r}: {_value_text(value)}}}"
+
+    message = re.sub(r"(?<![\w-])--(column|scale|initial|limit|noise) (\w+)(?:=([^\s:),]+))?",
+                     mapping, message)
+
+    def flag(match):
+        name, value = match.group(1), match.group(2)
+        if value is None:
+            return _keyword(name, renames)
+        return f"{_keyword(name, renames)}={_value_text(value)}"
+
+    words = "|".join(re.escape(word) + (" " if word != "=" else "") for word in _NOT_A_VALUE)
+    # A value: up to a space, a comma, a closing bracket, or a colon that ends a prefix
+    # ("--select t=2:3: no row" keeps "t=2:3").
+    return re.sub(r"(?<![\w-])--([a-z][a-z0-9-]*)(?: (?!" + words + r")"
+                  r"((?:[^\s,():]|:(?=[^\s]))+))?", flag, message)
+
+
+def _in_python_terms(function=None, renames=None):
+    """InputError raised by `function` with its message in Python's terms."""
+    def decorate(function):
+        @functools.wraps(function)
+        def wrapped(*args, **kwargs):
+            try:
+                return function(*args, **kwargs)
+            except InputError as error:
+                text = str(error)
+                translated = _python_terms(text, renames)
+                if translated == text:
+                    raise
+                raise InputError(translated) from None
+        return wrapped
+    return decorate(function) if function is not None else decorate
+
+
+def _unknown_flags(error, command):
+    """CLI11's "The following arguments were not expected: 2 --bogus" as the TypeError a
+    Python function gives for an unknown keyword."""
+    text = str(error)
+    if not text.startswith("The following argument"):
+        return error
+    names = [word[2:].replace("-", "_") for word in text.split() if word.startswith("--")]
+    return TypeError(f"{command}: unknown option(s) {', '.join(names) or text} "
+                     f"(not a flag of blmd-{command}; see blmd-{command} --help)")
 
 
 # The most worker threads the library uses (--threads caps at it, with a note).
@@ -114,22 +211,53 @@ def _columns(value):
     return columns
 
 
-def _trace_arg(value, name):
+def _array_columns(value, name, names):
+    """A structured array (its field names) or a 2-D (n, k) array with `names` (one per
+    column) as {name: column}."""
+    if value.dtype.names:
+        return {field: value[field] for field in value.dtype.names}
+    if value.ndim != 2:
+        raise InputError(f"{name}: a {value.ndim}-D array; a trace is a 2-D (samples, columns) "
+                         "array with columns=[names], a structured array or a dict of columns")
+    if names is None:
+        raise InputError(f"{name}: a 2-D array of {value.shape[1]} columns needs their names: "
+                         "columns=['t', 'u', ...], one per column")
+    if len(names) != value.shape[1]:
+        raise InputError(f"{name}: {len(names)} names in columns= for the array's "
+                         f"{value.shape[1]} columns")
+    return {str(column): value[:, k] for k, column in enumerate(names)}
+
+
+def _trace_arg(value, name, array_names=None):
     """A path (str) or (name, columns) for the extension."""
     if isinstance(value, (str, os.PathLike)):
         return os.fspath(value)
     if _is_mapping(value):
         return (name, _columns(value))
-    raise TypeError(f"{name}: expected a CSV path or a mapping column -> array, "
+    if isinstance(value, np.ndarray):
+        return (name, _columns(_array_columns(value, name, array_names)))
+    raise TypeError(f"{name}: expected a CSV path, a mapping column -> array or a 2-D array, "
                     f"not {type(value).__name__}")
 
 
-def _trace_list(value, what):
+def _trace_list(value, what, array_names=None):
     if value is None:
         return []
-    if isinstance(value, (str, os.PathLike)) or _is_mapping(value):
+    if isinstance(value, (str, os.PathLike, np.ndarray)) or _is_mapping(value):
         value = [value]
-    return [_trace_arg(item, f"{what}[{k}]") for k, item in enumerate(value)]
+    return [_trace_arg(item, f"{what}[{k}]", array_names) for k, item in enumerate(value)]
+
+
+def _split_columns(columns):
+    """identify's columns=: a mapping (or NAME=HEADER texts) maps standard columns to a CSV's
+    headers (--column); a list of plain names names the columns of 2-D array traces.
+    Returns (header mapping, array column names)."""
+    if columns is None or isinstance(columns, str) or _is_mapping(columns):
+        return columns, None
+    names = [str(name) for name in columns]
+    if any("=" in name for name in names):
+        return names, None
+    return None, names
 
 
 def _choice(value, flag, valid):
@@ -208,8 +336,95 @@ def _trace_settings(settings, columns, scales, derive, select, split, initial_st
         "config"
 
 
+def _with_bounds(config, bounds):
+    """A copy of the config (a dict; a path is read) with identification.bounds[name] set to
+    [lo, hi] for each entry of `bounds`: the library checks them as it checks the file's."""
+    if not bounds:
+        return config
+    if not _is_mapping(bounds):
+        raise TypeError("bounds: expected a dict name -> (lo, hi), as the config's "
+                        "identification.bounds")
+    if isinstance(config, (str, os.PathLike)):
+        with open(os.fspath(config), encoding="utf-8") as file:
+            config = json.load(file)
+    elif _is_mapping(config):
+        config = copy.deepcopy(dict(config))
+    else:
+        raise TypeError(f"config: expected a path or a dict, not {type(config).__name__}")
+    identification = config.setdefault("identification", {})
+    merged = dict(identification.get("bounds") or {})
+    for name, pair in bounds.items():
+        try:
+            low, high = pair
+        except (TypeError, ValueError):
+            raise InputError(f"bounds[{name!r}]: expected (lo, hi), as the config's "
+                             f"identification.bounds, not {pair!r}") from None
+        merged[str(name)] = [low, high]
+    identification["bounds"] = merged
+    return config
+
+
+class IdentifyResult(dict):
+    """The outcome of blmd.identify, in SciPy's habits, that is also the report.
+
+    As a dict it is the report of blmd-ident --report (result["parameters"]["J"]["value"]),
+    so code that indexed the report keeps working. Its attributes:
+
+    x: float64 array, the final model's free parameters in the order of `names` (that of the
+        report's correlation matrix);
+    names: the free parameters' names;
+    params: {name: value} of the free parameters;
+    cov: the covariance the 95 % intervals stand for, rows and columns in the order of x:
+        diag(std) @ correlation @ diag(std) with the report's std and correlation
+        (off-diagonal NaN when the report has no correlation matrix);
+    success: the fit converged (False only with FitError's `report`); message: how it ended;
+    nfev, nit: the final fit's cost evaluations and iterations (the report's fit block);
+    fitted, residual: per fit trace (a list, the traces' order), {column: array}: the final
+        model's observed columns simulated by the library on the trace's samples, and
+        measured - simulated ({} for a trace the final model cannot simulate, the reason then
+        in simulation_failure, else None);
+    effects: {effect: {parameter: value}} of the final model (a config's "effects");
+    report: the report as a plain dict.
+    """
+
+    def __init__(self, report, final, converged, termination):
+        super().__init__(report)
+        self.report = report
+        self.names = list(final["names"])
+        self.x = np.asarray(final["x"], dtype=np.float64)
+        self.params = {name: float(value) for name, value in zip(self.names, self.x)}
+        self.cov = np.asarray(final["cov"], dtype=np.float64)
+        self.success = bool(converged)
+        self.message = termination
+        fit = report.get("fit", {})
+        self.nfev = fit.get("evaluations")
+        self.nit = fit.get("iterations")
+        self.fitted = [dict(trace) for trace in final["fitted"]]
+        self.residual = [dict(trace) for trace in final["residual"]]
+        self.simulation_failure = final["simulation_failure"] or None
+        self._config = json.loads(final["config"])
+        self.effects = copy.deepcopy(self._config.get("effects", {}))
+
+    def __repr__(self):
+        nrmse = self.get("fit", {}).get("nrmse")
+        return (f"IdentifyResult(success={self.success}, message={self.message!r}, "
+                f"params={self.params}, nrmse={nrmse})")
+
+    def __reduce__(self):
+        # Pickled as its report and the attributes (a dict subclass with state).
+        return (_restore_result, (type(self), dict(self), self.__dict__))
+
+
+def _restore_result(cls, items, state):
+    result = cls.__new__(cls)
+    dict.update(result, items)
+    result.__dict__.update(state)
+    return result
+
+
 # ---- the API ----
 
+@_in_python_terms
 def simulate(config, input=None, noise=None, seed=1, *, effects=None, delimiter=None,
              duplicate_time=None):
     """Simulates the config's model and experiment, as blmd-sim.
@@ -247,13 +462,16 @@ def simulate(config, input=None, noise=None, seed=1, *, effects=None, delimiter=
     return dict(zip(names, columns))
 
 
+@_in_python_terms
 def identify(config, traces, method=None, discover=False, candidates=None, observe=None,
              validate=None, seed=1, threads=0, *, free=None, initial=None, max_evaluations=0,
              bic_margin=10.0, min_share=0.1, max_effects=3, error=None, filter_hz=None, decimate=None,
              columns=None, scales=None, derive=None, select=None, split=None,
              initial_state="config", delimiter=None, duplicate_time=None, verbose=False,
-             baseline=None, **options):
-    """Identifies the free parameters, as blmd-ident; returns its --report JSON as a dict.
+             baseline=None, bounds=None, **options):
+    """Identifies the free parameters, as blmd-ident; returns an IdentifyResult, which is its
+    --report JSON as a dict and has x, names, params, cov, success, message, fitted,
+    residual and effects (see IdentifyResult).
 
     config: a path or a dict. traces: a CSV path or a mapping column -> 1-D array (a pandas
     DataFrame works), or a list of them (one fit over all). method: 'ceres', 'powell', 'fsd'
@@ -264,9 +482,14 @@ def identify(config, traces, method=None, discover=False, candidates=None, obser
     The keyword-only arguments are blmd-ident's flags of the same name (docs/cli.md §2).
     baseline: a stored report (a path) whose free parameters this fit is compared with, as
     blmd-ident --baseline; the comparison is the report's "baseline" entry.
+    bounds: {name: (lo, hi)}, set in a copy of the config's identification.bounds (a config
+    path is then read as a dict: named <config>). columns: {name: header} maps a CSV's
+    headers; a list of names names the columns of 2-D array traces.
     Raises InputError for bad input and FitError when the fit did not converge (its
     `report` attribute holds the report).
     """
+    config = _with_bounds(config, bounds)
+    columns, array_names = _split_columns(columns)
     settings = _blmd.IdentSettings()
     settings.baseline = "" if baseline is None else os.fspath(baseline)
     settings.method = method or ""
@@ -286,13 +509,13 @@ def identify(config, traces, method=None, discover=False, candidates=None, obser
     _error_settings(settings.error, error, filter_hz, decimate)
     _trace_settings(settings.preparation, columns, scales, derive, select, split, initial_state,
                     delimiter, duplicate_time)
-    text, converged, termination = _blmd.identify(
-        _config_arg(config), settings, _trace_list(traces, "traces"),
-        _trace_list(validate, "validate"))
-    report = json.loads(text)
+    text, converged, termination, final = _blmd.identify(
+        _config_arg(config), settings, _trace_list(traces, "traces", array_names),
+        _trace_list(validate, "validate", array_names))
+    result = IdentifyResult(json.loads(text), final, converged, termination)
     if not converged:
-        raise FitError("the fit did not converge: " + termination, report)
-    return report
+        raise FitError("the fit did not converge: " + termination, result)
+    return result
 
 
 def _grid_text(name, spec):
@@ -302,21 +525,24 @@ def _grid_text(name, spec):
         item if isinstance(item, str) else _number_text(item) for item in spec)
 
 
+@_in_python_terms
 def surface(config, traces, grid, observe=None, threads=0, *, force=False, error=None,
             filter_hz=None, decimate=None, columns=None, scales=None, derive=None,
             select=None, split=None, initial_state="config", delimiter=None,
             duplicate_time=None):
     """The cost over a 1-D or 2-D grid of parameters, as blmd-surface.
 
-    traces: one trace (a CSV path or a mapping column -> array; a list of one is accepted;
-    split= cuts it into experiments). grid: {"J": (lo, hi, n), "B": ("log", lo, hi, n)}
-    (or "log:lo:hi:n" strings), the first axis outermost. Returns a dict: "axes" (names),
+    traces: one trace (a CSV path, a mapping column -> array, a 2-D array with columns=[names]
+    or a structured array; a list of one is accepted; split= cuts it into experiments).
+    grid: {"J": (lo, hi, n), "B": ("log", lo, hi, n)} (or "log:lo:hi:n" strings), the first
+    axis outermost. Returns a dict: "axes" (names),
     "grid" {name: values}, "cost" (shape (n1,) or (n1, n2); inf where the simulation failed),
     "mse" {column: array of that shape}, "observe", "minimum" and "local_minima"
     ({name: value, ..., "cost": c}), "failed_points", "failure_reasons", and "csv" (the
     text blmd-surface --out writes).
     """
-    trace_args = _trace_list(traces, "traces")
+    columns, array_names = _split_columns(columns)
+    trace_args = _trace_list(traces, "traces", array_names)
     if len(trace_args) != 1:
         raise InputError(f"--trace: one trace (got {len(trace_args)}); cut one file into "
                          "experiments with split=COLUMN")
@@ -356,3 +582,250 @@ def surface(config, traces, grid, observe=None, threads=0, *, force=False, error
         "csv": raw["csv"],
         "wall_time_s": raw["wall_time_s"],
     }
+
+
+# ---- configs ----
+
+def _write_text(path, text):
+    """Writes `text` to `path` whole or not at all (a temporary file renamed), as the
+    commands write their outputs."""
+    path = os.fspath(path)
+    directory = os.path.dirname(os.path.abspath(path))
+    handle, temporary = tempfile.mkstemp(dir=directory, prefix=".blmd-", suffix=".tmp")
+    try:
+        with os.fdopen(handle, "w", encoding="utf-8") as file:
+            file.write(text)
+        os.replace(temporary, path)
+    except BaseException:
+        if os.path.exists(temporary):
+            os.unlink(temporary)
+        raise
+
+
+def _report_effects(report):
+    """{effect: {parameter: value}} of the report's final model, from what it holds: the
+    parameters of the effects discovery added (its steps), at their final values."""
+    values = {name: p["value"] for name, p in report.get("parameters", {}).items()
+              if p.get("value") is not None}
+    effects = {}
+    for step in (report.get("discovery") or {}).get("steps", []):
+        name = step.get("effect")
+        if name in report.get("effects", []):
+            effects[name] = {key: values.get(key, value)
+                             for key, value in (step.get("parameters") or {}).items()}
+    return effects, values
+
+
+@_in_python_terms
+def write_config(result, path=None, base_config=None):
+    """The config of the identified model: the config document with the fitted values in
+    "parameters", the final model's effects with theirs in "effects", the free parameters and
+    their bounds in "identification" and the provenance in "notes": what blmd-ident
+    --write-config writes (the same C++ code). Returned as a dict, and written to `path`
+    (JSON, two-space indent) when given.
+
+    result: an IdentifyResult. A report given as a plain dict (e.g. read from a --report
+    file) holds no config: then base_config (a path or a dict: the config that was fitted)
+    is patched with the report's parameter values and the effects discovery added (only
+    "parameters" and "effects" change).
+    """
+    if isinstance(result, IdentifyResult) and base_config is None:
+        config = copy.deepcopy(result._config)
+    elif _is_mapping(result):
+        if base_config is None:
+            raise InputError("write_config: a report given as a dict holds no config: give the "
+                             "config that was fitted as base_config=, or pass the result of "
+                             "blmd.identify")
+        effects, values = _report_effects(result)
+        if isinstance(result, IdentifyResult):
+            effects = result.effects
+        config = json.loads(_blmd.model_config(_config_arg(base_config), effects, values))
+    else:
+        raise TypeError("write_config: expected the result of blmd.identify or a report dict, "
+                        f"not {type(result).__name__}")
+    if path is not None:
+        _write_text(path, json.dumps(config, indent=2) + "\n")
+    return config
+
+
+def init_config(model="dc_servo", path=None):
+    """A starting config for `model` ('dc_servo', 'blmd' or 'rigid_load'): what blmd-sim
+    --init-config MODEL prints (every parameter at its typical value, an experiment that
+    excites J and B, units and ranges under "notes"). Returned as a dict, and written to
+    `path` (the command's text, byte for byte) when given."""
+    if not isinstance(model, str):
+        raise TypeError(f"model: expected a model name, not {type(model).__name__}")
+    try:
+        text = _blmd.starting_config(model)
+    except InputError as error:
+        raise InputError(f"init_config: {error}") from None
+    if path is not None:
+        _write_text(path, text)
+    return json.loads(text)
+
+
+# ---- tune and design: the commands' own flag sets ----
+
+def _flag_value(value):
+    if isinstance(value, str):
+        return value
+    return _number_text(value)
+
+
+def _flags(options, refused=()):
+    """Keyword arguments as a command's flags: name -> --name (with '-' for '_'), True -> the
+    flag alone, False/None -> left out, a list -> the flag repeated, a dict {K: V} -> the
+    flag repeated as K=V."""
+    args = []
+    for key, value in options.items():
+        if key == "threads" and value is not None:
+            value = _threads(value)  # capped with a warning, as the commands cap it
+        if key in refused:
+            raise TypeError(f"{key}: not an option here (the result holds it; write it yourself)")
+        flag = "--" + key.replace("_", "-")
+        if value is None or value is False:
+            continue
+        if value is True:
+            args.append(flag)
+        elif _is_mapping(value):
+            for name, item in value.items():
+                args += [flag, f"{name}={_flag_value(item)}"]
+        elif isinstance(value, (list, tuple)):
+            for item in value:
+                args += [flag, _flag_value(item)]
+        else:
+            args += [flag, _flag_value(value)]
+    return args
+
+
+class _FileArgs:
+    """Paths for the commands' file arguments: a path as it is, a dict (a config, a report)
+    written to a temporary JSON file, a mapping of columns to a temporary CSV; removed on
+    exit."""
+
+    def __init__(self):
+        self.directory = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        if self.directory is not None:
+            self.directory.cleanup()
+
+    def _path(self, name):
+        if self.directory is None:
+            self.directory = tempfile.TemporaryDirectory(prefix="blmd-")
+        return os.path.join(self.directory.name, name)
+
+    def json(self, value, name):
+        if value is None or isinstance(value, (str, os.PathLike)):
+            return None if value is None else os.fspath(value)
+        if not _is_mapping(value):
+            raise TypeError(f"{name}: expected a path or a dict, not {type(value).__name__}")
+        path = self._path(name + ".json")
+        with open(path, "w", encoding="utf-8") as file:
+            json.dump(dict(value), file, default=_json_default)
+        return path
+
+    def csv(self, value, name, array_names=None):
+        if value is None or isinstance(value, (str, os.PathLike)):
+            return None if value is None else os.fspath(value)
+        if isinstance(value, np.ndarray):
+            value = _array_columns(value, name, array_names)
+        columns = _columns(value)
+        path = self._path(name + ".csv")
+        names = list(columns)
+        with open(path, "w", encoding="utf-8") as file:
+            file.write(",".join(names) + "\n")
+            # repr: every float round-trips exactly through the library's reader.
+            for row in zip(*(columns[n] for n in names)):
+                file.write(",".join(repr(float(v)) for v in row) + "\n")
+        return path
+
+
+class TuneResult(dict):
+    """blmd.tune's outcome: blmd-tune's JSON report (it is that dict; also `report`), with
+    `config` the closed-loop config that --write-config writes (blmd.simulate runs it) and
+    `success` True (a refused request raises FitError)."""
+
+    def __init__(self, report, config):
+        super().__init__(report)
+        self.report = report
+        self.config = config
+        self.success = True
+
+
+class DesignResult(dict):
+    """blmd.design's outcome: blmd-design's JSON report (it is that dict; also `report`),
+    with `config` the config with the chosen experiment that --write-config writes (None
+    when a recorded trace was evaluated) and `success` True."""
+
+    def __init__(self, report, config):
+        super().__init__(report)
+        self.report = report
+        self.config = config
+        self.success = True
+
+
+_OUTPUT_FLAGS = ("report_path", "write_config", "write_input", "json", "quiet", "config_path")
+
+
+@_in_python_terms
+def tune(config, report=None, loop="speed", crossover=None, phase_margin=None, limits=None,
+         **options):
+    """PI (loop='speed') or PID (loop='position') gains for a crossover (Hz) and a phase
+    margin (degrees), as blmd-tune (docs/tuning.md). Every argument is the flag of that name
+    (report: --from-report; limits: {'u': volts, 'i': amps} or ['u=24'] as --limit), and any
+    other keyword is blmd-tune's flag of the same name (step=, duration=, integral_ratio=,
+    threads=, ...), parsed by the command's own flag set.
+
+    config, report: paths or dicts (an IdentifyResult is a report). Returns a TuneResult: the
+    command's JSON report as a dict, and .config, the closed-loop config. A request the plant
+    cannot meet raises FitError('cannot tune: ...'), the command's exit 1 and message.
+    """
+    with _FileArgs() as files:
+        args = ["--config", files.json(config, "config"), "--loop", _flag_value(loop)]
+        report_path = files.json(report, "report")
+        if report_path is not None:
+            args += ["--from-report", report_path]
+        args += _flags({"crossover": crossover, "phase_margin": phase_margin, "limit": limits})
+        args += _flags(options, _OUTPUT_FLAGS + ("from_report", "loop"))
+        try:
+            text, refused, refusal, closed_loop = _blmd.tune(args)
+        except InputError as error:
+            raise _unknown_flags(error, "tune") from None
+    if refused:
+        raise FitError("cannot tune: " + refusal)
+    return TuneResult(json.loads(text), json.loads(closed_loop))
+
+
+@_in_python_terms(renames={"trace": "trace"})
+def design(config, duration=None, limits=None, noise=None, *, family=None, target=None,
+           trace=None, **options):
+    """The experiment that best determines the free parameters within the drive's limits, as
+    blmd-design (docs/design.md): duration (s), limits ({'u': volts, 'i': amps} or
+    ['u=12'], --limit), noise ({'i': 0.014, 'w': '1%'}, --noise), family
+    ('square'|'steps'|'prbs'|'chirp'|'all'), target (names: A-optimal for them), trace (a
+    recorded input to evaluate instead of searching: a CSV path or a mapping of columns);
+    any other keyword is blmd-design's flag of that name (threads=, delimiter=, ...).
+
+    Returns a DesignResult: the command's JSON report as a dict, and .config. When no design
+    meets the limits, FitError('no design: ...') with the report in its `report` attribute.
+    """
+    with _FileArgs() as files:
+        args = ["--config", files.json(config, "config")]
+        args += _flags({"duration": duration, "limit": limits, "noise": noise,
+                        "family": family, "target": _names_text(target)})
+        trace_path = files.csv(trace, "trace")
+        if trace_path is not None:
+            args += ["--trace", trace_path]
+        args += _flags(options, _OUTPUT_FLAGS)
+        try:
+            text, ok, reason, chosen = _blmd.design(args)
+        except InputError as error:
+            raise _unknown_flags(error, "design") from None
+    report = json.loads(text)
+    if not ok:
+        raise FitError("no design: " + reason, report)
+    return DesignResult(report, json.loads(chosen) if chosen else None)

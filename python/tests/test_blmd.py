@@ -152,7 +152,7 @@ def test_identify_baseline_equals_cli(tmp_path):
                         NOLOAD)
     with pytest.raises(blmd.InputError) as raised:
         blmd.identify(NOLOAD, [NOLOAD_STEP], baseline=NOLOAD)
-    assert str(raised.value) == message
+    assert str(raised.value) == blmd._python_terms(message)
     assert message.endswith(":1:1: not a blmd-ident report (no \"tool\": \"blmd-ident\")")
 
 
@@ -219,7 +219,7 @@ def test_surface_equals_blmd_surface(tmp_path):
     assert np.array_equal(from_arrays["cost"], result["cost"])
 
 
-# ---- bad input: InputError, the commands' message ----
+# ---- bad input: InputError, the commands' message with the flags named by the keywords ----
 
 @pytest.mark.parametrize("call, flags", [
     (lambda: blmd.identify(repo_path("configs/missing.json"), NOLOAD_STEP),
@@ -268,7 +268,7 @@ def test_identify_bad_input_has_cli_message(call, flags):
     with pytest.raises(blmd.InputError) as raised:
         call()
     assert isinstance(raised.value, ValueError)
-    assert str(raised.value) == message
+    assert str(raised.value) == blmd._python_terms(message)
 
 
 def test_bad_arrays_name_the_trace():
@@ -299,7 +299,7 @@ def test_surface_bad_input_has_cli_message(tmp_path, call, flags):
                         "--out", tmp_path / "s.csv")
     with pytest.raises(blmd.InputError) as raised:
         call()
-    assert str(raised.value) == message
+    assert str(raised.value) == blmd._python_terms(message)
 
 
 def test_simulate_bad_input_has_cli_message(tmp_path):
@@ -307,7 +307,7 @@ def test_simulate_bad_input_has_cli_message(tmp_path):
                         "q=1")
     with pytest.raises(blmd.InputError) as raised:
         blmd.simulate(NOLOAD, noise={"q": 1})
-    assert str(raised.value) == message
+    assert str(raised.value) == blmd._python_terms(message)
     bad = load_json(NOLOAD)
     bad["parameters"]["Jx"] = 1.0
     with pytest.raises(blmd.InputError, match=r"^<config>:\d+:\d+: .*'Jx'"):

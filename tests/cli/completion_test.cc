@@ -187,7 +187,7 @@ TEST(Completion, RealBashOffersExactlyTheseCandidates) {
       {{"blmd-tune", "--limit", ""}, {"i=", "u="}},
       {{"blmd-tune", "--crossover", ""}, {}},
       // blmd-design: its flags, families, limits, files.
-      {{"blmd-design", "--fa"}, {"--family"}},
+      {{"blmd-design", "--fa"}, {"--fail-on-warning", "--family"}},
       {{"blmd-design", "--family", ""}, {"all", "chirp", "prbs", "square", "steps"}},
       {{"blmd-design", "--limit", "t"}, {"theta="}},
       {{"blmd-design", "--write-input", "b"}, {"b.csv"}},
