@@ -39,6 +39,7 @@ int Run(const CLI::App& app, TuneFlags& f) {
     if (!f.report_path.empty()) std::cout << "report: " << f.report_path << "\n";
     if (!f.write_config_path.empty()) std::cout << "config: " << f.write_config_path << "\n";
   }
+  if (f.fail_on_warning && !tuned.result.warnings.empty()) return blmd::kExitGate;
   return blmd::kExitOk;
 }
 

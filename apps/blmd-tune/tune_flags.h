@@ -20,7 +20,7 @@ struct TuneFlags {
   double sample_rate_hz = 0.0, current_bandwidth_hz = 0.0, position_crossover_hz = 0.0;
   int delay_samples = 1;
   int threads = 0;
-  bool json = false, quiet = false;
+  bool json = false, quiet = false, fail_on_warning = false;
 
   void Add(CLI::App& app) {
     app.add_option("--config", config_path, "the model to tune (JSON config)")->required();
@@ -76,6 +76,8 @@ struct TuneFlags {
     app.add_option("--threads", threads, "worker threads for the box's corners (0: all cores)")
         ->check(NonNegativeWholeNumber());
     app.add_flag("--quiet", quiet, "print nothing but errors");
+    app.add_flag("--fail-on-warning", fail_on_warning,
+                 "exit 3 when the tuning has a warning (e.g. the report's model is inadequate)");
   }
 };
 

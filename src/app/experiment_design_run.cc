@@ -390,8 +390,7 @@ DesignReport RunDesign(const DesignRequest& request) {
   report.sigma = request.problem.sigma;
   report.noise_source = request.noise_source;
   for (const auto& p : request.problem.free) {
-    const ParamInfo* info = request.problem.config.FindParameterInfo(p.name);
-    report.units.push_back(info ? info->unit : "");
+    report.units.push_back(ParameterUnit(request.problem.config, p.name));
   }
   DesignProblem problem = request.problem;
   if (request.evaluate_trace) {

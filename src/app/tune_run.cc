@@ -127,6 +127,13 @@ TuneReport RunTune(const std::string& config_path, const std::string& report_pat
   TuneInput input = LoadTuneInput(config_path, report_path);
   TuneRequest request = MakeTuneRequest(settings, input.config);
   TuneResult result = Tune(input, request);
+  if (!result.refused && !input.report_inadequacy.empty()) {
+    result.warnings.emplace_back("report_inadequate",
+                                 "the identified model is not to be trusted (" +
+                                     Join(input.report_inadequacy, "; ") +
+                                     "): the gains and margins rest on it; identify again "
+                                     "(--discover, a better record) or leave more margin");
+  }
   return MakeTuneReport(std::move(input), std::move(request), std::move(result));
 }
 

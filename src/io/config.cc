@@ -920,4 +920,26 @@ void Config::AddEffect(const std::string& effect, const ParameterSet& values) {
   if (std::find(effects.begin(), effects.end(), effect) == effects.end()) effects.push_back(effect);
 }
 
+std::string ParameterUnit(const Config& config, const std::string& name) {
+  const ParamInfo* info = config.FindParameterInfo(name);
+  if (!info) return "";
+  std::string unit = info->unit;
+  if (!config.linear_axis) return unit;
+  // A rotary unit read on a linear axis: the angle is a position (m), a torque a force (N).
+  static const std::pair<const char*, const char*> kLinear[] = {{"kg·m²", "kg"},
+                                                                {"N·m·s²/rad²", "N·s²/m²"},
+                                                                {"N·m·s/rad", "N·s/m"},
+                                                                {"N·m/rad", "N/m"},
+                                                                {"N·m", "N"},
+                                                                {"rad/s", "m/s"},
+                                                                {"rad", "m"}};
+  for (const auto& [rotary, linear] : kLinear) {
+    for (std::size_t at = unit.find(rotary); at != std::string::npos;
+         at = unit.find(rotary, at + std::string(linear).size())) {
+      unit.replace(at, std::string(rotary).size(), linear);
+    }
+  }
+  return unit;
+}
+
 }  // namespace blmd

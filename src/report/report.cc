@@ -38,7 +38,7 @@ std::map<std::string, ParameterReport> Parameters(const FitProblem& problem,
   for (const auto& e : result.estimates) {
     ParameterReport p;
     p.estimate = e;
-    if (const ParamInfo* info = config.FindParameterInfo(e.name)) p.unit = info->unit;
+    p.unit = ParameterUnit(config, e.name);
     for (const auto& fp : problem.free()) {
       if (fp.name != e.name) continue;
       p.has_bounds = true;
@@ -54,7 +54,7 @@ std::map<std::string, ParameterReport> Parameters(const FitProblem& problem,
     p.estimate.name = name;
     p.estimate.value = value;
     p.free = false;
-    if (const ParamInfo* info = config.FindParameterInfo(name)) p.unit = info->unit;
+    p.unit = ParameterUnit(config, name);
     parameters[name] = p;
   }
   return parameters;

@@ -95,6 +95,11 @@ Config ParseConfig(const std::string& text, const std::string& path);
 std::string RunLengthError(double span, double dt, double samples);
 
 // The names separated by ", " (for "valid: ..." in messages).
+// A parameter's unit as the config's model and effects declare it, in linear units on a
+// linear axis ("axis": "linear": kg for kg·m², N·s/m for N·m·s/rad, N for N·m, m for rad);
+// "" when neither names it.
+std::string ParameterUnit(const Config& config, const std::string& name);
+
 std::string Join(const std::vector<std::string>& names, const char* separator = ", ");
 
 // Closest of `candidates` to `word` by edit distance, "" when none is close.

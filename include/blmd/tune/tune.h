@@ -37,6 +37,9 @@ struct TuneInput {
   std::string box_source;                  // "report", "config notes" or "" (no box)
   std::string report_path, report_sha256;  // --from-report ("" when not given)
   std::string config_sha256;
+  // Why the report's model is not to be acted on (ReportInadequacy, io/stored_report.h);
+  // empty when it is, or without a report. Tune adds the warning report_inadequate.
+  std::vector<std::string> report_inadequacy;
 };
 
 // Reads `config_path` and, when `report_path` is not empty, a blmd-ident report of the same

@@ -73,11 +73,6 @@ std::string NowUtc() {
 
 // ---- columns ---------------------------------------------------------------------------
 
-std::string ParameterUnit(const Config& config, const std::string& name) {
-  const ParamInfo* info = config.FindParameterInfo(name);
-  return info ? info->unit : std::string();
-}
-
 // ---- page pieces -----------------------------------------------------------------------
 
 constexpr const char* kStyle = R"css(
