@@ -62,6 +62,18 @@ StoredReport StoredReport::Load(const std::string& path, const std::string& role
       report.effects_.push_back(name.get<std::string>());
     }
   }
+  const json& discovery = root.contains("discovery") ? root["discovery"] : json();
+  if (discovery.is_object() && discovery.contains("steps") && discovery["steps"].is_array()) {
+    for (const json& step : discovery["steps"]) {
+      if (!step.is_object() || !step.contains("effect") || !step["effect"].is_string() ||
+          !step.contains("parameters") || !step["parameters"].is_object())
+        continue;
+      auto& values = report.step_parameters_[step["effect"].get<std::string>()];
+      for (const auto& [name, value] : step["parameters"].items()) {
+        if (value.is_number()) values[name] = value.get<double>();
+      }
+    }
+  }
   if (root.contains("fit") && root["fit"].is_object() && root["fit"].contains("nrmse") &&
       root["fit"]["nrmse"].is_number()) {
     report.nrmse_ = root["fit"]["nrmse"].get<double>();
@@ -83,6 +95,14 @@ const StoredParameter* StoredReport::FindParameter(const std::string& name) cons
     if (p.name == name) return &p;
   }
   return nullptr;
+}
+
+const double* StoredReport::FindFixedParameter(const std::string& effect,
+                                               const std::string& name) const {
+  const auto found = step_parameters_.find(effect);
+  if (found == step_parameters_.end()) return nullptr;
+  const auto value = found->second.find(name);
+  return value == found->second.end() ? nullptr : &value->second;
 }
 
 void StoredReport::RequireModel(const std::string& model, const std::string& theirs,
@@ -134,8 +154,11 @@ void ApplyFinalModel(const StoredReport& report, Config* config) {
     ParameterSet values;
     try {
       for (const auto& p : FindEffect(name).parameters) {
-        if (const StoredParameter* stored = report.FindParameter(p.name))
+        if (const StoredParameter* stored = report.FindParameter(p.name)) {
           values.Set(p.name, stored->value);
+        } else if (const double* fixed = report.FindFixedParameter(name, p.name)) {
+          values.Set(p.name, *fixed);  // e.g. a cogging's periods, fixed by discovery
+        }
       }
       config->AddEffect(name, values);
     } catch (const InputError& error) {

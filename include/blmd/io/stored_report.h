@@ -3,6 +3,7 @@
 #pragma once
 
 #include <limits>
+#include <map>
 #include <string>
 #include <utility>
 #include <vector>
@@ -41,6 +42,10 @@ class StoredReport {
   // In the report's order.
   const std::vector<StoredParameter>& parameters() const { return parameters_; }
   const StoredParameter* FindParameter(const std::string& name) const;
+  // A parameter that discovery fixed when it added `effect` (a cogging's periods per
+  // revolution: not fitted, so not among "parameters"), from the report's discovery steps;
+  // nullptr when the report has none.
+  const double* FindFixedParameter(const std::string& effect, const std::string& name) const;
   // The final model's NRMSE on its fit traces (fit.nrmse); NaN when the report gives none.
   double nrmse() const { return nrmse_; }
   // The report's warnings, code and message, in its order.
@@ -65,6 +70,7 @@ class StoredReport {
   bool has_effects_ = false;
   std::vector<std::string> effects_;
   std::vector<StoredParameter> parameters_;
+  std::map<std::string, std::map<std::string, double>> step_parameters_;  // effect -> name -> value
   double nrmse_ = std::numeric_limits<double>::quiet_NaN();
   std::vector<std::pair<std::string, std::string>> warnings_;
 };
