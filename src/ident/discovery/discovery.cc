@@ -136,7 +136,8 @@ struct RoundBase {
 RoundBase MakeRoundBase(const FitProblem& base, const std::vector<double>& values,
                         double floor_nrmse, const DiscoveryOptions& options) {
   RoundBase round;
-  // The free-running model's error, as every candidate's is scored.
+  // The model's error as every candidate's is scored (FitProblem: the measured angle for a
+  // position-dependent effect unless effect_angle is "simulated").
   const FitProblem free_run(base.config(), base.traces(), base.observe(), base.free());
   round.nrmse = std::sqrt(free_run.Evaluate(values).nrmse2);
   round.floor_nrmse = floor_nrmse;
@@ -478,8 +479,9 @@ std::vector<double> Jittered(std::vector<double> values, const std::vector<FreeP
   return values;
 }
 
-// The plain BIC of `config` with `free` at `values` on `traces`, free running; +inf when it
-// does not simulate.
+// The plain BIC of `config` with `free` at `values` on `traces`, scored as the report scores
+// it (the measured angle for a position-dependent effect unless effect_angle is
+// "simulated"); +inf when it does not simulate.
 double PlainBic(const Config& config, const std::vector<FreeParameter>& free,
                 const std::vector<FitTrace>& traces, const std::vector<std::string>& observe,
                 const std::vector<double>& values) {

@@ -42,10 +42,13 @@ Evaluation Counted(ProgressObserver* progress, Evaluation evaluation) {
   return evaluation;
 }
 
-// The cost of the free-running model (the simulated angle everywhere) at `values`.
+// The cost at `values` as discovery scores it (docs/discovery.md §6): `evaluation` itself,
+// unless the config asks for the simulated angle (effect_angle "simulated") and the fit
+// used the measured one: then the free-running model's.
 Evaluation FreeRunEvaluation(const FitProblem& problem, const std::vector<double>& values,
                              const Evaluation& evaluation) {
-  if (!problem.effect_angle_forced()) return evaluation;
+  if (!problem.effect_angle_forced() || problem.config().identification.effect_angle != "simulated")
+    return evaluation;
   const FitProblem free_run(problem.config(), problem.traces(), problem.observe(), problem.free());
   return free_run.Evaluate(values);
 }
