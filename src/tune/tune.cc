@@ -442,6 +442,20 @@ double SampledDefaultStep(const TuneRequest& request, const TuneResult& result) 
   return kick > 0.0 ? std::min(step, 0.5 * limit / kick) : step;
 }
 
+// The checks every tuned loop gets (docs/tuning.md §3, §4): the simulated step of
+// `experiment` on the nominal model, the drive's limits (a refusal ends there), the box's
+// corners and the warnings they raise.
+void CheckTunedLoop(const TuneInput& input, const TuneRequest& request,
+                    const Experiment& experiment, TuneResult* result) {
+  const Config& config = input.config;
+  result->nominal.step = SimulateStep(config, config.parameters, experiment, result->plant_output);
+  CheckLimits(input, request, result);
+  if (result->refused) return;
+  EvaluateBox(input, request, result);
+  AddBoxWarnings(input, result);
+  AddStepWarnings(input, request, result);
+}
+
 TuneResult TuneSampled(const TuneInput& original, const TuneRequest& request) {
   const TuneInput input = WithControllerGrid(original, request.drive);
   TuneResult result;
@@ -510,12 +524,8 @@ TuneResult TuneSampled(const TuneInput& original, const TuneRequest& request) {
   }
   const Experiment experiment = SampledStepExperiment(request, sampled.gains, result.step,
                                                       result.duration, result.sample_rate);
-  result.nominal.step = SimulateStep(config, config.parameters, experiment, result.plant_output);
-  CheckLimits(input, request, &result);
+  CheckTunedLoop(input, request, experiment, &result);
   if (result.refused) return result;
-  EvaluateBox(input, request, &result);
-  AddBoxWarnings(input, &result);
-  AddStepWarnings(input, request, &result);
   if (request.sample_rate_assumed) {
     Warn(&result, "sample_rate_assumed",
          "no --sample-rate (nor experiment.pid.sample_rate): the controller is taken to run at "
@@ -575,12 +585,8 @@ TuneResult Tune(const TuneInput& input, const TuneRequest& request) {
   const Experiment experiment =
       StepExperiment(request.design.loop, result.design.controller, request.u_max, result.step,
                      result.duration, result.sample_rate);
-  result.nominal.step = SimulateStep(config, config.parameters, experiment, result.plant_output);
-  CheckLimits(input, request, &result);
+  CheckTunedLoop(input, request, experiment, &result);
   if (result.refused) return result;
-  EvaluateBox(input, request, &result);
-  AddBoxWarnings(input, &result);
-  AddStepWarnings(input, request, &result);
   return result;
 }
 

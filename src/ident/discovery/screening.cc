@@ -30,7 +30,9 @@ FitProblem MakeProblem(const Config& config, const std::vector<FitTrace>& traces
                        const std::vector<std::string>& observe,
                        const std::vector<FreeParameter>& free) {
   FitProblem problem(config, traces, observe, free);
-  if (UsesMeasuredAngle(config)) problem.ForceEffectAngle();  // unchanged without theta or w
+  // With effect_angle "measured" the problem already sees the measured angle (FitProblem);
+  // with "simulated" it is fitted at it all the same. Unchanged without theta or w.
+  if (!problem.effect_angle_forced() && UsesMeasuredAngle(config)) problem.ForceEffectAngle();
   return problem;
 }
 

@@ -108,6 +108,16 @@ class DigitalCascade {
   std::vector<double> queue_;       // the commands computed, oldest first
 };
 
+// A step whose friction reverses the speed ends where the shaft stops: w = 0 at the
+// interpolated instant, theta advanced by the mean speed up to it (both loops, open and closed).
+void StopWithin(const ShaftEffects& shaft, double w_old, double theta_old, double dt, double* w,
+                double* theta) {
+  if (!shaft.StopsWithin(w_old, *w)) return;
+  const double fraction = w_old / (w_old - *w);
+  *theta = theta_old + 0.5 * w_old * fraction * dt;
+  *w = 0.0;
+}
+
 }  // namespace
 
 // The closed loop: the controller samples at its own rate and holds its output; the current
@@ -174,11 +184,7 @@ SimStatus RigidLoadModel::SimulateClosedLoop(const SimulationRequest& request, T
       w = x(0);
       theta = x(1);
       u_a = x(2);
-      if (shaft.StopsWithin(w_old, w)) {
-        const double fraction = w_old / (w_old - w);
-        theta = theta_old + 0.5 * w_old * fraction * dt;
-        w = 0.0;
-      }
+      StopWithin(shaft, w_old, theta_old, dt, &w, &theta);
     }
     // The controller samples at t_next when it falls on its period; recorded with the state
     // at t_next: the command that holds from t_next on (as dc_servo's u column).
@@ -241,11 +247,7 @@ SimStatus RigidLoadModel::Simulate(const SimulationRequest& request, Trace* out)
           Ad * Eigen::Vector2d(w, theta) + Bd * (drive - friction - non_friction);
       w = x(0);
       theta = x(1);
-      if (shaft.StopsWithin(w_old, w)) {
-        const double fraction = w_old / (w_old - w);
-        theta = theta_old + 0.5 * w_old * fraction * dt;
-        w = 0.0;
-      }
+      StopWithin(shaft, w_old, theta_old, dt, &w, &theta);
     }
     now = {input.At(t_next + 0.5 * dt), w, theta};
     if (!internal::AllFinite(now.data() + 1, 2, request.settings.divergence_limit)) {
