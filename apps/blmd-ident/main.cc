@@ -4,6 +4,8 @@
 #include <sys/ioctl.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -11,10 +13,11 @@
 #include <optional>
 
 #include "../common/app_main.h"
-#include "../common/error_flags.h"
-#include "../common/trace_flags.h"
 #include "app/request.h"
+#include "batch.h"
+#include "blmd/app/fleet.h"
 #include "blmd/app/identify.h"
+#include "ident_flags.h"
 #include "blmd/io/config.h"
 #include "blmd/io/files.h"
 #include "blmd/report/export.h"
@@ -24,116 +27,7 @@
 
 namespace {
 
-// Every flag of blmd-ident (docs/cli.md §2).
-struct IdentFlags {
-  std::string config_path, method, observe_text, free_text, report_path, html_path;
-  std::string write_config_path, matlab_path, baseline_path;
-  std::vector<std::string> traces, validates, method_options, initials, noise_stds;
-  std::string weighting;
-  std::uint64_t seed = 1;
-  int threads = 0, max_evaluations = 0;
-  bool json = false, quiet = false, discover = false, verbose = false;
-  bool progress = false, no_progress = false;
-  double bic_margin = 10.0;
-  double min_share = 0.10;
-  int max_effects = 3;
-  std::string candidates_text;
-  double fail_above = -1.0;
-  bool fail_on_warning = false;
-  blmd::app::ErrorFlags error_flags;
-  blmd::app::TraceFlags trace_flags;
-
-  void Add(CLI::App& app) {
-    app.add_option("--config", config_path, "model and identification set-up (JSON)")->required();
-    app.add_option("--trace", traces, "measured trace CSV (repeatable: one fit over all)")
-        ->required();
-    app.add_option("--validate", validates,
-                   "held-out trace CSV to report the error on (repeatable)");
-    app.add_option("--method", method, "ceres|powell|fsd|classic (default: config, else ceres)");
-    app.add_option("--observe", observe_text, "trace columns in the cost, e.g. i,w");
-    app.add_option("--free", free_text, "parameters to identify, e.g. J,B");
-    app.add_option("--initial", initials, "start value NAME=VALUE (repeatable)");
-    app.add_option("--option", method_options,
-                   "method option KEY=VALUE (repeatable), e.g. algorithm=praxis");
-    app.add_option("--weighting", weighting,
-                   "how the cost weighs the observed columns: noise (1/sigma^2 of each "
-                   "column's noise, the default) or variance (1/its variance)");
-    app.add_option("--noise-std", noise_stds,
-                   "fix a column's noise NAME=SIGMA (its units; repeatable) instead of "
-                   "estimating it from the residual");
-    app.add_option("--max-evaluations", max_evaluations,
-                   "cost evaluation budget (0: method default)");
-    app.add_flag("--discover", discover, "find the effects the model lacks, add them, refit");
-    app.add_option("--bic-margin", bic_margin,
-                   "discovery: BIC fall needed to add an effect (default 10)")
-        ->check(blmd::app::PositiveNumber());
-    app.add_option("--min-share", min_share,
-                   "discovery: share of the residual above the noise floor an effect must "
-                   "explain (default 0.1)")
-        ->check(blmd::app::ShareNumber());
-    app.add_option("--max-effects", max_effects, "discovery: most effects to add (default 3)")
-        ->check(CLI::Range(1, 20));
-    app.add_option("--candidates", candidates_text,
-                   "discovery: effects to consider, e.g. coulomb_friction,load_torque");
-    app.add_option("--report", report_path, "write the JSON report here");
-    app.add_flag("--json", json, "print the JSON report on stdout instead of the summary");
-    app.add_option("--html", html_path,
-                   "write the visual report (one self-contained HTML file) here");
-    app.add_option("--write-config", write_config_path,
-                   "write the final model as a config blmd-sim and blmd-ident accept");
-    app.add_option("--export-matlab", matlab_path,
-                   "write the final model's linear part as MATLAB/Octave ss and tf objects (.m)");
-    app.add_option("--baseline", baseline_path,
-                   "a stored --report to guard against: exit 3 when a parameter moved beyond "
-                   "the combined 95 % intervals (docs/export.md)");
-    app.add_option("--seed", seed, "random seed (fsd)")->check(blmd::app::NonNegativeWholeNumber());
-    app.add_option("--threads", threads, "worker threads (0: all cores)")
-        ->check(blmd::app::NonNegativeWholeNumber());
-    app.add_flag("--quiet", quiet, "print nothing but errors (and no progress line)");
-    app.add_flag("--progress", progress,
-                 "show the progress (stage, evaluations, best cost, time) on stderr, also when "
-                 "stderr is not a terminal (default: only on a terminal, without --quiet)");
-    app.add_flag("--no-progress", no_progress, "no progress on stderr (wins over --progress)");
-    app.add_option("--fail-above-nrmse", fail_above, "exit 3 when the final NRMSE exceeds X")
-        ->check(blmd::app::NonNegativeNumber());
-    app.add_flag(
-        "--fail-on-warning", fail_on_warning,
-        "exit 3 when the report has a warning about the final model (docs/identification.md §5)");
-    app.add_flag("--verbose", verbose, "also print the solvers' own log (Ceres) on stderr");
-    error_flags.Add(app,
-                    "simulate and compare the motion, or compare the input the model needs along "
-                    "the measured motion");
-    trace_flags.Add(app);
-  }
-};
-
-// The flags as the library's settings (app/request.h): --observe, --free and --candidates
-// given empty are refused there, with the valid choices.
-blmd::IdentSettings Settings(const CLI::App& app, const IdentFlags& f) {
-  blmd::IdentSettings settings;
-  for (const auto& path : f.traces) settings.traces.push_back({path, std::nullopt});
-  for (const auto& path : f.validates) settings.validation.push_back({path, std::nullopt});
-  settings.method = f.method;
-  settings.baseline = f.baseline_path;
-  if (app.count("--observe") > 0) settings.observe = f.observe_text;
-  if (app.count("--free") > 0) settings.free = f.free_text;
-  if (app.count("--candidates") > 0) settings.candidates = f.candidates_text;
-  settings.initials = f.initials;
-  settings.method_options = f.method_options;
-  settings.seed = f.seed;
-  settings.threads = f.threads;
-  settings.max_evaluations = f.max_evaluations;
-  settings.verbose = f.verbose;
-  settings.discover = f.discover;
-  settings.bic_margin = f.bic_margin;
-  settings.min_share = f.min_share;
-  settings.max_effects = f.max_effects;
-  settings.weighting = f.weighting;
-  settings.noise_stds = f.noise_stds;
-  settings.error = f.error_flags;
-  settings.preparation = f.trace_flags;
-  return settings;
-}
+using blmd::app::IdentFlags;
 
 // --progress, --no-progress: the progress line on stderr (docs/cli.md §2.3), by default on a
 // terminal only and not with --quiet; null when off.
@@ -182,44 +76,51 @@ void PrintOutputs(const IdentFlags& f, const blmd::IdentOutcome& outcome,
   }
 }
 
-// The exit code (docs/errors.md): 1 when the fit did not converge, 3 when a gate fails.
+// The exit code (docs/errors.md) with its one line on stderr.
 int ExitCode(const IdentFlags& f, const blmd::IdentOutcome& outcome) {
-  const blmd::IdentReport& report = outcome.report;
-  if (!outcome.converged()) {
-    std::cerr << "error: the fit did not converge: " << outcome.first_fit.summary.termination
-              << "\n";
-    return blmd::kExitFailed;
+  const blmd::app::IdentVerdict verdict = blmd::app::Judge(f, outcome);
+  if (verdict.code != blmd::kExitOk) std::cerr << "error: " << verdict.message << "\n";
+  return verdict.code;
+}
+
+
+// --batch MANIFEST --out DIR (docs/fleet.md): every row one identification, the table in DIR.
+int RunBatchCommand(const IdentFlags& f, const std::vector<std::string>& args) {
+  if (f.out_dir.empty()) throw blmd::InputError("--batch needs --out DIR (the output folder)");
+  if (f.new_baselines && f.baseline_dir.empty()) {
+    throw blmd::InputError("--new-baselines needs --baseline-dir (where the baselines are kept)");
   }
-  for (const auto& w : report.warnings) {
-    if (w.code == "not_a_fit") {  // NRMSE >= 1 with parameters at their bounds
-      std::cerr << "error: the fit failed: " << w.message << "\n";
-      return blmd::kExitFailed;
+  const std::vector<std::string> common = blmd::app::CommonRowArguments(args);
+  blmd::app::CheckRowArguments(common, "");
+  const std::vector<blmd::FleetRow> rows = blmd::ReadFleetManifest(f.batch_path);
+  blmd::PrepareFleetFolder(f.out_dir);
+  blmd::InstallCleanupOnSignal();
+  blmd::app::BatchOptions options;
+  options.out_dir = f.out_dir;
+  options.baseline_dir = f.baseline_dir;
+  options.rule.alpha = f.drift_alpha;
+  const bool terminal = isatty(STDERR_FILENO) != 0;
+  std::unique_ptr<blmd::app::BatchProgress> progress;
+  if (!f.no_progress && (f.progress || (terminal && !f.quiet))) {
+    progress = std::make_unique<blmd::app::BatchProgress>(rows.size(), terminal);
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const blmd::app::BatchRun run =
+      blmd::app::RunBatch(rows, common, options, f.threads, f.new_baselines, progress.get());
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const blmd::FleetSummary& s = run.summary;
+  if (!f.quiet) {
+    std::cout << "batch: " << s.rows << " rows: " << s.ok << " ok, " << s.drift << " drift, "
+              << s.error << " error (" << run.ran << " run, " << run.reused
+              << " unchanged since the last run) in " << blmd::DisplayNumber(seconds) << " s\n";
+    if (s.baselines_stored > 0) {
+      std::cout << "baselines stored: " << s.baselines_stored << " in " << f.baseline_dir << "\n";
     }
+    std::cout << "results: " << f.out_dir << "/results.csv, " << f.out_dir
+              << "/results.jsonl, " << f.out_dir << "/fleet.html\n";
   }
-  if (f.fail_above >= 0.0) {
-    // The final model's NRMSE (after discovery when it ran: its model is the answer).
-    const blmd::ErrorFigures& fit = report.final_model.fit.errors;
-    const bool known = fit.ok && std::isfinite(fit.nrmse);
-    if (!known || fit.nrmse > f.fail_above) {
-      std::cerr << "error: final NRMSE " << (known ? nlohmann::json(fit.nrmse).dump() : "n/a")
-                << " is above --fail-above-nrmse " << f.fail_above << "\n";
-      return blmd::kExitGate;
-    }
-  }
-  if (report.baseline && report.baseline->changed()) {
-    std::cerr << "error: the model moved from the baseline " << report.baseline->path << ": "
-              << blmd::Join(report.baseline->moved)
-              << " beyond the combined 95 % intervals (--baseline)\n";
-    return blmd::kExitGate;
-  }
-  if (f.fail_on_warning && !report.warnings.empty()) {
-    std::vector<std::string> codes;
-    for (const auto& w : report.warnings) codes.push_back(w.code);
-    std::cerr << "error: " << codes.size() << " warning" << (codes.size() > 1 ? "s" : "") << " ("
-              << blmd::Join(codes) << ") and --fail-on-warning\n";
-    return blmd::kExitGate;
-  }
-  return blmd::kExitOk;
+  return s.ExitCode();
 }
 
 }  // namespace
@@ -228,12 +129,18 @@ int main(int argc, char** argv) {
   CLI::App app{"blmd-ident: identify J, B (and any other free parameter) from a recorded trace"};
   blmd::app::AddVersionFlag(app, "blmd-ident");
   blmd::app::AddHelpFooter(app, "blmd-ident");
+  const std::vector<std::string> args(argv + std::min(argc, 1), argv + argc);
+  // With --batch, --config and --trace come from the manifest's rows.
+  const bool batch = std::any_of(args.begin(), args.end(), [](const std::string& a) {
+    return blmd::app::FlagOf(a) == "--batch";
+  });
   IdentFlags flags;
-  flags.Add(app);
+  flags.Add(app, batch);
   return blmd::app::Main(
       app, argc, argv,
       [&]() -> int {
         flags.threads = blmd::app::CapThreads(flags.threads);
+        if (!flags.batch_path.empty()) return RunBatchCommand(flags, args);
         // Every output checked before any work: writable, not an input, not another output.
         std::vector<blmd::NamedPath> input_files = {{"--config", flags.config_path}};
         for (const auto& path : flags.traces) input_files.push_back({"--trace", path});

@@ -1,0 +1,648 @@
+#include "blmd/app/fleet.h"
+
+#include <algorithm>
+#include <boost/math/distributions/normal.hpp>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "blmd/error.h"
+#include "blmd/format.h"
+#include "blmd/io/files.h"
+#include "blmd/version.h"
+#include "report/markup.h"
+
+namespace blmd {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+constexpr double kZ95 = 1.959963984540054;  // the normal 97.5 % quantile
+
+bool SafeName(const std::string& name) {
+  if (name.empty() || name == "." || name == "..") return false;
+  return std::all_of(name.begin(), name.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-';
+  });
+}
+
+std::string Trimmed(const std::string& s) {
+  const auto first = s.find_first_not_of(" \t");
+  if (first == std::string::npos) return "";
+  return s.substr(first, s.find_last_not_of(" \t") - first + 1);
+}
+
+// One CSV line's fields (RFC 4180 quotes within the line) and the 1-based column where each
+// starts; nullopt when a quote is not closed.
+struct Fields {
+  std::vector<std::string> values;
+  std::vector<long> columns;
+};
+std::optional<Fields> SplitCsvLine(const std::string& line) {
+  Fields out;
+  std::string field;
+  bool quoted = false;
+  long start = 1;
+  for (std::size_t k = 0; k < line.size(); ++k) {
+    const char c = line[k];
+    if (quoted) {
+      if (c == '"' && k + 1 < line.size() && line[k + 1] == '"') {
+        field += '"';
+        ++k;
+      } else if (c == '"') {
+        quoted = false;
+      } else {
+        field += c;
+      }
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == ',') {
+      out.values.push_back(Trimmed(field));
+      out.columns.push_back(start);
+      field.clear();
+      start = static_cast<long>(k) + 2;
+    } else {
+      field += c;
+    }
+  }
+  if (quoted) return std::nullopt;
+  out.values.push_back(Trimmed(field));
+  out.columns.push_back(start);
+  return out;
+}
+
+std::string Resolve(const fs::path& folder, const std::string& path) {
+  if (path.empty() || fs::path(path).is_absolute()) return path;
+  return (folder / path).lexically_normal().string();
+}
+
+// The bytes of a file into the hash, in pieces; a file that cannot be read enters as the
+// reason.
+void HashFile(Sha256* hash, const std::string& path) {
+  hash->Update(path);
+  hash->Update(std::string_view("\0", 1));
+  std::ifstream in(path, std::ios::binary);
+  if (!in || fs::is_directory(path)) {
+    hash->Update(std::string("unreadable: ") + std::strerror(errno));
+    return;
+  }
+  std::string buffer(std::size_t{1} << 20, '\0');
+  while (in) {
+    in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
+    hash->Update(std::string_view(buffer.data(), static_cast<std::size_t>(in.gcount())));
+  }
+  hash->Update(std::string_view("\0", 1));
+}
+
+// A number of a JSON object, NaN when absent or null (a report writes NaN as null).
+double NumberAt(const json& object, const std::string& key) {
+  const auto it = object.find(key);
+  return it != object.end() && it->is_number() ? it->get<double>() : NAN;
+}
+
+json NumberOrNull(const json& value) {
+  return value.is_number() && std::isfinite(value.get<double>()) ? value : json(nullptr);
+}
+
+std::string JoinWith(const std::vector<std::string>& parts, const std::string& separator) {
+  std::string out;
+  for (std::size_t k = 0; k < parts.size(); ++k) out += (k ? separator : "") + parts[k];
+  return out;
+}
+
+const std::vector<std::string> kFixedColumns = {
+    "id",      "drive",       "date",     "status",           "J",
+    "J_ci95_low", "J_ci95_high", "B",     "B_ci95_low",       "B_ci95_high",
+    "nrmse",   "drift_z",     "drift_threshold", "moved",     "effects",
+    "warnings", "message",    "J_baseline", "J_baseline_ci95_low", "J_baseline_ci95_high",
+    "B_baseline", "B_baseline_ci95_low", "B_baseline_ci95_high", "wall_time_s", "report"};
+
+std::string CsvCell(const json& value) {
+  if (value.is_null()) return "";
+  if (value.is_number()) {
+    char text[40];
+    std::snprintf(text, sizeof text, "%.10g", value.get<double>());
+    return text;
+  }
+  const std::string s = value.is_string() ? value.get<std::string>() : value.dump();
+  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
+  std::string quoted = "\"";
+  for (char c : s) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return quoted + "\"";
+}
+
+// ---- fleet.html ----
+
+double Value(const json& line, const std::string& key) {
+  const auto it = line.find(key);
+  return it != line.end() && it->is_number() ? it->get<double>() : NAN;
+}
+std::string Text(const json& line, const std::string& key) {
+  const auto it = line.find(key);
+  return it != line.end() && it->is_string() ? it->get<std::string>() : std::string();
+}
+
+// A small SVG of one parameter over a drive's records: the baseline's 95 % band (grey), the
+// baseline (dashed), each record's value with its interval, drifted records in red.
+std::string ParameterChart(const std::vector<const json*>& records, const std::string& name) {
+  constexpr double kWidth = 220, kHeight = 60, kPad = 6;
+  double low = INFINITY, high = -INFINITY;
+  auto widen = [&](double v) {
+    if (std::isfinite(v)) low = std::min(low, v), high = std::max(high, v);
+  };
+  for (const json* r : records) {
+    for (const char* suffix : {"", "_ci95_low", "_ci95_high", "_baseline", "_baseline_ci95_low",
+                               "_baseline_ci95_high"}) {
+      widen(Value(*r, name + suffix));
+    }
+  }
+  if (!std::isfinite(low)) return "<span class=\"none\">n/a</span>";
+  if (high <= low) high = low + (low != 0.0 ? std::abs(low) * 1e-3 : 1.0);
+  const double span = high - low;
+  low -= 0.08 * span, high += 0.08 * span;
+  auto y = [&](double v) { return kPad + (kHeight - 2 * kPad) * (high - v) / (high - low); };
+  const std::size_t n = records.size();
+  auto x = [&](std::size_t k) {
+    return n == 1 ? kWidth / 2 : kPad + (kWidth - 2 * kPad) * static_cast<double>(k) / (n - 1);
+  };
+  std::ostringstream svg;
+  svg << "<svg width=\"" << kWidth << "\" height=\"" << kHeight << "\" role=\"img\" aria-label=\""
+      << name << " over the records\">";
+  const json& last = *records.back();
+  const double b = Value(last, name + "_baseline");
+  const double bl = Value(last, name + "_baseline_ci95_low");
+  const double bh = Value(last, name + "_baseline_ci95_high");
+  if (std::isfinite(bl) && std::isfinite(bh)) {
+    svg << "<rect x=\"0\" width=\"" << kWidth << "\" y=\"" << y(bh) << "\" height=\""
+        << std::max(0.5, y(bl) - y(bh)) << "\" fill=\"#ddd\"/>";
+  }
+  if (std::isfinite(b)) {
+    svg << "<line x1=\"0\" x2=\"" << kWidth << "\" y1=\"" << y(b) << "\" y2=\"" << y(b)
+        << "\" stroke=\"#888\" stroke-dasharray=\"3 2\"/>";
+  }
+  for (std::size_t k = 0; k < n; ++k) {
+    const json& r = *records[k];
+    const double v = Value(r, name), lo = Value(r, name + "_ci95_low"),
+                 hi = Value(r, name + "_ci95_high");
+    if (!std::isfinite(v)) continue;
+    const char* colour = Text(r, "status") == "drift" ? "#c00" : "#036";
+    if (std::isfinite(lo) && std::isfinite(hi)) {
+      svg << "<line x1=\"" << x(k) << "\" x2=\"" << x(k) << "\" y1=\"" << y(lo) << "\" y2=\""
+          << y(hi) << "\" stroke=\"" << colour << "\"/>";
+    }
+    svg << "<circle cx=\"" << x(k) << "\" cy=\"" << y(v) << "\" r=\"2.5\" fill=\"" << colour
+        << "\"><title>" << internal::Escape(Text(r, "date") + " " + Text(r, "id")) << ": "
+        << name << " = " << DisplayNumber(v) << "</title></circle>";
+  }
+  svg << "</svg>";
+  return svg.str();
+}
+
+std::string FleetHtml(const std::vector<json>& lines, const FleetSummary& summary) {
+  // The drives in the order of their first row; each drive's records by date (then order).
+  std::vector<std::string> drives;
+  std::map<std::string, std::vector<const json*>> records;
+  for (const json& line : lines) {
+    const std::string drive = Text(line, "drive");
+    if (!records.count(drive)) drives.push_back(drive);
+    records[drive].push_back(&line);
+  }
+  for (auto& [drive, list] : records) {
+    std::stable_sort(list.begin(), list.end(), [](const json* a, const json* b) {
+      return Text(*a, "date") < Text(*b, "date");
+    });
+  }
+  // Flagged first: a drive whose latest record failed, then drifted, then the others.
+  auto rank = [&](const std::string& drive) {
+    const std::string status = Text(*records[drive].back(), "status");
+    return status == "error" ? 0 : status == "drift" ? 1 : 2;
+  };
+  std::stable_sort(drives.begin(), drives.end(),
+                   [&](const std::string& a, const std::string& b) { return rank(a) < rank(b); });
+  std::ostringstream html;
+  html << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+       << "<title>blmd-ident fleet</title><style>"
+       << "body{font:14px sans-serif;margin:1.5em}table{border-collapse:collapse}"
+       << "td,th{border-bottom:1px solid #ccc;padding:4px 8px;text-align:left;"
+       << "vertical-align:middle}th{background:#f4f4f4}.error{color:#a00;font-weight:bold}"
+       << ".drift{color:#c00;font-weight:bold}.ok{color:#060}.none{color:#999}"
+       << ".msg{max-width:28em;font-size:12px}</style></head><body>\n"
+       << "<h1>Fleet: " << drives.size() << " drives, " << summary.rows << " records</h1>\n"
+       << "<p id=\"counts\">" << summary.ok << " ok, " << summary.drift << " drifted, "
+       << summary.error << " failed. Drives whose latest record failed or drifted come first. "
+       << "Grey band: the baseline's 95 % interval; dashed: the baseline; red: a drifted "
+       << "record.</p>\n<table id=\"drives\"><thead><tr><th>drive</th><th>latest</th>"
+       << "<th>J</th><th>B</th><th>drift z</th><th>message</th><th>records</th></tr></thead>"
+       << "<tbody>\n";
+  for (const std::string& drive : drives) {
+    const std::vector<const json*>& list = records[drive];
+    const json& last = *list.back();
+    const std::string status = Text(last, "status");
+    const double z = Value(last, "drift_z");
+    html << "<tr class=\"drive\" data-status=\"" << status << "\"><td>"
+         << internal::Escape(drive) << "</td><td class=\"" << status << "\">" << status
+         << "<br>" << internal::Escape(Text(last, "date")) << "</td><td>"
+         << ParameterChart(list, "J") << "</td><td>" << ParameterChart(list, "B") << "</td><td>"
+         << (std::isfinite(z) ? DisplayNumber(z) : std::string("&ndash;")) << "</td><td class=\"msg\">"
+         << internal::Escape(Text(last, "message")) << "</td><td>";
+    for (const json* r : list) {
+      const std::string report = Text(*r, "report");
+      const std::string label = internal::Escape(Text(*r, "date").empty() ? Text(*r, "id")
+                                                                          : Text(*r, "date"));
+      if (report.empty()) {
+        html << "<span class=\"" << Text(*r, "status") << "\">" << label << "</span> ";
+      } else {
+        html << "<a href=\"" << internal::Escape(report) << "\">" << label << "</a> ";
+      }
+    }
+    html << "</td></tr>\n";
+  }
+  html << "</tbody></table>\n<p>The table: <a href=\"results.csv\">results.csv</a>, "
+       << "<a href=\"results.jsonl\">results.jsonl</a>.</p></body></html>\n";
+  return html.str();
+}
+
+}  // namespace
+
+std::optional<std::vector<std::string>> SplitArguments(const std::string& text) {
+  std::vector<std::string> words;
+  std::string word;
+  bool in_word = false;
+  char quote = 0;
+  for (std::size_t k = 0; k < text.size(); ++k) {
+    const char c = text[k];
+    if (quote == '\'') {
+      if (c == '\'') {
+        quote = 0;
+      } else {
+        word += c;
+      }
+    } else if (quote == '"') {
+      if (c == '"') {
+        quote = 0;
+      } else if (c == '\\' && k + 1 < text.size()) {
+        word += text[++k];
+      } else {
+        word += c;
+      }
+    } else if (c == '\'' || c == '"') {
+      quote = c;
+      in_word = true;
+    } else if (c == '\\' && k + 1 < text.size()) {
+      word += text[++k];
+      in_word = true;
+    } else if (c == ' ' || c == '\t') {
+      if (in_word) words.push_back(word);
+      word.clear();
+      in_word = false;
+    } else {
+      word += c;
+      in_word = true;
+    }
+  }
+  if (quote != 0) return std::nullopt;
+  if (in_word) words.push_back(word);
+  return words;
+}
+
+std::vector<FleetRow> ReadFleetManifest(const std::string& path) {
+  const std::string text = ReadFileText(path, std::size_t{256} << 20, "manifest");
+  const fs::path folder = fs::path(path).parent_path();
+  std::vector<FleetRow> rows;
+  std::map<std::string, std::size_t> column_of;  // name -> field index
+  std::map<std::string, long> first_line;        // id -> line
+  const std::vector<std::string> known = {"id",    "trace", "config", "baseline",
+                                          "drive", "date",  "args"};
+  std::istringstream in(text);
+  std::string line;
+  long number = 0;
+  bool header = false;
+  while (std::getline(in, line)) {
+    ++number;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (Trimmed(line).empty() || Trimmed(line)[0] == '#') continue;
+    const std::optional<Fields> fields = SplitCsvLine(line);
+    if (!header) {
+      if (!fields) throw InputError(path, number, 1, "unclosed quote in the header");
+      for (std::size_t k = 0; k < fields->values.size(); ++k) {
+        const std::string& name = fields->values[k];
+        if (std::find(known.begin(), known.end(), name) == known.end()) {
+          throw InputError(path, number, fields->columns[k],
+                           "unknown column '" + InputError::Excerpt(name) +
+                               "' (the manifest's columns: " + JoinWith(known, ", ") + ")");
+        }
+        if (column_of.count(name)) {
+          throw InputError(path, number, fields->columns[k], "column '" + name + "' repeats");
+        }
+        column_of[name] = k;
+      }
+      for (const char* needed : {"id", "trace", "config"}) {
+        if (!column_of.count(needed)) {
+          throw InputError(path, number, 1,
+                           std::string("the header has no column '") + needed +
+                               "' (a manifest's header: id,trace,config,baseline; docs/fleet.md)");
+        }
+      }
+      header = true;
+      continue;
+    }
+    FleetRow row;
+    row.line = number;
+    if (!fields) {
+      row.id = "line" + std::to_string(number);
+      row.error = path + ":" + std::to_string(number) + ": unclosed quote";
+      rows.push_back(row);
+      continue;
+    }
+    auto cell = [&](const std::string& name) -> std::string {
+      const auto it = column_of.find(name);
+      if (it == column_of.end() || it->second >= fields->values.size()) return "";
+      return fields->values[it->second];
+    };
+    auto where = [&](const std::string& name) {
+      const auto it = column_of.find(name);
+      const long column = it != column_of.end() && it->second < fields->columns.size()
+                              ? fields->columns[it->second]
+                              : 1;
+      return path + ":" + std::to_string(number) + ":" + std::to_string(column) + ": ";
+    };
+    row.id = cell("id");
+    row.drive = cell("drive").empty() ? row.id : cell("drive");
+    row.date = cell("date");
+    row.config = Resolve(folder, cell("config"));
+    row.baseline = Resolve(folder, cell("baseline"));
+    std::string traces = cell("trace");
+    std::size_t start = 0;
+    while (start <= traces.size()) {
+      const std::size_t end = std::min(traces.find(';', start), traces.size());
+      const std::string one = Trimmed(traces.substr(start, end - start));
+      if (!one.empty()) row.traces.push_back(Resolve(folder, one));
+      start = end + 1;
+    }
+    const std::optional<std::vector<std::string>> args = SplitArguments(cell("args"));
+    if (args) row.args = *args;
+    if (fields->values.size() > column_of.size()) {
+      row.error = where("id") + "the row has " + std::to_string(fields->values.size()) +
+                  " fields, the header " + std::to_string(column_of.size());
+    } else if (!SafeName(row.id)) {
+      row.error = where("id") + (row.id.empty() ? std::string("empty id")
+                                                : "id '" + InputError::Excerpt(row.id) + "'") +
+                  ": an id names the row's files (letters, digits, '.', '_', '-')";
+      if (row.id.empty() || !SafeName(row.id)) row.id = "line" + std::to_string(number);
+    } else if (first_line.count(row.id)) {
+      row.error = where("id") + "id '" + row.id + "' repeats line " +
+                  std::to_string(first_line[row.id]);
+    } else if (!SafeName(row.drive)) {
+      row.error = where("drive") + "drive '" + InputError::Excerpt(row.drive) +
+                  "': a drive names its baseline file (letters, digits, '.', '_', '-')";
+    } else if (row.traces.empty()) {
+      row.error = where("trace") + "no trace";
+    } else if (row.config.empty()) {
+      row.error = where("config") + "no config";
+    } else if (!args) {
+      row.error = where("args") + "unclosed quote in args";
+    }
+    if (!first_line.count(row.id)) first_line[row.id] = number;
+    rows.push_back(row);
+  }
+  if (!header) throw InputError(path, 1, 1, "no header (a manifest's header: id,trace,config,baseline)");
+  return rows;
+}
+
+std::string FleetRowKey(const FleetRow& row, const std::string& baseline_path,
+                        const std::vector<std::string>& common_args) {
+  Sha256 hash;
+  const std::string zero(1, '\0');
+  hash.Update(std::string("blmd-ident ") + kVersion + zero + row.id + zero);
+  for (const auto& a : common_args) hash.Update(a + zero);
+  hash.Update("--row" + zero);
+  for (const auto& a : row.args) hash.Update(a + zero);
+  HashFile(&hash, row.config);
+  for (const auto& t : row.traces) HashFile(&hash, t);
+  if (!baseline_path.empty()) HashFile(&hash, baseline_path);
+  return hash.HexDigest();
+}
+
+double DriftRule::Threshold(std::size_t compared) const {
+  if (compared == 0) return NAN;
+  const boost::math::normal normal;
+  return boost::math::quantile(normal, 1.0 - alpha / (2.0 * static_cast<double>(compared)));
+}
+
+json FleetResultFromReport(const FleetRow& row, const json& report,
+                           const std::string& report_file, const DriftRule& rule,
+                           double wall_time_s) {
+  json line = FleetErrorResult(row, "", wall_time_s);
+  line["status"] = "ok";
+  line["report"] = report_file;
+  if (report.contains("parameters")) {
+    for (const auto& [name, p] : report["parameters"].items()) {
+      if (!p.value("free", false)) continue;
+      line[name] = NumberOrNull(p.value("value", json()));
+      const json ci = p.value("ci95", json());
+      const bool pair = ci.is_array() && ci.size() == 2;
+      line[name + "_ci95_low"] = pair ? NumberOrNull(ci[0]) : json(nullptr);
+      line[name + "_ci95_high"] = pair ? NumberOrNull(ci[1]) : json(nullptr);
+    }
+  }
+  if (report.contains("fit")) line["nrmse"] = NumberOrNull(report["fit"].value("nrmse", json()));
+  std::vector<std::string> codes, effects;
+  const json warnings = report.value("warnings", json::array());
+  for (const json& w : warnings) codes.push_back(w.value("code", ""));
+  if (report.contains("discovery")) {
+    const json added = report["discovery"].value("added", json::array());
+    for (const json& e : added) {
+      effects.push_back(e.get<std::string>());
+    }
+  }
+  line["warnings"] = JoinWith(codes, ";");
+  line["effects"] = JoinWith(effects, ";");
+  if (report.contains("baseline")) {
+    const json& baseline = report["baseline"];
+    double z_max = NAN;
+    std::size_t compared = 0;
+    std::vector<std::string> moved;
+    std::string worst;
+    const json parameters = baseline.value("parameters", json::object());
+    for (const auto& [name, p] : parameters.items()) {
+      if (name == "J" || name == "B") {
+        line[name + "_baseline"] = NumberOrNull(p.value("baseline", json()));
+        const json ci = p.value("baseline_ci95", json());
+        const bool pair = ci.is_array() && ci.size() == 2;
+        line[name + "_baseline_ci95_low"] = pair ? NumberOrNull(ci[0]) : json(nullptr);
+        line[name + "_baseline_ci95_high"] = pair ? NumberOrNull(ci[1]) : json(nullptr);
+      }
+      if (p.value("verdict", "") == "not_compared") continue;
+      const double shift = NumberAt(p, "shift"), limit = NumberAt(p, "combined_limit");
+      if (!std::isfinite(shift) || !(limit > 0.0)) continue;
+      ++compared;
+      const double z = std::abs(shift) / (limit / kZ95);
+      if (!(z <= z_max)) z_max = z, worst = name;
+    }
+    const double threshold = rule.Threshold(compared);
+    line["drift_z"] = compared ? json(z_max) : json(nullptr);
+    line["drift_threshold"] = compared ? json(threshold) : json(nullptr);
+    if (compared == 0) {
+      line["message"] = "nothing compared with the baseline (no 95 % intervals in common)";
+    } else {
+      for (const auto& [name, p] : parameters.items()) {
+        const double shift = NumberAt(p, "shift"), limit = NumberAt(p, "combined_limit");
+        if (std::isfinite(shift) && limit > 0.0 && std::abs(shift) / (limit / kZ95) > threshold) {
+          moved.push_back(name);
+        }
+      }
+      line["moved"] = JoinWith(moved, ";");
+      if (z_max > threshold) {
+        line["status"] = "drift";
+        const json& p = parameters[worst];
+        const double relative = NumberAt(p, "relative_shift");
+        std::ostringstream message;
+        message << "drifted from the baseline: " << worst << " "
+                << (std::isfinite(relative) ? (relative >= 0 ? "+" : "") +
+                                                  DisplayNumber(100.0 * relative) + " %"
+                                            : std::string("moved"))
+                << " (z = " << DisplayNumber(z_max) << " > " << DisplayNumber(threshold)
+                << ", the rule's false-alarm rate " << DisplayNumber(rule.alpha) << ")";
+        line["message"] = message.str();
+      }
+    }
+  }
+  return line;
+}
+
+json FleetErrorResult(const FleetRow& row, const std::string& message, double wall_time_s) {
+  return {{"id", row.id},         {"drive", row.drive}, {"date", row.date},
+          {"status", "error"},    {"message", message}, {"warnings", ""},
+          {"effects", ""},        {"moved", ""},        {"report", ""},
+          {"J", nullptr},         {"B", nullptr},       {"nrmse", nullptr},
+          {"drift_z", nullptr},   {"drift_threshold", nullptr},
+          {"wall_time_s", wall_time_s}};
+}
+
+std::string FleetReportPath(const std::string& out_dir, const std::string& id) {
+  return (fs::path(out_dir) / "reports" / (id + ".json")).string();
+}
+std::string FleetRowPath(const std::string& out_dir, const std::string& id) {
+  return (fs::path(out_dir) / "rows" / (id + ".json")).string();
+}
+
+void PrepareFleetFolder(const std::string& out_dir) {
+  for (const fs::path& folder :
+       {fs::path(out_dir), fs::path(out_dir) / "reports", fs::path(out_dir) / "rows"}) {
+    std::error_code error;
+    fs::create_directories(folder, error);
+    if (error || !fs::is_directory(folder)) {
+      throw InputError("--out " + out_dir + ": cannot create folder '" + folder.string() +
+                       "': " + (error ? error.message() : std::string("not a folder")));
+    }
+  }
+  CheckWritable(FleetRowPath(out_dir, "check"));
+}
+
+void StoreFleetRow(const std::string& out_dir, const std::string& id, const std::string& key,
+                   const json& result) {
+  WriteFileAtomically(FleetRowPath(out_dir, id),
+                      json{{"key", key}, {"result", result}}.dump() + "\n");
+}
+
+std::optional<json> StoredFleetRow(const std::string& out_dir, const std::string& id,
+                                   const std::string& key) {
+  std::ifstream in(FleetRowPath(out_dir, id));
+  if (!in) return std::nullopt;
+  const json stored = json::parse(in, nullptr, /*allow_exceptions=*/false);
+  if (!stored.is_object() || stored.value("key", "") != key || !stored.contains("result")) {
+    return std::nullopt;
+  }
+  const json& result = stored["result"];
+  // A row that ran needs its report too (a folder cleaned by hand: run it again).
+  const std::string report = result.value("report", "");
+  if (!report.empty() && !fs::exists(fs::path(out_dir) / report)) return std::nullopt;
+  return result;
+}
+
+std::string FleetBaseline(const FleetRow& row, const std::string& baseline_dir) {
+  if (!row.baseline.empty() || baseline_dir.empty()) return row.baseline;
+  const fs::path candidate = fs::path(baseline_dir) / (row.drive + ".json");
+  return fs::exists(candidate) ? candidate.string() : std::string();
+}
+
+int FleetSummary::ExitCode() const {
+  if (error > 0) return kExitFailed;
+  if (drift > 0) return kExitGate;
+  return kExitOk;
+}
+
+std::vector<std::string> FleetColumns(const std::vector<json>& lines) {
+  std::vector<std::string> columns = kFixedColumns;
+  std::set<std::string> more;
+  for (const json& line : lines) {
+    for (const auto& [key, value] : line.items()) {
+      if (std::find(columns.begin(), columns.end(), key) == columns.end()) more.insert(key);
+    }
+  }
+  columns.insert(columns.end() - 2, more.begin(), more.end());  // before wall_time_s, report
+  return columns;
+}
+
+std::string FleetCsv(const std::vector<json>& lines) {
+  const std::vector<std::string> columns = FleetColumns(lines);
+  std::string out = JoinWith(columns, ",") + "\n";
+  for (const json& line : lines) {
+    for (std::size_t k = 0; k < columns.size(); ++k) {
+      const auto it = line.find(columns[k]);
+      out += (k ? "," : "") + CsvCell(it != line.end() ? *it : json(nullptr));
+    }
+    out += "\n";
+  }
+  return out;
+}
+
+FleetSummary WriteFleetOutputs(const std::vector<FleetRow>& rows, std::vector<json> lines,
+                               const std::string& out_dir, const std::string& baseline_dir,
+                               bool store_baselines) {
+  FleetSummary summary;
+  for (std::size_t k = lines.size(); k < rows.size(); ++k) {
+    lines.push_back(FleetErrorResult(rows[k], "did not finish (run the batch again to resume)"));
+  }
+  if (store_baselines && !baseline_dir.empty()) {
+    std::error_code error;
+    fs::create_directories(baseline_dir, error);
+    std::set<std::string> done;
+    for (json& line : lines) {
+      const std::string drive = line.value("drive", "");
+      const fs::path target = fs::path(baseline_dir) / (drive + ".json");
+      if (done.count(drive) || line.value("status", "") != "ok" || !line["drift_z"].is_null() ||
+          line.value("report", "").empty() || fs::exists(target)) {
+        continue;
+      }
+      WriteFileAtomically(target.string(),
+                          ReadFileText((fs::path(out_dir) / line.value("report", "")).string()));
+      done.insert(drive);
+      ++summary.baselines_stored;
+      std::string message = line.value("message", "");
+      line["message"] = message + (message.empty() ? "" : "; ") + "stored as the drive's baseline";
+    }
+  }
+  std::string jsonl;
+  for (const json& line : lines) {
+    ++summary.rows;
+    const std::string status = line.value("status", "");
+    if (status == "ok") ++summary.ok;
+    else if (status == "drift") ++summary.drift;
+    else ++summary.error;
+    jsonl += line.dump() + "\n";
+  }
+  WriteFileAtomically((fs::path(out_dir) / "results.csv").string(), FleetCsv(lines));
+  WriteFileAtomically((fs::path(out_dir) / "results.jsonl").string(), jsonl);
+  WriteFileAtomically((fs::path(out_dir) / "fleet.html").string(), FleetHtml(lines, summary));
+  return summary;
+}
+
+}  // namespace blmd
