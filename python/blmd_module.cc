@@ -25,10 +25,12 @@
 #include <vector>
 
 #include "../apps/blmd-design/design_flags.h"
+#include "../apps/blmd-ident/batch.h"
 #include "../apps/blmd-tune/tune_flags.h"
 #include "app/experiment_design_run.h"
 #include "app/request.h"
 #include "app/tune_run.h"
+#include "blmd/app/fleet.h"
 #include "blmd/app/identify.h"
 #include "blmd/app/sweep.h"
 #include "blmd/error.h"
@@ -545,6 +547,109 @@ py::tuple Simulate(const py::tuple& config_arg, const std::vector<std::string>& 
   return py::make_tuple(names, columns, failure);
 }
 
+
+// ---- blmd.fleet (docs/fleet.md): the rows of a manifest as plain dicts (Dask pickles them
+// to its workers), each run by the command's own row runner (apps/blmd-ident/batch.h).
+
+py::dict RowDict(const blmd::FleetRow& row) {
+  py::dict d;
+  d["line"] = row.line;
+  d["id"] = row.id;
+  d["drive"] = row.drive;
+  d["date"] = row.date;
+  d["config"] = row.config;
+  d["traces"] = row.traces;
+  d["baseline"] = row.baseline;
+  d["args"] = row.args;
+  d["error"] = row.error;
+  return d;
+}
+
+blmd::FleetRow RowFromDict(const py::dict& d) {
+  blmd::FleetRow row;
+  row.line = d["line"].cast<long>();
+  row.id = d["id"].cast<std::string>();
+  row.drive = d["drive"].cast<std::string>();
+  row.date = d["date"].cast<std::string>();
+  row.config = d["config"].cast<std::string>();
+  row.traces = d["traces"].cast<std::vector<std::string>>();
+  row.baseline = d["baseline"].cast<std::string>();
+  row.args = d["args"].cast<std::vector<std::string>>();
+  row.error = d["error"].cast<std::string>();
+  return row;
+}
+
+py::list FleetManifest(const std::string& path) {
+  py::list rows;
+  for (const blmd::FleetRow& row : blmd::ReadFleetManifest(path)) rows.append(RowDict(row));
+  return rows;
+}
+
+// The flags every row gets, checked as blmd-ident --batch checks its command line.
+void FleetCheckArgs(const std::vector<std::string>& args) {
+  blmd::app::CheckRowArguments(args, "");
+  CLI::App app{"blmd.fleet"};
+  blmd::app::IdentFlags flags;
+  flags.Add(app, /*batch=*/true);
+  std::vector<std::string> reversed(args.rbegin(), args.rend());
+  try {
+    app.parse(reversed);
+    blmd::app::RefuseEmptyValues(app, {"--observe", "--free", "--candidates"});
+  } catch (const CLI::ParseError& error) {
+    throw blmd::InputError(std::string("args: ") + blmd::InputError::OneLine(error.what()));
+  }
+}
+
+// One row: (its line of the table as JSON text, whether it was taken from the folder).
+py::tuple FleetRunRow(const py::dict& row_dict, const std::vector<std::string>& common,
+                      const std::string& out_dir, const std::string& baseline_dir, double alpha,
+                      int threads) {
+  const blmd::FleetRow row = RowFromDict(row_dict);
+  blmd::app::BatchOptions options;
+  options.out_dir = out_dir;
+  options.baseline_dir = baseline_dir;
+  options.rule.alpha = alpha;
+  options.row_threads = std::max(1, threads);
+  bool reused = false;
+  std::string line;
+  {
+    py::gil_scoped_release release;
+    line = blmd::app::RunFleetRow(row, common, options, &reused).dump();
+  }
+  return py::make_tuple(line, reused);
+}
+
+// The table, its JSON lines and fleet.html from the rows' lines (JSON text; "" for a row that
+// did not run: an error row, with the manifest's message when it has one).
+py::dict FleetFinish(const py::list& row_dicts, const std::vector<std::string>& lines,
+                     const std::string& out_dir, const std::string& baseline_dir,
+                     bool store_baselines) {
+  std::vector<blmd::FleetRow> rows;
+  std::vector<nlohmann::json> parsed;
+  for (std::size_t k = 0; k < row_dicts.size(); ++k) {
+    rows.push_back(RowFromDict(row_dicts[k].cast<py::dict>()));
+    const blmd::FleetRow& row = rows.back();
+    if (!row.error.empty()) {
+      parsed.push_back(blmd::FleetErrorResult(row, row.error));
+    } else if (k < lines.size() && !lines[k].empty()) {
+      parsed.push_back(nlohmann::json::parse(lines[k]));
+    } else {
+      parsed.push_back(
+          blmd::FleetErrorResult(row, "did not finish (run the batch again to resume)"));
+    }
+  }
+  const blmd::FleetSummary s =
+      blmd::WriteFleetOutputs(rows, std::move(parsed), out_dir, baseline_dir, store_baselines);
+  py::dict d;
+  d["rows"] = s.rows;
+  d["ok"] = s.ok;
+  d["drift"] = s.drift;
+  d["error"] = s.error;
+  d["baselines_stored"] = s.baselines_stored;
+  d["exit_code"] = s.ExitCode();
+  return d;
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_blmd, m) {
@@ -609,4 +714,11 @@ PYBIND11_MODULE(_blmd, m) {
   m.def("surface", &Surface, py::arg("config"), py::arg("settings"), py::arg("trace"));
   m.def("simulate", &Simulate, py::arg("config"), py::arg("effects"), py::arg("noise"),
         py::arg("seed"), py::arg("input"), py::arg("dialect"));
+  m.def("fleet_manifest", &FleetManifest, py::arg("path"));
+  m.def("fleet_check_args", &FleetCheckArgs, py::arg("args"));
+  m.def("fleet_prepare", &blmd::PrepareFleetFolder, py::arg("out"));
+  m.def("fleet_run_row", &FleetRunRow, py::arg("row"), py::arg("common"), py::arg("out"),
+        py::arg("baseline_dir"), py::arg("alpha"), py::arg("threads"));
+  m.def("fleet_finish", &FleetFinish, py::arg("rows"), py::arg("lines"), py::arg("out"),
+        py::arg("baseline_dir"), py::arg("store_baselines"));
 }

@@ -29,9 +29,10 @@ import numpy as np
 
 from . import _blmd
 from ._blmd import InputError
+from . import fleet  # noqa: E402  (blmd.fleet.run; Dask is imported only when it runs)
 
 __all__ = ["simulate", "identify", "surface", "write_config", "init_config", "tune", "design",
-           "IdentifyResult", "TuneResult", "DesignResult", "InputError", "FitError",
+           "IdentifyResult", "TuneResult", "DesignResult", "InputError", "FitError", "fleet",
            "__version__"]
 __version__ = _blmd.__version__
 InputError.__module__ = __name__
