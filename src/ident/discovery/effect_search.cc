@@ -233,6 +233,7 @@ std::vector<OrderScreen> RankOrdersByResponse(const FitProblem& problem,
   std::vector<double> r0;
   Eigen::MatrixXd jacobian;
   DifferenceRule rule;
+  rule.step = kScreeningDifferenceStep;
   rule.central = false;
   if (!FiniteDifferenceJacobian(problem, ToSearchCoordinates(problem, values), rule, nullptr, &r0,
                                 &jacobian))

@@ -94,6 +94,7 @@ std::pair<std::vector<double>, Evaluation> OneStepGaussNewton(const FitProblem& 
   const std::size_t p = problem.num_free();
   const std::vector<double> x0 = ToSearchCoordinates(problem, values);
   DifferenceRule rule;
+  rule.step = kScreeningDifferenceStep;
   rule.linear_floor = 1e-2;
   rule.clamp_to_bounds = true;
   rule.one_sided_fallback = false;

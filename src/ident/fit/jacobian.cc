@@ -50,11 +50,12 @@ bool FiniteDifferenceJacobian(const FitProblem& problem, const std::vector<doubl
   // The point, its forward neighbours and (central) its backward ones, simulated together.
   std::vector<std::vector<double>> points = {x};
   std::vector<double> h(p);
+  const double step = rule.step > 0.0 ? rule.step : problem.DifferenceStep();
   for (std::size_t k = 0; k < p; ++k) {
     const FreeParameter& fp = problem.free()[k];
     h[k] = fp.log_scale
-               ? rule.step
-               : rule.step * std::max(std::abs(x[k]), rule.linear_floor * (fp.upper - fp.lower));
+               ? step
+               : step * std::max(std::abs(x[k]), rule.linear_floor * (fp.upper - fp.lower));
     points.push_back(x);
     points.back()[k] += h[k];
   }

@@ -20,11 +20,17 @@ std::vector<double> ToSearchCoordinates(const FitProblem& problem,
 std::vector<double> FromSearchCoordinates(const FitProblem& problem, const std::vector<double>& x,
                                           bool clamp = false);
 
-// How the neighbours of x are placed. The step is coarse on purpose (ceres_fit.cc): the
-// simulator's stick-slip and PWM events shift by whole integration steps, so the cost has
-// micro-jumps that a step of 1e-6 would differentiate.
+// How the neighbours of x are placed. The step is the problem's (FitProblem::DifferenceStep)
+// unless set: coarse for a fixed-step simulation, whose stick-slip and PWM events shift by
+// whole integration steps (the cost has micro-jumps that a step of 1e-6 would differentiate),
+// fine for the events integration, whose output is smooth in the parameters.
+// Discovery's screening and order ranking difference from effects at zero with a step of
+// their own: a coarse one, whatever the integration.
+inline constexpr double kScreeningDifferenceStep = 1e-3;
+
 struct DifferenceRule {
-  double step = 1e-3;  // h = step in log coordinates; linear: step * max(|x|, floor * range)
+  // h = step in log coordinates; linear: step * max(|x|, floor * range). 0: the problem's.
+  double step = 0.0;
   double linear_floor = 1e-3;    // the floor, as a fraction of the parameter's bound range
   bool central = true;           // 2p + 1 points; false: forward, p + 1 (+ backward on failure)
   bool clamp_to_bounds = false;  // neighbours held within the bounds (discovery's screening)

@@ -127,6 +127,11 @@ std::string FitProblem::Where() const {
   return where.empty() ? where : where + ": ";
 }
 
+double FitProblem::DifferenceStep() const {
+  const bool smooth = config_.simulation.method == SimulationMethod::kEvents && !equation_error();
+  return smooth ? 1e-5 : 1e-3;
+}
+
 double FitProblem::column_weight(std::size_t c, std::size_t k) const {
   return 1.0 / std::sqrt(static_cast<double>(observe_.size()) *
                          static_cast<double>(samples_per_column_[c]) * weight_variance_[k][c]);

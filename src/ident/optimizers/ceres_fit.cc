@@ -17,8 +17,9 @@ namespace {
 
 // Residuals of the whole problem as one Ceres block. Parameters in search coordinates:
 // log(value) for log-scale parameters, the value itself otherwise. Derivatives are finite
-// differences with a step chosen in those coordinates (fd_step: 1e-3 in log, i.e. 0.1 %,
-// or 1e-3 of max(|x|, range/1000) when linear): forward differences (p + 1 simulations)
+// differences with a step chosen in those coordinates (fd_step: the problem's
+// DifferenceStep, 1e-3 in log, i.e. 0.1 %, or 1e-3 of max(|x|, range/1000) when linear; 1e-5
+// for the smooth events integration): forward differences (p + 1 simulations)
 // while minimising, where the Jacobian only steers the steps, and central differences
 // (2p + 1) for the intervals, whose accuracy depends on them. Ceres' own numeric
 // differentiation steps relative to |x| (1e-6 |log J| ~ 1e-5), too fine for a simulator whose
@@ -151,7 +152,8 @@ FitResult CeresOptimizer::Minimize(const FitProblem& problem,
   }
 
   const nlohmann::json& o = options.method_options;
-  const double fd_step = OptionNumber("ceres", o, "fd_step", 1e-3, {0.0, 0.5, true});
+  const double fd_step =
+      OptionNumber("ceres", o, "fd_step", problem.DifferenceStep(), {0.0, 0.5, true});
   auto* cost_function = new SimulationCost(&cost, fd_step, SimulationCost::Differences::kForward);
 
   ceres::Problem::Options problem_options;
@@ -192,7 +194,6 @@ FitResult CeresOptimizer::Minimize(const FitProblem& problem,
   solver_options.num_threads = 1;
   ceres::Solver::Summary ceres_summary;
   ceres::Solve(solver_options, &ceres_problem, &ceres_summary);
-
   FitResult result;
   result.values.resize(p);
   for (std::size_t k = 0; k < p; ++k) {

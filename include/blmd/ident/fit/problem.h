@@ -94,6 +94,12 @@ class FitProblem {
   const std::vector<int>& residual_columns() const { return residual_columns_; }
   const std::vector<int>& residual_traces() const { return residual_traces_; }
   double column_weight(std::size_t c, std::size_t k = 0) const;
+  // The finite-difference step of the Jacobians (search coordinates; ident/fit/jacobian.h):
+  // 1e-5 when the model is integrated by the events method (its output is smooth in the
+  // parameters: a coarser step's secant overstates the derivatives of a PWM drive's sampled
+  // current, and so understates the intervals), else 1e-3 (a fixed step's events shift by
+  // whole steps: the cost has micro-jumps a finer step would differentiate).
+  double DifferenceStep() const;
   // Per-residual factors that turn weighted residuals into noise-normalised ones, e/s_c,
   // with s_c^2 = SSE_c / (N_c - p/C) estimated from `evaluation` (the fit's residual; per
   // trace and column when the weights differ between traces): the white covariance of a fit
