@@ -32,6 +32,7 @@
 #include "blmd/io/config.h"
 #include "blmd/io/csv.h"
 #include "blmd/io/files.h"
+#include "blmd/io/mat.h"
 #include "blmd/io/starting_config.h"
 #include "blmd/io/stored_report.h"
 #include "blmd/random.h"

@@ -14,6 +14,7 @@
 
 #include "blmd/error.h"
 #include "blmd/io/files.h"
+#include "blmd/io/mat.h"
 
 namespace blmd {
 namespace {
@@ -509,6 +510,7 @@ class TraceParser {
 }  // namespace
 
 Trace ReadTraceCsv(const std::string& path, const CsvReadOptions& options, std::string* sha256) {
+  if (IsMatFile(path)) return ReadTraceMat(path, options, sha256);
   const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) throw InputError(path + ": cannot read: " + std::strerror(errno));
   struct Closer {
@@ -580,6 +582,21 @@ Trace ParseTraceCsv(const std::string& text, const std::string& path,
   TraceParser parser(path, options, text.size());
   parser.Sniff(std::string_view(text).substr(0, kSniffBytes));
   parser.Consume(text, true);
+  return parser.Finish();
+}
+
+Trace ParseTraceCsvPieces(const std::function<std::string()>& next_piece, const std::string& path,
+                          const CsvReadOptions& options) {
+  TraceParser parser(path, options, 0);
+  std::string held = next_piece();
+  parser.Sniff(std::string_view(held).substr(0, kSniffBytes));
+  while (true) {
+    std::string piece = next_piece();
+    const bool at_end = piece.empty();
+    held.erase(0, parser.Consume(held, at_end));  // keeps a line cut between pieces
+    if (at_end) break;
+    held += piece;
+  }
   return parser.Finish();
 }
 

@@ -6,6 +6,7 @@
 // every problem is an InputError naming file:line:column, the column and what was expected.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -38,11 +39,17 @@ struct CsvReadOptions {
 
 // Reads the file in chunks (the text is never held whole: memory is about the numbers'
 // size, 8 bytes per value). When `sha256` is given it receives the SHA-256 of the bytes.
+// A MATLAB .mat file (IsMatFile, io/mat.h) is read by ReadTraceMat instead, so every reader
+// of traces takes both.
 Trace ReadTraceCsv(const std::string& path, const CsvReadOptions& options = {},
                    std::string* sha256 = nullptr);
 // Parses CSV text; `path` only labels errors.
 Trace ParseTraceCsv(const std::string& text, const std::string& path,
                     const CsvReadOptions& options = {});
+// Parses CSV text handed over in pieces (cut anywhere): `next_piece` returns the next one,
+// an empty string at the end. ReadTraceMat writes a MAT file's columns as rows through it.
+Trace ParseTraceCsvPieces(const std::function<std::string()>& next_piece, const std::string& path,
+                          const CsvReadOptions& options = {});
 
 // A header for a message: the names joined by ',', cut after about 80 characters with
 // ",... (N columns)" so that one line stays one readable line.
