@@ -32,7 +32,7 @@ inline const std::vector<std::string>& BatchSwitchFlags() {
                                                  "--no-progress", "--quiet"};
   return flags;
 }
-// The flags a row cannot take: its files are the batch's (reports/<id>.json), --config,
+// The flags a row cannot take: its files are the batch's (<out>/<id>.json), --config,
 // --trace and --baseline come from its columns.
 inline const std::vector<std::string>& RowForbiddenFlags() {
   static const std::vector<std::string> flags = {
@@ -127,7 +127,7 @@ inline nlohmann::json RunFleetRow(const FleetRow& row, const std::vector<std::st
         MakeIdentRequest(LoadConfig(flags.config_path), flags.config_path, Settings(app, flags));
     const IdentOutcome outcome = Identify(std::move(request));
     const nlohmann::json report = outcome.report;
-    const std::string report_file = "reports/" + row.id + ".json";
+    const std::string report_file = row.id + ".json";
     WriteFileAtomically(FleetReportPath(options.out_dir, row.id), report.dump(2) + "\n");
     line = FleetResultFromReport(row, report, report_file, options.rule, seconds());
     // A failed fit or gate is the row's error; drift is judged by the batch's rule (the

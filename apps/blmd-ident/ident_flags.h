@@ -59,7 +59,7 @@ struct IdentFlags {
         "a manifest CSV (id,trace,config,baseline): one identification per row, rows in "
         "parallel over --threads, the other flags apply to every row (docs/fleet.md)");
     app.add_option("--out", out_dir,
-                   "--batch: the output folder (reports/, results.csv, results.jsonl, "
+                   "--batch: the output folder (<id>.json reports, results.csv, results.jsonl, "
                    "fleet.html); a finished row whose inputs are unchanged is not run again")
         ->needs(manifest);
     app.add_option("--baseline-dir", baseline_dir,

@@ -37,7 +37,8 @@ def run(manifest, out, client=None, args=(), baseline_dir=None, new_baselines=Fa
     """Identify every row of ``manifest`` as a Dask task; returns the table as a DataFrame.
 
     manifest: the manifest CSV (``id,trace,config,baseline``, docs/fleet.md).
-    out: the output folder (created): reports/, rows/, results.csv, results.jsonl, fleet.html.
+    out: the output folder (created): <id>.json reports, rows/, results.csv, results.jsonl,
+        fleet.html.
     client: None (a LocalCluster of ``workers`` processes, one thread each, closed at the
         end), a scheduler address, or a ``dask.distributed.Client`` (left open).
     args: blmd-ident flags every row gets, e.g. ``["--discover", "--method", "powell"]``.

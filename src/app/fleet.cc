@@ -527,15 +527,14 @@ json FleetErrorResult(const FleetRow& row, const std::string& message, double wa
 }
 
 std::string FleetReportPath(const std::string& out_dir, const std::string& id) {
-  return (fs::path(out_dir) / "reports" / (id + ".json")).string();
+  return (fs::path(out_dir) / (id + ".json")).string();
 }
 std::string FleetRowPath(const std::string& out_dir, const std::string& id) {
   return (fs::path(out_dir) / "rows" / (id + ".json")).string();
 }
 
 void PrepareFleetFolder(const std::string& out_dir) {
-  for (const fs::path& folder :
-       {fs::path(out_dir), fs::path(out_dir) / "reports", fs::path(out_dir) / "rows"}) {
+  for (const fs::path& folder : {fs::path(out_dir), fs::path(out_dir) / "rows"}) {
     std::error_code error;
     fs::create_directories(folder, error);
     if (error || !fs::is_directory(folder)) {

@@ -41,7 +41,7 @@ std::string MakeTrace(const TempDir& dir, const std::string& name, double J, dou
   config["parameters"]["B"] = B;
   const std::string config_path = dir.Write(name + "-truth.json", config.dump());
   const std::string trace = dir.File(name + ".csv");
-  const CommandResult sim = Run(BinPath("blmd-sim") + " --config " + config_path + " --out " +
+  const CommandResult sim = testing::Run(BinPath("blmd-sim") + " --config " + config_path + " --out " +
                                 trace + " --noise i=1% --noise w=1% --quiet --seed " +
                                 std::to_string(seed));
   EXPECT_EQ(sim.exit_code, 0) << sim.err;
@@ -94,9 +94,9 @@ TEST(Batch, OneRowPerManifestRowErrorRowsAndExitCodes) {
       "rep,a.csv," + config + ",,drive-r,,--report x.json\n"
       "bad-flag,a.csv," + config + ",,drive-f,,--no-such-flag\n");
   const std::string out = dir.File("out");
-  const CommandResult r = Run(Batch(manifest, out, "--threads 2"));
+  const CommandResult r = testing::Run(Batch(manifest, out, "--threads 2"));
   EXPECT_EQ(r.exit_code, 1) << r.err;  // a row failed
-  EXPECT_NE(r.out.find("batch: 7 rows: 3 ok, 0 drift, 4 error (5 run, 0 unchanged"),
+  EXPECT_NE(r.out.find("batch: 7 rows: 3 ok, 0 drift, 4 error (6 run, 0 unchanged"),
             std::string::npos)
       << r.out;
   const std::vector<json> lines = Lines(Slurp(out + "/results.jsonl"));
@@ -106,9 +106,9 @@ TEST(Batch, OneRowPerManifestRowErrorRowsAndExitCodes) {
   EXPECT_NEAR(lines[0]["J"].get<double>(), 2.26e-5, 2.26e-5 * 0.01);
   EXPECT_NEAR(lines[1]["J"].get<double>(), 2.5e-5, 2.5e-5 * 0.01);
   // The row's args are its flags: powell fitted b.
-  EXPECT_EQ(json::parse(Slurp(out + "/reports/b.json"))["method"], "powell");
+  EXPECT_EQ(json::parse(Slurp(out + "/b.json"))["method"], "powell");
   EXPECT_EQ(lines[2]["status"], "ok");  // two traces, one fit
-  EXPECT_EQ(json::parse(Slurp(out + "/reports/ab.json"))["traces"].size(), 2u);
+  EXPECT_EQ(json::parse(Slurp(out + "/ab.json"))["traces"].size(), 2u);
   EXPECT_EQ(lines[3]["status"], "error");
   EXPECT_NE(lines[3]["message"].get<std::string>().find("corrupt.csv:3:4:"), std::string::npos)
       << lines[3]["message"];
@@ -126,7 +126,7 @@ TEST(Batch, OneRowPerManifestRowErrorRowsAndExitCodes) {
             0u);
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 8);
   EXPECT_TRUE(FileExists(out + "/fleet.html"));
-  EXPECT_FALSE(FileExists(out + "/reports/broken.json"));
+  EXPECT_FALSE(FileExists(out + "/broken.json"));
 }
 
 TEST(Batch, ResumesOnlyWhatChangedOrDidNotFinish) {
@@ -141,26 +141,26 @@ TEST(Batch, ResumesOnlyWhatChangedOrDidNotFinish) {
                                          "b,b.csv," + config + ",\n"
                                          "c,c.csv," + config + ",\n");
   const std::string out = dir.File("out");
-  const CommandResult first = Run(Batch(manifest, out, "--threads 1"));
+  const CommandResult first = testing::Run(Batch(manifest, out, "--threads 1"));
   ASSERT_EQ(first.exit_code, 0) << first.err;
   EXPECT_NE(first.out.find("(3 run, 0 unchanged"), std::string::npos) << first.out;
   const std::string table = WithoutWallTime(Slurp(out + "/results.csv"));
-  const CommandResult again = Run(Batch(manifest, out, "--threads 1"));
+  const CommandResult again = testing::Run(Batch(manifest, out, "--threads 1"));
   EXPECT_NE(again.out.find("(0 run, 3 unchanged"), std::string::npos) << again.out;
   // A row that did not finish (its line gone: the run was killed before it) and a row whose
   // trace changed are run again; nothing else.
   std::remove((out + "/rows/a.json").c_str());
   MakeTrace(dir, "c", 2.1e-5, 2.3e-5, 4);
-  const CommandResult resumed = Run(Batch(manifest, out, "--threads 1"));
+  const CommandResult resumed = testing::Run(Batch(manifest, out, "--threads 1"));
   EXPECT_NE(resumed.out.find("(2 run, 1 unchanged"), std::string::npos) << resumed.out;
   // Other flags are other inputs: every row runs again.
-  const CommandResult other = Run(Batch(manifest, out, "--threads 1 --method powell"));
+  const CommandResult other = testing::Run(Batch(manifest, out, "--threads 1 --method powell"));
   EXPECT_NE(other.out.find("(3 run, 0 unchanged"), std::string::npos) << other.out;
   // The same table on two threads as on one (rows in the manifest's order).
   const std::string out2 = dir.File("out2");
-  ASSERT_EQ(Run(Batch(manifest, out2, "--threads 2")).exit_code, 0);
+  ASSERT_EQ(testing::Run(Batch(manifest, out2, "--threads 2")).exit_code, 0);
   const std::string out1 = dir.File("out1");
-  ASSERT_EQ(Run(Batch(manifest, out1, "--threads 1")).exit_code, 0);
+  ASSERT_EQ(testing::Run(Batch(manifest, out1, "--threads 1")).exit_code, 0);
   EXPECT_EQ(WithoutWallTime(Slurp(out1 + "/results.csv")),
             WithoutWallTime(Slurp(out2 + "/results.csv")));
   EXPECT_EQ(WithoutWallTime(Slurp(out1 + "/results.csv")), WithoutWallTime(Slurp(out2 + "/results.csv")));
@@ -184,11 +184,11 @@ TEST(Batch, DriftAgainstEachDrivesOwnBaseline) {
                                        "d2,drifts-2.csv," + config + ",,drifts,2026-11-02\n");
   const std::string base = dir.File("baselines");
   const CommandResult first =
-      Run(Batch(night1, dir.File("out1"), "--baseline-dir " + base + " --new-baselines"));
+      testing::Run(Batch(night1, dir.File("out1"), "--baseline-dir " + base + " --new-baselines"));
   ASSERT_EQ(first.exit_code, 0) << first.err;
   EXPECT_NE(first.out.find("baselines stored: 2 in " + base), std::string::npos) << first.out;
   EXPECT_TRUE(FileExists(base + "/steady.json"));
-  const CommandResult second = Run(Batch(night2, dir.File("out2"), "--baseline-dir " + base));
+  const CommandResult second = testing::Run(Batch(night2, dir.File("out2"), "--baseline-dir " + base));
   EXPECT_EQ(second.exit_code, 3) << second.out << second.err;  // a drive drifted
   const std::vector<json> lines = Lines(Slurp(dir.File("out2/results.jsonl")));
   ASSERT_EQ(lines.size(), 2u);
@@ -206,33 +206,33 @@ TEST(Batch, DriftAgainstEachDrivesOwnBaseline) {
   // The fleet page lists the drifted drive first.
   const std::string html = Slurp(dir.File("out2/fleet.html"));
   EXPECT_LT(html.find("data-status=\"drift\""), html.find("data-status=\"ok\""));
-  EXPECT_NE(html.find("href=\"reports/d2.json\""), std::string::npos);
+  EXPECT_NE(html.find("href=\"d2.json\""), std::string::npos);
 }
 
 TEST(Batch, BadManifestOrFlagsWriteNothing) {
   TempDir dir;
   const std::string out = dir.File("out");
   const std::string no_config = dir.Write("m1.csv", "id,trace\nx,a.csv\n");
-  CommandResult r = Run(Batch(no_config, out));
+  CommandResult r = testing::Run(Batch(no_config, out));
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_EQ(r.err, "error: " + no_config +
                        ":1:1: the header has no column 'config' (a manifest's header: "
                        "id,trace,config,baseline; docs/fleet.md)\n");
   const std::string typo = dir.Write("m2.csv", "id,trace,config,baselin\n");
-  r = Run(Batch(typo, out));
+  r = testing::Run(Batch(typo, out));
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find(typo + ":1:17: unknown column 'baselin'"), std::string::npos) << r.err;
-  r = Run(Batch(dir.File("missing.csv"), out));
+  r = testing::Run(Batch(dir.File("missing.csv"), out));
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("missing.csv: cannot read"), std::string::npos) << r.err;
   const std::string ok = dir.Write("m3.csv", "id,trace,config\n");
-  r = Run(Batch(ok, out, "--report r.json"));
+  r = testing::Run(Batch(ok, out, "--report r.json"));
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("--report: not for a batch row"), std::string::npos) << r.err;
-  r = Run(BinPath("blmd-ident") + " --batch " + ok);
+  r = testing::Run(BinPath("blmd-ident") + " --batch " + ok);
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_EQ(r.err, "error: --batch needs --out DIR (the output folder)\n");
-  r = Run(BinPath("blmd-ident") + " --out " + out + " --config c.json --trace t.csv");
+  r = testing::Run(BinPath("blmd-ident") + " --out " + out + " --config c.json --trace t.csv");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("--out requires --batch"), std::string::npos) << r.err;
   EXPECT_FALSE(FileExists(out));

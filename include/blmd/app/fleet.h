@@ -6,7 +6,7 @@
 // agree line for line.
 //
 // The output folder:
-//   reports/<id>.json   each row's blmd-ident report (rows that ran)
+//   <id>.json           each row's blmd-ident report (rows that ran)
 //   rows/<id>.json      each finished row: its inputs' key and its line of the table
 //   results.csv         the table, one line per manifest row, in the manifest's order
 //   results.jsonl       the same lines as JSON objects
@@ -77,7 +77,7 @@ nlohmann::json FleetErrorResult(const FleetRow& row, const std::string& message,
 // Files of the output folder.
 std::string FleetReportPath(const std::string& out_dir, const std::string& id);
 std::string FleetRowPath(const std::string& out_dir, const std::string& id);
-// Creates out_dir, out_dir/reports and out_dir/rows (InputError when it cannot).
+// Creates out_dir and out_dir/rows (InputError when it cannot).
 void PrepareFleetFolder(const std::string& out_dir);
 // A finished row: its key and line (written atomically: a row is finished or absent).
 void StoreFleetRow(const std::string& out_dir, const std::string& id, const std::string& key,
