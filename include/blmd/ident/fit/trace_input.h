@@ -1,6 +1,6 @@
 // Preparing a measured trace for a fit (docs/cli.md §2.2): column mapping, unit scaling,
-// row selection, splitting a file into experiments, velocity from position, and the
-// recorded input.
+// row selection, splitting a file into experiments, merging repeated time stamps, velocity
+// from position, and the recorded input.
 #pragma once
 
 #include <map>
@@ -41,12 +41,14 @@ struct TraceInputOptions {
   // (after selection); each value must occupy one unbroken block of rows.
   std::string split;
   // The file's dialect (docs/trace-format.md): field separator (0: detected from the
-  // header) and what to do with rows that repeat a time stamp (--duplicate-time).
+  // header) and what to do with rows that repeat a time stamp (--duplicate-time), applied
+  // within each experiment, after selection and splitting.
   char delimiter = 0;
   DuplicateTime duplicate_time = DuplicateTime::kError;
 };
 
-// Reads, maps, scales, selects, splits and derives; throws InputError naming the file
+// Reads, maps, scales, selects, splits, merges repeated time stamps and derives, in that
+// order (docs/cli.md §2.2); throws InputError naming the file
 // (and line and column where there is one). One FitTrace per experiment, in file order;
 // without --split exactly one. An experiment cut from a file is named
 // "FILE[COLUMN=VALUE]" (split) or "FILE[SELECTION]" (select only) in `path`.
