@@ -1,6 +1,6 @@
 // Every trace preparation flag with every other (docs/cli.md §2.2, the order in which they
 // apply): --column, --scale, --derive, --select (several), --split, --initial-state,
-// --delimiter, --duplicate-time, in pairs (every pair with --duplicate-time and with
+// --delimiter, --duplicate-time, --resample, in pairs (every pair with --duplicate-time and with
 // --select, --derive with --select and --split, and more). Oracle: small files whose
 // prepared rows are worked out by hand (binary-exact values, so the rows compare exactly),
 // or the exact error line.
@@ -48,6 +48,7 @@ TraceSettings Flags(const std::string& text) {
     if (flag == "--initial-state") settings.initial_state = value;
     if (flag == "--delimiter") settings.delimiter = value;
     if (flag == "--duplicate-time") settings.duplicate_time = value;
+    if (flag == "--resample") settings.resample = value;
   }
   return settings;
 }
@@ -98,7 +99,7 @@ TEST(TraceCompose, DuplicateTimeAppliesWithSelect) {
 }
 
 struct Case {
-  const std::string& csv;
+  std::string csv;
   std::string flags, expected;
 };
 
@@ -199,6 +200,83 @@ TEST(TraceCompose, EveryPairOfFlags) {
     SCOPED_TRACE(c.flags);
     EXPECT_EQ(Prepared(c.csv, c.flags), c.expected);
   }
+}
+
+// A gap of 7 s in 1 s steps.
+const std::string kGap = "t,u,theta\n0,0,0\n1,1,1\n2,2,4\n3,3,9\n10,4,16\n11,5,25\n12,6,36\n";
+
+// --resample with every other flag: linear interpolation onto the grid from the first
+// stamp, after merging and before --derive and --initial-state; gaps over 5 steps cut.
+TEST(TraceCompose, ResampleWithEveryFlag) {
+  const std::vector<Case> cases = {
+      // kRepeats merged (t 0,0.5,1,1.5,2) onto steps of 0.25.
+      {kRepeats, "--resample 0.25 --duplicate-time mean",
+       " t=0,0.25,0.5,0.75,1,1.25,1.5,1.75,2 u=2,1.5,1,1.5,2,1.5,1,1,1 w=1,1.5,2,3,4,4,4,4,4 "
+       "theta=1,2,3,4,5,6,7,7.5,8 init=0,0\n"},
+      // auto: the median step (0.5), the merged samples themselves.
+      {kRepeats, "--resample auto --duplicate-time mean",
+       " t=0,0.5,1,1.5,2 u=2,1,2,1,1 w=1,2,4,4,4 theta=1,3,5,7,8 init=0,0\n"},
+      {kRepeats, "--resample 0.25",
+       "FILE:3:1: time 't' must strictly increase (0 repeats 0 of line 2); for several rows "
+       "logged at one instant use --duplicate-time first|mean"},
+      // --derive differentiates the grid's samples.
+      {kRepeats, "--resample 0.25 --derive w=theta --duplicate-time mean",
+       " t=0,0.25,0.5,0.75,1,1.25,1.5,1.75,2 u=2,1.5,1,1.5,2,1.5,1,1,1 w=4,4,4,4,4,4,3,2,2 "
+       "theta=1,2,3,4,5,6,7,7.5,8 init=0,0\n"},
+      {kRepeats, "--select t=0.5: --resample 0.25 --duplicate-time mean",
+       "[t=0.5:] t=0.5,0.75,1,1.25,1.5,1.75,2 u=1,1.5,2,1.5,1,1,1 w=2,3,4,4,4,4,4 "
+       "theta=3,4,5,6,7,7.5,8 init=0,0\n"},
+      {kRuns, "--split run --resample 0.25 --duplicate-time mean",
+       "[run=0] t=0,0.25,0.5,0.75,1,1.25,1.5 u=1,1.5,2,1.5,1,1,1 w=0,1.5,3,3.5,4,4,4 "
+       "theta=0,0.75,1.5,2.75,4,5,6 init=0,0\n"
+       "[run=1] t=1.5,1.75,2,2.25,2.5,2.75,3 u=2,2,2,2,2,2.5,3 w=0,1,2,3,4,5,6 "
+       "theta=10,10.5,11,12,13,15,17 init=0,0\n"},
+      {kRepeats, "--resample 0.25 --initial-state trace --duplicate-time mean",
+       " t=0,0.25,0.5,0.75,1,1.25,1.5,1.75,2 u=2,1.5,1,1.5,2,1.5,1,1,1 w=1,1.5,2,3,4,4,4,4,4 "
+       "theta=1,2,3,4,5,6,7,7.5,8 init=1,1\n"},
+      {kNamed, "--column t=time --column theta=pos --resample 0.25 --duplicate-time mean",
+       " t=0,0.25,0.5,0.75,1,1.25,1.5,1.75,2 u=2,1.5,1,1.5,2,1.5,1,1,1 w=1,1.5,2,3,4,4,4,4,4 "
+       "theta=1,2,3,4,5,6,7,7.5,8 init=0,0\n"},
+      // The step is in the units of the scaled t.
+      {kRepeats, "--scale t=2 --resample 0.5 --duplicate-time mean",
+       " t=0,0.5,1,1.5,2,2.5,3,3.5,4 u=2,1.5,1,1.5,2,1.5,1,1,1 w=1,1.5,2,3,4,4,4,4,4 "
+       "theta=1,2,3,4,5,6,7,7.5,8 init=0,0\n"},
+      {kSemicolon, "--delimiter ; --resample 0.25 --duplicate-time mean",
+       " t=0,0.25,0.5,0.75,1,1.25,1.5,1.75,2 u=2,1.5,1,1.5,2,1.5,1,1,1 w=1,1.5,2,3,4,4,4,4,4 "
+       "theta=1,2,3,4,5,6,7,7.5,8 init=0,0\n"},
+      // A gap longer than 5 steps cuts the experiment: no samples are made up across it.
+      {kGap, "--resample 0.5",
+       "[t=0:3] t=0,0.5,1,1.5,2,2.5,3 u=0,0.5,1,1.5,2,2.5,3 theta=0,0.5,1,2.5,4,6.5,9 "
+       "init=0,0\n"
+       "[t=10:12] t=10,10.5,11,11.5,12 u=4,4.5,5,5.5,6 theta=16,20.5,25,30.5,36 init=0,0\n"},
+      {kGap, "--resample auto --initial-state trace --select t=1:",
+       "[t=1:][t=1:3] t=1,2,3 u=1,2,3 theta=1,4,9 init=0,1\n"
+       "[t=1:][t=10:12] t=10,11,12 u=4,5,6 theta=16,25,36 init=0,16\n"},
+      // 7 s is not over 5 steps of 2 s: interpolated across.
+      {kGap, "--resample 2",
+       " t=0,2,4,6,8,10,12 u=0,2,3.142857142857143,3.4285714285714284,3.7142857142857144,4,6 "
+       "theta=0,4,10,12,14,16,36 init=0,0\n"},
+      {kGap, "--resample 1 --select t=:10.5",
+       "FILE:6: [t=:10.5][t=10:10] has 1 sample only (line 6): a fit needs at least 3 per "
+       "experiment"},
+      // `open` (the armature switch) is held, not interpolated.
+      {"t,u,open\n0,1,0\n1,1,1\n2,1,1\n", "--resample 0.5",
+       " t=0,0.5,1,1.5,2 u=1,1,1,1,1 open=0,0,1,1,1 init=0,0\n"},
+      {kRepeats, "--resample 0.001 --duplicate-time mean",
+       "FILE: --resample 0.001 is less than 1/5 of the median step, 0.5 s: every recorded step "
+       "would be a gap; choose a step near the median step (--resample auto)"},
+      {kRepeats, "--resample 0 --duplicate-time mean",
+       "--resample: expected a step in seconds > 0, or auto (the median step), not '0'"},
+      {kRepeats, "--resample median",
+       "--resample: expected a step in seconds > 0, or auto (the median step), not 'median'"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.flags);
+    EXPECT_EQ(Prepared(c.csv, c.flags), c.expected);
+  }
+  // Recorded in a surface CSV's rows line, with the other flags that change the rows.
+  EXPECT_EQ(Flags("--select t=1: --duplicate-time mean --resample auto --split run").RowsLine(),
+            " --select t=1: --split run --duplicate-time mean --resample auto");
 }
 
 }  // namespace

@@ -303,12 +303,18 @@ std::vector<Block> CutIntoBlocks(const Trace& trace, const TraceFile& file,
   return blocks;
 }
 
-// One experiment's samples (repeated time stamps merged), its name, and the rows
+// One experiment's samples (repeated time stamps merged, resampled), its name, and the rows
 // of the trace they come from, for messages.
 struct Samples {
   Trace part;
   std::string name;
   std::size_t first_row = 0, last_row = 0;  // the trace rows the samples span
+  // The trace row of each sample (the first of its instant) when rows were merged; empty:
+  // sample k is row first_row + k.
+  std::vector<std::size_t> rows;
+  bool cut = false;  // one of the parts of an experiment cut at a gap (--resample)
+
+  std::size_t RowOf(std::size_t k) const { return rows.empty() ? first_row + k : rows[k]; }
 };
 
 // The time column's name in the file, for messages.
@@ -365,6 +371,7 @@ Samples ExperimentSamples(Trace& trace, const TraceFile& file, const Block& bloc
     }
     return samples;
   }
+  samples.rows = starts;
   samples.part.comments = trace.comments;
   const bool mean = options.duplicate_time == DuplicateTime::kMean;
   for (std::size_t c = 0; c < trace.num_columns(); ++c) {
@@ -390,6 +397,96 @@ Samples ExperimentSamples(Trace& trace, const TraceFile& file, const Block& bloc
   return samples;
 }
 
+// --resample: the samples linearly interpolated onto t0 + k step (k = 0, 1, ... up to the
+// last time stamp; `open`, a switch, is held from the sample at or before), the experiment
+// cut into parts where a recorded step exceeds kResampleGapSteps grid steps (no samples are
+// made up across a gap). As recorded without --resample.
+std::vector<Samples> Resample(Samples samples, const TraceFile& file) {
+  const TraceInputOptions& options = file.options;
+  std::vector<Samples> parts;
+  const Trace& part = samples.part;
+  const auto& t = part.Column("t");
+  const std::size_t n = t.size();
+  if ((!options.resample_median && !(options.resample_step > 0.0)) || n < 2) {
+    parts.push_back(std::move(samples));
+    return parts;
+  }
+  std::vector<double> steps(n - 1);
+  for (std::size_t k = 1; k < n; ++k) steps[k - 1] = t[k] - t[k - 1];
+  std::vector<double> sorted = steps;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2),
+                   sorted.end());
+  const double median = sorted[sorted.size() / 2];
+  const double step = options.resample_median ? median : options.resample_step;
+  const std::string step_text =
+      options.resample_median ? "auto (" + FormatSignificant(step, 6) + " s)" : DisplayNumber(step);
+  if (median > kResampleGapSteps * step) {
+    throw InputError(samples.name + ": --resample " + step_text + " is less than 1/" +
+                     FormatSignificant(kResampleGapSteps, 6) + " of the median step, " +
+                     FormatSignificant(median, 6) + " s: every recorded step would be a gap; " +
+                     "choose a step near the median step (--resample auto)");
+  }
+  // The parts [first, last] of the samples, cut at the gaps, and the grid points of each.
+  // (As no step within a part exceeds kResampleGapSteps grid steps, a part has at most that
+  // many grid points per sample.)
+  std::vector<std::pair<std::size_t, std::size_t>> ranges;
+  std::vector<std::size_t> points;
+  std::size_t first = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    if (k + 1 < n && !(steps[k] > kResampleGapSteps * step)) continue;
+    ranges.emplace_back(first, k);
+    // 1e-9: a span that is a whole number of steps but for rounding keeps its last point.
+    points.push_back(static_cast<std::size_t>(std::floor((t[k] - t[first]) / step + 1e-9)) + 1);
+    first = k + 1;
+  }
+  for (std::size_t r = 0; r < ranges.size(); ++r) {
+    const auto [a, b] = ranges[r];
+    const std::size_t m = points[r];
+    Samples out;
+    out.first_row = samples.first_row;  // refined below when the record is cut
+    out.last_row = samples.last_row;
+    out.cut = ranges.size() > 1;
+    out.name = samples.name;
+    if (out.cut) {
+      out.name += "[t=" + DisplayNumber(t[a]) + ":" + DisplayNumber(t[b]) + "]";
+      out.first_row = samples.RowOf(a);
+      out.last_row = b + 1 < n ? samples.RowOf(b + 1) - 1 : samples.last_row;
+    }
+    std::vector<double> grid(m);
+    for (std::size_t k = 0; k < m; ++k)
+      grid[k] = std::min(t[a] + static_cast<double>(k) * step, t[b]);
+    out.part.comments = part.comments;
+    out.part.comments.push_back("resampled with --resample " + step_text + ": " +
+                                std::to_string(m) + " samples from " + std::to_string(b - a + 1) +
+                                " (linear interpolation)");
+    for (std::size_t c = 0; c < part.num_columns(); ++c) {
+      const std::string& column_name = part.names()[c];
+      if (column_name == "t") {
+        out.part.Append("t", grid);
+        continue;
+      }
+      const auto& x = part.Column(c);
+      const bool hold = column_name == "open";
+      std::vector<double> y(m);
+      std::size_t j = a;
+      for (std::size_t k = 0; k < m; ++k) {
+        while (j + 1 < b && t[j + 1] <= grid[k]) ++j;
+        if (a == b) {
+          y[k] = x[a];
+          continue;
+        }
+        const double frac = std::clamp((grid[k] - t[j]) / (t[j + 1] - t[j]), 0.0, 1.0);
+        const double value =
+            hold ? (frac >= 1.0 ? x[j + 1] : x[j]) : x[j] + frac * (x[j + 1] - x[j]);
+        y[k] = value == 0.0 ? 0.0 : value;
+      }
+      out.part.Append(column_name, std::move(y));
+    }
+    parts.push_back(std::move(out));
+  }
+  return parts;
+}
+
 // After --derive: the observed columns must exist and a fit needs at least 3 samples.
 void CheckFitColumns(const Samples& samples, const TraceFile& file, bool by_rows) {
   const Trace& part = samples.part;
@@ -405,7 +502,7 @@ void CheckFitColumns(const Samples& samples, const TraceFile& file, bool by_rows
   if (part.rows() < 3) {
     const std::string count =
         std::to_string(part.rows()) + " sample" + (part.rows() == 1 ? "" : "s");
-    if (!by_rows) {
+    if (!by_rows && !samples.cut) {
       throw InputError(path + ": " + count + " only: a fit needs at least 3");
     }
     const long first = file.LineOf(samples.first_row), last = file.LineOf(samples.last_row);
@@ -464,15 +561,17 @@ std::vector<FitTrace> PrepareFitTraces(Trace trace, const std::string& path,
     // rows are merged).
     Samples samples = ExperimentSamples(trace, file, block, ExperimentName(path, options, block),
                                         !by_rows);  // NOLINT(bugprone-use-after-move)
-    Trace& part = samples.part;
-    for (const auto& [target, source] : options.derive) {
-      part.Set(target, Differentiate(part.Column("t"), part.Column(source)));
+    for (Samples& resampled : Resample(std::move(samples), file)) {
+      Trace& part = resampled.part;
+      for (const auto& [target, source] : options.derive) {
+        part.Set(target, Differentiate(part.Column("t"), part.Column(source)));
+      }
+      CheckFitColumns(resampled, file, by_rows);
+      const InitialState initial = InitialStateOf(part, options, default_initial);
+      FitTrace fit = RecordedFitTrace(std::move(part), initial, resampled.name);
+      fit.sha256 = sha256;
+      experiments.push_back(std::move(fit));
     }
-    CheckFitColumns(samples, file, by_rows);
-    const InitialState initial = InitialStateOf(part, options, default_initial);
-    FitTrace fit = RecordedFitTrace(std::move(part), initial, samples.name);
-    fit.sha256 = sha256;
-    experiments.push_back(std::move(fit));
   }
   return experiments;
 }
