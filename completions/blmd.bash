@@ -20,11 +20,11 @@ _blmd_methods="ceres classic fsd powell"
 _blmd_effects="asymmetric_viscous cogging coulomb_friction current_offset dead_time gravity load_torque quadratic_drag spring stribeck"
 _blmd_columns="i ib ic theta u w"
 
-_blmd_ident_flags="--baseline --bic-margin --candidates --column --config --decimate --delimiter --derive --discover --duplicate-time --error --export-matlab --fail-above-nrmse --fail-on-warning --filter-hz --free --help --html --initial --initial-state --json --max-effects --max-evaluations --method --min-share --no-progress --noise-std --observe --option --progress --quiet --report --scale --seed --select --split --threads --trace --validate --verbose --version --weighting --write-config"
+_blmd_ident_flags="--baseline --bic-margin --candidates --column --config --decimate --delimiter --derive --discover --duplicate-time --error --export-matlab --fail-above-nrmse --fail-on-warning --filter-hz --free --help --html --initial --initial-state --json --max-effects --max-evaluations --method --min-share --no-progress --noise-std --observe --option --progress --quiet --report --resample --scale --seed --select --split --threads --trace --validate --verbose --version --weighting --write-config"
 _blmd_sim_flags="--config --delimiter --duplicate-time --effect --help --init-config --input --noise --out --quiet --seed --version"
-_blmd_surface_flags="--column --config --decimate --delimiter --derive --duplicate-time --error --filter-hz --force --grid --help --initial-state --json --observe --out --quiet --scale --select --shard --split --svg --threads --trace --version"
+_blmd_surface_flags="--column --config --decimate --delimiter --derive --duplicate-time --error --filter-hz --force --grid --help --initial-state --json --observe --out --quiet --resample --scale --select --shard --split --svg --threads --trace --version"
 _blmd_tune_flags="--config --crossover --current-bandwidth --delay --duration --fail-on-warning --filter-ratio --from-report --help --integral-ratio --json --limit --loop --phase-margin --position-crossover --quiet --report --sample-rate --step --threads --version --write-config"
-_blmd_design_flags="--column --config --delimiter --derive --duplicate-time --duration --fail-on-warning --family --from-report --help --initial-state --json --limit --noise --quiet --report --scale --select --split --target --threads --trace --version --write-config --write-input"
+_blmd_design_flags="--column --config --delimiter --derive --duplicate-time --duration --fail-on-warning --family --from-report --help --initial-state --json --limit --noise --quiet --report --resample --scale --select --split --target --threads --trace --version --write-config --write-input"
 _blmd_surface_merge_flags="--help --out"
 _blmd_surface_plot_flags="--help --quiet --svg --title"
 
@@ -132,6 +132,7 @@ _blmd_complete() {
     --initial-state) _blmd_words "config trace" "$cur" ;;
     --delimiter) _blmd_words ", ; tab" "$cur" ;;
     --duplicate-time) _blmd_words "error first mean" "$cur" ;;
+    --resample) _blmd_words "auto" "$cur" ;; # or a step in seconds
     --loop) _blmd_words "position speed" "$cur" ;;
     --bic-margin | --min-share | --column | --decimate | --target | --fail-above-nrmse | --filter-hz | --free | \
       --grid | --initial | --max-effects | --max-evaluations | --option | --scale | --seed | --noise-std | \

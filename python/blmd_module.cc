@@ -668,7 +668,8 @@ PYBIND11_MODULE(_blmd, m) {
       .def_readwrite("derives", &blmd::TraceSettings::derives)
       .def_readwrite("selects", &blmd::TraceSettings::selects)
       .def_readwrite("split", &blmd::TraceSettings::split)
-      .def_readwrite("initial_state", &blmd::TraceSettings::initial_state);
+      .def_readwrite("initial_state", &blmd::TraceSettings::initial_state)
+      .def_readwrite("resample", &blmd::TraceSettings::resample);
   py::class_<blmd::ErrorSettings>(m, "ErrorSettings")
       .def(py::init<>())
       .def_readwrite("kind", &blmd::ErrorSettings::kind)

@@ -19,8 +19,8 @@ using blmd::app::DesignFlags;
 int Run(const CLI::App& app, DesignFlags& f) {
   f.threads = blmd::app::CapThreads(f.threads);
   if (f.trace_path.empty()) {
-    for (const char* flag :
-         {"--column", "--scale", "--derive", "--select", "--split", "--initial-state"}) {
+    for (const char* flag : {"--column", "--scale", "--derive", "--select", "--split",
+                             "--initial-state", "--resample"}) {
       if (app.count(flag) > 0) {
         throw blmd::InputError(std::string(flag) + ": only with --trace (it prepares the trace)");
       }

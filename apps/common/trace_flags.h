@@ -1,8 +1,9 @@
 // The trace preparation flags shared by the commands that fit traces (docs/cli.md §2.2):
 // the dialect of a logger's CSV (--delimiter, --duplicate-time, docs/trace-format.md) and
-// the mapping, scaling, derivation, selection and splitting of its columns, and where each
-// experiment starts (--initial-state). What they mean (TraceSettings::Options, RowsLine) is
-// the library's (app/request.h); this adds them to a command line.
+// the mapping, scaling, derivation, selection and splitting of its columns, their resampling
+// onto a uniform grid (--resample), and where each experiment starts (--initial-state). What they
+// mean (TraceSettings::Options, RowsLine) is the library's (app/request.h); this adds them to a
+// command line.
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -40,6 +41,9 @@ struct TraceFlags : TraceSettings {
                    "cut each trace into one experiment per block of equal COLUMN values");
     app.add_option("--initial-state", initial_state, "config|trace: initial w, theta, i")
         ->check(CLI::IsMember({"config", "trace"}));
+    app.add_option("--resample", resample,
+                   "interpolate each experiment onto a uniform step: DT seconds, or auto (its "
+                   "median step); a gap over 5 steps cuts it");
   }
 };
 

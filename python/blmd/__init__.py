@@ -323,8 +323,21 @@ def _error_settings(settings, error, filter_hz, decimate):
         settings.decimate = _whole(decimate, "--decimate", 1, 1000)
 
 
+def _resample(value):
+    """resample=: None (as recorded), "auto" (the median step) or a step in seconds."""
+    if value is None:
+        return ""
+    if isinstance(value, str):
+        return value
+    ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
+    if not ok:
+        raise InputError(f"--resample: expected a step in seconds > 0, or auto (the median "
+                         f"step), not {value!r}")
+    return _number_text(value)
+
+
 def _trace_settings(settings, columns, scales, derive, select, split, initial_state, delimiter,
-                    duplicate_time):
+                    duplicate_time, resample):
     settings.delimiter = _delimiter(delimiter)
     settings.duplicate_time = _choice(duplicate_time, "--duplicate-time",
                                       ["error", "first", "mean"])
@@ -335,6 +348,7 @@ def _trace_settings(settings, columns, scales, derive, select, split, initial_st
     settings.split = split or ""
     settings.initial_state = _choice(initial_state, "--initial-state", ["config", "trace"]) or \
         "config"
+    settings.resample = _resample(resample)
 
 
 def _with_bounds(config, bounds):
@@ -468,8 +482,8 @@ def identify(config, traces, method=None, discover=False, candidates=None, obser
              validate=None, seed=1, threads=0, *, free=None, initial=None, max_evaluations=0,
              bic_margin=10.0, min_share=0.1, max_effects=3, error=None, filter_hz=None, decimate=None,
              columns=None, scales=None, derive=None, select=None, split=None,
-             initial_state="config", delimiter=None, duplicate_time=None, verbose=False,
-             baseline=None, bounds=None, **options):
+             initial_state="config", delimiter=None, duplicate_time=None, resample=None,
+             verbose=False, baseline=None, bounds=None, **options):
     """Identifies the free parameters, as blmd-ident; returns an IdentifyResult, which is its
     --report JSON as a dict and has x, names, params, cov, success, message, fitted,
     residual and effects (see IdentifyResult).
@@ -509,7 +523,7 @@ def identify(config, traces, method=None, discover=False, candidates=None, obser
     settings.verbose = bool(verbose)
     _error_settings(settings.error, error, filter_hz, decimate)
     _trace_settings(settings.preparation, columns, scales, derive, select, split, initial_state,
-                    delimiter, duplicate_time)
+                    delimiter, duplicate_time, resample)
     text, converged, termination, final = _blmd.identify(
         _config_arg(config), settings, _trace_list(traces, "traces", array_names),
         _trace_list(validate, "validate", array_names))
@@ -530,7 +544,7 @@ def _grid_text(name, spec):
 def surface(config, traces, grid, observe=None, threads=0, *, force=False, error=None,
             filter_hz=None, decimate=None, columns=None, scales=None, derive=None,
             select=None, split=None, initial_state="config", delimiter=None,
-            duplicate_time=None):
+            duplicate_time=None, resample=None):
     """The cost over a 1-D or 2-D grid of parameters, as blmd-surface.
 
     traces: one trace (a CSV path, a mapping column -> array, a 2-D array with columns=[names]
@@ -556,7 +570,7 @@ def surface(config, traces, grid, observe=None, threads=0, *, force=False, error
     settings.force = bool(force)
     _error_settings(settings.error, error, filter_hz, decimate)
     _trace_settings(settings.preparation, columns, scales, derive, select, split, initial_state,
-                    delimiter, duplicate_time)
+                    delimiter, duplicate_time, resample)
     raw = _blmd.surface(_config_arg(config), settings, trace_args[0])
     axes = list(raw["names"])
     shape = tuple(len(values) for values in raw["values"])

@@ -127,6 +127,49 @@ def test_identify_options_equal_cli_flags(tmp_path):
     assert_same_report(report, expected)
 
 
+def uneven_trace(tmp_path):
+    """NOLOAD_STEP as a jittery logger writes it: every 7th row missing (a double step) and
+    every 50th row followed by a row at the same stamp holding the next row's values."""
+    columns = read_csv(NOLOAD_STEP)
+    names = list(columns)
+    rows = list(zip(*columns.values()))
+    lines = [",".join(names)]
+    for k, row in enumerate(rows):
+        if k % 7 == 3:
+            continue
+        lines.append(",".join(repr(v) for v in row))
+        if k % 50 == 0 and k + 1 < len(rows):
+            lines.append(",".join(repr(v) for v in (row[0],) + rows[k + 1][1:]))
+    path = tmp_path / "uneven.csv"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_trace_keywords_compose_as_the_flags(tmp_path):
+    # select, duplicate_time and resample together, from a path and from arrays: the report
+    # of blmd-ident with the same flags (the arrays' path and hash aside). duplicate_time
+    # applies to arrays too.
+    uneven = uneven_trace(tmp_path)
+    expected = cli_report(tmp_path, "--config", NOLOAD, "--trace", uneven, "--select", "t=0:",
+                          "--duplicate-time", "mean", "--resample", "auto")
+    assert expected["trace"]["samples"] == 10001  # the uniform grid, 0.1 ms from 0 to 1 s
+    by_path = blmd.identify(NOLOAD, uneven, select="t=0:", duplicate_time="mean",
+                            resample="auto")
+    assert_same_report(by_path, expected)
+    columns = {name: np.array(values) for name, values in read_csv(uneven).items()}
+    by_arrays = blmd.identify(NOLOAD, columns, select="t=0:", duplicate_time="mean",
+                              resample="auto")
+    assert_same_report(by_arrays, expected, ignore={"path", "sha256"})
+    # A step in seconds (a number) is the flag's --resample 0.0001.
+    stepped = cli_report(tmp_path, "--config", NOLOAD, "--trace", uneven, "--duplicate-time",
+                         "first", "--resample", "0.0001")
+    assert_same_report(blmd.identify(NOLOAD, uneven, duplicate_time="first", resample=1e-4),
+                       stepped)
+    with pytest.raises(blmd.InputError, match=r"repeats .*; for several rows logged at one "
+                                              r"instant use duplicate_time='first\|mean'$"):
+        blmd.identify(NOLOAD, columns, select="t=0:")
+
+
 def test_identify_discover_equals_cli(tmp_path):
     expected = cli_report(tmp_path, "--config", SQUARE, "--trace", HIDDEN_COULOMB, "--discover",
                           "--candidates", "coulomb_friction,load_torque", "--max-effects", 1)
@@ -260,6 +303,10 @@ def test_surface_equals_blmd_surface(tmp_path):
      ["--config", NOLOAD, "--trace", NOLOAD_STEP, "--decimate", "0"]),
     (lambda: blmd.identify(NOLOAD, NOLOAD_STEP, initial_state="x"),
      ["--config", NOLOAD, "--trace", NOLOAD_STEP, "--initial-state", "x"]),
+    (lambda: blmd.identify(NOLOAD, NOLOAD_STEP, resample="fast"),
+     ["--config", NOLOAD, "--trace", NOLOAD_STEP, "--resample", "fast"]),
+    (lambda: blmd.identify(NOLOAD, NOLOAD_STEP, resample=0),
+     ["--config", NOLOAD, "--trace", NOLOAD_STEP, "--resample", "0"]),
     (lambda: blmd.identify(NOLOAD, NOLOAD_STEP, candidates=["friction"], discover=True),
      ["--config", NOLOAD, "--trace", NOLOAD_STEP, "--candidates", "friction", "--discover"]),
 ])

@@ -119,8 +119,11 @@ void ReadTrace(const Config& config, const DesignSettings& s, DesignRequest* req
   const std::vector<FitTrace> traces = LoadTraceSource(
       {s.trace_path, std::nullopt}, s.trace.Options({}, false), config.experiment.initial);
   if (traces.size() != 1) {
-    throw InputError(s.trace_path + ": --split made " + std::to_string(traces.size()) +
-                     " experiments: blmd-design evaluates one recorded input (--select one)");
+    throw InputError(
+        s.trace_path + ": " +
+        (s.trace.split.empty() ? "--resample cut it at its gaps into " : "--split made ") +
+        std::to_string(traces.size()) +
+        " experiments: blmd-design evaluates one recorded input (--select one)");
   }
   request->trace = traces.front().trace;
   request->trace_sha256 = traces.front().sha256;

@@ -116,6 +116,19 @@ TraceInputOptions TraceSettings::Options(const std::vector<std::string>& observe
   options.initial_from_trace = initial_state == "trace";
   for (const auto& text : selects) options.select.push_back(ParseRowSelection(text));
   options.split = split;
+  if (resample == "auto") {
+    options.resample_median = true;
+  } else if (!resample.empty()) {
+    const std::string expected =
+        "--resample: expected a step in seconds > 0, or auto (the median step), not '" + resample +
+        "'";
+    try {
+      options.resample_step = ParseNumber(resample, "--resample");
+    } catch (const InputError&) {
+      throw InputError(expected);
+    }
+    if (!(options.resample_step > 0.0)) throw InputError(expected);
+  }
   return options;
 }
 
@@ -124,6 +137,8 @@ std::string TraceSettings::RowsLine() const {
   for (const auto& text : selects) line += " --select " + text;
   if (!split.empty()) line += " --split " + split;
   if (initial_state == "trace") line += " --initial-state trace";
+  if (Duplicates() != DuplicateTime::kError) line += " --duplicate-time " + duplicate_time;
+  if (!resample.empty()) line += " --resample " + resample;
   return line;
 }
 

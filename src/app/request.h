@@ -42,12 +42,14 @@ struct TraceSettings : DialectSettings {
   std::vector<std::string> selects;      // --select NAME=SPEC
   std::string split;                     // --split COLUMN ("": none)
   std::string initial_state = "config";  // --initial-state config|trace
+  std::string resample;                  // --resample DT|auto ("": as recorded)
 
   // The options of LoadFitTraces: every trace must have the observed columns (with the
   // output error; the equation error needs u and the motion, which it checks itself).
   TraceInputOptions Options(const std::vector<std::string>& observe, bool equation_error) const;
-  // The row selection as flags (" --select t=60: --split run"), recorded in a surface CSV
-  // so that merge tells sweeps of different selections apart; "" when every row is used.
+  // The rows as flags (" --select t=60: --split run --resample auto"): what selects, merges
+  // or resamples them, recorded in a surface CSV so that merge tells sweeps of different
+  // rows apart; "" when every row is used as recorded.
   std::string RowsLine() const;
 };
 

@@ -171,6 +171,8 @@ TEST(Completion, RealBashOffersExactlyTheseCandidates) {
       {{"blmd-ident", "--initial-state", ""}, {"config", "trace"}},
       {{"blmd-sim", "--duplicate-time", "m"}, {"mean"}},
       {{"blmd-surface", "--delimiter", ""}, {",", ";", "tab"}},
+      {{"blmd-ident", "--resample", ""}, {"auto"}},
+      {{"blmd-design", "--resample", "0.00"}, {}},  // a step of the user's own
       // A value of the user's own: nothing offered.
       {{"blmd-ident", "--seed", ""}, {}},
       {{"blmd-surface", "--grid", "J"}, {}},

@@ -150,8 +150,16 @@ TEST(PrepareFitTraces, ColumnsTheFitReadsMustBeFinite) {
   options.required = {"i"};  // w unused: left as it is
   EXPECT_EQ(PrepareFitTraces(data, "traces[0]", "", options, {}).size(), 1u);
   data.Column("t")[5] = data.Column("t")[4];
+  // A repeated stamp names --duplicate-time (which arrays take too, as files do: before,
+  // the message had no hint and the flag did not apply to a trace in memory).
   EXPECT_EQ(InputMessage([&] { PrepareFitTraces(data, "traces[0]", "", options, {}); }),
-            "traces[0]:7:1: time 't' must strictly increase (0.0004 repeats 0.0004)");
+            "traces[0]:7:1: time 't' must strictly increase (0.0004 repeats 0.0004 of line 6); "
+            "for several rows logged at one instant use --duplicate-time first|mean");
+  options.duplicate_time = DuplicateTime::kFirst;
+  const std::vector<FitTrace> merged = PrepareFitTraces(data, "traces[0]", "", options, {});
+  ASSERT_EQ(merged.size(), 1u);
+  EXPECT_EQ(merged[0].trace.rows(), data.rows() - 1);
+  EXPECT_EQ(merged[0].trace.Column("u")[5], data.Column("u")[6]);
 }
 
 TEST(Noise, ParsedAsBlmdSimParsesIt) {

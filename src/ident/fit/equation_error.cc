@@ -166,7 +166,10 @@ EquationTrace PrepareEquationTrace(const FitTrace& fit_trace,
     throw InputError(where +
                      ": the equation error filters the samples, which must be evenly "
                      "spaced; the time step varies from " +
-                     FormatSignificant(*lo, 6) + " to " + FormatSignificant(*hi, 6) + " s");
+                     FormatSignificant(*lo, 6) + " to " + FormatSignificant(*hi, 6) +
+                     " s: interpolate it onto a uniform grid with --resample auto (the median "
+                     "step, " +
+                     FormatSignificant(dt, 6) + " s)");
   }
   const double sample_hz = 1.0 / dt;
   const double cutoff_hz = settings.filter_hz > 0.0 ? settings.filter_hz : 0.1 * sample_hz;

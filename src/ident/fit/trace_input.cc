@@ -122,17 +122,13 @@ std::vector<std::string> UsedHeaders(const TraceInputOptions& options) {
 
 std::vector<FitTrace> LoadFitTraces(const std::string& path, const TraceInputOptions& options,
                                     const InitialState& default_initial) {
-  const bool by_rows = !options.select.empty() || !options.split.empty();
   CsvReadOptions csv;
-  // The reader checks the file's time column (the header mapped to t); scaling may still
-  // reverse it, so t is checked again by PrepareFitTraces. With --select or --split the time
-  // need only increase within each experiment (a logger may restart its clock per run): the
-  // reader does not check it, each experiment is checked by PrepareFitTraces.
-  const auto t_header = options.columns.find("t");
-  const std::string time_header = t_header == options.columns.end() ? "t" : t_header->second;
-  csv.time_column = by_rows ? "" : time_header;
+  // The reader checks no time column: PrepareFitTraces checks t, and merges the rows that
+  // repeat a stamp (--duplicate-time), per experiment after --select and --split (a logger
+  // may restart its clock per run, and the rows of one instant may differ in a column that
+  // selects or splits). The trace's rows are then the file's lines, for every message.
+  csv.time_column = "";
   csv.delimiter = options.delimiter;
-  csv.duplicate_time = options.duplicate_time;
   // The columns this fit reads are read strictly; any other may hold text (a timestamp, a
   // state name) or empty cells, and is then left out (docs/trace-format.md).
   csv.strict_columns = UsedHeaders(options);
@@ -201,7 +197,10 @@ void MapAndScaleColumns(Trace& trace, const std::string& path, const TraceInputO
   for (const auto& [name, factor] : options.scales) {
     if (!trace.Has(name))
       throw InputError(path + ": --scale " + name + ": no column '" + name + "'");
-    for (double& v : trace.Column(name)) v *= factor;
+    for (double& v : trace.Column(name)) {
+      v *= factor;
+      if (v == 0.0) v = 0.0;  // never -0 (as the reader promises): 0 times a negative factor
+    }
   }
 }
 
@@ -304,36 +303,194 @@ std::vector<Block> CutIntoBlocks(const Trace& trace, const TraceFile& file,
   return blocks;
 }
 
-// The rows [begin, end) of every column.
-Trace BlockRows(const Trace& trace, const Block& block) {
+// One experiment's samples (repeated time stamps merged, resampled), its name, and the rows
+// of the trace they come from, for messages.
+struct Samples {
   Trace part;
-  part.comments = trace.comments;
-  for (std::size_t c = 0; c < trace.num_columns(); ++c) {
-    const auto& column = trace.Column(c);
-    part.Set(trace.names()[c], std::vector<double>(column.begin() + static_cast<long>(block.begin),
-                                                   column.begin() + static_cast<long>(block.end)));
-  }
-  return part;
+  std::string name;
+  std::size_t first_row = 0, last_row = 0;  // the trace rows the samples span
+  // The trace row of each sample (the first of its instant) when rows were merged; empty:
+  // sample k is row first_row + k.
+  std::vector<std::size_t> rows;
+  bool cut = false;  // one of the parts of an experiment cut at a gap (--resample)
+
+  std::size_t RowOf(std::size_t k) const { return rows.empty() ? first_row + k : rows[k]; }
+};
+
+// The time column's name in the file, for messages.
+std::string TimeHeader(const TraceInputOptions& options) {
+  const auto mapped = options.columns.find("t");
+  return mapped == options.columns.end() ? "t" : mapped->second;
 }
 
-// t must strictly increase within the experiment.
-void CheckTimeIncreases(const Trace& part, const TraceFile& file, const Block& block) {
-  const std::string& split = file.options.split;
-  const auto& t = part.Column("t");
-  for (std::size_t k = 1; k < t.size(); ++k) {
-    if (!(t[k] > t[k - 1])) {
+// The rows of `block`, t strictly increasing, rows that repeat the previous row's time stamp
+// merged as --duplicate-time says: the first row of the instant kept (kFirst), every column
+// averaged over the instant's rows (kMean, the running mean the CSV reader used), or an error
+// that names the flag (kError). `whole`: the block is every row of `trace`, which is moved
+// when no row repeats.
+Samples ExperimentSamples(Trace& trace, const TraceFile& file, const Block& block,
+                          const std::string& name, bool whole) {
+  const TraceInputOptions& options = file.options;
+  const auto& t = trace.Column("t");
+  std::vector<std::size_t> starts;  // the first row of each instant
+  starts.reserve(block.end - block.begin);
+  for (std::size_t k = block.begin; k < block.end; ++k) {
+    if (k > block.begin && !(t[k] > t[k - 1])) {
+      const bool repeat = t[k] == t[k - 1];
+      if (repeat && options.duplicate_time != DuplicateTime::kError) continue;
+      const std::string& split = options.split;
       throw InputError(
-          file.path, file.LineOf(block.begin + k), file.FieldOf("t"),
-          "time 't' must strictly increase (" + DisplayNumber(t[k]) +
-              (t[k] == t[k - 1] ? " repeats " : " follows ") + DisplayNumber(t[k - 1]) + ")" +
-              (!split.empty() ? " within " + split + " = " + DisplayNumber(block.value) : ""));
+          file.path, file.LineOf(k), file.FieldOf("t"),
+          "time '" + TimeHeader(options) + "' must strictly increase (" + DisplayNumber(t[k]) +
+              (repeat ? " repeats " + DisplayNumber(t[k - 1]) + " of line " +
+                            std::to_string(file.LineOf(k - 1))
+                      : " follows " + DisplayNumber(t[k - 1])) +
+              ")" +
+              (!split.empty() ? " within " + split + " = " + DisplayNumber(block.value) : "") +
+              (repeat ? "; for several rows logged at one instant use --duplicate-time first|mean"
+                      : ""));
     }
+    starts.push_back(k);
   }
+  Samples samples;
+  samples.name = name;
+  samples.first_row = block.begin;
+  samples.last_row = block.end - 1;
+  if (starts.size() == block.end - block.begin) {
+    // Without --select or --split the block is the whole trace: it moves once.
+    if (whole) {
+      samples.part = std::move(trace);
+    } else {
+      samples.part.comments = trace.comments;
+      for (std::size_t c = 0; c < trace.num_columns(); ++c) {
+        const auto& column = trace.Column(c);
+        samples.part.Append(trace.names()[c],
+                            std::vector<double>(column.begin() + static_cast<long>(block.begin),
+                                                column.begin() + static_cast<long>(block.end)));
+      }
+    }
+    return samples;
+  }
+  samples.rows = starts;
+  samples.part.comments = trace.comments;
+  const bool mean = options.duplicate_time == DuplicateTime::kMean;
+  for (std::size_t c = 0; c < trace.num_columns(); ++c) {
+    const auto& column = trace.Column(c);
+    std::vector<double> values;
+    values.reserve(starts.size());
+    for (std::size_t g = 0; g < starts.size(); ++g) {
+      const std::size_t end = g + 1 < starts.size() ? starts[g + 1] : block.end;
+      double value = column[starts[g]];
+      for (std::size_t k = starts[g] + 1; mean && k < end; ++k) {
+        value += (column[k] - value) / static_cast<double>(k - starts[g] + 1);
+      }
+      values.push_back(value == 0.0 ? 0.0 : value);  // never -0
+    }
+    samples.part.Append(trace.names()[c], std::move(values));
+  }
+  const std::size_t merged = block.end - block.begin - starts.size();
+  if (merged > 0) {
+    samples.part.comments.push_back("read with --duplicate-time " +
+                                    std::string(mean ? "mean" : "first") + ": " +
+                                    std::to_string(merged) + " repeated-time rows merged");
+  }
+  return samples;
+}
+
+// --resample: the samples linearly interpolated onto t0 + k step (k = 0, 1, ... up to the
+// last time stamp; `open`, a switch, is held from the sample at or before), the experiment
+// cut into parts where a recorded step exceeds kResampleGapSteps grid steps (no samples are
+// made up across a gap). As recorded without --resample.
+std::vector<Samples> Resample(Samples samples, const TraceFile& file) {
+  const TraceInputOptions& options = file.options;
+  std::vector<Samples> parts;
+  const Trace& part = samples.part;
+  const auto& t = part.Column("t");
+  const std::size_t n = t.size();
+  if ((!options.resample_median && !(options.resample_step > 0.0)) || n < 2) {
+    parts.push_back(std::move(samples));
+    return parts;
+  }
+  std::vector<double> steps(n - 1);
+  for (std::size_t k = 1; k < n; ++k) steps[k - 1] = t[k] - t[k - 1];
+  std::vector<double> sorted = steps;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2),
+                   sorted.end());
+  const double median = sorted[sorted.size() / 2];
+  const double step = options.resample_median ? median : options.resample_step;
+  const std::string step_text =
+      options.resample_median ? "auto (" + FormatSignificant(step, 6) + " s)" : DisplayNumber(step);
+  if (median > kResampleGapSteps * step) {
+    throw InputError(samples.name + ": --resample " + step_text + " is less than 1/" +
+                     FormatSignificant(kResampleGapSteps, 6) + " of the median step, " +
+                     FormatSignificant(median, 6) + " s: every recorded step would be a gap; " +
+                     "choose a step near the median step (--resample auto)");
+  }
+  // The parts [first, last] of the samples, cut at the gaps, and the grid points of each.
+  // (As no step within a part exceeds kResampleGapSteps grid steps, a part has at most that
+  // many grid points per sample.)
+  std::vector<std::pair<std::size_t, std::size_t>> ranges;
+  std::vector<std::size_t> points;
+  std::size_t first = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    if (k + 1 < n && !(steps[k] > kResampleGapSteps * step)) continue;
+    ranges.emplace_back(first, k);
+    // 1e-9: a span that is a whole number of steps but for rounding keeps its last point.
+    points.push_back(static_cast<std::size_t>(std::floor((t[k] - t[first]) / step + 1e-9)) + 1);
+    first = k + 1;
+  }
+  for (std::size_t r = 0; r < ranges.size(); ++r) {
+    const auto [a, b] = ranges[r];
+    const std::size_t m = points[r];
+    Samples out;
+    out.first_row = samples.first_row;  // refined below when the record is cut
+    out.last_row = samples.last_row;
+    out.cut = ranges.size() > 1;
+    out.name = samples.name;
+    if (out.cut) {
+      out.name += "[t=" + DisplayNumber(t[a]) + ":" + DisplayNumber(t[b]) + "]";
+      out.first_row = samples.RowOf(a);
+      out.last_row = b + 1 < n ? samples.RowOf(b + 1) - 1 : samples.last_row;
+    }
+    std::vector<double> grid(m);
+    for (std::size_t k = 0; k < m; ++k)
+      grid[k] = std::min(t[a] + static_cast<double>(k) * step, t[b]);
+    out.part.comments = part.comments;
+    out.part.comments.push_back("resampled with --resample " + step_text + ": " +
+                                std::to_string(m) + " samples from " + std::to_string(b - a + 1) +
+                                " (linear interpolation)");
+    for (std::size_t c = 0; c < part.num_columns(); ++c) {
+      const std::string& column_name = part.names()[c];
+      if (column_name == "t") {
+        out.part.Append("t", grid);
+        continue;
+      }
+      const auto& x = part.Column(c);
+      const bool hold = column_name == "open";
+      std::vector<double> y(m);
+      std::size_t j = a;
+      for (std::size_t k = 0; k < m; ++k) {
+        while (j + 1 < b && t[j + 1] <= grid[k]) ++j;
+        if (a == b) {
+          y[k] = x[a];
+          continue;
+        }
+        const double frac = std::clamp((grid[k] - t[j]) / (t[j + 1] - t[j]), 0.0, 1.0);
+        const double value =
+            hold ? (frac >= 1.0 ? x[j + 1] : x[j]) : x[j] + frac * (x[j + 1] - x[j]);
+        y[k] = value == 0.0 ? 0.0 : value;
+      }
+      out.part.Append(column_name, std::move(y));
+    }
+    parts.push_back(std::move(out));
+  }
+  return parts;
 }
 
 // After --derive: the observed columns must exist and a fit needs at least 3 samples.
-void CheckFitColumns(const Trace& part, const TraceFile& file, const Block& block,
-                     const std::string& name, bool by_rows) {
+void CheckFitColumns(const Samples& samples, const TraceFile& file, bool by_rows) {
+  const Trace& part = samples.part;
+  const std::string& name = samples.name;
   const std::string& path = file.path;
   for (const auto& required_name : file.options.required) {
     if (!part.Has(required_name)) {
@@ -343,15 +500,18 @@ void CheckFitColumns(const Trace& part, const TraceFile& file, const Block& bloc
     }
   }
   if (part.rows() < 3) {
-    const std::string samples =
+    const std::string count =
         std::to_string(part.rows()) + " sample" + (part.rows() == 1 ? "" : "s");
-    if (!by_rows) throw InputError(path + ": " + samples + " only: a fit needs at least 3");
-    throw InputError(path, file.LineOf(block.begin), 0,
-                     name.substr(path.size()) + " has " + samples + " only (line" +
-                         (part.rows() == 1 ? " " + std::to_string(file.LineOf(block.begin))
-                                           : "s " + std::to_string(file.LineOf(block.begin)) + "-" +
-                                                 std::to_string(file.LineOf(block.end - 1))) +
-                         "): a fit needs at least 3 per experiment");
+    if (!by_rows && !samples.cut) {
+      throw InputError(path + ": " + count + " only: a fit needs at least 3");
+    }
+    const long first = file.LineOf(samples.first_row), last = file.LineOf(samples.last_row);
+    throw InputError(
+        path, first, 0,
+        name.substr(path.size()) + " has " + count + " only (line" +
+            (first == last ? " " + std::to_string(first)
+                           : "s " + std::to_string(first) + "-" + std::to_string(last)) +
+            "): a fit needs at least 3 per experiment");
   }
 }
 
@@ -397,23 +557,21 @@ std::vector<FitTrace> PrepareFitTraces(Trace trace, const std::string& path,
   std::vector<FitTrace> experiments;
   experiments.reserve(blocks.size());
   for (const Block& block : blocks) {
-    const std::string name = ExperimentName(path, options, block);
-    Trace part;
-    if (!by_rows) {
-      // Without --select or --split there is exactly one block: the trace moves once.
-      part = std::move(trace);  // NOLINT(bugprone-use-after-move)
-    } else {
-      part = BlockRows(trace, block);
+    // Without --select or --split there is exactly one block: the trace moves once (unless
+    // rows are merged).
+    Samples samples = ExperimentSamples(trace, file, block, ExperimentName(path, options, block),
+                                        !by_rows);  // NOLINT(bugprone-use-after-move)
+    for (Samples& resampled : Resample(std::move(samples), file)) {
+      Trace& part = resampled.part;
+      for (const auto& [target, source] : options.derive) {
+        part.Set(target, Differentiate(part.Column("t"), part.Column(source)));
+      }
+      CheckFitColumns(resampled, file, by_rows);
+      const InitialState initial = InitialStateOf(part, options, default_initial);
+      FitTrace fit = RecordedFitTrace(std::move(part), initial, resampled.name);
+      fit.sha256 = sha256;
+      experiments.push_back(std::move(fit));
     }
-    CheckTimeIncreases(part, file, block);
-    for (const auto& [target, source] : options.derive) {
-      part.Set(target, Differentiate(part.Column("t"), part.Column(source)));
-    }
-    CheckFitColumns(part, file, block, name, by_rows);
-    const InitialState initial = InitialStateOf(part, options, default_initial);
-    FitTrace fit = RecordedFitTrace(std::move(part), initial, name);
-    fit.sha256 = sha256;
-    experiments.push_back(std::move(fit));
   }
   return experiments;
 }

@@ -1,6 +1,6 @@
 // Preparing a measured trace for a fit (docs/cli.md §2.2): column mapping, unit scaling,
-// row selection, splitting a file into experiments, velocity from position, and the
-// recorded input.
+// row selection, splitting a file into experiments, merging repeated time stamps,
+// resampling onto a uniform grid, velocity from position, and the recorded input.
 #pragma once
 
 #include <map>
@@ -41,14 +41,27 @@ struct TraceInputOptions {
   // (after selection); each value must occupy one unbroken block of rows.
   std::string split;
   // The file's dialect (docs/trace-format.md): field separator (0: detected from the
-  // header) and what to do with rows that repeat a time stamp (--duplicate-time).
+  // header) and what to do with rows that repeat a time stamp (--duplicate-time), applied
+  // within each experiment, after selection and splitting.
   char delimiter = 0;
   DuplicateTime duplicate_time = DuplicateTime::kError;
+  // --resample: each experiment linearly interpolated onto the uniform grid t0 + k step
+  // (s), k = 0, 1, ... up to its last time stamp (`open`, a switch, is held, not
+  // interpolated); with `resample_median` the step is the experiment's median step. A
+  // recorded step longer than kResampleGapSteps grid steps is a gap: the experiment is cut
+  // there, each part on its own grid, named "NAME[t=FIRST:LAST]". Neither set: the samples
+  // as recorded.
+  double resample_step = 0.0;
+  bool resample_median = false;
 };
 
-// Reads, maps, scales, selects, splits and derives; throws InputError naming the file
-// (and line and column where there is one). One FitTrace per experiment, in file order;
-// without --split exactly one. An experiment cut from a file is named
+// A recorded step longer than this many --resample steps cuts the experiment in two.
+inline constexpr double kResampleGapSteps = 5.0;
+
+// Reads, maps, scales, selects, splits, merges repeated time stamps, resamples and derives,
+// in that order (docs/cli.md §2.2); throws InputError naming the file (and line and column
+// where there is one). One FitTrace per experiment, in file order; without --split (and
+// gaps that --resample cuts at) exactly one. An experiment cut from a file is named
 // "FILE[COLUMN=VALUE]" (split) or "FILE[SELECTION]" (select only) in `path`.
 std::vector<FitTrace> LoadFitTraces(const std::string& path, const TraceInputOptions& options,
                                     const InitialState& default_initial);
