@@ -420,7 +420,8 @@ std::string FleetRowKey(const FleetRow& row, const std::string& baseline_path,
                         const std::vector<std::string>& common_args) {
   Sha256 hash;
   const std::string zero(1, '\0');
-  hash.Update(std::string("blmd-ident ") + kVersion + zero + row.id + zero);
+  hash.Update(std::string("blmd-ident ") + kVersion + zero + row.id + zero + row.drive + zero +
+              row.date + zero);
   for (const auto& a : common_args) hash.Update(a + zero);
   hash.Update("--row" + zero);
   for (const auto& a : row.args) hash.Update(a + zero);

@@ -47,7 +47,7 @@ std::vector<FleetRow> ReadFleetManifest(const std::string& path);
 std::optional<std::vector<std::string>> SplitArguments(const std::string& text);
 
 // What decides that a finished row need not run again: a SHA-256 of the tool's version, the
-// row's id, its arguments (the batch's common flags and its own), the baseline it is compared
+// row's id, drive and date, its arguments (the batch's common flags and its own), the baseline it is compared
 // with and the bytes of every file it reads (config, traces, baseline). A file that cannot be
 // read enters as its name and the reason, so that it is read again (and fails) next time.
 std::string FleetRowKey(const FleetRow& row, const std::string& baseline_path,
