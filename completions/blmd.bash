@@ -20,7 +20,7 @@ _blmd_methods="ceres classic fsd powell"
 _blmd_effects="asymmetric_viscous cogging coulomb_friction current_offset dead_time gravity load_torque quadratic_drag spring stribeck"
 _blmd_columns="i ib ic theta u w"
 
-_blmd_ident_flags="--baseline --bic-margin --candidates --column --config --decimate --delimiter --derive --discover --duplicate-time --error --export-matlab --fail-above-nrmse --fail-on-warning --filter-hz --free --help --html --initial --initial-state --json --max-effects --max-evaluations --method --min-share --no-progress --noise-std --observe --option --progress --quiet --report --resample --scale --seed --select --split --threads --trace --validate --verbose --version --weighting --write-config"
+_blmd_ident_flags="--baseline --baseline-dir --batch --bic-margin --candidates --column --config --decimate --delimiter --derive --discover --drift-alpha --duplicate-time --error --export-matlab --fail-above-nrmse --fail-on-warning --filter-hz --free --help --html --initial --initial-state --json --max-effects --max-evaluations --method --min-share --new-baselines --no-progress --noise-std --observe --option --out --progress --quiet --report --resample --scale --seed --select --split --threads --trace --validate --verbose --version --weighting --write-config"
 _blmd_sim_flags="--config --delimiter --duplicate-time --effect --help --init-config --input --noise --out --quiet --seed --version"
 _blmd_surface_flags="--column --config --decimate --delimiter --derive --duplicate-time --error --filter-hz --force --grid --help --initial-state --json --observe --out --quiet --resample --scale --select --shard --split --svg --threads --trace --version"
 _blmd_tune_flags="--config --crossover --current-bandwidth --delay --duration --fail-on-warning --filter-ratio --from-report --help --integral-ratio --json --limit --loop --phase-margin --position-crossover --quiet --report --sample-rate --step --threads --version --write-config"
@@ -110,7 +110,8 @@ _blmd_complete() {
   case $prev in
     --config | --report | --baseline | --write-config | --from-report) _blmd_files "$cur" '*.json' ;;
     --export-matlab) _blmd_files "$cur" '*.m' ;;
-    --trace | --validate | --input | --out | --html | --svg | --write-input) _blmd_files "$cur" ;;
+    --trace | --validate | --input | --out | --html | --svg | --write-input | --baseline-dir) _blmd_files "$cur" ;;
+    --batch) _blmd_files "$cur" '*.csv' ;;
     --method) _blmd_words "$_blmd_methods" "$cur" ;;
     --init-config) _blmd_words "$_blmd_models" "$cur" ;;
     --candidates) _blmd_list "$_blmd_effects" "$cur" ;;
@@ -138,7 +139,7 @@ _blmd_complete() {
       --grid | --initial | --max-effects | --max-evaluations | --option | --scale | --seed | --noise-std | \
       --select | --shard | --split | --threads | --title | --crossover | --phase-margin | \
       --step | --duration | --integral-ratio | --filter-ratio | --sample-rate | --delay | \
-      --current-bandwidth | --position-crossover)
+      --current-bandwidth | --position-crossover | --drift-alpha)
       COMPREPLY=() # a value of the user's own
       ;;
     *) value=0 ;;
