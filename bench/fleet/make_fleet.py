@@ -76,10 +76,10 @@ def corrupt(path, kind, rng):
         lines = f.read().splitlines()
     if kind == "truncated":  # a logger cut off mid-row
         text = "\n".join(lines[: len(lines) // 2]) + "\n" + lines[len(lines) // 2][:7]
-    elif kind == "text_cell":
+    elif kind == "text_cell":  # in the observed speed column (text elsewhere is left out)
         k = rng.randrange(2, len(lines))
         cells = lines[k].split(",")
-        cells[-1] = "overflow"
+        cells[lines[0].split(",").index("w")] = "overflow"
         lines[k] = ",".join(cells)
         text = "\n".join(lines) + "\n"
     elif kind == "no_w_column":

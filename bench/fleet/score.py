@@ -17,6 +17,7 @@ def main():
     with open(results) as f:
         rows = list(csv.DictReader(f))
     by_drive = {r["drive"]: r for r in rows}
+    truth = {d: t for d, t in truth.items() if d in by_drive}  # a table of a part of the fleet
     drifted = [d for d, t in truth.items() if t["drifted"] and not t["corrupt"]]
     steady = [d for d, t in truth.items() if not t["drifted"] and not t["corrupt"]]
     corrupt = [d for d, t in truth.items() if t["corrupt"]]

@@ -26,14 +26,18 @@ from . import _blmd
 __all__ = ["run"]
 
 
-def _run_row(row, common, out, baseline_dir, alpha, threads):
-    """One row on a worker: its line of the table (a dict) and whether it was reused."""
-    text, reused = _blmd.fleet_run_row(row, common, out, baseline_dir, alpha, threads)
-    return json.loads(text), reused
+def _run_rows(rows, common, out, baseline_dir, alpha, threads):
+    """Rows on a worker, one after the other: each one's line of the table (a dict) and
+    whether it was reused. A chunk run again (its worker lost) reuses the rows it finished."""
+    results = []
+    for row in rows:
+        text, reused = _blmd.fleet_run_row(row, common, out, baseline_dir, alpha, threads)
+        results.append((json.loads(text), reused))
+    return results
 
 
 def run(manifest, out, client=None, args=(), baseline_dir=None, new_baselines=False,
-        drift_alpha=0.01, workers=None, retries=2, progress=None):
+        drift_alpha=0.01, workers=None, retries=2, progress=None, chunk=None):
     """Identify every row of ``manifest`` as a Dask task; returns the table as a DataFrame.
 
     manifest: the manifest CSV (``id,trace,config,baseline``, docs/fleet.md).
@@ -47,6 +51,8 @@ def run(manifest, out, client=None, args=(), baseline_dir=None, new_baselines=Fa
     retries: how often a task that raised is tried again (a lost worker is Dask's own
         matter: its tasks are rescheduled).
     progress: a callable ``progress(done, total)`` called as rows finish.
+    chunk: rows per task (default: the rows spread over four tasks per worker thread, at most
+        32 per task): fewer, longer tasks cost the scheduler less per row.
 
     The DataFrame has the columns of ``out/results.csv``; its ``attrs["summary"]`` holds the
     counts (rows, ok, drift, error, ran, reused) and the exit code the command would give.
@@ -76,24 +82,28 @@ def run(manifest, out, client=None, args=(), baseline_dir=None, new_baselines=Fa
         client = Client(client)
         owned = [client]
     try:
+        todo = [k for k, row in enumerate(rows) if not row["error"]]
+        if chunk is None:
+            threads = sum(client.nthreads().values()) or 1
+            chunk = max(1, min(32, -(-len(todo) // (4 * threads))))
         futures = {}
-        for k, row in enumerate(rows):
-            if row["error"]:
-                continue
-            future = client.submit(_run_row, row, common, out, baseline_dir,
-                                   float(drift_alpha), 1, pure=False, retries=retries)
-            futures[future] = k
+        for start in range(0, len(todo), int(chunk)):
+            part = todo[start:start + int(chunk)]
+            future = client.submit(_run_rows, [rows[k] for k in part], common, out,
+                                   baseline_dir, float(drift_alpha), 1, pure=False,
+                                   retries=retries)
+            futures[future] = part
         lines = [""] * len(rows)
         ran = reused = 0
         done = 0
         for future in as_completed(list(futures)):
-            line, was_reused = future.result()
-            lines[futures[future]] = json.dumps(line)
-            reused += bool(was_reused)
-            ran += not was_reused
-            done += 1
+            for k, (line, was_reused) in zip(futures[future], future.result()):
+                lines[k] = json.dumps(line)
+                reused += bool(was_reused)
+                ran += not was_reused
+                done += 1
             if progress is not None:
-                progress(done, len(futures))
+                progress(done, len(todo))
     finally:
         for thing in owned:
             thing.close()
