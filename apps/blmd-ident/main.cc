@@ -1,6 +1,7 @@
 // blmd-ident: identify the free parameters of a config's model from measured traces.
 // Flags -> IdentSettings -> blmd::MakeIdentRequest (app/request.h) -> blmd::Identify
-// (app/identify.h) -> the report, summary, HTML and exit code (docs/cli.md).
+// (app/identify.h) -> the report, summary, HTML and exit code (docs/cli.md); with --batch, one
+// such identification per manifest row (batch.h, docs/fleet.md).
 #include <sys/ioctl.h>
 #include <unistd.h>
 
