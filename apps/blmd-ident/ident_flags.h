@@ -72,7 +72,8 @@ struct IdentFlags {
         ->needs(manifest);
     app.add_option("--drift-alpha", drift_alpha,
                    "--batch: the drift rule's false-alarm rate per drive (default 0.01)")
-        ->check(ShareNumber())
+        ->check(NumberValidator([](double v) { return v > 0.0 && v < 1.0; },
+                                "a number in (0, 1)", "0<X<1"))
         ->needs(manifest);
     app.add_option("--validate", validates,
                    "held-out trace CSV to report the error on (repeatable)");

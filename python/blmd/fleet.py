@@ -63,6 +63,8 @@ def run(manifest, out, client=None, args=(), baseline_dir=None, new_baselines=Fa
 
     common = [str(a) for a in args]
     _blmd.fleet_check_args(common)
+    if not 0.0 < float(drift_alpha) < 1.0:
+        raise _blmd.InputError(f"drift_alpha: must be a number in (0, 1), not {drift_alpha}")
     if new_baselines and not baseline_dir:
         raise _blmd.InputError(
             "new_baselines needs baseline_dir (where the baselines are kept)")

@@ -72,4 +72,6 @@ def test_fleet_run_refuses_bad_flags_and_manifests_before_any_work(tmp_path):
     with pytest.raises(ValueError, match="unknown column 'trac'"):
         (tmp_path / "m.csv").write_text("id,trac,config\n")
         blmd.fleet.run(tmp_path / "m.csv", out=tmp_path / "out")
+    with pytest.raises(ValueError, match=r"drift_alpha: must be a number in \(0, 1\), not 0"):
+        blmd.fleet.run(manifest, out=tmp_path / "out", drift_alpha=0)
     assert not (tmp_path / "out").exists()

@@ -229,6 +229,10 @@ TEST(Batch, BadManifestOrFlagsWriteNothing) {
   r = testing::Run(Batch(ok, out, "--report r.json"));
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("--report: not for a batch row"), std::string::npos) << r.err;
+  r = testing::Run(Batch(ok, out, "--drift-alpha 0"));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--drift-alpha: must be a number in (0, 1), not 0"), std::string::npos)
+      << r.err;
   r = testing::Run(BinPath("blmd-ident") + " --batch " + ok);
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_EQ(r.err, "error: --batch needs --out DIR (the output folder)\n");
