@@ -6,6 +6,7 @@
 #pragma once
 
 #include "blmd/app/baseline.h"
+#include "blmd/app/fleet.h"
 #include "blmd/app/identify.h"
 #include "blmd/app/sweep.h"
 #include "blmd/constants.h"
