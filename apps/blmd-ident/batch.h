@@ -150,6 +150,8 @@ inline nlohmann::json RunFleetRow(const FleetRow& row, const std::vector<std::st
                             seconds());
     finished = false;
   }
+  // A row that failed before its fit leaves no report: an earlier run's is not this one's.
+  if (line.value("report", "").empty()) std::remove(FleetReportPath(options.out_dir, row.id).c_str());
   if (finished) StoreFleetRow(options.out_dir, row.id, key, line);
   return line;
 }

@@ -153,6 +153,13 @@ TEST(Batch, ResumesOnlyWhatChangedOrDidNotFinish) {
   MakeTrace(dir, "c", 2.1e-5, 2.3e-5, 4);
   const CommandResult resumed = testing::Run(Batch(manifest, out, "--threads 1"));
   EXPECT_NE(resumed.out.find("(2 run, 1 unchanged"), std::string::npos) << resumed.out;
+  // A trace that turns corrupt: the row is an error row and its earlier report is gone.
+  dir.Write("b.csv", "t,u,i,w\n0,1,2,3\n0,1,2,3\n");
+  const CommandResult corrupt = testing::Run(Batch(manifest, out, "--threads 1"));
+  EXPECT_EQ(corrupt.exit_code, 1);
+  EXPECT_NE(corrupt.out.find("(1 run, 2 unchanged"), std::string::npos) << corrupt.out;
+  EXPECT_FALSE(FileExists(out + "/b.json"));
+  MakeTrace(dir, "b", 2.4e-5, 2.1e-5, 2);
   // Other flags are other inputs: every row runs again.
   const CommandResult other = testing::Run(Batch(manifest, out, "--threads 1 --method powell"));
   EXPECT_NE(other.out.find("(3 run, 0 unchanged"), std::string::npos) << other.out;
