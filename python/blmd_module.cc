@@ -547,7 +547,6 @@ py::tuple Simulate(const py::tuple& config_arg, const std::vector<std::string>& 
   return py::make_tuple(names, columns, failure);
 }
 
-
 // ---- blmd.fleet (docs/fleet.md): the rows of a manifest as plain dicts (Dask pickles them
 // to its workers), each run by the command's own row runner (apps/blmd-ident/batch.h).
 

@@ -28,18 +28,18 @@ inline const std::vector<std::string>& BatchValueFlags() {
   return flags;
 }
 inline const std::vector<std::string>& BatchSwitchFlags() {
-  static const std::vector<std::string> flags = {"--new-baselines", "--progress",
-                                                 "--no-progress", "--quiet"};
+  static const std::vector<std::string> flags = {"--new-baselines", "--progress", "--no-progress",
+                                                 "--quiet"};
   return flags;
 }
 // The flags a row cannot take: its files are the batch's (<out>/<id>.json), --config,
 // --trace and --baseline come from its columns.
 inline const std::vector<std::string>& RowForbiddenFlags() {
   static const std::vector<std::string> flags = {
-      "--config",        "--trace", "--report",      "--html",        "--json",
-      "--write-config",  "--export-matlab", "--baseline", "--batch", "--out",
-      "--baseline-dir",  "--new-baselines", "--drift-alpha", "--threads", "--progress",
-      "--no-progress",   "--quiet"};
+      "--config",       "--trace",         "--report",      "--html",    "--json",
+      "--write-config", "--export-matlab", "--baseline",    "--batch",   "--out",
+      "--baseline-dir", "--new-baselines", "--drift-alpha", "--threads", "--progress",
+      "--no-progress",  "--quiet"};
   return flags;
 }
 
@@ -151,7 +151,8 @@ inline nlohmann::json RunFleetRow(const FleetRow& row, const std::vector<std::st
     finished = false;
   }
   // A row that failed before its fit leaves no report: an earlier run's is not this one's.
-  if (line.value("report", "").empty()) std::remove(FleetReportPath(options.out_dir, row.id).c_str());
+  if (line.value("report", "").empty())
+    std::remove(FleetReportPath(options.out_dir, row.id).c_str());
   if (finished) StoreFleetRow(options.out_dir, row.id, key, line);
   return line;
 }
@@ -171,9 +172,8 @@ class BatchProgress {
     const double elapsed =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
     const std::size_t ran = done_ - reused_;
-    const double left = ran > 0 ? elapsed / static_cast<double>(ran) *
-                                      static_cast<double>(rows_ - done_)
-                                : 0.0;
+    const double left =
+        ran > 0 ? elapsed / static_cast<double>(ran) * static_cast<double>(rows_ - done_) : 0.0;
     std::fprintf(stderr,
                  "%sblmd-ident: batch %zu/%zu rows (%zu drift, %zu error, %zu unchanged), "
                  "%.0f s, about %.0f s left%s",
@@ -217,7 +217,8 @@ inline BatchRun RunBatch(const std::vector<FleetRow>& rows, const std::vector<st
     if (!rows[k].error.empty()) continue;
     (reused[k] ? run.reused : run.ran) += 1;
   }
-  run.summary = WriteFleetOutputs(rows, std::move(lines), options.out_dir, options.baseline_dir, store_baselines);
+  run.summary = WriteFleetOutputs(rows, std::move(lines), options.out_dir, options.baseline_dir,
+                                  store_baselines);
   return run;
 }
 

@@ -6,8 +6,8 @@
 
 #include <cmath>
 #include <cstdint>
-#include <sstream>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -72,8 +72,8 @@ struct IdentFlags {
         ->needs(manifest);
     app.add_option("--drift-alpha", drift_alpha,
                    "--batch: the drift rule's false-alarm rate per drive (default 0.01)")
-        ->check(NumberValidator([](double v) { return v > 0.0 && v < 1.0; },
-                                "a number in (0, 1)", "0<X<1"))
+        ->check(NumberValidator([](double v) { return v > 0.0 && v < 1.0; }, "a number in (0, 1)",
+                                "0<X<1"))
         ->needs(manifest);
     app.add_option("--validate", validates,
                    "held-out trace CSV to report the error on (repeatable)");
@@ -191,14 +191,13 @@ inline IdentVerdict Judge(const IdentFlags& f, const blmd::IdentOutcome& outcome
     if (!known || fit.nrmse > f.fail_above) {
       std::ostringstream limit;
       limit << f.fail_above;
-      return {blmd::kExitGate, "final NRMSE " +
-                                   (known ? nlohmann::json(fit.nrmse).dump() : "n/a") +
+      return {blmd::kExitGate, "final NRMSE " + (known ? nlohmann::json(fit.nrmse).dump() : "n/a") +
                                    " is above --fail-above-nrmse " + limit.str()};
     }
   }
   if (with_baseline && report.baseline && report.baseline->changed()) {
-    return {blmd::kExitGate, "the model moved from the baseline " + report.baseline->path +
-                                 ": " + blmd::Join(report.baseline->moved) +
+    return {blmd::kExitGate, "the model moved from the baseline " + report.baseline->path + ": " +
+                                 blmd::Join(report.baseline->moved) +
                                  " beyond the combined 95 % intervals (--baseline)"};
   }
   if (f.fail_on_warning && !report.warnings.empty()) {

@@ -18,13 +18,13 @@
 #include "batch.h"
 #include "blmd/app/fleet.h"
 #include "blmd/app/identify.h"
-#include "ident_flags.h"
 #include "blmd/io/config.h"
 #include "blmd/io/files.h"
 #include "blmd/report/export.h"
 #include "blmd/report/html/html_report.h"
 #include "blmd/report/progress.h"
 #include "blmd/report/report.h"
+#include "ident_flags.h"
 
 namespace {
 
@@ -84,7 +84,6 @@ int ExitCode(const IdentFlags& f, const blmd::IdentOutcome& outcome) {
   return verdict.code;
 }
 
-
 // --batch MANIFEST --out DIR (docs/fleet.md): every row one identification, the table in DIR.
 int RunBatchCommand(const IdentFlags& f, const std::vector<std::string>& args) {
   if (f.out_dir.empty()) throw blmd::InputError("--batch needs --out DIR (the output folder)");
@@ -118,8 +117,8 @@ int RunBatchCommand(const IdentFlags& f, const std::vector<std::string>& args) {
     if (s.baselines_stored > 0) {
       std::cout << "baselines stored: " << s.baselines_stored << " in " << f.baseline_dir << "\n";
     }
-    std::cout << "results: " << f.out_dir << "/results.csv, " << f.out_dir
-              << "/results.jsonl, " << f.out_dir << "/fleet.html\n";
+    std::cout << "results: " << f.out_dir << "/results.csv, " << f.out_dir << "/results.jsonl, "
+              << f.out_dir << "/fleet.html\n";
   }
   return s.ExitCode();
 }

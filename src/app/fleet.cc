@@ -117,12 +117,31 @@ std::string JoinWith(const std::vector<std::string>& parts, const std::string& s
   return out;
 }
 
-const std::vector<std::string> kFixedColumns = {
-    "id",      "drive",       "date",     "status",           "J",
-    "J_ci95_low", "J_ci95_high", "B",     "B_ci95_low",       "B_ci95_high",
-    "nrmse",   "drift_z",     "drift_threshold", "moved",     "effects",
-    "warnings", "message",    "J_baseline", "J_baseline_ci95_low", "J_baseline_ci95_high",
-    "B_baseline", "B_baseline_ci95_low", "B_baseline_ci95_high", "wall_time_s", "report"};
+const std::vector<std::string> kFixedColumns = {"id",
+                                                "drive",
+                                                "date",
+                                                "status",
+                                                "J",
+                                                "J_ci95_low",
+                                                "J_ci95_high",
+                                                "B",
+                                                "B_ci95_low",
+                                                "B_ci95_high",
+                                                "nrmse",
+                                                "drift_z",
+                                                "drift_threshold",
+                                                "moved",
+                                                "effects",
+                                                "warnings",
+                                                "message",
+                                                "J_baseline",
+                                                "J_baseline_ci95_low",
+                                                "J_baseline_ci95_high",
+                                                "B_baseline",
+                                                "B_baseline_ci95_low",
+                                                "B_baseline_ci95_high",
+                                                "wall_time_s",
+                                                "report"};
 
 std::string CsvCell(const json& value) {
   if (value.is_null()) return "";
@@ -198,8 +217,8 @@ std::string ParameterChart(const std::vector<const json*>& records, const std::s
           << y(hi) << "\" stroke=\"" << colour << "\"/>";
     }
     svg << "<circle cx=\"" << x(k) << "\" cy=\"" << y(v) << "\" r=\"2.5\" fill=\"" << colour
-        << "\"><title>" << internal::Escape(Text(r, "date") + " " + Text(r, "id")) << ": "
-        << name << " = " << DisplayNumber(v) << "</title></circle>";
+        << "\"><title>" << internal::Escape(Text(r, "date") + " " + Text(r, "id")) << ": " << name
+        << " = " << DisplayNumber(v) << "</title></circle>";
   }
   svg << "</svg>";
   return svg.str();
@@ -246,16 +265,16 @@ std::string FleetHtml(const std::vector<json>& lines, const FleetSummary& summar
     const json& last = *list.back();
     const std::string status = Text(last, "status");
     const double z = Value(last, "drift_z");
-    html << "<tr class=\"drive\" data-status=\"" << status << "\"><td>"
-         << internal::Escape(drive) << "</td><td class=\"" << status << "\">" << status
-         << "<br>" << internal::Escape(Text(last, "date")) << "</td><td>"
-         << ParameterChart(list, "J") << "</td><td>" << ParameterChart(list, "B") << "</td><td>"
-         << (std::isfinite(z) ? DisplayNumber(z) : std::string("&ndash;")) << "</td><td class=\"msg\">"
-         << internal::Escape(Text(last, "message")) << "</td><td>";
+    html << "<tr class=\"drive\" data-status=\"" << status << "\"><td>" << internal::Escape(drive)
+         << "</td><td class=\"" << status << "\">" << status << "<br>"
+         << internal::Escape(Text(last, "date")) << "</td><td>" << ParameterChart(list, "J")
+         << "</td><td>" << ParameterChart(list, "B") << "</td><td>"
+         << (std::isfinite(z) ? DisplayNumber(z) : std::string("&ndash;"))
+         << "</td><td class=\"msg\">" << internal::Escape(Text(last, "message")) << "</td><td>";
     for (const json* r : list) {
       const std::string report = Text(*r, "report");
-      const std::string label = internal::Escape(Text(*r, "date").empty() ? Text(*r, "id")
-                                                                          : Text(*r, "date"));
+      const std::string label =
+          internal::Escape(Text(*r, "date").empty() ? Text(*r, "id") : Text(*r, "date"));
       if (report.empty()) {
         html << "<span class=\"" << Text(*r, "status") << "\">" << label << "</span> ";
       } else {
@@ -392,13 +411,14 @@ std::vector<FleetRow> ReadFleetManifest(const std::string& path) {
       row.error = where("id") + "the row has " + std::to_string(fields->values.size()) +
                   " fields, the header " + std::to_string(column_of.size());
     } else if (!SafeName(row.id)) {
-      row.error = where("id") + (row.id.empty() ? std::string("empty id")
-                                                : "id '" + InputError::Excerpt(row.id) + "'") +
-                  ": an id names the row's files (letters, digits, '.', '_', '-')";
+      row.error =
+          where("id") +
+          (row.id.empty() ? std::string("empty id") : "id '" + InputError::Excerpt(row.id) + "'") +
+          ": an id names the row's files (letters, digits, '.', '_', '-')";
       if (row.id.empty() || !SafeName(row.id)) row.id = "line" + std::to_string(number);
     } else if (first_line.count(row.id)) {
-      row.error = where("id") + "id '" + row.id + "' repeats line " +
-                  std::to_string(first_line[row.id]);
+      row.error =
+          where("id") + "id '" + row.id + "' repeats line " + std::to_string(first_line[row.id]);
     } else if (!SafeName(row.drive)) {
       row.error = where("drive") + "drive '" + InputError::Excerpt(row.drive) +
                   "': a drive names its baseline file (letters, digits, '.', '_', '-')";
@@ -412,7 +432,8 @@ std::vector<FleetRow> ReadFleetManifest(const std::string& path) {
     if (!first_line.count(row.id)) first_line[row.id] = number;
     rows.push_back(row);
   }
-  if (!header) throw InputError(path, 1, 1, "no header (a manifest's header: id,trace,config,baseline)");
+  if (!header)
+    throw InputError(path, 1, 1, "no header (a manifest's header: id,trace,config,baseline)");
   return rows;
 }
 
@@ -437,9 +458,8 @@ double DriftRule::Threshold(std::size_t compared) const {
   return boost::math::quantile(normal, 1.0 - alpha / (2.0 * static_cast<double>(compared)));
 }
 
-json FleetResultFromReport(const FleetRow& row, const json& report,
-                           const std::string& report_file, const DriftRule& rule,
-                           double wall_time_s) {
+json FleetResultFromReport(const FleetRow& row, const json& report, const std::string& report_file,
+                           const DriftRule& rule, double wall_time_s) {
   json line = FleetErrorResult(row, "", wall_time_s);
   line["status"] = "ok";
   line["report"] = report_file;
@@ -506,9 +526,9 @@ json FleetResultFromReport(const FleetRow& row, const json& report,
         const double relative = NumberAt(p, "relative_shift");
         std::ostringstream message;
         message << "drifted from the baseline: " << worst << " "
-                << (std::isfinite(relative) ? (relative >= 0 ? "+" : "") +
-                                                  DisplayNumber(100.0 * relative) + " %"
-                                            : std::string("moved"))
+                << (std::isfinite(relative)
+                        ? (relative >= 0 ? "+" : "") + DisplayNumber(100.0 * relative) + " %"
+                        : std::string("moved"))
                 << " (z = " << DisplayNumber(z_max) << " > " << DisplayNumber(threshold)
                 << ", the rule's false-alarm rate " << DisplayNumber(rule.alpha) << ")";
         line["message"] = message.str();
@@ -519,11 +539,20 @@ json FleetResultFromReport(const FleetRow& row, const json& report,
 }
 
 json FleetErrorResult(const FleetRow& row, const std::string& message, double wall_time_s) {
-  return {{"id", row.id},         {"drive", row.drive}, {"date", row.date},
-          {"status", "error"},    {"message", message}, {"warnings", ""},
-          {"effects", ""},        {"moved", ""},        {"report", ""},
-          {"J", nullptr},         {"B", nullptr},       {"nrmse", nullptr},
-          {"drift_z", nullptr},   {"drift_threshold", nullptr},
+  return {{"id", row.id},
+          {"drive", row.drive},
+          {"date", row.date},
+          {"status", "error"},
+          {"message", message},
+          {"warnings", ""},
+          {"effects", ""},
+          {"moved", ""},
+          {"report", ""},
+          {"J", nullptr},
+          {"B", nullptr},
+          {"nrmse", nullptr},
+          {"drift_z", nullptr},
+          {"drift_threshold", nullptr},
           {"wall_time_s", wall_time_s}};
 }
 
@@ -634,9 +663,12 @@ FleetSummary WriteFleetOutputs(const std::vector<FleetRow>& rows, std::vector<js
   for (const json& line : lines) {
     ++summary.rows;
     const std::string status = line.value("status", "");
-    if (status == "ok") ++summary.ok;
-    else if (status == "drift") ++summary.drift;
-    else ++summary.error;
+    if (status == "ok")
+      ++summary.ok;
+    else if (status == "drift")
+      ++summary.drift;
+    else
+      ++summary.error;
     jsonl += line.dump() + "\n";
   }
   WriteFileAtomically((fs::path(out_dir) / "results.csv").string(), FleetCsv(lines));

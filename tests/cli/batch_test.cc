@@ -41,9 +41,9 @@ std::string MakeTrace(const TempDir& dir, const std::string& name, double J, dou
   config["parameters"]["B"] = B;
   const std::string config_path = dir.Write(name + "-truth.json", config.dump());
   const std::string trace = dir.File(name + ".csv");
-  const CommandResult sim = testing::Run(BinPath("blmd-sim") + " --config " + config_path + " --out " +
-                                trace + " --noise i=1% --noise w=1% --quiet --seed " +
-                                std::to_string(seed));
+  const CommandResult sim =
+      testing::Run(BinPath("blmd-sim") + " --config " + config_path + " --out " + trace +
+                   " --noise i=1% --noise w=1% --quiet --seed " + std::to_string(seed));
   EXPECT_EQ(sim.exit_code, 0) << sim.err;
   return trace;
 }
@@ -83,16 +83,28 @@ TEST(Batch, OneRowPerManifestRowErrorRowsAndExitCodes) {
   const std::string a = MakeTrace(dir, "a", 2.26e-5, 2.26e-5, 1);
   const std::string b = MakeTrace(dir, "b", 2.5e-5, 2.0e-5, 2);
   dir.Write("corrupt.csv", "t,u,i,w\n0,1,2,3\n0.001,1,2,x\n");
-  const std::string manifest = dir.Write(
-      "fleet.csv",
-      "id,trace,config,baseline,drive,date,args\n"
-      "a,a.csv," + config + ",,drive-a,2026-11-01,\n"
-      "b,b.csv," + config + ",,drive-b,2026-11-01,--method powell\n"
-      "ab,a.csv;b.csv," + config + ",,drive-ab,2026-11-01,\n"
-      "broken,corrupt.csv," + config + ",,drive-c,2026-11-01,\n"
-      "a,a.csv," + config + ",,drive-a,2026-11-02,\n"
-      "rep,a.csv," + config + ",,drive-r,,--report x.json\n"
-      "bad-flag,a.csv," + config + ",,drive-f,,--no-such-flag\n");
+  const std::string manifest = dir.Write("fleet.csv",
+                                         "id,trace,config,baseline,drive,date,args\n"
+                                         "a,a.csv," +
+                                             config +
+                                             ",,drive-a,2026-11-01,\n"
+                                             "b,b.csv," +
+                                             config +
+                                             ",,drive-b,2026-11-01,--method powell\n"
+                                             "ab,a.csv;b.csv," +
+                                             config +
+                                             ",,drive-ab,2026-11-01,\n"
+                                             "broken,corrupt.csv," +
+                                             config +
+                                             ",,drive-c,2026-11-01,\n"
+                                             "a,a.csv," +
+                                             config +
+                                             ",,drive-a,2026-11-02,\n"
+                                             "rep,a.csv," +
+                                             config +
+                                             ",,drive-r,,--report x.json\n"
+                                             "bad-flag,a.csv," +
+                                             config + ",,drive-f,,--no-such-flag\n");
   const std::string out = dir.File("out");
   const CommandResult r = testing::Run(Batch(manifest, out, "--threads 2"));
   EXPECT_EQ(r.exit_code, 1) << r.err;  // a row failed
@@ -137,9 +149,14 @@ TEST(Batch, ResumesOnlyWhatChangedOrDidNotFinish) {
   MakeTrace(dir, "c", 2.1e-5, 2.3e-5, 3);
   const std::string manifest = dir.Write("fleet.csv",
                                          "id,trace,config,baseline\n"
-                                         "a,a.csv," + config + ",\n"
-                                         "b,b.csv," + config + ",\n"
-                                         "c,c.csv," + config + ",\n");
+                                         "a,a.csv," +
+                                             config +
+                                             ",\n"
+                                             "b,b.csv," +
+                                             config +
+                                             ",\n"
+                                             "c,c.csv," +
+                                             config + ",\n");
   const std::string out = dir.File("out");
   const CommandResult first = testing::Run(Batch(manifest, out, "--threads 1"));
   ASSERT_EQ(first.exit_code, 0) << first.err;
@@ -170,7 +187,8 @@ TEST(Batch, ResumesOnlyWhatChangedOrDidNotFinish) {
   ASSERT_EQ(testing::Run(Batch(manifest, out1, "--threads 1")).exit_code, 0);
   EXPECT_EQ(WithoutWallTime(Slurp(out1 + "/results.csv")),
             WithoutWallTime(Slurp(out2 + "/results.csv")));
-  EXPECT_EQ(WithoutWallTime(Slurp(out1 + "/results.csv")), WithoutWallTime(Slurp(out2 + "/results.csv")));
+  EXPECT_EQ(WithoutWallTime(Slurp(out1 + "/results.csv")),
+            WithoutWallTime(Slurp(out2 + "/results.csv")));
   (void)table;
 }
 
@@ -183,19 +201,26 @@ TEST(Batch, DriftAgainstEachDrivesOwnBaseline) {
   MakeTrace(dir, "drifts-2", 2.4e-5 * 1.15, 2.1e-5, 4);  // J +15 %
   const std::string night1 = dir.Write("night1.csv",
                                        "id,trace,config,baseline,drive,date\n"
-                                       "s1,steady-1.csv," + config + ",,steady,2026-11-01\n"
-                                       "d1,drifts-1.csv," + config + ",,drifts,2026-11-01\n");
+                                       "s1,steady-1.csv," +
+                                           config +
+                                           ",,steady,2026-11-01\n"
+                                           "d1,drifts-1.csv," +
+                                           config + ",,drifts,2026-11-01\n");
   const std::string night2 = dir.Write("night2.csv",
                                        "id,trace,config,baseline,drive,date\n"
-                                       "s2,steady-2.csv," + config + ",,steady,2026-11-02\n"
-                                       "d2,drifts-2.csv," + config + ",,drifts,2026-11-02\n");
+                                       "s2,steady-2.csv," +
+                                           config +
+                                           ",,steady,2026-11-02\n"
+                                           "d2,drifts-2.csv," +
+                                           config + ",,drifts,2026-11-02\n");
   const std::string base = dir.File("baselines");
   const CommandResult first =
       testing::Run(Batch(night1, dir.File("out1"), "--baseline-dir " + base + " --new-baselines"));
   ASSERT_EQ(first.exit_code, 0) << first.err;
   EXPECT_NE(first.out.find("baselines stored: 2 in " + base), std::string::npos) << first.out;
   EXPECT_TRUE(FileExists(base + "/steady.json"));
-  const CommandResult second = testing::Run(Batch(night2, dir.File("out2"), "--baseline-dir " + base));
+  const CommandResult second =
+      testing::Run(Batch(night2, dir.File("out2"), "--baseline-dir " + base));
   EXPECT_EQ(second.exit_code, 3) << second.out << second.err;  // a drive drifted
   const std::vector<json> lines = Lines(Slurp(dir.File("out2/results.jsonl")));
   ASSERT_EQ(lines.size(), 2u);

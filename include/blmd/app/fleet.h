@@ -24,15 +24,15 @@ namespace blmd {
 // One row of the manifest (header `id,trace,config,baseline`, and optionally `drive`, `date`
 // and `args`; docs/fleet.md).
 struct FleetRow {
-  long line = 0;          // the manifest's line (the header is line 1)
-  std::string id;         // unique in the manifest; names the row's files
-  std::string drive;      // the drive the record is of (default: the id)
-  std::string date;       // when it was recorded, as text (ISO 8601 sorts by time)
-  std::string config;     // resolved against the manifest's folder
+  long line = 0;                    // the manifest's line (the header is line 1)
+  std::string id;                   // unique in the manifest; names the row's files
+  std::string drive;                // the drive the record is of (default: the id)
+  std::string date;                 // when it was recorded, as text (ISO 8601 sorts by time)
+  std::string config;               // resolved against the manifest's folder
   std::vector<std::string> traces;  // `trace`: several separated by ';'
-  std::string baseline;   // a report of this drive, or "" (then --baseline-dir's, if any)
+  std::string baseline;             // a report of this drive, or "" (then --baseline-dir's, if any)
   std::vector<std::string> args;    // more blmd-ident flags for this row (`args`, shell words)
-  std::string error;      // the row cannot run: why (an error row; never a failed batch)
+  std::string error;                // the row cannot run: why (an error row; never a failed batch)
 };
 
 // Reads the manifest. Throws InputError (file, line, column) when the file cannot be read or
@@ -47,9 +47,9 @@ std::vector<FleetRow> ReadFleetManifest(const std::string& path);
 std::optional<std::vector<std::string>> SplitArguments(const std::string& text);
 
 // What decides that a finished row need not run again: a SHA-256 of the tool's version, the
-// row's id, drive and date, its arguments (the batch's common flags and its own), the baseline it is compared
-// with and the bytes of every file it reads (config, traces, baseline). A file that cannot be
-// read enters as its name and the reason, so that it is read again (and fails) next time.
+// row's id, drive and date, its arguments (the batch's common flags and its own), the baseline it
+// is compared with and the bytes of every file it reads (config, traces, baseline). A file that
+// cannot be read enters as its name and the reason, so that it is read again (and fails) next time.
 std::string FleetRowKey(const FleetRow& row, const std::string& baseline_path,
                         const std::vector<std::string>& common_args);
 
@@ -101,9 +101,9 @@ struct FleetSummary {
 // a row without a line is an error row "did not finish"), in the manifest's order. With
 // `store_baselines` and a `baseline_dir`, a drive that has no baseline there gets the report
 // of its first `ok` row without a baseline (in the manifest's order). Returns the counts.
-FleetSummary WriteFleetOutputs(const std::vector<FleetRow>& rows,
-                               std::vector<nlohmann::json> lines, const std::string& out_dir,
-                               const std::string& baseline_dir, bool store_baselines);
+FleetSummary WriteFleetOutputs(const std::vector<FleetRow>& rows, std::vector<nlohmann::json> lines,
+                               const std::string& out_dir, const std::string& baseline_dir,
+                               bool store_baselines);
 
 // The table's columns for these lines: the fixed ones, then each other parameter's value and
 // interval (sorted by name).

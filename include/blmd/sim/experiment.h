@@ -145,7 +145,8 @@ struct Experiment {
 
 // How a model's equations are integrated (docs/model-blmd.md §5 and §9).
 //   kFixedEuler  backward Euler at the fixed step dt (every model; the default but for blmd)
-//   kEvents      blmd only (its default, Model::default_settings): the PWM and diode switching instants located to rounding, a
+//   kEvents      blmd only (its default, Model::default_settings): the PWM and diode switching
+//   instants located to rounding, a
 //                Taylor series of the smooth drive between them (second order for the
 //                windings and compensators, third for the speed), samples read
 //                from the series at their exact instants (docs/model-blmd.md §9)

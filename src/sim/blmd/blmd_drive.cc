@@ -233,8 +233,9 @@ const std::vector<ParamInfo>& BlmdDriveModel::parameters() const {
 }
 
 // The events integration by default: faster than the fixed 1 µs step at a smaller error in
-// both the current and the speed (docs/performance.md §7, bench/events_bench.cc). A config names fixed_euler to get the paper's integration (the
-// bundled configs do: their figures and studies were made with it).
+// both the current and the speed (docs/performance.md §7, bench/events_bench.cc). A config names
+// fixed_euler to get the paper's integration (the bundled configs do: their figures and studies
+// were made with it).
 SimulationSettings BlmdDriveModel::default_settings() const {
   SimulationSettings settings;
   settings.dt = 1e-6;

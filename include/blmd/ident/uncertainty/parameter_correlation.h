@@ -44,10 +44,10 @@ struct ParameterCorrelation {
 Eigen::MatrixXd CorrelationFromCovariance(const Eigen::MatrixXd& covariance);
 
 // The correlation of `result`'s estimates on `problem`: the same Jacobian (central
-// differences at the estimate, the method's step: details.fd_step for ceres, else the problem's DifferenceStep) and
-// HAC sandwich as the intervals (EstimateUncertainty), evaluated again (2p + 1 evaluations).
-// Not available when the fit failed, the intervals do not come from that sandwich (the classic
-// method), or the sandwich cannot be formed (the reason says which).
+// differences at the estimate, the method's step: details.fd_step for ceres, else the problem's
+// DifferenceStep) and HAC sandwich as the intervals (EstimateUncertainty), evaluated again (2p + 1
+// evaluations). Not available when the fit failed, the intervals do not come from that sandwich
+// (the classic method), or the sandwich cannot be formed (the reason says which).
 ParameterCorrelation EstimateParameterCorrelation(const FitProblem& problem,
                                                   const FitResult& result);
 
