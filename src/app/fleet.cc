@@ -14,6 +14,7 @@
 
 #include "blmd/error.h"
 #include "blmd/format.h"
+#include "blmd/io/config.h"
 #include "blmd/io/files.h"
 #include "blmd/version.h"
 #include "report/markup.h"
@@ -83,22 +84,16 @@ std::string Resolve(const fs::path& folder, const std::string& path) {
   return (folder / path).lexically_normal().string();
 }
 
-// The bytes of a file into the hash, in pieces; a file that cannot be read enters as the
-// reason.
+// A file into the hash: its name and its bytes' SHA-256; a file that cannot be read enters
+// as the reason.
 void HashFile(Sha256* hash, const std::string& path) {
-  hash->Update(path);
-  hash->Update(std::string_view("\0", 1));
-  std::ifstream in(path, std::ios::binary);
-  if (!in || fs::is_directory(path)) {
-    hash->Update(std::string("unreadable: ") + std::strerror(errno));
-    return;
+  std::string digest;
+  try {
+    digest = Sha256OfFile(path);
+  } catch (const InputError& error) {
+    digest = std::string("unreadable: ") + error.what();
   }
-  std::string buffer(std::size_t{1} << 20, '\0');
-  while (in) {
-    in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
-    hash->Update(std::string_view(buffer.data(), static_cast<std::size_t>(in.gcount())));
-  }
-  hash->Update(std::string_view("\0", 1));
+  hash->Update(path + std::string(1, '\0') + digest + std::string(1, '\0'));
 }
 
 // A number of a JSON object, NaN when absent or null (a report writes NaN as null).
@@ -109,12 +104,6 @@ double NumberAt(const json& object, const std::string& key) {
 
 json NumberOrNull(const json& value) {
   return value.is_number() && std::isfinite(value.get<double>()) ? value : json(nullptr);
-}
-
-std::string JoinWith(const std::vector<std::string>& parts, const std::string& separator) {
-  std::string out;
-  for (std::size_t k = 0; k < parts.size(); ++k) out += (k ? separator : "") + parts[k];
-  return out;
 }
 
 const std::vector<std::string> kFixedColumns = {"id",
@@ -355,7 +344,7 @@ std::vector<FleetRow> ReadFleetManifest(const std::string& path) {
         if (std::find(known.begin(), known.end(), name) == known.end()) {
           throw InputError(path, number, fields->columns[k],
                            "unknown column '" + InputError::Excerpt(name) +
-                               "' (the manifest's columns: " + JoinWith(known, ", ") + ")");
+                               "' (the manifest's columns: " + Join(known, ", ") + ")");
         }
         if (column_of.count(name)) {
           throw InputError(path, number, fields->columns[k], "column '" + name + "' repeats");
@@ -483,14 +472,12 @@ json FleetResultFromReport(const FleetRow& row, const json& report, const std::s
       effects.push_back(e.get<std::string>());
     }
   }
-  line["warnings"] = JoinWith(codes, ";");
-  line["effects"] = JoinWith(effects, ";");
+  line["warnings"] = Join(codes, ";");
+  line["effects"] = Join(effects, ";");
   if (report.contains("baseline")) {
     const json& baseline = report["baseline"];
-    double z_max = NAN;
-    std::size_t compared = 0;
-    std::vector<std::string> moved;
-    std::string worst;
+    // Each compared parameter's shift in standard errors of the difference.
+    std::vector<std::pair<std::string, double>> z_of;
     const json parameters = baseline.value("parameters", json::object());
     for (const auto& [name, p] : parameters.items()) {
       if (name == "J" || name == "B") {
@@ -502,9 +489,13 @@ json FleetResultFromReport(const FleetRow& row, const json& report, const std::s
       }
       if (p.value("verdict", "") == "not_compared") continue;
       const double shift = NumberAt(p, "shift"), limit = NumberAt(p, "combined_limit");
-      if (!std::isfinite(shift) || !(limit > 0.0)) continue;
-      ++compared;
-      const double z = std::abs(shift) / (limit / kZ95);
+      if (std::isfinite(shift) && limit > 0.0)
+        z_of.emplace_back(name, std::abs(shift) / (limit / kZ95));
+    }
+    const std::size_t compared = z_of.size();
+    double z_max = NAN;
+    std::string worst;
+    for (const auto& [name, z] : z_of) {
       if (!(z <= z_max)) z_max = z, worst = name;
     }
     const double threshold = rule.Threshold(compared);
@@ -513,13 +504,11 @@ json FleetResultFromReport(const FleetRow& row, const json& report, const std::s
     if (compared == 0) {
       line["message"] = "nothing compared with the baseline (no 95 % intervals in common)";
     } else {
-      for (const auto& [name, p] : parameters.items()) {
-        const double shift = NumberAt(p, "shift"), limit = NumberAt(p, "combined_limit");
-        if (std::isfinite(shift) && limit > 0.0 && std::abs(shift) / (limit / kZ95) > threshold) {
-          moved.push_back(name);
-        }
+      std::vector<std::string> moved;
+      for (const auto& [name, z] : z_of) {
+        if (z > threshold) moved.push_back(name);
       }
-      line["moved"] = JoinWith(moved, ";");
+      line["moved"] = Join(moved, ";");
       if (z_max > threshold) {
         line["status"] = "drift";
         const json& p = parameters[worst];
@@ -622,7 +611,7 @@ std::vector<std::string> FleetColumns(const std::vector<json>& lines) {
 
 std::string FleetCsv(const std::vector<json>& lines) {
   const std::vector<std::string> columns = FleetColumns(lines);
-  std::string out = JoinWith(columns, ",") + "\n";
+  std::string out = Join(columns, ",") + "\n";
   for (const json& line : lines) {
     for (std::size_t k = 0; k < columns.size(); ++k) {
       const auto it = line.find(columns[k]);

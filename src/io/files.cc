@@ -299,4 +299,23 @@ std::string Sha256Hex(const std::string& bytes) {
   return sha.HexDigest();
 }
 
+std::string Sha256OfFile(const std::string& path) {
+  const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw InputError(path + ": cannot read: " + std::strerror(errno));
+  struct Closer {
+    int fd;
+    ~Closer() { close(fd); }
+  } closer{fd};
+  Sha256 hash;
+  std::vector<char> buffer(std::size_t{1} << 20);
+  while (true) {
+    const ssize_t n = read(fd, buffer.data(), buffer.size());
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) throw InputError(path + ": cannot read: " + std::strerror(errno));
+    if (n == 0) break;
+    hash.Update(std::string_view(buffer.data(), static_cast<std::size_t>(n)));
+  }
+  return hash.HexDigest();
+}
+
 }  // namespace blmd

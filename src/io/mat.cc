@@ -393,18 +393,7 @@ Trace ReadTraceMat(const std::string& path, const CsvReadOptions& options, std::
     if (S_ISREG(info.st_mode) && info.st_size == 0) {
       throw InputError(path + ": empty file: not a MAT file");
     }
-    if (sha256) {
-      Sha256 hash;
-      std::vector<char> buffer(std::size_t{1} << 20);
-      while (true) {
-        const ssize_t n = read(fd, buffer.data(), buffer.size());
-        if (n < 0 && errno == EINTR) continue;
-        if (n < 0) throw InputError(path + ": cannot read: " + std::strerror(errno));
-        if (n == 0) break;
-        hash.Update(std::string_view(buffer.data(), static_cast<std::size_t>(n)));
-      }
-      *sha256 = hash.HexDigest();
-    }
+    if (sha256) *sha256 = Sha256OfFile(path);
   }
   const MatHeader header = ReadHeader(path);
   if (header == MatHeader::kV5) CheckComplete(path);

@@ -53,6 +53,9 @@ void InstallCleanupOnSignal();
 
 // Lower-case hex SHA-256 of a byte string.
 std::string Sha256Hex(const std::string& bytes);
+// Lower-case hex SHA-256 of a file's bytes, read in pieces. Throws InputError("<path>: cannot
+// read: <reason>"), also for a folder.
+std::string Sha256OfFile(const std::string& path);
 
 // SHA-256 (FIPS 180-4) fed in pieces, for files read in chunks; OpenSSL's libcrypto computes
 // it (a Debian package; it uses the x86 SHA extensions where the CPU has them).
