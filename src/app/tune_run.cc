@@ -13,7 +13,7 @@ bool ReadAsymmetricLimit(const std::string& text, const Config& config, TuneRequ
   const auto colon = value.find(':');
   if (name != "u" || colon == std::string::npos) return false;
   if (!config.model->traits().sampled_pid) {
-    throw InputError("--limit " + text + ": u=LOW:HIGH applies to model rigid_load");
+    throw InputError("--limit " + text + ": u=LOW:HIGH applies to models rigid_load and blmd");
   }
   const double low = ParseNumber(value.substr(0, colon), "--limit u (LOW)");
   const double high = ParseNumber(value.substr(colon + 1), "--limit u (HIGH)");
@@ -38,6 +38,12 @@ void ReadLimits(const TuneSettings& settings, const Config& config, TuneRequest*
     (name == "u" ? request->u_max : request->i_max) = value;
   }
   if (request->u_max > 0.0) return;
+  const double stated = config.model->traits().input_limit;
+  if (!config.experiment.closed_loop && stated > 0.0) {
+    // The drive's own input range (blmd: ±10 V of torque demand).
+    request->u_max = stated;
+    return;
+  }
   if (!config.experiment.closed_loop) {
     throw InputError("--limit u=VOLTS is needed: the drive's voltage limit (" + config.path +
                      " has no experiment.pid.u_max)");
@@ -58,9 +64,9 @@ void ReadDrive(const TuneSettings& settings, const Config& config, TuneRequest* 
           {"--current-bandwidth", settings.current_bandwidth_hz.has_value()},
           {"--position-crossover", settings.position_crossover_hz.has_value()}}) {
       if (given) {
-        throw InputError(std::string(flag) + " applies to model rigid_load (the drive's sampled " +
-                         "loop); model " + std::string(config.model->name()) +
-                         " is tuned continuous");
+        throw InputError(
+            std::string(flag) + " applies to models rigid_load and blmd (the drive's sampled " +
+            "loop); model " + std::string(config.model->name()) + " is tuned continuous");
       }
     }
     return;
@@ -81,8 +87,20 @@ void ReadDrive(const TuneSettings& settings, const Config& config, TuneRequest* 
     request->sample_rate_assumed = true;
   }
   drive.delay_samples = settings.delay_samples.value_or(has_pid ? pid.delay : 1);
-  drive.current_bandwidth_hz =
-      settings.current_bandwidth_hz.value_or(has_pid ? pid.current_bandwidth : 0.0);
+  if (config.model->traits().own_current_loop) {
+    // blmd: the drive's own current loops, their bandwidth computed from the compensator,
+    // the PWM and the winding (Model::CurrentLoopBandwidthHz).
+    if (settings.current_bandwidth_hz) {
+      throw InputError("--current-bandwidth: model " + std::string(config.model->name()) +
+                       " carries its own current loops (Kp, Ki, Kf, the PWM), whose bandwidth "
+                       "is computed from its parameters");
+    }
+    drive.current_bandwidth_hz = config.model->CurrentLoopBandwidthHz(config.parameters);
+  } else {
+    drive.current_bandwidth_hz =
+        settings.current_bandwidth_hz.value_or(has_pid ? pid.current_bandwidth : 0.0);
+  }
+  request->w_max = config.model->SpeedLimit(config.parameters);
   if (settings.position_crossover_hz) {
     if (settings.loop == "speed") {
       throw InputError("--position-crossover applies to the position loop (--loop position)");

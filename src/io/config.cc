@@ -505,11 +505,16 @@ void ReadExperiment(const Reader& reader, const json& root, Config* out) {
     if (exp.contains("pid")) {
       if (!traits.coast_down_and_pid && !traits.sampled_pid) {
         reader.Fail("/experiment/pid",
-                    "closed-loop PID position control applies to dc_servo and rigid_load");
+                    "closed-loop PID control applies to dc_servo, rigid_load and blmd");
       }
       const json& pid = exp["pid"];
       reader.RequireObject(pid, "/experiment/pid");
-      if (traits.sampled_pid) {
+      if (traits.own_current_loop) {
+        // The drive's own current loops follow the demand (no current_bandwidth to give).
+        reader.CheckKeys(
+            pid, "/experiment/pid",
+            {"loop", "Kp", "Ki", "speed_Kp", "speed_Ki", "u_max", "u_min", "sample_rate", "delay"});
+      } else if (traits.sampled_pid) {
         reader.CheckKeys(pid, "/experiment/pid",
                          {"loop", "Kp", "Ki", "speed_Kp", "speed_Ki", "u_max", "u_min",
                           "sample_rate", "delay", "current_bandwidth"});
@@ -534,6 +539,8 @@ void ReadExperiment(const Reader& reader, const json& root, Config* out) {
       get("Ki", &experiment.pid.Ki);
       get("Kd", &experiment.pid.Kd);
       get("tau_d", &experiment.pid.tau_d);
+      // A drive that states its input's range (ModelTraits::input_limit) limits to it.
+      if (traits.input_limit > 0.0) experiment.pid.u_max = traits.input_limit;
       get("u_max", &experiment.pid.u_max);
       if (!(experiment.pid.u_max > 0.0)) reader.Fail("/experiment/pid/u_max", "u_max must be > 0");
       if (!(experiment.pid.tau_d > 0.0)) reader.Fail("/experiment/pid/tau_d", "tau_d must be > 0");

@@ -48,7 +48,8 @@ GainUnits UnitsOfGains(const TuneInput& input, const TuneRequest& request) {
 }
 
 // experiment.pid of the tuned loop's checked step, as blmd-sim reads it.
-json PidExperimentJson(const TuneRequest& request, const TuneResult& result) {
+json PidExperimentJson(const TuneRequest& request, const TuneResult& result,
+                       bool report_own_current_loop) {
   if (result.sampled.used) {
     const Experiment e = SampledStepExperiment(request, result.sampled.gains, result.step,
                                                result.duration, result.sample_rate);
@@ -62,7 +63,8 @@ json PidExperimentJson(const TuneRequest& request, const TuneResult& result) {
     if (!std::isnan(e.pid.u_min)) out["u_min"] = e.pid.u_min;
     out["sample_rate"] = e.pid.sample_rate;
     out["delay"] = e.pid.delay;
-    out["current_bandwidth"] = e.pid.current_bandwidth;
+    // A drive with its own current loops (blmd) takes no current_bandwidth: they are simulated.
+    if (!report_own_current_loop) out["current_bandwidth"] = e.pid.current_bandwidth;
     return out;
   }
   const Experiment e = StepExperiment(request.design.loop, result.design.controller, request.u_max,
@@ -89,6 +91,7 @@ json StepJson(const ClosedLoopStep& s) {
   out["steady_state_error"] = Number(s.steady_state_error);
   out["peak_u"] = Number(s.peak_u);
   out["peak_i"] = Number(s.peak_i);
+  out["peak_w"] = Number(s.peak_w);
   out["saturated"] = s.saturated;
   return out;
 }
@@ -193,9 +196,16 @@ json SampledLoopJson(const TuneInput& input, const TuneRequest& request, const T
       {"current_bandwidth_hz", request.drive.current_bandwidth_hz > 0.0
                                    ? json(request.drive.current_bandwidth_hz)
                                    : json(nullptr)},
+      {"current_loop",
+       config.model->traits().own_current_loop
+           ? "the drive's own (compensator, PWM, winding): its bandwidth "
+             "computed, a first-order lag in the design, simulated in the check"
+           : (request.drive.current_bandwidth_hz > 0.0 ? "a first-order lag" : "ideal")},
+      {"speed_limit_rad_s", Number(request.w_max)},
       {"limits", {{"u_min", request.LowerLimit()}, {"u_max", request.u_max}}},
       {"discretisation",
-       "plant: exact zero-order hold of Kt/(J s + B) (and the current lag); z^-d delay; PI "
+       "plant: exact zero-order hold of K/(J s + B) (K: Kt, or blmd's 1.5 Ke Kc/Kf; and the "
+       "current lag); z^-d delay; PI "
        "C(z) = kp + ki Ts z/(z - 1) (backward Euler integral); anti-windup by conditional "
        "integration"},
       {"closed_loop_poles_plane", "z"},
@@ -250,13 +260,15 @@ json ControllerJson(const TuneReport& report) {
   const char* structure = IsSpeed(report.request)      ? "PI"
                           : report.result.sampled.used ? "P over the speed PI (cascade)"
                                                        : "PID";
-  return {{"structure", structure},
-          {"kp", c.kp},
-          {"ki", c.ki},
-          {"kd", c.kd},
-          {"derivative_filter_hz", c.derivative_filter_hz},
-          {"units", {{"kp", report.units.kp}, {"ki", report.units.ki}, {"kd", report.units.kd}}},
-          {"pid_experiment", PidExperimentJson(report.request, report.result)}};
+  return {
+      {"structure", structure},
+      {"kp", c.kp},
+      {"ki", c.ki},
+      {"kd", c.kd},
+      {"derivative_filter_hz", c.derivative_filter_hz},
+      {"units", {{"kp", report.units.kp}, {"ki", report.units.ki}, {"kd", report.units.kd}}},
+      {"pid_experiment", PidExperimentJson(report.request, report.result,
+                                           report.input.config.model->traits().own_current_loop)}};
 }
 
 json PolesJson(const ClosedLoopPoles& poles) {
@@ -290,6 +302,7 @@ std::string SampledSummary(const TuneReport& report) {
       << (config.linear_axis ? " (linear axis)" : "") << ", sampled at "
       << Text(request.drive.sample_rate_hz) << " Hz with " << request.drive.delay_samples
       << " sample(s) of delay, current loop "
+      << (config.model->traits().own_current_loop ? "the drive's own, " : "")
       << (request.drive.current_bandwidth_hz > 0.0
               ? Text(request.drive.current_bandwidth_hz) + " Hz"
               : std::string("ideal"))
@@ -431,10 +444,11 @@ json ClosedLoopConfigJson(const TuneReport& report) {
     const double ts = 1.0 / request.drive.sample_rate_hz, dt = config.simulation.dt;
     doc["simulation"]["dt"] = ts / std::max(1.0, std::ceil(ts / dt * (1.0 - 1e-9)));
   }
-  doc["experiment"] = {{"input", {{"type", "step"}, {"amplitude", result.step}}},
-                       {"pid", PidExperimentJson(request, result)},
-                       {"duration", result.duration},
-                       {"sample_rate", result.sample_rate}};
+  doc["experiment"] = {
+      {"input", {{"type", "step"}, {"amplitude", result.step}}},
+      {"pid", PidExperimentJson(request, result, config.model->traits().own_current_loop)},
+      {"duration", result.duration},
+      {"sample_rate", result.sample_rate}};
   json notes = {{"tuned_by", std::string("blmd-tune ") + kVersion},
                 {"from_config", config.path},
                 {"request", RequestJson(request, result)},

@@ -70,18 +70,19 @@ ClosedLoopStep SimulateStep(const Config& config, const ParameterSet& values,
   for (std::size_t k = y.size() - tail; k < y.size(); ++k) sum += y[k];
   figures.final_value = sum / static_cast<double>(tail);
   figures.steady_state_error = experiment.input.amplitude - figures.final_value;
-  figures.peak_u = figures.peak_i = 0.0;
+  figures.peak_u = figures.peak_i = figures.peak_w = 0.0;
   for (double u : trace.Column("u")) figures.peak_u = std::max(figures.peak_u, std::abs(u));
   figures.saturated = figures.peak_u >= experiment.pid.u_max * (1.0 - 1e-12);
+  // The lower limit may differ from -u_max (an asymmetric drive, --limit u=LOW:HIGH).
+  const double low = experiment.pid.LowerLimit();
+  for (double u : trace.Column("u")) {
+    if (u <= low + std::abs(low) * 1e-12) figures.saturated = true;
+  }
+  for (double w : trace.Column("w")) figures.peak_w = std::max(figures.peak_w, std::abs(w));
   if (trace.Has("i")) {
     for (double i : trace.Column("i")) figures.peak_i = std::max(figures.peak_i, std::abs(i));
   } else {
-    // A torque-driven model (rigid_load): no current column; its lower limit may differ.
-    figures.peak_i = std::numeric_limits<double>::quiet_NaN();
-    const double low = experiment.pid.LowerLimit();
-    for (double u : trace.Column("u")) {
-      if (u <= low + std::abs(low) * 1e-12) figures.saturated = true;
-    }
+    figures.peak_i = std::numeric_limits<double>::quiet_NaN();  // torque-driven: no current
   }
   return figures;
 }
@@ -164,6 +165,14 @@ void CheckLimits(const TuneInput& input, const TuneRequest& request, TuneResult*
                       " (ask for a lower crossover or a smaller --step)";
     return;
   }
+  if (step.peak_w > request.w_max) {
+    result->refused = true;
+    result->refusal = "the loop reaches " + Text(step.peak_w) + " rad/s for " + what +
+                      ", beyond the " + Text(request.w_max) +
+                      " rad/s at which the DC bus leaves no voltage to control the current "
+                      "(Ud/(2 Ke)): ask for a smaller --step";
+    return;
+  }
   if (request.i_max > 0.0 && step.peak_i > request.i_max) {
     result->refused = true;
     result->refusal = "the loop draws " + Text(step.peak_i) + " A for " + what +
@@ -232,9 +241,13 @@ void EvaluateBox(const TuneInput& input, const TuneRequest& request, TuneResult*
     AddToWorst(result->corners[c], static_cast<int>(c), &result->worst);
 }
 
-// The sampled loops of rigid_load (sampled_loop.h, docs/tuning.md §7).
-RigidPlant RigidAt(const ParameterSet& values) {
-  return {values.Get("J"), values.Get("B"), values.Get("Kt")};
+// The shaft the sampled loops act on (sampled_loop.h, docs/tuning.md §7), from the model's
+// linear part J dw/dt = -B w + K u: rigid_load's Kt, or blmd's 1.5 Ke Kc/Kf (N·m per V of
+// torque demand, its current loops ideal; their lag is the drive's current bandwidth).
+RigidPlant RigidAt(const Model& model, const ParameterSet& values) {
+  const LinearModel linear = model.Linearise(values);
+  const double J = values.Get("J");
+  return {J, -linear.A(0, 0) * J, linear.B(0, 0) * J};
 }
 
 // The margins of the tuned sampled loop (the speed loop, or the position loop of the
@@ -263,7 +276,7 @@ LoopCheck CheckSampledAt(const TuneInput& input, const TuneRequest& request,
                          const TuneResult& result, const ParameterSet& values) {
   LoopCheck check;
   const bool position = !IsSpeed(request);
-  const SampledRigidLoop loop(RigidAt(values), request.drive);
+  const SampledRigidLoop loop(RigidAt(*input.config.model, values), request.drive);
   const CascadeGains& gains = result.sampled.gains;
   SampledMargins(
       loop, gains, position,
@@ -349,6 +362,7 @@ void AddStepWarnings(const TuneInput& input, const TuneRequest& request, TuneRes
 }  // namespace
 
 std::string SampledInputUnit(const Config& config) {
+  if (config.model->traits().own_current_loop) return "V";  // blmd: the torque demand Td
   if (config.parameters.Get("Kt") != 1.0) return "u";
   return config.linear_axis ? "N" : "N·m";
 }
@@ -364,6 +378,7 @@ std::string TuneRequest::Validate() const {
   if (!(i_max >= 0.0) || !std::isfinite(i_max)) return "the current limit i must be > 0";
   if (!(step >= 0.0) || !std::isfinite(step)) return "the step must be > 0";
   if (!(duration >= 0.0) || !std::isfinite(duration)) return "the duration must be > 0";
+  if (!(w_max > 0.0)) return "the speed limit must be > 0";
   if (drive.sample_rate_hz > 0.0) {
     if (std::string error = drive.Validate(); !error.empty()) return error;
     if (!(position_crossover_hz >= 0.0) || !std::isfinite(position_crossover_hz))
@@ -438,7 +453,9 @@ double SampledDefaultStep(const TuneRequest& request, const TuneResult& result) 
   const CascadeGains& g = result.sampled.gains;
   const double kick = IsSpeed(request) ? g.speed_kp : g.speed_kp * g.position_kp;
   const double fallback = DefaultStep(request, result.plant);
-  const double step = IsSpeed(request) ? fallback * limit / request.u_max : fallback;
+  double step = IsSpeed(request) ? fallback * limit / request.u_max : fallback;
+  // A speed step within a fifth of the speed the drive can hold (blmd: its DC bus).
+  if (IsSpeed(request) && std::isfinite(request.w_max)) step = std::min(step, 0.2 * request.w_max);
   return kick > 0.0 ? std::min(step, 0.5 * limit / kick) : step;
 }
 
@@ -466,7 +483,7 @@ TuneResult TuneSampled(const TuneInput& original, const TuneRequest& request) {
   SampledTuning& sampled = result.sampled;
   sampled.used = true;
   sampled.linear_axis = config.linear_axis;
-  const SampledRigidLoop loop(RigidAt(config.parameters), request.drive);
+  const SampledRigidLoop loop(RigidAt(*config.model, config.parameters), request.drive);
   const double fc = request.design.crossover_hz;
   sampled.design = DesignSampledSpeedPi(loop, fc, request.design.phase_margin_deg);
   sampled.gains = sampled.design.gains;

@@ -18,9 +18,10 @@ using nlohmann::json;
 void CheckModel(const Config& config) {
   const ModelTraits traits = config.model->traits();
   if (!traits.coast_down_and_pid && !traits.sampled_pid) {
-    throw InputError(config.path + ": model " + std::string(config.model->name()) +
-                     " has no closed-loop experiment (experiment.pid, dc_servo and rigid_load "
-                     "only): blmd-tune simulates the tuned loop through it (docs/tuning.md)");
+    throw InputError(
+        config.path + ": model " + std::string(config.model->name()) +
+        " has no closed-loop experiment (experiment.pid: dc_servo, rigid_load and blmd): "
+        "blmd-tune simulates the tuned loop through it (docs/tuning.md)");
   }
   const LinearModel linear = config.model->Linearise(config.parameters);
   if (!linear.available) {

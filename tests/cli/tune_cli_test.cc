@@ -274,10 +274,13 @@ TEST_F(TuneCli, BadInputWritesNothing) {
   // The report given as the config: which flag takes it.
   ExpectBadInput(Tune("--config " + FitReport() + " --loop position" + request + outputs), dir,
                  "a blmd-ident report, not a config: give it with --from-report");
-  // A model without the closed-loop experiment.
-  ExpectBadInput(Tune("--config " + SourcePath("configs/blmd-d31x.json") + " --loop speed" +
-                      request + outputs),
-                 dir, "has no closed-loop experiment");
+  // A drive without a linear part: the BLMD with its current loop open (Kf = 0).
+  json open_loop = json::parse(Slurp(SourcePath("configs/blmd-d31x.json")));
+  open_loop["parameters"]["Kf"] = 0.0;
+  open_loop["parameters"]["Ki"] = 0.0;
+  ExpectBadInput(Tune("--config " + dir.Write("open.json", open_loop.dump()) +
+                      " --loop speed --crossover 2 --phase-margin 60 --sample-rate 1000" + outputs),
+                 dir, "open.json: model blmd has no linear part at these values: Kf = 0");
 }
 
 // A coarse simulation step: the sampled PID's derivative filter at 20 Hz with dt = 1 ms

@@ -466,7 +466,7 @@ TEST(TuneRigidLoad, BadInput) {
   const std::vector<Case> cases = {
       {"--config " + SourcePath("configs/ganesh-noload.json") +
            " --loop speed --crossover 3 --phase-margin 60 --limit u=24 --sample-rate 1000",
-       "--sample-rate applies to model rigid_load"},
+       "--sample-rate applies to models rigid_load and blmd"},
       {rigid + " --loop position --limit u=0.3 --filter-ratio 8",
        "--filter-ratio applies to dc_servo's position PID"},
       {rigid + " --loop speed --limit u=0.3:-0.1", "LOW must be < 0 and HIGH > 0"},

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <limits>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -46,9 +47,15 @@ struct ModelTraits {
   // The experiments of a DC servo: a coast-down (coast_off_time) and closed-loop PID
   // position control (dc_servo).
   bool coast_down_and_pid = false;
-  // Closed-loop control as a drive runs it (rigid_load): experiment.pid is a digital PI speed
-  // loop, or a P position loop over it, sampled with a computation delay (PidSettings).
+  // Closed-loop control as a drive runs it (rigid_load, blmd): experiment.pid is a digital PI
+  // speed loop, or a P position loop over it, sampled with a computation delay (PidSettings).
   bool sampled_pid = false;
+  // The drive carries its own current loops (blmd: compensators and PWM): experiment.pid's
+  // current_bandwidth does not apply, and CurrentLoopBandwidthHz gives the loops' bandwidth.
+  bool own_current_loop = false;
+  // The input's range when the drive states one (blmd: a torque demand linear in ±10 V, the
+  // analogue interface of the paper's drive, docs/model-blmd.md); 0: none stated.
+  double input_limit = 0.0;
   // The steady-state and coast-down estimators of Ganesh et al. (2012), method classic.
   bool classic_estimators = false;
   // A config's experiment without a duration (s) or sample rate (Hz) gets these.
@@ -94,6 +101,15 @@ class Model {
   // The linear part of the model at `values` (linear_model.h, docs/export.md): the model
   // without its effects, idealised where the page of the model says so.
   virtual LinearModel Linearise(const ParameterSet& values) const = 0;
+
+  // The -3 dB bandwidth (Hz) of the drive's own current loop at `values` (own_current_loop),
+  // as a first-order lag for the design of the loops around it; 0 for a model without one.
+  virtual double CurrentLoopBandwidthHz(const ParameterSet& /*values*/) const { return 0.0; }
+  // The highest speed (rad/s) at which the drive still has voltage to control its current
+  // (blmd: the DC bus against the back-EMF); +inf when the model states none.
+  virtual double SpeedLimit(const ParameterSet& /*values*/) const {
+    return std::numeric_limits<double>::infinity();
+  }
 
   const ParamInfo* FindParameter(std::string_view name) const;
 };

@@ -53,12 +53,14 @@ TuneInput LoadTuneInput(const std::string& config_path, const std::string& repor
 
 struct TuneRequest {
   ControllerDesignOptions design;
-  double u_max = 0.0;     // the drive's input limit (dc_servo: V), > 0
-  double i_max = 0.0;     // A, the drive's current limit; 0: not checked
+  double u_max = 0.0;  // the drive's input limit (dc_servo: V), > 0
+  double i_max = 0.0;  // A, the drive's current limit; 0: not checked
+  // rad/s, the speed the drive can hold (Model::SpeedLimit: blmd's DC bus); +inf: none.
+  double w_max = std::numeric_limits<double>::infinity();
   double step = 0.0;      // reference step (rad; speed loop rad/s); 0: the default
   double duration = 0.0;  // s, of the simulated step; 0: from the closed loop's poles
   int threads = 0;        // for the corners' simulations; 0: every hardware thread
-  // rigid_load (a model with the sampled_pid trait): the drive's digital loop, designed on
+  // rigid_load and blmd (models with the sampled_pid trait): the drive's digital loop, designed on
   // the sampled loop (sampled_loop.h, docs/tuning.md §7). design.crossover_hz is then the
   // speed loop's; the position loop (a P over it) crosses over at position_crossover_hz
   // (0: kDefaultPositionRatio of the speed crossover). u_min: the lower limit (NaN: −u_max).
@@ -88,6 +90,7 @@ struct ClosedLoopStep {
   double steady_state_error = std::numeric_limits<double>::quiet_NaN();  // step − final value
   double peak_u = std::numeric_limits<double>::quiet_NaN();  // max |u|, V (the input's unit)
   double peak_i = std::numeric_limits<double>::quiet_NaN();  // max |i|, A
+  double peak_w = std::numeric_limits<double>::quiet_NaN();  // max |w|, rad/s
   bool saturated = false;                                    // |u| reached u_max
 };
 

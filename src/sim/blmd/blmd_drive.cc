@@ -3,10 +3,13 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <complex>
+#include <numbers>
 
 #include "blmd/sim/effects.h"
 #include "sim/blmd/blmd_events.h"
 #include "sim/blmd/blmd_legs.h"
+#include "sim/digital_cascade.h"
 #include "sim/sampler.h"
 
 namespace blmd {
@@ -251,6 +254,9 @@ ModelTraits BlmdDriveModel::traits() const {
   traits.default_sample_rate = 50000.0;
   traits.default_observe = {"i"};
   traits.event_integrator = true;
+  traits.sampled_pid = true;
+  traits.own_current_loop = true;
+  traits.input_limit = 10.0;  // V: Td is linear in ±10 V (docs/model-blmd.md §1)
   return traits;
 }
 
@@ -278,15 +284,32 @@ SimStatus BlmdDriveModel::SimulateReference(const SimulationRequest& request, Tr
 
   const ReferenceConstants c =
       ReferenceConstants::From(*request.parameters, *request.effects, settings);
-  internal::OutputSampler sampler(times, internal::BlmdOutputNames(settings.diagnostics));
+  // Closed loop (experiment.pid): the drive's digital speed PI (or position P over it) gives
+  // the torque demand, sampling w and theta every `period` steps; its output is held, and
+  // the reference r is an extra output column after the others.
+  const bool closed_loop = experiment.closed_loop;
+  const long period = closed_loop ? internal::ControllerPeriodSteps(experiment.pid, dt) : 1;
+  if (period < 1) {
+    return {SimStatus::Code::kInvalidParameters,
+            "the controller's period is not a whole number of simulation steps", times.front()};
+  }
+  std::vector<std::string> names = internal::BlmdOutputNames(settings.diagnostics);
+  const std::size_t r_index = names.size();  // the row's slot for r (closed loop)
+  if (closed_loop) names.emplace_back("r");
+  internal::OutputSampler sampler(times, names);
   InputCursor input(experiment.input);
+  const double Ts = experiment.pid.sample_rate > 0.0 ? 1.0 / experiment.pid.sample_rate : dt;
+  internal::DigitalCascade controller(experiment.pid, Ts);
 
   const double t_start = times.front();
   ReferenceState s;
   s.w = experiment.initial.w;
   s.theta = experiment.initial.theta;
-  std::array<double, 11> prev{}, now{};
-  s.Pack(input.At(t_start), c.drive.i0, settings.diagnostics, prev.data());
+  double reference = input.At(t_start + 0.5 * dt);
+  double command = closed_loop ? controller.Tick(reference, s.w, s.theta) : 0.0;  // V
+  std::array<double, 12> prev{}, now{};
+  s.Pack(closed_loop ? command : input.At(t_start), c.drive.i0, settings.diagnostics, prev.data());
+  prev[r_index] = reference;
   sampler.Record(t_start, prev.data(), t_start, prev.data());
 
   constexpr double kHalfSqrt3 = 0.86602540378443864676;  // sin(2 pi/3)
@@ -299,7 +322,7 @@ SimStatus BlmdDriveModel::SimulateReference(const SimulationRequest& request, Tr
     // The demand over a step is read at its midpoint, so that an event on the step grid (a
     // step's t0, a square wave's edge, a recorded sample) takes effect exactly there whatever
     // the rounding of t_start + k dt (as dc_servo does).
-    const double demand = input.At(t_low + 0.5 * dt);
+    const double demand = closed_loop ? command : input.At(t_low + 0.5 * dt);
     // cos(p theta - 2(j-1)pi/3) from one sine/cosine pair: the b and c phases are the a
     // phase rotated by -120 and -240 degrees.
     const double electrical_angle = c.p * s.theta;
@@ -334,7 +357,14 @@ SimStatus BlmdDriveModel::SimulateReference(const SimulationRequest& request, Tr
     ReferenceWindings(c, dt, cosine, leg_voltage, open, &s);
     ReferenceShaft(c, dt, effect_angle.At(t_low, s.theta), &s);
 
-    s.Pack(demand, c.drive.i0, settings.diagnostics, now.data());
+    if (closed_loop && (step + 1) % period == 0) {
+      // The controller samples at t_high; its command holds from there on (recorded with
+      // the state at t_high, as rigid_load's closed loop records it).
+      reference = input.At(t_high + 0.5 * dt);
+      command = controller.Tick(reference, s.w, s.theta);
+    }
+    s.Pack(closed_loop ? command : demand, c.drive.i0, settings.diagnostics, now.data());
+    now[r_index] = reference;
     if (!internal::AllFinite(now.data() + 1, 5, settings.divergence_limit)) {
       return {SimStatus::Code::kDiverged, internal::DivergedMessage(settings.divergence_limit),
               t_high};
@@ -343,6 +373,7 @@ SimStatus BlmdDriveModel::SimulateReference(const SimulationRequest& request, Tr
     prev = now;
   }
   sampler.Finish(out);
+  if (closed_loop) return SimStatus::Ok();
   auto& u_column = out->Column("u");
   // u at a sample: the demand applied from that instant on (read as the steps read it), so
   // that a trace replays exactly through its u column as a recorded input.
@@ -350,6 +381,36 @@ SimStatus BlmdDriveModel::SimulateReference(const SimulationRequest& request, Tr
     u_column[k] = experiment.input.At(times[k] + 0.5 * dt);
   }
   return SimStatus::Ok();
+}
+
+double BlmdDriveModel::CurrentLoopBandwidthHz(const ParameterSet& values) const {
+  const internal::BlmdParameters c = internal::BlmdParameters::From(values);
+  if (!(c.Kf > 0.0)) return 0.0;                  // current loop open: no current loop to speak of
+  const double pwm_gain = c.Ud / (2.0 * c.Vtri);  // V of phase voltage per V of control
+  auto closed = [&](double omega) {               // |T(j omega)|, T the closed current loop
+    const std::complex<double> s(0.0, omega);
+    std::complex<double> compensator = c.Kp * (1.0 + s * c.Tz) / (1.0 + s * c.Tp);
+    if (c.Ki > 0.0) compensator += c.Ki / s;
+    const std::complex<double> loop = c.Kf * compensator * pwm_gain / (c.Ls * s + c.Rs);
+    return std::abs(loop / (1.0 + loop));
+  };
+  const double dc = c.Ki > 0.0 ? 1.0 : closed(1e-9 * c.Rs / c.Ls);
+  const double target = dc / std::sqrt(2.0);
+  // The first fall through -3 dB on a logarithmic grid from 1e-3 of the winding's corner
+  // frequency Rs/Ls up, then bisection (in log omega) inside that cell.
+  double low = 1e-3 * c.Rs / c.Ls;
+  for (int k = 0; k < 400 && closed(low * 1.1) > target; ++k) low *= 1.1;
+  double high = low * 1.1;
+  if (closed(high) > target) return 0.0;  // no fall within 1e16 of the corner: ideal
+  for (int k = 0; k < 60; ++k) {
+    const double mid = std::sqrt(low * high);
+    (closed(mid) > target ? low : high) = mid;
+  }
+  return std::sqrt(low * high) / (2.0 * std::numbers::pi);
+}
+
+double BlmdDriveModel::SpeedLimit(const ParameterSet& values) const {
+  return values.Get("Ud") / (2.0 * values.Get("Ke"));
 }
 
 double BlmdDriveModel::DriveTorqueScale(const ParameterSet& values, double i_max, double /*u_max*/,

@@ -198,6 +198,7 @@ void BlmdDriveModel::SimulateBatch(const SimulationRequest* requests, std::size_
   // at each point's own switching instants, so points cannot share a lock-step.
   if (!shared || requests[0].sample_times->empty() ||
       requests[0].settings.method == SimulationMethod::kEvents ||
+      requests[0].experiment->closed_loop ||
       internal::ChosenBatchIsa() == internal::BatchIsa::kScalar) {
     Model::SimulateBatch(requests, count, outs, statuses);
     return;

@@ -290,6 +290,9 @@ SimulateFast(const BlmdDriveModel& model, const SimulationRequest& request, Trac
 }  // namespace
 
 SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out) const {
+  // The closed loop (experiment.pid) runs on the reference step loop whatever the method: the
+  // controller's samples fall on its grid (docs/model-blmd.md §10).
+  if (request.experiment->closed_loop) return SimulateReference(request, out);
   if (request.settings.method == SimulationMethod::kEvents) {
     return internal::SimulateBlmdEvents(*this, request, out);
   }

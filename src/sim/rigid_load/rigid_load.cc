@@ -6,6 +6,7 @@
 
 #include "blmd/constants.h"
 #include "blmd/sim/effects.h"
+#include "sim/digital_cascade.h"
 #include "sim/discretise.h"
 #include "sim/sampler.h"
 
@@ -62,52 +63,6 @@ ModelTraits RigidLoadModel::traits() const {
 
 namespace {
 
-// The drive's digital controller (PidSettings, docs/tuning.md §7): run every `period` steps,
-// its output queued for `delay` samples and then held. The integrals are backward Euler sums
-// (the sample's own error included), scaled by their gains; the speed integral is held while
-// the output saturates in the direction of the error (conditional integration, Åström &
-// Hägglund 1995, ch. 3, integrator windup): a position step that saturates the drive does not
-// wind it up. The position integral (Ki of the position loop; blmd-tune leaves it 0) is not
-// limited: its output, the speed reference, is not.
-class DigitalCascade {
- public:
-  DigitalCascade(const PidSettings& pid, double Ts) : pid_(pid), Ts_(Ts) {
-    queue_.assign(static_cast<std::size_t>(std::max(0, pid.delay)), 0.0);
-  }
-
-  // The command that takes effect now, for the reference r and the sampled w, theta.
-  double Tick(double r, double w, double theta) {
-    const double low = pid_.LowerLimit(), high = pid_.u_max;
-    double w_ref = r, kp = pid_.Kp, ki = pid_.Ki;
-    if (pid_.loop == PidSettings::Loop::kPosition) {
-      // The position P (and I): its output is the speed reference, not limited (the drive's
-      // speed limit is the torque limit's consequence here).
-      const double e = r - theta;
-      position_integral_ += pid_.Ki * Ts_ * e;
-      w_ref = pid_.Kp * e + position_integral_;
-      kp = pid_.speed_Kp;
-      ki = pid_.speed_Ki;
-    }
-    const double e = w_ref - w;
-    const double candidate = speed_integral_ + ki * Ts_ * e;
-    const double u = kp * e + candidate;
-    if (!((u > high && e > 0.0) || (u < low && e < 0.0))) speed_integral_ = candidate;
-    const double command = std::clamp(kp * e + speed_integral_, low, high);
-    if (queue_.empty()) return command;
-    const double out = queue_.front();
-    queue_.erase(queue_.begin());
-    queue_.push_back(command);
-    return out;
-  }
-
- private:
-  const PidSettings& pid_;
-  double Ts_;
-  double speed_integral_ = 0.0;     // u
-  double position_integral_ = 0.0;  // rad/s
-  std::vector<double> queue_;       // the commands computed, oldest first
-};
-
 // A step whose friction reverses the speed ends where the shaft stops: w = 0 at the
 // interpolated instant, theta advanced by the mean speed up to it (both loops, open and closed).
 void StopWithin(const ShaftEffects& shaft, double w_old, double theta_old, double dt, double* w,
@@ -131,8 +86,8 @@ SimStatus RigidLoadModel::SimulateClosedLoop(const SimulationRequest& request, T
   const double dt = request.settings.dt;
   const double J = values.Get("J"), B = values.Get("B"), Kt = values.Get("Kt");
   const double Ts = pid.sample_rate > 0.0 ? 1.0 / pid.sample_rate : dt;
-  const long period = std::lround(Ts / dt);
-  if (period < 1 || std::abs(static_cast<double>(period) * dt - Ts) > 1e-6 * Ts) {
+  const long period = internal::ControllerPeriodSteps(pid, dt);
+  if (period < 1) {
     return {SimStatus::Code::kInvalidParameters,
             "the controller's period is not a whole number of simulation steps", times.front()};
   }
@@ -158,7 +113,7 @@ SimStatus RigidLoadModel::SimulateClosedLoop(const SimulationRequest& request, T
 
   internal::OutputSampler sampler(times, {"u", "w", "theta", "r"});
   InputCursor input(experiment.input);
-  DigitalCascade controller(pid, Ts);
+  internal::DigitalCascade controller(pid, Ts);
   const double t_start = times.front();
   double w = experiment.initial.w, theta = experiment.initial.theta, u_a = 0.0;
   double reference = input.At(t_start + 0.5 * dt);

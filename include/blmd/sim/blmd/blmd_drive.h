@@ -28,10 +28,13 @@
 // the phase is open (both diodes block, the terminal floats, i_j stays 0 until a switch
 // turns on). Phase currents start at zero (experiment.initial.i is not used).
 // Input u = Td (V), read at each step's midpoint; the u column holds the demand applied
-// from each sample on. Outputs: t, u, i (phase-a current feedback, A, + i0), ib, ic (A),
-// w (rad/s), theta (rad); settings.diagnostics adds va, vb, vc (phase voltages, the average
-// over the step ending at the sample, V), Te (N·m, that step's torque) and vsg (neutral
-// voltage against the DC bus's negative rail, step average, V).
+// from each sample on. Closed loop (experiment.pid): the drive's digital speed PI (or a
+// position P over it, PidSettings) computes Td from the sampled w and theta; such a run
+// takes the reference step loop whatever the method, and adds the column r (the reference).
+// Outputs: t, u, i (phase-a current feedback, A, + i0), ib, ic (A), w (rad/s), theta (rad);
+// settings.diagnostics adds va, vb, vc (phase voltages, the average over the step ending at the
+// sample, V), Te (N·m, that step's torque) and vsg (neutral voltage against the DC bus's negative
+// rail, step average, V).
 #pragma once
 
 #include "blmd/sim/model.h"
@@ -56,6 +59,13 @@ class BlmdDriveModel final : public Model {
   LinearModel Linearise(const ParameterSet& values) const override;
   double DriveTorqueScale(const ParameterSet& values, double i_max, double u_max,
                           double w_max) const override;
+  // The closed current loop i_j / (Kc Td cos) = Kf C G / (1 + Kf C G) / Kf per phase, with
+  // C(s) = Kp (1 + s Tz)/(1 + s Tp) + Ki/s the compensator and G(s) = (Ud / 2 Vtri)/(Ls s + Rs)
+  // the PWM's average gain into the winding (back-EMF a disturbance): its -3 dB frequency.
+  double CurrentLoopBandwidthHz(const ParameterSet& values) const override;
+  // Ud / (2 Ke): the speed whose back-EMF peak takes the whole linear range of the
+  // sine-triangle PWM (phase voltage peak Ud/2), leaving none to drive the current.
+  double SpeedLimit(const ParameterSet& values) const override;
   // The batched path (src/sim/blmd/blmd_drive_batch.cc): points of one experiment with a plain
   // shaft (no friction, drag or cogging) and one carrier period run 8 at a time in SIMD
   // lanes, each lane's outputs bit for bit Simulate()'s; other points run through Simulate().

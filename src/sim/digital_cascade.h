@@ -1,0 +1,70 @@
+// The drive's digital speed (and position) controller of a closed-loop experiment
+// (PidSettings, docs/tuning.md §7), shared by the models that run it: rigid_load (the shaft
+// behind a current loop given as a lag) and blmd (the drive's own current loops and PWM).
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <vector>
+
+#include "blmd/sim/experiment.h"
+
+namespace blmd::internal {
+
+// The drive's digital controller (PidSettings, docs/tuning.md §7): run every `period` steps,
+// its output queued for `delay` samples and then held. The integrals are backward Euler sums
+// (the sample's own error included), scaled by their gains; the speed integral is held while
+// the output saturates in the direction of the error (conditional integration, Åström &
+// Hägglund 1995, ch. 3, integrator windup): a position step that saturates the drive does not
+// wind it up. The position integral (Ki of the position loop; blmd-tune leaves it 0) is not
+// limited: its output, the speed reference, is not.
+class DigitalCascade {
+ public:
+  DigitalCascade(const PidSettings& pid, double Ts) : pid_(pid), Ts_(Ts) {
+    queue_.assign(static_cast<std::size_t>(std::max(0, pid.delay)), 0.0);
+  }
+
+  // The command that takes effect now, for the reference r and the sampled w, theta.
+  double Tick(double r, double w, double theta) {
+    const double low = pid_.LowerLimit(), high = pid_.u_max;
+    double w_ref = r, kp = pid_.Kp, ki = pid_.Ki;
+    if (pid_.loop == PidSettings::Loop::kPosition) {
+      // The position P (and I): its output is the speed reference, not limited (the drive's
+      // speed limit is the torque limit's consequence here).
+      const double e = r - theta;
+      position_integral_ += pid_.Ki * Ts_ * e;
+      w_ref = pid_.Kp * e + position_integral_;
+      kp = pid_.speed_Kp;
+      ki = pid_.speed_Ki;
+    }
+    const double e = w_ref - w;
+    const double candidate = speed_integral_ + ki * Ts_ * e;
+    const double u = kp * e + candidate;
+    if (!((u > high && e > 0.0) || (u < low && e < 0.0))) speed_integral_ = candidate;
+    const double command = std::clamp(kp * e + speed_integral_, low, high);
+    if (queue_.empty()) return command;
+    const double out = queue_.front();
+    queue_.erase(queue_.begin());
+    queue_.push_back(command);
+    return out;
+  }
+
+ private:
+  const PidSettings& pid_;
+  double Ts_;
+  double speed_integral_ = 0.0;     // u
+  double position_integral_ = 0.0;  // rad/s
+  std::vector<double> queue_;       // the commands computed, oldest first
+};
+
+// The controller's period in simulation steps dt (1/pid.sample_rate, every step when 0); 0
+// when it is not a whole number of steps.
+inline long ControllerPeriodSteps(const PidSettings& pid, double dt) {
+  const double Ts = pid.sample_rate > 0.0 ? 1.0 / pid.sample_rate : dt;
+  const long period = std::lround(Ts / dt);
+  if (period < 1 || std::abs(static_cast<double>(period) * dt - Ts) > 1e-6 * Ts) return 0;
+  return period;
+}
+
+}  // namespace blmd::internal
