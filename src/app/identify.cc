@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "blmd/app/baseline.h"
+#include "blmd/format.h"
 #include "blmd/ident/fit/progress.h"
 #include "blmd/ident/residual/adequacy.h"
 #include "blmd/ident/uncertainty/trace_jackknife.h"
@@ -54,7 +55,10 @@ IdentOutcome Identify(IdentRequest request) {
   const OptimizerOptions& options = request.options;
   ProgressObserver* const progress = options.progress;
   Stage(progress, "first fit (" + request.method + ")");
-  const FitResult unweighted_fit = optimizer.Minimize(unweighted, options);
+  // A local fit that stopped on a bound or far above the noise is restarted from the best
+  // points of a scan of the bounds box (start_scan.h).
+  const FitResult unweighted_fit =
+      MinimizeWithStartScan(optimizer, unweighted, options, &outcome.start_scan);
   // The cost weighted by each column's noise (noise_model.h): estimated from the residual,
   // refit from the optimum until the noise settles.
   Stage(progress, "noise-weighted refit (" + request.method + ")");
@@ -154,6 +158,19 @@ IdentOutcome Identify(IdentRequest request) {
         "the residual is coloured (Ljung-Box p = " + FormatSignificant(left->whiteness_p, 3) +
         "): the intervals allow for correlated noise (prewhitened HAC); a "
         "missing effect would show in the adequacy check");
+  }
+  if (outcome.start_scan.improved) {
+    const StartScanRecord& scan = outcome.start_scan;
+    std::string start;
+    for (std::size_t k = 0; k < scan.start.size() && k < unweighted.num_free(); ++k) {
+      start +=
+          (k ? ", " : "") + unweighted.free()[k].name + " = " + FormatSignificant(scan.start[k], 4);
+    }
+    report.notes.push_back("the local fit from the config's start stopped in a side valley (" +
+                           scan.reason + "); a scan of " + std::to_string(scan.points) +
+                           " points of the bounds box and a fit from its best (" + start +
+                           ") reached NRMSE " + FormatSignificant(scan.nrmse_final, 4) +
+                           " (docs/identification.md §2a)");
   }
   WidenForAmbiguity(&report);
   AddLinearViews(&report, problem, outcome.final_config, outcome.final_parameters);

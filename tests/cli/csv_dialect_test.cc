@@ -125,8 +125,10 @@ TEST(CsvDialects, RepeatedTimeStamps) {
 // The MG996R servo log (../shared/realdata/mg996r_servo): 19 571 rows, 27 repeated time
 // stamps. Refused by default naming the first repeated line and the flag; read with the
 // flag, with or without --select. The raw log (';', decimal commas, 13-digit millisecond stamps)
-// reads too. (The Ganesh config is not this servo's model: the fit is no fit, NRMSE above 1 with J
-// or B at a bound, exit 1 with the reason, the report written all the same.)
+// reads too. (The Ganesh config is not this servo's model: from the config's start the fit ends
+// on J's bound; the start scan's restart (docs/identification.md §2a) ends inside the bounds at
+// an NRMSE above 1: exit 0, and the report's warning says the model explains the column no
+// better than its mean.)
 TEST(CsvDialects, Mg996rServoLogWithRepeatedTimeStamps) {
   const std::string log = SourcePath("../shared/realdata/mg996r_servo/triangle_speed_log.csv");
   if (!FileExists(log)) GTEST_SKIP() << "shared/realdata is not beside the repository";
@@ -143,10 +145,11 @@ TEST(CsvDialects, Mg996rServoLogWithRepeatedTimeStamps) {
   for (const std::string mode : {"first", "mean"}) {
     run = blmd::testing::Run(common + " --duplicate-time " + mode + " --report " +
                              dir.File(mode + ".json"));
-    EXPECT_EQ(run.exit_code, 1) << run.err;
-    EXPECT_EQ(run.err.rfind("error: the fit failed: NRMSE ", 0), 0u) << run.err;
+    EXPECT_EQ(run.exit_code, 0) << run.err;
     const nlohmann::json report = nlohmann::json::parse(Slurp(dir.File(mode + ".json")));
     EXPECT_EQ(report["trace"]["samples"].get<int>(), 19571 - 27);
+    EXPECT_GT(report["fit"]["nrmse"].get<double>(), 1.0);
+    EXPECT_EQ(report["warnings"][0]["code"], "nrmse_at_least_one");
   }
   // With --select (or --split) the rows are merged too, within each experiment after the
   // selection; without the flag the message still names it. (Before, a selection left the
@@ -159,7 +162,7 @@ TEST(CsvDialects, Mg996rServoLogWithRepeatedTimeStamps) {
                 "for several rows logged at one instant use --duplicate-time first|mean\n");
   run = blmd::testing::Run(common + " --select t=0: --duplicate-time mean --report " +
                            dir.File("selected.json"));
-  EXPECT_EQ(run.exit_code, 1) << run.err;
+  EXPECT_EQ(run.exit_code, 0) << run.err;
   const nlohmann::json selected = nlohmann::json::parse(Slurp(dir.File("selected.json")));
   EXPECT_EQ(selected["trace"]["samples"].get<int>(), 19571 - 27);
   EXPECT_EQ(selected["trace"]["path"], log + "[t=0:]");

@@ -8,6 +8,7 @@
 
 #include "blmd/ident/fit/problem.h"
 #include "blmd/ident/optimizers/optimizer.h"
+#include "blmd/ident/optimizers/start_scan.h"
 #include "blmd/io/config.h"
 #include "blmd/random.h"
 #include "blmd/report/report.h"
@@ -298,6 +299,65 @@ TEST(Identification, DivergingPointsGetInfiniteCostWithAReason) {
   EXPECT_FALSE(evaluation.ok);
   EXPECT_TRUE(std::isinf(evaluation.cost));
   EXPECT_EQ(evaluation.reason, "parameter 'R' must be > 0");
+}
+
+// The BLMD drive observed in its phase current and speed (the fleet study's drive,
+// docs/fleet.md §8), its J 20 % below the start: the phase current is periodic in the rotor
+// angle, so from the start the local fit slides to B's upper bound (a side valley); the
+// start scan (docs/identification.md §2a) restarts it from the best of 64 points of the box
+// and recovers J and B.
+Config BlmdFleetDrive() {
+  Config config = LoadConfig(testing::SourcePath("configs/blmd-d31x-square.json"));
+  config.simulation.method = SimulationMethod::kEvents;
+  config.experiment.duration = 0.16;
+  config.experiment.sample_rate = 5000;
+  return config;
+}
+
+TEST(StartScan, BlmdFitFromASideValleyIsRestartedFromTheScan) {
+  Config truth = BlmdFleetDrive();
+  const double J0 = truth.parameters.Get("J"), B0 = truth.parameters.Get("B");
+  truth.parameters.Set("J", 0.8 * J0);
+  truth.parameters.Set("B", 0.9 * B0);
+  const FitTrace trace = MakeNoisyTrace(truth, {"i", "w"}, 64);
+  const FitProblem problem = MakeProblem(BlmdFleetDrive(), trace, {"i", "w"}, {"J", "B"}, {J0, B0});
+  const Optimizer& ceres = FindOptimizer("ceres");
+  OptimizerOptions options;
+  options.threads = 1;
+  // Without the scan: the local fit stops on B's upper bound, J off.
+  const FitResult local = ceres.Minimize(problem, options);
+  EXPECT_EQ(SideValleyReason(problem, local), "B stopped on its bound");
+  EXPECT_GT(std::sqrt(local.evaluation.nrmse2), 0.3);
+  EXPECT_GT(RelativeError(local.values[1], 0.9 * B0), 1.0) << "B = " << local.values[1];
+  StartScanRecord record;
+  const FitResult scanned = MinimizeWithStartScan(ceres, problem, options, &record);
+  EXPECT_TRUE(record.ran);
+  EXPECT_TRUE(record.improved);
+  EXPECT_EQ(record.points, 64);
+  EXPECT_EQ(record.restarts, 3);
+  EXPECT_LT(RelativeError(scanned.values[0], 0.8 * J0), 0.005) << "J = " << scanned.values[0];
+  EXPECT_LT(RelativeError(scanned.values[1], 0.9 * B0), 0.05) << "B = " << scanned.values[1];
+  EXPECT_LT(std::sqrt(scanned.evaluation.nrmse2), 0.05);
+  EXPECT_EQ(SideValleyReason(problem, scanned), "");
+  // The report's start is the user's, and the count holds every evaluation made.
+  EXPECT_EQ(scanned.estimates[0].initial, J0);
+  EXPECT_GT(scanned.summary.evaluations, local.summary.evaluations + 64);
+}
+
+// A fit that looks settled runs no scan: the result is the local method's, bit for bit.
+TEST(StartScan, SettledFitIsLeftAsTheMethodReturnedIt) {
+  const Config config = GaneshShort(0.6);
+  const double J = config.parameters.Get("J"), B = config.parameters.Get("B");
+  const FitProblem problem = MakeProblem(config, MakeNoisyTrace(config, {"i", "w"}, 11), {"i", "w"},
+                                         {"J", "B"}, {2.0 * J, 0.5 * B});
+  const FitResult local = FindOptimizer("ceres").Minimize(problem, OptimizerOptions{});
+  StartScanRecord record;
+  const FitResult scanned =
+      MinimizeWithStartScan(FindOptimizer("ceres"), problem, OptimizerOptions{}, &record);
+  EXPECT_FALSE(record.ran);
+  EXPECT_EQ(record.reason, "");
+  EXPECT_EQ(scanned.values, local.values);
+  EXPECT_EQ(scanned.summary.evaluations, local.summary.evaluations);
 }
 
 }  // namespace

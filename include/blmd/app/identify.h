@@ -13,6 +13,7 @@
 #include "blmd/ident/fit/noise_model.h"
 #include "blmd/ident/fit/problem.h"
 #include "blmd/ident/optimizers/optimizer.h"
+#include "blmd/ident/optimizers/start_scan.h"
 #include "blmd/io/config.h"
 #include "blmd/report/report.h"
 
@@ -49,6 +50,9 @@ struct IdentOutcome {
   std::unique_ptr<FitProblem> problem;
   FitResult first_fit;  // as the optimiser returned it (after the noise reweighting)
   NoiseModel noise;     // the first model's noise weights
+  // The first fit's guard against a side valley (start_scan.h): whether it ran, and whether a
+  // restart from the scan replaced the fit from the config's start.
+  StartScanRecord start_scan;
   std::unique_ptr<DiscoveryResult> discovery;  // when request.discover
   // The final model (after discovery, else the first fit): its config, its parameters at
   // the fitted values and its free parameters with their bounds (--write-config).

@@ -30,28 +30,6 @@ using internal::CandidateRun;
 using internal::MakeProblem;
 using internal::ScreenCandidate;
 
-// The noise floor in the cost's units: sqrt of the mean over observed columns of
-// sigma_c^2 / Var_c, sigma_c^2 from the measured column's second differences
-// (NoiseFloorVariance, adequacy.h), pooled over the traces by their sample counts.
-double NoiseFloorNrmse(const FitProblem& problem) {
-  const std::size_t columns = problem.observe().size();
-  if (columns == 0) return 0.0;
-  double total = 0.0;
-  for (std::size_t c = 0; c < columns; ++c) {
-    double weighted = 0.0, count = 0.0;
-    for (std::size_t k = 0; k < problem.traces().size(); ++k) {
-      const Trace& measured = problem.measured(k);
-      const auto n = static_cast<double>(measured.rows());
-      weighted +=
-          n * NoiseFloorVariance(measured.Column("t"), measured.Column(problem.observe()[c]));
-      count += n;
-    }
-    if (count > 0.0 && problem.variance()[c] > 0.0)
-      total += weighted / count / problem.variance()[c];
-  }
-  return std::sqrt(total / static_cast<double>(columns));
-}
-
 // The share of what `before` leaves above the noise floor that `after` explains (all in
 // NRMSE units); 0 when the model before is already at the floor.
 double ExplainedShare(double before, double after, double floor) {

@@ -179,6 +179,15 @@ std::vector<double> FitProblem::ToScaled(const std::vector<double>& values) cons
   return scaled;
 }
 
+FitProblem FitProblem::WithStart(const std::vector<double>& values) const {
+  FitProblem restarted = *this;
+  for (std::size_t k = 0; k < free_.size() && k < values.size(); ++k) {
+    FreeParameter& p = restarted.free_[k];
+    p.initial = std::clamp(values[k], p.lower, p.upper);
+  }
+  return restarted;
+}
+
 std::vector<double> FitProblem::FromScaled(const std::vector<double>& scaled) const {
   std::vector<double> values(free_.size());
   for (std::size_t k = 0; k < free_.size(); ++k) {

@@ -110,6 +110,9 @@ class FitProblem {
   std::vector<double> ToScaled(const std::vector<double>& values) const;
   std::vector<double> FromScaled(const std::vector<double>& scaled) const;
   std::vector<double> InitialValues() const;
+  // The same problem (weights, forced angles) started from `values` (physical units, each
+  // clamped into its bounds): a restart of a local fit.
+  FitProblem WithStart(const std::vector<double>& values) const;
 
   // The full parameter set with the free values substituted.
   ParameterSet Parameters(const std::vector<double>& values) const;

@@ -133,6 +133,11 @@ void CheckEffectStability(const FitProblem& problem, const std::vector<double>& 
 // bound, which makes the stopping rule's shares conservative.
 double NoiseFloorVariance(const std::vector<double>& t, const std::vector<double>& y);
 
+// The noise floor in the cost's units (NRMSE): sqrt of the mean over observed columns of
+// sigma_c^2 / Var_c, sigma_c^2 the NoiseFloorVariance of the measured column, pooled over
+// the traces by their sample counts. 0 without observed columns.
+double NoiseFloorNrmse(const FitProblem& problem);
+
 // The FGLS F test of `response` on `regressors` (columns; an intercept per segment is
 // added), the noise an AR(p <= ar_max_order) model fitted to the OLS residual, filtered per
 // segment (`segments`: the start index of each, ascending, the first 0). Exposed for tests.

@@ -1,0 +1,39 @@
+// A guard for a local fit that stopped in a side valley (docs/identification.md §2a). A local
+// method (Ceres, BOBYQA) finds the minimum of the basin it starts in; a cost with several
+// basins (the BLMD drive's phase current is periodic in the rotor angle, so a start 15 %
+// off in J already sits in another one) can leave it on a bound or at an NRMSE far above the
+// data's noise. When the fit looks like that, a low-discrepancy scan of the bounds box finds
+// the best start points, the same method is run again from the few best, and the fit with
+// the lowest cost is kept (only when it is lower by more than 1 %, so that the choice never
+// hinges on the last bits of the data).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "blmd/ident/optimizers/optimizer.h"
+
+namespace blmd {
+
+struct StartScanRecord {
+  bool ran = false;
+  std::string reason;     // why the first fit looked stuck ("" when it did not)
+  int points = 0;         // scan points evaluated (Halton sequence over the scaled box)
+  int restarts = 0;       // local fits from the best of them
+  bool improved = false;  // a restart replaced the first fit
+  double nrmse_first = 0.0, nrmse_final = 0.0;
+  std::vector<double> start;  // the start of the fit kept, physical units (when improved)
+};
+
+// Why `fit` of `problem` may have stopped in a side valley, or "" when it looks settled: its
+// cost is not finite, a free parameter sits on a bound, or its NRMSE exceeds both 0.1 and 3x
+// the data's noise floor (NoiseFloorNrmse, residual/adequacy.h).
+std::string SideValleyReason(const FitProblem& problem, const FitResult& fit);
+
+// `optimizer` on `problem`, then, when SideValleyReason says so, the scan and the restarts.
+// The result is the best fit found, its summary counting every evaluation made; `record`
+// (may be null) says what ran.
+FitResult MinimizeWithStartScan(const Optimizer& optimizer, const FitProblem& problem,
+                                const OptimizerOptions& options, StartScanRecord* record);
+
+}  // namespace blmd
