@@ -21,14 +21,12 @@ using internal::Figure;
 // 2.8e-8 on [0, 1] is within 1e-6 of the range but forty deviations from 0, a value the
 // data set, not the bound.
 bool AtBound(const FreeParameter& fp, const ParameterEstimate& e) {
-  const double span = fp.log_scale ? std::log(fp.upper / fp.lower) : fp.upper - fp.lower;
-  const double below = fp.log_scale ? std::log(e.value / fp.lower) : e.value - fp.lower;
-  const double above = fp.log_scale ? std::log(fp.upper / e.value) : fp.upper - e.value;
+  const BoundDistance d = DistanceToBounds(fp, e.value);
   const double std_search = e.has_interval && !fp.log_scale ? e.std : 0.0;
   auto near = [&](double distance) {
-    return distance <= 1e-6 * span && (std_search <= 0.0 || distance <= 0.01 * std_search);
+    return distance <= 1e-6 * d.span && (std_search <= 0.0 || distance <= 0.01 * std_search);
   };
-  return near(below) || near(above);
+  return near(d.below) || near(d.above);
 }
 
 std::map<std::string, ParameterReport> Parameters(const FitProblem& problem,

@@ -179,6 +179,14 @@ std::vector<double> FitProblem::ToScaled(const std::vector<double>& values) cons
   return scaled;
 }
 
+BoundDistance DistanceToBounds(const FreeParameter& p, double value) {
+  BoundDistance d;
+  d.span = p.log_scale ? std::log(p.upper / p.lower) : p.upper - p.lower;
+  d.below = p.log_scale ? std::log(value / p.lower) : value - p.lower;
+  d.above = p.log_scale ? std::log(p.upper / value) : p.upper - value;
+  return d;
+}
+
 FitProblem FitProblem::WithStart(const std::vector<double>& values) const {
   FitProblem restarted = *this;
   for (std::size_t k = 0; k < free_.size() && k < values.size(); ++k) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <numeric>
 
 #include "blmd/format.h"
@@ -19,6 +20,7 @@ constexpr int kRestarts = 3;
 // A restart replaces the first fit only when its cost is lower by more than this share: a
 // choice between two fits that differ by less would hinge on the data's last bits.
 constexpr double kImprovement = 0.01;
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
 // Component `dimension` of the Halton sequence's point `index` (index >= 1): the radical
 // inverse of index in the dimension's prime base (Halton 1960, Numer. Math. 2, 84-90), a
@@ -36,10 +38,8 @@ double Halton(int index, int dimension) {
 }
 
 bool OnBound(const FreeParameter& p, double value) {
-  const double span = p.log_scale ? std::log(p.upper / p.lower) : p.upper - p.lower;
-  const double below = p.log_scale ? std::log(value / p.lower) : value - p.lower;
-  const double above = p.log_scale ? std::log(p.upper / value) : p.upper - value;
-  return std::min(below, above) <= 1e-6 * span;
+  const BoundDistance d = DistanceToBounds(p, value);
+  return std::min(d.below, d.above) <= 1e-6 * d.span;
 }
 
 }  // namespace
@@ -91,8 +91,8 @@ FitResult MinimizeWithStartScan(const Optimizer& optimizer, const FitProblem& pr
   std::vector<std::size_t> order(points.size());
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-    const double ca = costs[a].ok ? costs[a].cost : INFINITY;
-    const double cb = costs[b].ok ? costs[b].cost : INFINITY;
+    const double ca = costs[a].ok ? costs[a].cost : kInfinity;
+    const double cb = costs[b].ok ? costs[b].cost : kInfinity;
     return ca < cb;
   });
 

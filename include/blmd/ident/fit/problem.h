@@ -53,6 +53,13 @@ struct FreeParameter {
   double initial = 0.0;  // start value, physical units
 };
 
+// How far `value` is from each bound of `p`, in its search coordinates (log for a log-scale
+// parameter), with the bounded range in the same units: what "on its bound" is measured by.
+struct BoundDistance {
+  double span = 0.0, below = 0.0, above = 0.0;
+};
+BoundDistance DistanceToBounds(const FreeParameter& p, double value);
+
 // The outcome of one cost evaluation.
 struct Evaluation {
   bool ok = false;
