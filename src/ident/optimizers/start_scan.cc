@@ -71,7 +71,6 @@ FitResult MinimizeWithStartScan(const Optimizer& optimizer, const FitProblem& pr
   out.reason = SideValleyReason(problem, first);
   if (out.reason.empty()) return first;
   out.ran = true;
-  out.nrmse_first = out.nrmse_final = std::sqrt(first.evaluation.nrmse2);
   const auto started = std::chrono::steady_clock::now();
 
   const std::size_t p = problem.num_free();

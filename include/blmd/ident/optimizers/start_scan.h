@@ -17,11 +17,11 @@ namespace blmd {
 
 struct StartScanRecord {
   bool ran = false;
-  std::string reason;     // why the first fit looked stuck ("" when it did not)
-  int points = 0;         // scan points evaluated (Halton sequence over the scaled box)
-  int restarts = 0;       // local fits from the best of them
-  bool improved = false;  // a restart replaced the first fit
-  double nrmse_first = 0.0, nrmse_final = 0.0;
+  std::string reason;         // why the first fit looked stuck ("" when it did not)
+  int points = 0;             // scan points evaluated (Halton sequence over the scaled box)
+  int restarts = 0;           // local fits from the best of them
+  bool improved = false;      // a restart replaced the first fit
+  double nrmse_final = 0.0;   // of the fit kept (the first fit's is in `reason` when it set it)
   std::vector<double> start;  // the start of the fit kept, physical units (when improved)
 };
 
