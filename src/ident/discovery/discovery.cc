@@ -5,6 +5,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <map>
 #include <optional>
 
 #include "blmd/ident/discovery/evidence.h"
@@ -133,12 +134,27 @@ RoundBase MakeRoundBase(const FitProblem& base, const std::vector<double>& value
   return round;
 }
 
+// The refit runs on `screening_dt`, the step the candidate was screened on, first, when that
+// is coarser than the config's (docs/discovery.md §3c): its evaluations are cheaper, and the
+// fit on the config's step then starts next to its minimum and is given kPolishIterations
+// (the user's --option max_iterations still wins).
+constexpr int kPolishIterations = 5;
 void RefitCandidate(const FitProblem& base, const RoundBase& round, const CandidatePlan& plan,
-                    double bic_before, const DiscoveryOptions& options, CandidateRun* run) {
+                    double bic_before, const DiscoveryOptions& options, double screening_dt,
+                    CandidateRun* run) {
   for (std::size_t k = 0; k < run->free.size(); ++k) run->free[k].initial = run->screen_values[k];
-  const FitProblem problem = MakeProblem(run->config, base.traces(), base.observe(), run->free);
   OptimizerOptions refit = options.refit;
   refit.default_max_iterations = 50;  // unless the user's --option max_iterations says otherwise
+  if (screening_dt > run->config.simulation.dt) {
+    const FitProblem coarse =
+        MakeProblem(run->config, base.traces(), base.observe(), run->free).WithStep(screening_dt);
+    const FitResult first = FindOptimizer("ceres").Minimize(coarse, refit);
+    if (first.evaluation.ok) {
+      for (std::size_t k = 0; k < run->free.size(); ++k) run->free[k].initial = first.values[k];
+      refit.default_max_iterations = kPolishIterations;
+    }
+  }
+  const FitProblem problem = MakeProblem(run->config, base.traces(), base.observe(), run->free);
   run->fit = FindOptimizer("ceres").Minimize(problem, refit);
   if (run->fit.evaluation.ok && problem.effect_angle_forced() &&
       run->config.identification.effect_angle == "simulated") {
@@ -334,6 +350,8 @@ struct Round {
   std::vector<CandidateRun> runs;  // one per plan
   std::vector<std::size_t> order;  // indices into runs, best first
   RoundBase base;                  // what every candidate is compared with
+  internal::ScreeningGrid grid;    // the screening grid's levels (screening.h)
+  std::vector<int> levels;         // per run: the level it was planned and screened on
 };
 
 // `work` on each of `items`, on `threads` threads.
@@ -348,14 +366,23 @@ bool ScreenAndRefit(const FitProblem& current, const FitResult& fit, double curr
                     const std::vector<std::string>& candidates, const ResidualAnalysis& analysis,
                     double noise_floor_nrmse, const DiscoveryOptions& options, Round* round) {
   std::vector<CandidatePlan>& plans = round->plans;
+  const auto& declared = current.config().effects;
+  bool any = false;
+  for (const auto& effect : candidates)
+    any = any || std::find(declared.begin(), declared.end(), effect) == declared.end();
+  if (!any) return false;
+  // The screening grids the current model allows (screening.h); each candidate is planned
+  // and screened on the coarsest that also simulates it faithfully.
+  round->grid = internal::ChooseScreeningGrid(current, fit.values, noise_floor_nrmse);
+  const internal::ScreeningGrid& grid = round->grid;
+  const FitProblem& planning = grid.Problem(grid.Coarsest(), current);
   for (const auto& effect : candidates) {
-    const auto& declared = current.config().effects;
     if (std::find(declared.begin(), declared.end(), effect) != declared.end()) continue;
-    plans.push_back(PlanCandidate(effect, current, analysis, fit.values));
+    plans.push_back(PlanCandidate(effect, planning, analysis, fit.values));
   }
-  if (plans.empty()) return false;
   std::vector<CandidateRun>& runs = round->runs;
   runs.resize(plans.size());
+  round->levels.assign(plans.size(), -1);
   const int threads = internal::ThreadCount(options.refit.threads);
   std::vector<std::size_t> all(plans.size());
   for (std::size_t k = 0; k < all.size(); ++k) all[k] = k;
@@ -363,7 +390,15 @@ bool ScreenAndRefit(const FitProblem& current, const FitResult& fit, double curr
   const std::string round_name = "discovery round " + std::to_string(round->number);
   if (progress) progress->BeginStage(round_name + ": screening", static_cast<int>(plans.size()));
   ForEachItem(all, threads, [&](std::size_t k) {
-    runs[k] = ScreenCandidate(current, fit.values, plans[k], current_bic, progress);
+    const int level = grid.LevelFor(current, fit.values, plans[k], progress);
+    const FitProblem& screening = grid.Problem(level, current);
+    if (&screening != &planning)
+      plans[k] = PlanCandidate(plans[k].effect, screening, analysis, fit.values);
+    round->levels[k] = level;
+    runs[k] =
+        ScreenCandidate(screening, fit.values, plans[k], grid.Bic(level, current_bic), progress);
+    // The refit simulates on the config's own step.
+    runs[k].config.simulation.dt = current.config().simulation.dt;
     if (progress) progress->StepDone();
   });
   round->base = MakeRoundBase(current, fit.values, noise_floor_nrmse, options);
@@ -390,7 +425,8 @@ bool ScreenAndRefit(const FitProblem& current, const FitResult& fit, double curr
   if (progress && !refit.empty())
     progress->BeginStage(round_name + ": refits", static_cast<int>(refit.size()));
   ForEachItem(refit, threads, [&](std::size_t k) {
-    RefitCandidate(current, round->base, plans[k], current_bic, options, &runs[k]);
+    RefitCandidate(current, round->base, plans[k], current_bic, options,
+                   grid.Step(round->levels[k], current.config().simulation.dt), &runs[k]);
     runs[k].refitted = true;
     if (progress) progress->StepDone();
   });
@@ -540,26 +576,44 @@ void CrossValidateCandidates(const FitProblem& problem, const FitProblem& curren
                              DiscoveryResult* result) {
   if (!options.cross_validate || (options.held_out && !options.held_out->empty())) return;
   ProgressObserver* const progress = options.refit.progress;
-  std::optional<CrossValidation> base_cv;
-  // The current model's cross-validation on each perturbed copy, computed when first needed.
-  std::vector<std::optional<CrossValidation>> base_copies(perturbed.size());
+  // Each candidate is cross-validated on the coarsest level of the screening grid on which its
+  // refit model simulates within the grid's tolerance (docs/discovery.md §3c), and compared
+  // with the current model's cross-validation on the same level, computed when first needed,
+  // as are those on each perturbed copy.
+  const double dt = current.config().simulation.dt;
+  std::map<int, CrossValidation> base_cvs;
+  std::map<int, std::vector<std::optional<CrossValidation>>> base_copies;
+  auto OnStep = [](Config config, double step) {
+    config.simulation.dt = step;
+    return config;
+  };
   for (std::size_t k : round->order) {
     CandidateRun& run = round->runs[k];
     CandidateOutcome& o = run.outcome;
     if (!PassesEvidence(o, options)) continue;
-    if (!base_cv) {
-      base_cv = BlockCrossValidate(current.config(), StartingAt(current.free(), fit.values),
-                                   problem.traces(), problem.observe(), fit.values, options.refit);
-      result->cross_validation_parts = base_cv->parts;
+    const int level = round->grid.LevelHolding(problem, run.config, run.free, run.fit.values);
+    const double step = round->grid.Step(level, dt);
+    auto found = base_cvs.find(level);
+    if (found == base_cvs.end()) {
+      found = base_cvs
+                  .emplace(level, BlockCrossValidate(OnStep(current.config(), step),
+                                                     StartingAt(current.free(), fit.values),
+                                                     problem.traces(), problem.observe(),
+                                                     fit.values, options.refit))
+                  .first;
+      if (result->cross_validation_parts.empty())
+        result->cross_validation_parts = found->second.parts;
+      base_copies[level].resize(perturbed.size());
     }
-    if (!base_cv->ok) break;  // nothing to compare with: the evidence alone decides
+    const CrossValidation& base_cv = found->second;
+    if (!base_cv.ok) break;  // nothing to compare with: the evidence alone decides
     // Parts that do not predict each other even with the current model (a cross-validated
     // NRMSE over twice the fitted one) cannot judge a candidate: the evidence alone decides,
     // and the report says why (cross_validation_parts).
-    if (!(base_cv->nrmse <= 2.0 * round->base.nrmse)) {
+    if (!(base_cv.nrmse <= 2.0 * round->base.nrmse)) {
       result->cross_validation_parts += " (not used in round " + std::to_string(round->number) +
                                         ": the parts predict each other with NRMSE " +
-                                        G(base_cv->nrmse) + " against " + G(round->base.nrmse) +
+                                        G(base_cv.nrmse) + " against " + G(round->base.nrmse) +
                                         " fitted)";
       break;
     }
@@ -567,14 +621,15 @@ void CrossValidateCandidates(const FitProblem& problem, const FitProblem& curren
       progress->BeginStage(
           "discovery round " + std::to_string(round->number) + ": cross-validating " + o.effect, 0);
     }
+    const Config config = OnStep(run.config, step);
     const CrossValidation cv =
-        BlockCrossValidate(run.config, StartingAt(run.free, run.fit.values), problem.traces(),
+        BlockCrossValidate(config, StartingAt(run.free, run.fit.values), problem.traces(),
                            problem.observe(), run.fit.values, options.refit);
     if (!cv.ok) continue;  // the candidate keeps its evidence-only verdict
     o.cross_validated = true;
-    o.cv_before = base_cv->nrmse;
+    o.cv_before = base_cv.nrmse;
     o.cv_after = cv.nrmse;
-    o.generalises = cv.nrmse < (1.0 - options.held_out_margin) * base_cv->nrmse;
+    o.generalises = cv.nrmse < (1.0 - options.held_out_margin) * base_cv.nrmse;
     if (!o.generalises) {
       o.reason = "tried, not needed: does not generalise (cross-validated NRMSE " + G(o.cv_before) +
                  " -> " + G(o.cv_after) + ", needs a fall of more than " +
@@ -585,25 +640,27 @@ void CrossValidateCandidates(const FitProblem& problem, const FitProblem& curren
     // data far below their noise, and a verdict that flips is not a finding.
     // The copies' fits also start a little off the values (where the previous fits stopped
     // is known only to their tolerance): a verdict that hinges on that is no more a finding.
+    std::vector<std::optional<CrossValidation>>& copies = base_copies[level];
     for (std::size_t c = 0; c < perturbed.size() && o.stable; ++c) {
-      if (!base_copies[c]) {
+      if (!copies[c]) {
         const std::vector<double> start =
             Jittered(fit.values, current.free(), 0x5eed1000u + c, options.stability_start);
-        base_copies[c] = BlockCrossValidate(current.config(), StartingAt(current.free(), start),
-                                            perturbed[c], problem.observe(), start, options.refit);
+        copies[c] =
+            BlockCrossValidate(OnStep(current.config(), step), StartingAt(current.free(), start),
+                               perturbed[c], problem.observe(), start, options.refit);
       }
       const std::vector<double> start =
           Jittered(run.fit.values, run.free, 0x5eed2000u + c, options.stability_start);
       const CrossValidation copy =
-          BlockCrossValidate(run.config, StartingAt(run.free, start), perturbed[c],
-                             problem.observe(), start, options.refit);
-      if (!base_copies[c]->ok || !copy.ok) continue;
-      const bool generalises = copy.nrmse < (1.0 - options.held_out_margin) * base_copies[c]->nrmse;
+          BlockCrossValidate(config, StartingAt(run.free, start), perturbed[c], problem.observe(),
+                             start, options.refit);
+      if (!copies[c]->ok || !copy.ok) continue;
+      const bool generalises = copy.nrmse < (1.0 - options.held_out_margin) * copies[c]->nrmse;
       if (generalises == o.generalises) continue;
       o.stable = false;
       o.reason = "unstable: a change of the data of " + G(options.stability_perturbation, 2) +
                  " of their values reverses its cross-validated verdict (NRMSE " + G(o.cv_before) +
-                 " -> " + G(o.cv_after) + " on the data, " + G(base_copies[c]->nrmse) + " -> " +
+                 " -> " + G(o.cv_after) + " on the data, " + G(copies[c]->nrmse) + " -> " +
                  G(copy.nrmse) + " on a copy), so the record cannot decide it (not added)";
       RecordUnstable(o, result);
     }

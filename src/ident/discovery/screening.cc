@@ -129,6 +129,120 @@ std::pair<std::vector<double>, Evaluation> OneStepGaussNewton(const FitProblem& 
 
 }  // namespace
 
+namespace {
+
+// The sum of squared differences of two residual vectors (+inf when their sizes differ).
+double SquaredDifference(const std::vector<double>& a, const std::vector<double>& b) {
+  if (a.size() != b.size()) return std::numeric_limits<double>::infinity();
+  double sum = 0.0;
+  for (std::size_t k = 0; k < a.size(); ++k) sum += (a[k] - b[k]) * (a[k] - b[k]);
+  return sum;
+}
+
+// The factors a grid may use, from the largest down, at most `count`: those that leave at
+// least kMinGridStepsPerSample steps in the traces' shortest sample interval, and divide its
+// steps when the sampling is a whole number of steps.
+std::vector<int> GridFactors(const FitProblem& problem, std::size_t count) {
+  const double dt = problem.config().simulation.dt;
+  double shortest = std::numeric_limits<double>::infinity();
+  for (const FitTrace& trace : problem.traces()) {
+    const std::vector<double>& t = trace.trace.Column("t");
+    for (std::size_t k = 1; k < t.size(); ++k) shortest = std::min(shortest, t[k] - t[k - 1]);
+  }
+  const double ratio = shortest / dt;
+  std::vector<int> factors;
+  if (!std::isfinite(ratio) || ratio < 2.0 * kMinGridStepsPerSample || ratio > 1e6) return factors;
+  const long whole = std::lround(ratio);
+  const bool regular = std::abs(ratio - static_cast<double>(whole)) <= 1e-6 * ratio;
+  const auto largest = static_cast<long>(std::floor(ratio / kMinGridStepsPerSample));
+  for (long d = largest; d >= 2; --d) {
+    if (regular && whole % d != 0) continue;
+    factors.push_back(static_cast<int>(d));
+    if (factors.size() == count) break;
+  }
+  return factors;
+}
+
+// The candidate at its probe point: the middle of its start points (of its first alternative
+// when it has several), an effect of a typical size, where a coarser step's error shows.
+bool ProbePoint(const CandidatePlan& plan, std::vector<double>* start,
+                std::map<std::string, double>* fixed) {
+  if (!plan.applicable) return false;
+  if (!plan.starts.empty()) {
+    *start = plan.starts[plan.starts.size() / 2];
+  } else if (!plan.alternative_starts.empty() && !plan.alternative_starts.front().empty()) {
+    *start = plan.alternative_starts.front().front();
+  } else {
+    return false;
+  }
+  fixed->clear();
+  if (!plan.fixed_alternatives.empty()) *fixed = plan.fixed_alternatives.front();
+  return start->size() == plan.free.size();
+}
+
+}  // namespace
+
+ScreeningGrid ChooseScreeningGrid(const FitProblem& current, const std::vector<double>& values,
+                                  double floor_nrmse) {
+  ScreeningGrid grid;
+  const double dt = current.config().simulation.dt;
+  if (current.equation_error() ||
+      current.config().simulation.method != SimulationMethod::kFixedEuler || !(dt > 0.0))
+    return grid;
+  std::vector<double> fine;
+  const Evaluation at_fine = current.Evaluate(values, &fine);
+  if (!at_fine.ok) return grid;
+  const double noise_cost = current.noise_weighted() ? 1.0 : floor_nrmse * floor_nrmse;
+  grid.reference_ = std::min(at_fine.cost, noise_cost);
+  if (!(grid.reference_ > 0.0)) return grid;
+  for (int factor : GridFactors(current, kMaxGridLevels)) {
+    auto coarse = std::make_shared<const FitProblem>(current.WithStep(factor * dt));
+    std::vector<double> residuals;
+    const Evaluation at = coarse->Evaluate(values, &residuals);
+    if (!at.ok || !(SquaredDifference(residuals, fine) <= kGridTolerance * grid.reference_))
+      continue;
+    grid.levels_.push_back({factor, coarse, Bic(*coarse, at, coarse->num_free())});
+  }
+  return grid;
+}
+
+int ScreeningGrid::LevelFor(const FitProblem& fine, const std::vector<double>& values,
+                            const CandidatePlan& plan, ProgressObserver* progress) const {
+  if (levels_.empty()) return -1;
+  std::vector<double> start;
+  std::map<std::string, double> fixed;
+  if (!ProbePoint(plan, &start, &fixed)) return plan.applicable ? -1 : 0;
+  Config config;
+  std::vector<FreeParameter> free;
+  std::vector<double> at_fine;
+  const FitProblem probe = CandidateProblem(fine, values, plan, start, fixed, &config, &free);
+  if (!Counted(progress, probe.Evaluate(probe.InitialValues(), &at_fine)).ok) return -1;
+  for (int level = 0; level < levels(); ++level) {
+    std::vector<double> residuals;
+    const FitProblem coarse =
+        CandidateProblem(*levels_[level].problem, values, plan, start, fixed, &config, &free);
+    const Evaluation at = Counted(progress, coarse.Evaluate(coarse.InitialValues(), &residuals));
+    if (at.ok && SquaredDifference(residuals, at_fine) <= kGridTolerance * reference_) return level;
+  }
+  return -1;
+}
+
+int ScreeningGrid::LevelHolding(const FitProblem& fine, const Config& config,
+                                const std::vector<FreeParameter>& free,
+                                const std::vector<double>& values) const {
+  if (levels_.empty()) return -1;
+  const FitProblem model = MakeProblem(config, fine.traces(), fine.observe(), free);
+  std::vector<double> at_fine;
+  if (!model.Evaluate(values, &at_fine).ok) return -1;
+  const double dt = config.simulation.dt;
+  for (int level = 0; level < levels(); ++level) {
+    std::vector<double> residuals;
+    const Evaluation at = model.WithStep(dt * Factor(level)).Evaluate(values, &residuals);
+    if (at.ok && SquaredDifference(residuals, at_fine) <= kGridTolerance * reference_) return level;
+  }
+  return -1;
+}
+
 // Screening: a deterministic scan of the effect's start points (and cogging periods) with
 // the other parameters held, then one Gauss-Newton step on all of them. Its evaluations are
 // reported to `progress` (may be null).

@@ -5,6 +5,7 @@
 
 #include <limits>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,64 @@ struct CandidateRun {
 FitProblem MakeProblem(const Config& config, const std::vector<FitTrace>& traces,
                        const std::vector<std::string>& observe,
                        const std::vector<FreeParameter>& free);
+
+// The screening grid (docs/discovery.md §3a). Screening only ranks the candidates and gives
+// their refits a start, so it may simulate on a coarser fixed step than the config's where
+// that changes the prediction far less than the noise does. A level is a step `factor` times
+// the config's dt, a divisor of the traces' steps per sample (never longer than a sample
+// interval: an input change inside a step would be smeared); it is kept when the current
+// model, and then each candidate at its probe point (ProbePoint), simulates on it with weighted
+// residuals whose sum of squared differences from the config's step is at most
+// kGridTolerance of the reference cost, the smaller of the model's cost and the noise's
+// (NoiseFloorNrmse in the cost's units): a discretisation error of at most a tenth of the
+// noise's RMS. No level with the events method (its step is not dt), the equation error (no
+// simulation) or noise-free data.
+inline constexpr double kGridTolerance = 1e-2;
+// A friction reversal or a sticking shaft moves by whole steps, so the cost is a staircase in
+// the parameters with steps that grow with dt; on a grid of one step per sample the local
+// searches of a Coulomb friction stalled on them (a hidden friction screened out), with
+// four and more they do not.
+inline constexpr int kMinGridStepsPerSample = 4;
+inline constexpr std::size_t kMaxGridLevels = 4;
+
+class ScreeningGrid {
+ public:
+  // Level -1 is the config's own step; 0, 1, ... the coarser levels, coarsest first.
+  int levels() const { return static_cast<int>(levels_.size()); }
+  int Factor(int level) const { return level < 0 ? 1 : levels_[level].factor; }
+  const FitProblem& Problem(int level, const FitProblem& fine) const {
+    return level < 0 ? fine : *levels_[level].problem;
+  }
+  // The current model's BIC on the level (`fine_bic` on the config's step).
+  double Bic(int level, double fine_bic) const { return level < 0 ? fine_bic : levels_[level].bic; }
+  // The coarsest level (-1 without one).
+  int Coarsest() const { return levels_.empty() ? -1 : 0; }
+  // The coarsest level on which `plan`'s candidate at its probe point simulates within the
+  // tolerance (-1: only the config's step). Its evaluations are reported to `progress`.
+  int LevelFor(const FitProblem& fine, const std::vector<double>& values, const CandidatePlan& plan,
+               ProgressObserver* progress) const;
+  // The coarsest level on which `config` with `free` at `values` over `fine`'s traces
+  // simulates within the tolerance (-1: only the config's step): where a refit model is
+  // cross-validated.
+  int LevelHolding(const FitProblem& fine, const Config& config,
+                   const std::vector<FreeParameter>& free, const std::vector<double>& values) const;
+  // The level's step, s (`dt` on the config's step).
+  double Step(int level, double dt) const { return dt * Factor(level); }
+
+ private:
+  friend ScreeningGrid ChooseScreeningGrid(const FitProblem&, const std::vector<double>&, double);
+  struct Level {
+    int factor = 1;
+    std::shared_ptr<const FitProblem> problem;
+    double bic = 0.0;
+  };
+  std::vector<Level> levels_;
+  double reference_ = 0.0;
+};
+
+// The levels the current model at `values` allows (`floor_nrmse`: NoiseFloorNrmse).
+ScreeningGrid ChooseScreeningGrid(const FitProblem& current, const std::vector<double>& values,
+                                  double floor_nrmse);
 
 // Screens `plan` against the current model `base` at `base_values` (whose BIC is
 // `bic_before`): the scan over its start points with the other parameters held, short local

@@ -196,6 +196,12 @@ FitProblem FitProblem::WithStart(const std::vector<double>& values) const {
   return restarted;
 }
 
+FitProblem FitProblem::WithStep(double dt) const {
+  FitProblem stepped = *this;
+  stepped.config_.simulation.dt = dt;
+  return stepped;
+}
+
 std::vector<double> FitProblem::FromScaled(const std::vector<double>& scaled) const {
   std::vector<double> values(free_.size());
   for (std::size_t k = 0; k < free_.size(); ++k) {

@@ -120,6 +120,8 @@ class FitProblem {
   // The same problem (weights, forced angles) started from `values` (physical units, each
   // clamped into its bounds): a restart of a local fit.
   FitProblem WithStart(const std::vector<double>& values) const;
+  // The same problem (weights, forced angles, start) simulated on a fixed step of `dt` s.
+  FitProblem WithStep(double dt) const;
 
   // The full parameter set with the free values substituted.
   ParameterSet Parameters(const std::vector<double>& values) const;
