@@ -291,6 +291,9 @@ json CandidatesJson(const std::vector<CandidateOutcome>& outcomes) {
       }
       c["parameters"] = NumberMap(o.parameters);
     }
+    if (o.screening_step > 0.0) c["screening_step_s"] = Number(o.screening_step);
+    if (o.cross_validated && o.cross_validation_step > 0.0)
+      c["cross_validation_step_s"] = Number(o.cross_validation_step);
     if (o.stability_checked) {
       c["stability"] = {{"stable", o.stable},
                         {"delta_bic_plain", Number(o.stability_delta_bic)},

@@ -377,9 +377,9 @@ SimStatus BlmdDriveModel::SimulateReference(const SimulationRequest& request, Tr
   auto& u_column = out->Column("u");
   // u at a sample: the demand applied from that instant on (read as the steps read it), so
   // that a trace replays exactly through its u column as a recorded input.
-  for (std::size_t k = 0; k < times.size(); ++k) {
-    u_column[k] = experiment.input.At(times[k] + 0.5 * dt);
-  }
+  // (a cursor: the sample times increase, so each read continues where the last stopped)
+  InputCursor u_cursor(experiment.input);
+  for (std::size_t k = 0; k < times.size(); ++k) u_column[k] = u_cursor.At(times[k] + 0.5 * dt);
   return SimStatus::Ok();
 }
 

@@ -167,7 +167,9 @@ SimStatus DcServoModel::SimulateReference(const SimulationRequest& request, Trac
   sampler.Finish(out);
   if (!closed_loop) {
     auto& u_column = out->Column("u");
-    for (std::size_t k = 0; k < times.size(); ++k) u_column[k] = experiment.input.At(times[k]);
+    // (a cursor: the sample times increase, so each read continues where the last stopped)
+    InputCursor u_cursor(experiment.input);
+    for (std::size_t k = 0; k < times.size(); ++k) u_column[k] = u_cursor.At(times[k]);
   }
   return SimStatus::Ok();
 }

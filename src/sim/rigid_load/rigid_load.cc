@@ -214,8 +214,9 @@ SimStatus RigidLoadModel::Simulate(const SimulationRequest& request, Trace* out)
   }
   sampler.Finish(out);
   auto& u_column = out->Column("u");
-  for (std::size_t k = 0; k < times.size(); ++k)
-    u_column[k] = experiment.input.At(times[k] + 0.5 * dt);
+  // (a cursor: the sample times increase, so each read continues where the last stopped)
+  InputCursor u_cursor(experiment.input);
+  for (std::size_t k = 0; k < times.size(); ++k) u_column[k] = u_cursor.At(times[k] + 0.5 * dt);
   return SimStatus::Ok();
 }
 

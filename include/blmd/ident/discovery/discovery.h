@@ -123,6 +123,11 @@ struct CandidateOutcome {
   bool stable = true;
   double stability_delta_bic = 0.0;
   std::vector<double> stability_perturbed;
+  // The fixed steps (s) it was screened and cross-validated on: the config's, or the coarser
+  // screening grid's where that simulates it as faithfully (docs/discovery.md §3c); 0 where
+  // the model has no fixed step (the events method, the equation error) or it was not done.
+  double screening_step = 0.0;
+  double cross_validation_step = 0.0;
 };
 
 struct DiscoveryStep {
