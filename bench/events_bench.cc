@@ -1,4 +1,4 @@
-// Work against precision of the blmd integrators (issue 23, docs/performance.md §7): the
+// Work against precision of the blmd integrators (docs/performance.md §7): the
 // 160 ms run of configs/blmd-d31x.json with the fixed backward-Euler step (dt = 1, 0.5, 0.2,
 // 0.1 µs) and with the events method (max_step = Tpwm/2 ... Tpwm/64), side by side in one
 // run. Each benchmark's counters give the relative RMS error of the sampled phase current

@@ -2,7 +2,7 @@
 // blmd-sim writes them, shortest round-trip form) is read with ReadTraceCsv. Counters:
 // `MB_per_s` of CSV text, `peak_rss_MB` (the process's peak resident memory during the read
 // above its resident memory before it), `numeric_MB` (rows x columns x 8 bytes) and
-// `memory_ratio` = peak_rss_MB / numeric_MB. Targets (issue #8): at least 100 MB/s and a
+// `memory_ratio` = peak_rss_MB / numeric_MB. Targets: at least 100 MB/s and a
 // ratio under 3.
 //
 // The file is generated once into /tmp (about 270 MB; BLMD_IO_BENCH_FILE overrides the path)

@@ -2,7 +2,7 @@
 // evaluation is one such run). Counters: `steps` per run and `ns_per_step` (CPU time of one
 // run / steps). Each model is measured on its fast path (Simulate, what everything uses) and
 // on its reference path (SimulateReference, the straightforward loop kept as the truth).
-// Targets (issue 7): blmd <= 10 ns per 1 µs step, dc_servo <= 5 ns per step, one core.
+// Targets: blmd <= 10 ns per 1 µs step, dc_servo <= 5 ns per step, one core.
 //
 //   build/bin/blmd_bench --benchmark_filter='BM_(Blmd|DcServo)' \
 //       --benchmark_repetitions=10 --benchmark_report_aggregates_only=true

@@ -190,7 +190,7 @@ TEST(BlmdEvents, EveryFeatureIsCloserToTheFineFixedStepThanTheDefaultStep) {
       // Small currents: a 0.1 V demand keeps the phases near zero current, so blanked phases
       // open often.
       {"small_demand", [](Config* c) { c->experiment.input.amplitude = 0.1; }},
-      // The angle-dependent effects of issue 24 (spring and gravity) through ShaftEffects:
+      // The angle-dependent effects (spring and gravity) through ShaftEffects:
       // the shaft swings about the spring's and the arm's equilibrium.
       {"spring_gravity",
        [](Config* c) {

@@ -1,5 +1,5 @@
-// The commands attacked as a careful user would (issue 18 items 4, 6-8, 10, 13, 14, 19, 20;
-// docs/errors.md): each case's exact exit code and stderr line, and what is (not) written.
+// The commands attacked as a careful user would (docs/errors.md): each case's exact exit code
+// and stderr line, and what is (not) written.
 // Every case failed before its fix: a device node replaced by a file, a full disk reported
 // as success, an input overwritten, a flag value silently ignored.
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// What real loggers write (issue 18 items 12, 16, 17; docs/trace-format.md): CRLF line ends,
+// What real loggers write (docs/trace-format.md): CRLF line ends,
 // double-quoted names and fields, ';' separators with decimal commas, text and empty cells
 // in columns a command does not use, repeated time stamps (--duplicate-time), and very wide
 // headers read in linear time. Each case failed before (an error, or 26 s for 200 000

@@ -191,7 +191,7 @@ TEST_F(RigidLoadEquationError, DiscoveryAddsCoulombFrictionAndTheLoad) {
   EXPECT_NEAR(after["J"].get<double>(), 0.02, 0.005 * 0.02);  // +0.19 %
   EXPECT_NEAR(after["B"].get<double>(), 0.05, 0.01 * 0.05);   // -0.11 %
   // Tc +1.3 %: the half-sample misplacement of the friction's flip at each reversal (1 ms
-  // samples). Before issue 19 a third effect took it up on this noise-free trace: a
+  // samples). Earlier a third effect took it up on this noise-free trace: a
   // Stribeck friction acting only within one sample of each reversal (ws = 0.033 rad/s),
   // the sampling's signature, not the rig's (Tc was then -0.36 %). The evidence on whitened
   // residuals (docs/discovery.md) no longer counts it: only the two effects are added.

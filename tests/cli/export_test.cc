@@ -1,4 +1,4 @@
-// Taking the model elsewhere (docs/export.md, issue 21 §3-4): the linear part against its
+// Taking the model elsewhere (docs/export.md): the linear part against its
 // closed forms, --write-config's round trip, --export-matlab run in Octave, and the drift
 // guard --baseline.
 #include <gtest/gtest.h>

@@ -1,5 +1,5 @@
-// Hardening of the identification engine against hostile settings (issue 18, docs/errors.md
-// §3 and §5): method options validated with exit 2 before any work; a fit stuck on a flat
+// Hardening of the identification engine against hostile settings (docs/errors.md §3 and
+// §5): method options validated with exit 2 before any work; a fit stuck on a flat
 // cost is not called converged; threads capped and a refused thread never aborts; doubles
 // from data converted to integers without undefined behaviour.
 #include <gtest/gtest.h>
@@ -258,7 +258,7 @@ TEST(SaturatingCast, ClampsOutOfRangeAndNaN) {
 namespace blmd::testing {
 namespace {
 
-// Issue 18 item 2: a config without an experiment section and dt = 5e-4 s, with a trace
+// A config without an experiment section and dt = 5e-4 s, with a trace
 // sampled at 10 kHz. Before the fix: exit 2, "sample_rate 10000 Hz is faster than the
 // simulation step allows" (the default experiment's rate, which an identification never
 // runs). Now the trace's own time base is used (samples between steps interpolated, the
@@ -310,7 +310,7 @@ TEST(TraceTimeBase, ATraceFasterThanTheStepIsFittedNotRefused) {
 namespace blmd::testing {
 namespace {
 
-// Issue 18 item 18: Ceres's glog lines must not precede a command's one-line error. After a
+// Ceres's glog lines must not precede a command's one-line error. After a
 // ceres fit that is not verbose, nothing below FATAL reaches stderr; with --verbose it does.
 // (Before the fix glog's default printed WARNING and above, with a "Logging before
 // InitGoogleLogging()" line first.)

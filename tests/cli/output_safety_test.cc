@@ -151,7 +151,7 @@ TEST(OutputSafety, SignalDuringTheWriteLeavesOldOrCompleteNewAndNoTemporary) {
     while (!temporary_seen && std::chrono::steady_clock::now() < deadline) {
       temporary_seen = !Temporaries(dir.path()).empty();
     }
-    // SIGHUP (a closed terminal) and SIGQUIT (Ctrl-\\) too: before issue 18 they left the
+    // SIGHUP (a closed terminal) and SIGQUIT (Ctrl-\\) too: before the fix they left the
     // temporary behind (their default actions end the process without the handler).
     const int signals[] = {SIGINT, SIGTERM, SIGHUP, SIGQUIT};
     const int signal_number = signals[round % 4];

@@ -1,4 +1,4 @@
-// Square-wave edges land on the right sample (issue 18 item 1, docs/config.md): sample k of
+// Square-wave edges land on the right sample (docs/config.md): sample k of
 // a trace at rate fs is +A exactly when floor(k / (fs·P/2)) is even, in blmd-sim's written u
 // column and in the simulator's own input. Before the fix, fmod rounding put some edges one
 // sample late in the written column (periods 0.1, 0.15, 0.2, 0.4 s), so a noise-free trace

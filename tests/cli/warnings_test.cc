@@ -1,4 +1,4 @@
-// The report's warnings about the final model (docs/report.md "Warnings", issue 19): each
+// The report's warnings about the final model (docs/report.md "Warnings"): each
 // code from the figures that call for it, and --fail-on-warning as a CI gate.
 #include <gtest/gtest.h>
 
@@ -196,9 +196,9 @@ TEST(Warnings, FailOnWarningIsExitThreeAfterWritingTheReport) {
   EXPECT_EQ(run.exit_code, 0) << run.err;
 }
 
-// Units hints (issue 21 §5): the bundled square-wave trace with its speed written in rpm is
-// named with the flag that converts it, exit 3 with --fail-on-warning; with that flag the fit
-// equals the one on the trace in rad/s (to 1e-6) and nothing is warned.
+// Units hints (docs/identification.md §5a): the bundled square-wave trace with its speed
+// written in rpm is named with the flag that converts it, exit 3 with --fail-on-warning; with
+// that flag the fit equals the one on the trace in rad/s (to 1e-6) and nothing is warned.
 TEST(Warnings, UnitsSuspectNamesTheScaleFlagThatFixesTheTrace) {
   TempDir dir;
   Trace trace = ReadTraceCsv(SourcePath("testdata/ganesh-square.csv"));
@@ -235,7 +235,7 @@ TEST(Warnings, UnitsSuspectNamesTheScaleFlagThatFixesTheTrace) {
   }
 }
 
-// Issue 19: with load_torque and quadratic_drag both in the model the intervals of J and B
+// With load_torque and quadratic_drag both in the model the intervals of J and B once
 // collapsed by about four orders of magnitude (J +-1.2e-11 on HSM150). On a square-wave
 // trace of the Ganesh servo with both effects (1 % noise), J, B, TL and Cd free: J's
 // interval is a believable +-0.3 %. B trades against Cd (both oppose the speed): weighted by

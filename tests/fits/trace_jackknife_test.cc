@@ -1,4 +1,4 @@
-// Leave-one-trace-out intervals (include/blmd/ident/uncertainty/trace_jackknife.h, issue 19): the
+// Leave-one-trace-out intervals (include/blmd/ident/uncertainty/trace_jackknife.h): the
 // spread between traces enters the intervals. Four traces of the Ganesh servo (square wave, 1 %
 // white noise on i and w), each with its own damping B drawn around a population value, as
 // the runs of a real rig differ (direction, temperature). The pooled fit's HAC interval

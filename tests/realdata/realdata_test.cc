@@ -209,13 +209,13 @@ TEST_F(Emps, ViscousFrictionWithinFivePercentOfTheReferenceOnceItsAsymmetryIsMod
   // two directions' damping, as the reference's symmetric Fv (203.50) is the mean of its
   // asymmetric model's Fv+ and Fv- (203.56). Measured: 195.35 (-4.0 %); without the
   // asymmetry 192.55 (-5.4 %, Emps.OneModelMeetsTheMassAndViscousCriteriaTogether). (Before
-  // the held-out evidence of issue 19 an offset of -0.21 N was added too: B 195.01, dB
+  // discovery weighed held-out evidence an offset of -0.21 N was added too: B 195.01, dB
   // -37.73.)
   const double fv = After(*asym_, "B"), dB = After(*asym_, "dB");
   EXPECT_NEAR(fv, 195.35, 0.5);
   EXPECT_NEAR(dB, -39.59, 0.3);
   EXPECT_LE(std::abs(fv / kEmpsFv - 1.0), 0.05);
-  // The direction is the reference's: stiffer backwards (B- = 232.74 vs 240.42, B+ = 157.28
+  // The direction is the reference's: stiffer backwards (B- = 234.94 vs 240.42, B+ = 155.76
   // vs 166.71), and physical (|dB| < B).
   EXPECT_LT(std::abs(dB), fv);
   EXPECT_NEAR((fv - dB) / kEmpsFvMinus, 1.0, 0.05);
@@ -306,11 +306,11 @@ TEST_F(Emps, DiscoveryAddsCoulombFrictionAndTheOffset) {
 TEST_F(Emps, OpenDiscoveryByEquationErrorRefusesAStribeckCurveWithoutAPlateau) {
   // Over the whole vocabulary the equation error's Stribeck friction fades over the whole speed
   // range (ws = 0.124 m/s of 0.127): it reshapes a Coulomb friction instead of showing a dip
-  // with its plateau, which issue 24's rule refuses (docs/discovery.md §2, §3b). Coulomb friction
-  // and the asymmetric viscous friction are added: the benchmark's structure with its
-  // asymmetry. Simulated w NRMSE 0.0187 (fit) and 0.0550 (pulses record), against 0.018 and
-  // 0.055 with the Stribeck curve before the rule and 0.050 and 0.073 for the benchmark's
-  // structure.
+  // with its plateau, which discovery's plateau rule refuses (docs/discovery.md §2, §3b).
+  // Coulomb friction and the asymmetric viscous friction are added: the benchmark's structure
+  // with its asymmetry. Simulated w NRMSE 0.0187 (fit) and 0.0550 (pulses record), against
+  // 0.018 and 0.055 with the Stribeck curve before the rule and 0.050 and 0.073 for the
+  // benchmark's structure.
   const auto& d = (*idim_open_)["discovery"];
   EXPECT_EQ(d["added"], nlohmann::json::array({"coulomb_friction", "asymmetric_viscous"}));
   bool stribeck_refused = false;
@@ -346,8 +346,9 @@ TEST_F(Emps, OpenDiscoveryPrefersStribeckFriction) {
   // What open discovery does add (measured): Stribeck friction (ws = 0.061 m/s when added,
   // within half the top speed of 0.139: the curve reaches its plateau), then the asymmetric
   // viscous friction, whose refit moves ws to 0.110; the offset of earlier versions explains
-  // 2.2 % of what is left above the noise floor and is no longer added (issue 24, §3b). By
-  // BIC the data prefer it to the benchmark's structure (docs/real-data.md).
+  // 2.2 % of what is left above the noise floor and is no longer added (not material:
+  // docs/discovery.md §3b). By BIC the data prefer it to the benchmark's structure
+  // (docs/real-data.md).
   const auto& d = (*open_)["discovery"];
   EXPECT_EQ(d["added"], nlohmann::json::array({"stribeck", "asymmetric_viscous"}));
   EXPECT_NEAR(Value(d["steps"][0]["parameters"]["ws"]), 0.0610, 0.001);
@@ -379,7 +380,7 @@ TEST_F(Emps, CoulombAndAsymmetricViscousButNoOffset) {
   // The benchmark's candidates plus asymmetric_viscous: Coulomb friction, then dB (the
   // largest fall of all, NRMSE 0.144 -> 0.0141). An offset would come next by the fit
   // record's BIC, but on the held-out pulses record it makes the error worse (0.04881 ->
-  // 0.0492), so it is not added (docs/discovery.md §3, issue 19): the symmetric model's
+  // 0.0492), so it is not added (docs/discovery.md §3): the symmetric model's
   // -3.16 N offset stood in for the asymmetric damping, and what is left, the reference
   // asymmetric model's (Fc+ - Fc-)/2 = -0.24 N, is below what the data can confirm.
   const auto& d = (*asym_)["discovery"];
@@ -501,8 +502,9 @@ TEST_F(Hsm150, InertiaBeforeAndAfterDiscovery) {
 }
 
 TEST_F(Hsm150, InertiaWithinTwentyPercentOfTheCatalog) {
-  // +19.9 %: inside the criterion, only just (the 95 % interval, [1.4326, 1.4449]e-4, spans
-  // +19.4 ... +20.4 %). docs/real-data.md, HSM150.
+  // +19.9 %: inside the criterion, only just. The report's 95 % interval is the
+  // leave-one-run-out one, [1.0046, 2.0604]e-4 (-16 ... +72 %), because the eight runs
+  // disagree (direction-dependent friction). docs/real-data.md, HSM150.
   const double J = Value((*report_)["discovery"]["parameters_after"]["J"]);
   EXPECT_LE(std::abs(J / kHsmCatalogJ - 1.0), 0.20) << "J = " << J;
 }
@@ -618,11 +620,11 @@ TEST(DynoCoastdown, DiscoverySearchesTheLossesOnAPureCoastDown) {
   // the declared fit's value (dyno-coastdown-coulomb.json, 0.070371). A Stribeck friction
   // fading over the whole speed range (ws = 101 rad/s of 118) lowers BIC more, and the
   // held-out coast's NRMSE a little more (0.1485 -> 0.02785, Coulomb: 0.02880), but it has no
-  // plateau inside the record and is refused since issue 24 (docs/discovery.md §2): Coulomb
+  // plateau inside the record and is refused by the plateau rule (docs/discovery.md §2): Coulomb
   // friction is added, and the report warns that the loss still depends on w
   // (unexplained_structure) and that Tc differs between the fast and the slow half of the
   // coast (effect_unstable): a speed-dependent loss the vocabulary has no word for. A negative
-  // constant torque followed before the held-out evidence of issue 19; it raises the
+  // constant torque followed before discovery weighed held-out evidence; it raises the
   // held-out NRMSE (0.02785 -> 0.0297) and is no longer added.
   // Round 2 is not asserted beyond the rule: whether cogging (39/rev) passes screening there
   // hangs on the free-running score of a shaft coming to rest in a cogging field, which a
@@ -940,7 +942,7 @@ std::string HsluCommand(const std::string& record, const std::string& extra = ""
 }
 
 TEST(Hslu, BrakeRecordAddsNothingAndSaysWhyTheDeadBandIsRefused) {
-  // Issue 19: the plain BIC added a 30/rev cogging here. Now nothing is added. The Coulomb
+  // The plain BIC added a 30/rev cogging here. Now nothing is added. The Coulomb
   // candidate fits the dead band the steady states show (0.876 V; the brake-off record's two
   // steady states cross u = 0.71 V) and lowers the NRMSE 0.0872 -> 0.0551, but its evidence
   // on the prewhitened residuals is positive: the residual is 99.8 % predictable from its own
@@ -952,7 +954,7 @@ TEST(Hslu, BrakeRecordAddsNothingAndSaysWhyTheDeadBandIsRefused) {
   EXPECT_TRUE(d["added"].empty());
   EXPECT_NEAR(Value(report["parameters"]["B"]["value"]), 0.06705, 0.0001);
   EXPECT_NEAR(Value(report["fit"]["nrmse"]), 0.08716, 0.0001);
-  // Since issue 24 the same dead band is refit as a constant torque (load_torque, TL = 0.876,
+  // Now the same dead band is also refit as a constant torque (load_torque, TL = 0.876,
   // the same torque on a record whose speed never changes sign) with the same verdict: its
   // whitened evidence is +76.9. Whether Coulomb friction is refit too depends on the order of
   // the screening's near-equal scores; when it is, its evidence is positive as well.
@@ -999,7 +1001,7 @@ TEST(Hslu, HeldOutSpeedLoopRecordRefusesEveryCandidate) {
   EXPECT_TRUE(d["added"].empty());
   EXPECT_NEAR(Value(report["validation"]["nrmse"]), 1.889, 0.002);
   // Every candidate refit either raises the held-out error or is not valid: the cogging
-  // (refit since issue 24, as every position-dependent candidate whose screening lowers BIC)
+  // (refit, like every position-dependent candidate whose screening lowers BIC)
   // lowers it 1.889 -> 1.863 with Tcog on its search bound.
   int held_out = 0;
   for (const auto& c : d["last_round"]) {

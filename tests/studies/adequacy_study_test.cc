@@ -1,4 +1,4 @@
-// The measuring instrument of issue 24 (model adequacy, spring and gravity): random DC servos
+// The measuring instrument of model adequacy and the spring and gravity effects: random DC servos
 // simulated by an independent simulator (tests/support/independent_servo.h, written from the
 // equations, sharing no code with src/), each with an effect of 6-15 % of its stall torque
 // K*12/R, identified by the real `blmd-ident --discover --json` from a config that declares
@@ -40,15 +40,16 @@
 // what a perfect discovery would give at the tool's numerics and this noise. (From J x1.5,
 // B x0.7 a free-running cogging fit lands in a wrong basin: J +41 %, B -37 %, NRMSE 0.18 on
 // coulomb_cogging 0; docs/discovery.md section 6 says why.) n/a for the
-// disturbance (no name) and for effects the tool refuses (spring and gravity before issue
-// 24). STUDY_ORACLE=0 skips it.
+// disturbance (no name) and for effects the tool refuses (spring and gravity before it modelled
+// them). STUDY_ORACLE=0 skips it.
 //
 // A second test checks the instrument itself: noise-free records of the independent
 // simulator against `blmd-sim --input` of the same truth (each effect the tool knows),
 // the worst deviation relative to the column's peak.
 //
-// Baseline, main at f8e2175 before issue 24 (2026-11-27, 2 shared cores, --threads 1; the
-// whole binary 5 min 20 s wall, 2.5 min CPU; 1-10 s per blmd-ident --discover):
+// Baseline, main at f8e2175 before the adequacy check, spring and gravity (2026-11-27, 2 shared
+// cores, --threads 1; the whole binary 5 min 20 s wall, 2.5 min CPU; 1-10 s per blmd-ident
+// --discover):
 //   spring            spring first 0/6 (cogging of order 2-53, load, drag first); median worse
 //                     of |J|, |B| error 6.5 % (B -47 % on two)
 //   gravity_turning   gravity first 0/6, but cogging(1), the same torque, first 6/6, nothing
@@ -620,11 +621,11 @@ TEST_F(AdequacyStudy, Disturbance) {
 }
 
 // Coulomb friction with cogging: both named, no stribeck, the right order; B within 2 %
-// (median), on >= 5 of 6 (issue 24's bar). Measured 4 of 6 before the cogging orders were
+// (median), on >= 5 of 6 (the bar). Measured 4 of 6 before the cogging orders were
 // limited to the samples' Nyquist order in angle (62/rev had been added for 8/rev sampled 35
 // times per revolution) and before a candidate with as many parameters that predicts the
 // held-out blocks better displaced the best by BIC (gravity had been added for a 12/rev
-// cogging); 2 of 6 before the position-dependent refits, 0 of 6 before issue 24.
+// cogging); 2 of 6 before the position-dependent refits, 0 of 6 at the baseline above.
 TEST_F(AdequacyStudy, CoulombWithCogging) {
   if (!KindSelected("coulomb_cogging")) GTEST_SKIP() << "not in STUDY_KINDS";
   const auto rows = RunKind("coulomb_cogging", Count("STUDY_CASES", 6));
@@ -759,7 +760,7 @@ TEST(IndependentServo, AgreesWithTheToolsSimulation) {
     if (coarse.first < 0) {
       std::printf("%-16s %d (%s): the tool refuses it: %s\n", check.kind.c_str(), check.k,
                   c.truth.c_str(), why.c_str());
-      EXPECT_TRUE(c.e.Ks > 0 || c.e.Tg > 0) << why;  // only the effects issue 24 adds
+      EXPECT_TRUE(c.e.Ks > 0 || c.e.Tg > 0) << why;  // only spring or gravity may be refused
       continue;
     }
     const auto fine = ToolDeviation(c, clean, dir, Count("STUDY_TOOL_FINE", 256), &why);

@@ -1,4 +1,4 @@
-// Discovery under coloured noise (issue 19, docs/discovery.md): random DC servos (the
+// Discovery under coloured noise (docs/discovery.md): random DC servos (the
 // motors of tests/studies/uncertainty_study_test.cc), a +-12 V square wave, 1 % AR(1) noise with
 // coefficient 0.95 on i and w. Controls (no hidden effect) must end with nothing added;
 // traces with a hidden effect at 6-15 % of the torque (or voltage) scale must still name it
@@ -183,7 +183,7 @@ TEST(DiscoveryUnderColouredNoise, HiddenEffectsAreStillNamedFirst) {
       "cases whose true model clears the margin: %d/%d, named first in %d of them; "
       "named first where it does not: %d\n",
       identifiable_cases, cases, identifiable_named, unidentifiable_named);
-  // Measured (40 cases): 29 named first, the plain BIC 30. Issue 19 asks for 80 %. Seven of
+  // Measured (40 cases): 29 named first, the plain BIC 30. The bar is 80 %. Seven of
   // the 40 effects are not identifiable from their trace: the true model, refit from the
   // truth, does not clear the margin (five drags, ΔBIC -5.5 ... +5.3; two coggings filtered
   // by the inertia, +8.3 and +25.4). Of the 33 that are, 29 are named first (88 %); the

@@ -1,7 +1,7 @@
-// An independent DC-servo simulator for the studies (issue 24,
-// tests/studies/adequacy_study_test.cc): written from the equations alone, sharing no code with
-// src/ (no ShaftEffects, no model, no integrator, no random numbers of the library), so that a
-// trace it makes tests the tool's model instead of reproducing it.
+// An independent DC-servo simulator for the studies (tests/studies/adequacy_study_test.cc):
+// written from the equations alone, sharing no code with src/ (no ShaftEffects, no model, no
+// integrator, no random numbers of the library), so that a trace it makes tests the tool's
+// model instead of reproducing it.
 //
 //   L di/dt = u - R i - K w - Vdt sign(i)                  (dead time: inverter blanking)
 //   J dw/dt = K i - B w - T_extra(theta, w, t)             (T_extra opposes: subtracted)

@@ -235,8 +235,8 @@ TEST(TraceCsvErrors, HeaderProblems) {
   EXPECT_EQ(CsvError("0,1,2\n0.1,1,2\n"),
             "trace.csv:1:1: header expected but found the number \"0\": the first row must name "
             "the columns, e.g. t,u,i,w");
-  // ';' and tab separators and double-quoted names are read (issue 18 item 16; they were
-  // errors): csv_dialect_test.cc checks the values. '|' is not.
+  // ';' and tab separators and double-quoted names are read (they were errors):
+  // csv_dialect_test.cc checks the values. '|' is not.
   EXPECT_EQ(CsvError("t;u;w\n0;1;2\n"), "");
   EXPECT_EQ(CsvError("t\tu\n0\t1\n"), "");
   EXPECT_EQ(CsvError("\"t\",\"u\"\n0,1\n"), "");
@@ -303,7 +303,7 @@ TEST(TraceCsvErrors, RowShapeProblems) {
 }
 
 // A column name is echoed as at most 80 bytes: a quoted header name may be a whole line
-// (the csv_fuzz campaign of issue 18 found a 1141-byte message from a 1100-byte name).
+// (a csv_fuzz campaign found a 1141-byte message from a 1100-byte name).
 TEST(TraceCsvErrors, LongColumnNamesAreCutInMessages) {
   const std::string name(2000, 'n');
   const std::string cut = std::string(80, 'n') + "...";
@@ -659,7 +659,7 @@ TEST(ConfigErrors, ExperimentAndSimulation) {
                              "0], \"values\": [1, 2] } }")),
             "config.json:11:60: step times must increase");
   // Loads (a trace brings its own time base), but cannot be run: the error is kept for
-  // those that run the experiment (issue 18 item 2).
+  // those that run the experiment (an identification from a trace never does).
   EXPECT_EQ(ErrorOf([&] {
               ParseConfig(with("\"experiment\": { \"sample_rate\": 1e6 }"), "config.json")
                   .experiment.CheckRunnable();

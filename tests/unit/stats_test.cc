@@ -1,6 +1,5 @@
 // The residual statistics of ident/residual/stats.h: the regularised upper incomplete gamma
-// (Boost.Math since issue 21) against closed forms, its limits, and the Ljung-Box p-value built on
-// it.
+// (Boost.Math) against closed forms, its limits, and the Ljung-Box p-value built on it.
 #include "blmd/ident/residual/stats.h"
 
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// Units hints (ident/fit/units_check.h, docs/identification.md §5 "units_suspect", issue 21 §5):
+// Units hints (ident/fit/units_check.h, docs/identification.md §5 "units_suspect"):
 // a speed in rpm or deg/s, an angle in degrees, a current in mA is named with the --scale
 // flag that converts it; a trace in the model's units, or one with the wrong physics but the
 // right units, is not.
