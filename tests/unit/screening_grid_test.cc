@@ -93,6 +93,24 @@ TEST(ScreeningGrid, NoisyServoIsScreenedTenStepsAtATimeAndTheFrictionFoundOnIt) 
   EXPECT_GT(stalled.screen_bic, 0.0);
 }
 
+// Sampled unevenly (the time stamps moved by ±0.123 ms in turn: the shortest interval 0.254 ms,
+// 25.4 steps), the factors are the largest that leaves 4 steps, 6, and its halving, 3.
+TEST(ScreeningGrid, UnevenSamplingTriesTheLargestFactorAndItsHalvings) {
+  const FitProblem even = HiddenCoulomb();
+  std::vector<FitTrace> traces = even.traces();
+  std::vector<double>& t = traces[0].trace.Column("t");
+  for (std::size_t k = 1; k + 1 < t.size(); ++k) t[k] += (k % 2 == 0 ? 1.23e-4 : -1.23e-4);
+  traces[0].input.times = t;
+  const FitProblem uneven(even.config(), traces, even.observe(), even.free());
+  const FitResult fit = FindOptimizer("ceres").Minimize(uneven, OptimizerOptions{});
+  ASSERT_TRUE(fit.evaluation.ok);
+  const internal::ScreeningGrid grid =
+      internal::ChooseScreeningGrid(uneven, fit.values, NoiseFloorNrmse(uneven));
+  ASSERT_EQ(grid.levels(), 2);
+  EXPECT_EQ(grid.Factor(0), 6);
+  EXPECT_EQ(grid.Factor(1), 3);
+}
+
 TEST(ScreeningGrid, NoiseFreeDataAndTheEventsMethodKeepTheConfigsStep) {
   const FitProblem clean = HiddenCoulomb(/*clean=*/true);
   const FitResult fit = FindOptimizer("ceres").Minimize(clean, OptimizerOptions{});

@@ -141,7 +141,7 @@ double SquaredDifference(const std::vector<double>& a, const std::vector<double>
 
 // The factors a grid may use, from the largest down, at most `count`: those that leave at
 // least kMinGridStepsPerSample steps in the traces' shortest sample interval, and divide its
-// steps when the sampling is a whole number of steps.
+// steps when the sampling is a whole number of steps (else the largest and its halvings).
 std::vector<int> GridFactors(const FitProblem& problem, std::size_t count) {
   const double dt = problem.config().simulation.dt;
   double shortest = std::numeric_limits<double>::infinity();
@@ -155,7 +155,9 @@ std::vector<int> GridFactors(const FitProblem& problem, std::size_t count) {
   const long whole = std::lround(ratio);
   const bool regular = std::abs(ratio - static_cast<double>(whole)) <= 1e-6 * ratio;
   const auto largest = static_cast<long>(std::floor(ratio / kMinGridStepsPerSample));
-  for (long d = largest; d >= 2; --d) {
+  // Uneven sampling has no divisors to follow: the largest, then halving, so that the levels
+  // spread as a regular record's divisors do (not 25, 24, 23, 22).
+  for (long d = largest; d >= 2; d = regular ? d - 1 : d / 2) {
     if (regular && whole % d != 0) continue;
     factors.push_back(static_cast<int>(d));
     if (factors.size() == count) break;
