@@ -137,7 +137,8 @@ RoundBase MakeRoundBase(const FitProblem& base, const std::vector<double>& value
 // The refit runs on `screening_dt`, the step the candidate was screened on, first, when that
 // is coarser than the config's (docs/discovery.md §3c): its evaluations are cheaper, and the
 // fit on the config's step then starts next to its minimum and is given kPolishIterations
-// (the user's --option max_iterations still wins).
+// (the user's --option max_iterations still wins), when that start is better there than the
+// screening point.
 constexpr int kPolishIterations = 5;
 void RefitCandidate(const FitProblem& base, const RoundBase& round, const CandidatePlan& plan,
                     double bic_before, const DiscoveryOptions& options, double screening_dt,
@@ -146,10 +147,12 @@ void RefitCandidate(const FitProblem& base, const RoundBase& round, const Candid
   OptimizerOptions refit = options.refit;
   refit.default_max_iterations = 50;  // unless the user's --option max_iterations says otherwise
   if (screening_dt > run->config.simulation.dt) {
-    const FitProblem coarse =
-        MakeProblem(run->config, base.traces(), base.observe(), run->free).WithStep(screening_dt);
-    const FitResult first = FindOptimizer("ceres").Minimize(coarse, refit);
-    if (first.evaluation.ok) {
+    const FitProblem fine = MakeProblem(run->config, base.traces(), base.observe(), run->free);
+    const FitResult first = FindOptimizer("ceres").Minimize(fine.WithStep(screening_dt), refit);
+    // Kept only when it is better on the config's step too than the screening point (else
+    // the grid misled this candidate: the full refit from the screening point, as without it).
+    if (first.evaluation.ok &&
+        fine.Evaluate(first.values).cost < fine.Evaluate(run->screen_values).cost) {
       for (std::size_t k = 0; k < run->free.size(); ++k) run->free[k].initial = first.values[k];
       refit.default_max_iterations = kPolishIterations;
     }

@@ -34,11 +34,13 @@ FitProblem MakeProblem(const Config& config, const std::vector<FitTrace>& traces
                        const std::vector<std::string>& observe,
                        const std::vector<FreeParameter>& free);
 
-// The screening grid (docs/discovery.md §3a). Screening only ranks the candidates and gives
+// The screening grid (docs/discovery.md §3c). Screening only ranks the candidates and gives
 // their refits a start, so it may simulate on a coarser fixed step than the config's where
 // that changes the prediction far less than the noise does. A level is a step `factor` times
-// the config's dt, a divisor of the traces' steps per sample (never longer than a sample
-// interval: an input change inside a step would be smeared); it is kept when the current
+// the config's dt that leaves at least kMinGridStepsPerSample steps in the traces' shortest
+// sample interval (an input change inside a step would be smeared), a divisor of its steps
+// when the sampling is a whole number of steps (the samples stay on the grid), at most
+// kMaxGridLevels of them, coarsest first; it is kept when the current
 // model, and then each candidate at its probe point (ProbePoint), simulates on it with weighted
 // residuals whose sum of squared differences from the config's step is at most
 // kGridTolerance of the reference cost, the smaller of the model's cost and the noise's
@@ -47,9 +49,10 @@ FitProblem MakeProblem(const Config& config, const std::vector<FitTrace>& traces
 // simulation) or noise-free data.
 inline constexpr double kGridTolerance = 1e-2;
 // A friction reversal or a sticking shaft moves by whole steps, so the cost is a staircase in
-// the parameters with steps that grow with dt; on a grid of one step per sample the local
-// searches of a Coulomb friction stalled on them (a hidden friction screened out), with
-// four and more they do not.
+// the parameters with steps that grow with dt: on one step per sample the local searches of
+// the bundled record's hidden Coulomb friction stalled on it and screened it out; on 5 steps
+// per sample (factor 10 of its 50) it screens as on the config's step
+// (tests/unit/screening_grid_test.cc).
 inline constexpr int kMinGridStepsPerSample = 4;
 inline constexpr std::size_t kMaxGridLevels = 4;
 
