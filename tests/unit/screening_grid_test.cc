@@ -47,12 +47,22 @@ FitProblem HiddenCoulomb(bool clean = false) {
   return FitProblem(config, std::move(traces), {"i", "w"}, MakeFreeParameters(config, {"J", "B"}));
 }
 
+// The J, B fit of `problem` and the screening grid it allows.
+struct FittedGrid {
+  FitResult fit;
+  internal::ScreeningGrid grid;
+};
+FittedGrid FitAndGrid(const FitProblem& problem) {
+  FittedGrid out;
+  out.fit = FindOptimizer("ceres").Minimize(problem, OptimizerOptions{});
+  EXPECT_TRUE(out.fit.evaluation.ok);
+  out.grid = internal::ChooseScreeningGrid(problem, out.fit.values, NoiseFloorNrmse(problem));
+  return out;
+}
+
 TEST(ScreeningGrid, NoisyServoIsScreenedTenStepsAtATimeAndTheFrictionFoundOnIt) {
   const FitProblem problem = HiddenCoulomb();
-  const FitResult fit = FindOptimizer("ceres").Minimize(problem, OptimizerOptions{});
-  ASSERT_TRUE(fit.evaluation.ok);
-  const internal::ScreeningGrid grid =
-      internal::ChooseScreeningGrid(problem, fit.values, NoiseFloorNrmse(problem));
+  const auto [fit, grid] = FitAndGrid(problem);
   // 50 steps per sample, at least 4 steps per sample: the divisors 10, 5 and 2 are tried, and
   // the model without friction (linear) simulates alike on each.
   ASSERT_EQ(grid.levels(), 3);
@@ -102,10 +112,7 @@ TEST(ScreeningGrid, UnevenSamplingTriesTheLargestFactorAndItsHalvings) {
   for (std::size_t k = 1; k + 1 < t.size(); ++k) t[k] += (k % 2 == 0 ? 1.23e-4 : -1.23e-4);
   traces[0].input.times = t;
   const FitProblem uneven(even.config(), traces, even.observe(), even.free());
-  const FitResult fit = FindOptimizer("ceres").Minimize(uneven, OptimizerOptions{});
-  ASSERT_TRUE(fit.evaluation.ok);
-  const internal::ScreeningGrid grid =
-      internal::ChooseScreeningGrid(uneven, fit.values, NoiseFloorNrmse(uneven));
+  const internal::ScreeningGrid grid = FitAndGrid(uneven).grid;
   ASSERT_EQ(grid.levels(), 2);
   EXPECT_EQ(grid.Factor(0), 6);
   EXPECT_EQ(grid.Factor(1), 3);

@@ -208,6 +208,20 @@ ScreeningGrid ChooseScreeningGrid(const FitProblem& current, const std::vector<d
   return grid;
 }
 
+int ScreeningGrid::CoarsestHolding(const FitProblem& model, const std::vector<double>& values,
+                                   ProgressObserver* progress) const {
+  std::vector<double> at_fine;
+  if (levels_.empty() || !Counted(progress, model.Evaluate(values, &at_fine)).ok) return -1;
+  const double dt = model.config().simulation.dt;
+  for (int level = 0; level < levels(); ++level) {
+    std::vector<double> residuals;
+    const Evaluation at =
+        Counted(progress, model.WithStep(Step(level, dt)).Evaluate(values, &residuals));
+    if (at.ok && SquaredDifference(residuals, at_fine) <= kGridTolerance * reference_) return level;
+  }
+  return -1;
+}
+
 int ScreeningGrid::LevelFor(const FitProblem& fine, const std::vector<double>& values,
                             const CandidatePlan& plan, ProgressObserver* progress) const {
   if (levels_.empty()) return -1;
@@ -216,33 +230,14 @@ int ScreeningGrid::LevelFor(const FitProblem& fine, const std::vector<double>& v
   if (!ProbePoint(plan, &start, &fixed)) return plan.applicable ? -1 : 0;
   Config config;
   std::vector<FreeParameter> free;
-  std::vector<double> at_fine;
   const FitProblem probe = CandidateProblem(fine, values, plan, start, fixed, &config, &free);
-  if (!Counted(progress, probe.Evaluate(probe.InitialValues(), &at_fine)).ok) return -1;
-  for (int level = 0; level < levels(); ++level) {
-    std::vector<double> residuals;
-    const FitProblem coarse =
-        CandidateProblem(*levels_[level].problem, values, plan, start, fixed, &config, &free);
-    const Evaluation at = Counted(progress, coarse.Evaluate(coarse.InitialValues(), &residuals));
-    if (at.ok && SquaredDifference(residuals, at_fine) <= kGridTolerance * reference_) return level;
-  }
-  return -1;
+  return CoarsestHolding(probe, probe.InitialValues(), progress);
 }
 
 int ScreeningGrid::LevelHolding(const FitProblem& fine, const Config& config,
                                 const std::vector<FreeParameter>& free,
                                 const std::vector<double>& values) const {
-  if (levels_.empty()) return -1;
-  const FitProblem model = MakeProblem(config, fine.traces(), fine.observe(), free);
-  std::vector<double> at_fine;
-  if (!model.Evaluate(values, &at_fine).ok) return -1;
-  const double dt = config.simulation.dt;
-  for (int level = 0; level < levels(); ++level) {
-    std::vector<double> residuals;
-    const Evaluation at = model.WithStep(dt * Factor(level)).Evaluate(values, &residuals);
-    if (at.ok && SquaredDifference(residuals, at_fine) <= kGridTolerance * reference_) return level;
-  }
-  return -1;
+  return CoarsestHolding(MakeProblem(config, fine.traces(), fine.observe(), free), values, nullptr);
 }
 
 // Screening: a deterministic scan of the effect's start points (and cogging periods) with

@@ -82,6 +82,10 @@ class ScreeningGrid {
 
  private:
   friend ScreeningGrid ChooseScreeningGrid(const FitProblem&, const std::vector<double>&, double);
+  // The coarsest level on which `model` (on the config's step) at `values` simulates within
+  // the tolerance, -1 on none; its evaluations reported to `progress` (may be null).
+  int CoarsestHolding(const FitProblem& model, const std::vector<double>& values,
+                      ProgressObserver* progress) const;
   struct Level {
     int factor = 1;
     std::shared_ptr<const FitProblem> problem;
