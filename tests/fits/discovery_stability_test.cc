@@ -12,7 +12,6 @@
 #include "blmd/ident/optimizers/optimizer.h"
 #include "blmd/io/config.h"
 #include "blmd/random.h"
-#include "blmd/run.h"
 #include "support/test_support.h"
 
 namespace blmd {
@@ -30,19 +29,17 @@ struct Case {
 
 Case HiddenCoulomb() {
   const Config fit_config = LoadConfig(SourcePath("configs/ganesh-square.json"));
-  Config truth = fit_config;
   ParameterSet tc;
   tc.Set("Tc", 0.002);
-  truth.AddEffect("coulomb_friction", tc);
-  Trace trace;
-  EXPECT_TRUE(RunExperiment(truth, &trace).ok());
+  Trace trace = testing::SimulateWithEffect(fit_config, "coulomb_friction", tc);
   Random random(7);
   for (const char* column : {"i", "w"}) {
     double peak = 0.0;
     for (double v : trace.Column(column)) peak = std::max(peak, std::abs(v));
     for (double& v : trace.Column(column)) v += 0.01 * peak * random.Normal();
   }
-  std::vector<FitTrace> traces = {RecordedFitTrace(std::move(trace), truth.experiment.initial)};
+  std::vector<FitTrace> traces = {
+      RecordedFitTrace(std::move(trace), fit_config.experiment.initial)};
   FitProblem problem(fit_config, std::move(traces), {"i", "w"},
                      MakeFreeParameters(fit_config, {"J", "B"}));
   OptimizerOptions options;

@@ -16,6 +16,8 @@
 #include <utility>
 #include <vector>
 
+#include "blmd/run.h"
+
 namespace blmd::testing {
 
 std::string SourcePath(const std::string& relative) {
@@ -162,6 +164,14 @@ double WorstRelativeDeviation(const Trace& fast, const Trace& reference, std::st
     }
   }
   return worst;
+}
+
+Trace SimulateWithEffect(Config config, const std::string& effect, const ParameterSet& values) {
+  config.AddEffect(effect, values);
+  Trace trace;
+  const SimStatus status = RunExperiment(config, &trace);
+  EXPECT_TRUE(status.ok()) << status.message;
+  return trace;
 }
 
 }  // namespace blmd::testing

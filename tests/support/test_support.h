@@ -3,6 +3,7 @@
 
 #include <string>
 
+#include "blmd/io/config.h"
 #include "blmd/sim/trace.h"
 
 namespace blmd::testing {
@@ -41,5 +42,9 @@ std::string Slurp(const std::string& path);
 // Worst |fast - reference| / max |reference| over the columns (the column in *where); the two
 // traces must have the same columns and rows (checked with EXPECTs).
 double WorstRelativeDeviation(const Trace& fast, const Trace& reference, std::string* where);
+
+// `config`'s experiment simulated with `effect` at `values` added (checked with an EXPECT): a
+// record of an effect the config does not declare.
+Trace SimulateWithEffect(Config config, const std::string& effect, const ParameterSet& values);
 
 }  // namespace blmd::testing

@@ -12,7 +12,6 @@
 #include "blmd/ident/residual/adequacy.h"
 #include "blmd/ident/residual/diagnostics.h"
 #include "blmd/io/config.h"
-#include "blmd/run.h"
 #include "ident/discovery/effect_search.h"
 #include "ident/discovery/screening.h"
 #include "support/test_support.h"
@@ -31,13 +30,10 @@ FitProblem HiddenCoulomb(bool clean = false) {
   FitTrace trace = LoadFitTrace(testing::SourcePath("testdata/dc-hidden-coulomb.csv"), options,
                                 config.experiment.initial);
   if (clean) {
-    Config truth = config;
     ParameterSet friction;
     friction.Set("Tc", 0.012);
-    truth.AddEffect("coulomb_friction", friction);
-    Trace simulated;
-    EXPECT_TRUE(RunExperiment(truth, &simulated).ok());
-    trace = RecordedFitTrace(std::move(simulated), config.experiment.initial);
+    trace = RecordedFitTrace(testing::SimulateWithEffect(config, "coulomb_friction", friction),
+                             config.experiment.initial);
   } else {
     trace.noise_variance = {{"i", 0.01140309139194024 * 0.01140309139194024},
                             {"w", 1.6971699355573617 * 1.6971699355573617}};

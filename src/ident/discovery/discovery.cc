@@ -392,8 +392,7 @@ bool ScreenAndRefit(const FitProblem& current, const FitResult& fit, double curr
   ProgressObserver* const progress = options.refit.progress;
   const std::string round_name = "discovery round " + std::to_string(round->number);
   if (progress) progress->BeginStage(round_name + ": screening", static_cast<int>(plans.size()));
-  const bool fixed_step = current.config().simulation.method == SimulationMethod::kFixedEuler &&
-                          !current.equation_error();
+  const bool fixed_step = internal::SimulatesOnFixedStep(current);
   ForEachItem(all, threads, [&](std::size_t k) {
     const int level = grid.LevelFor(current, fit.values, plans[k], progress);
     const FitProblem& screening = grid.Problem(level, current);
@@ -633,9 +632,7 @@ void CrossValidateCandidates(const FitProblem& problem, const FitProblem& curren
                            problem.observe(), run.fit.values, options.refit);
     if (!cv.ok) continue;  // the candidate keeps its evidence-only verdict
     o.cross_validated = true;
-    if (current.config().simulation.method == SimulationMethod::kFixedEuler &&
-        !current.equation_error())
-      o.cross_validation_step = step;
+    if (internal::SimulatesOnFixedStep(current)) o.cross_validation_step = step;
     o.cv_before = base_cv.nrmse;
     o.cv_after = cv.nrmse;
     o.generalises = cv.nrmse < (1.0 - options.held_out_margin) * base_cv.nrmse;

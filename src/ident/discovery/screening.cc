@@ -184,13 +184,17 @@ bool ProbePoint(const CandidatePlan& plan, std::vector<double>* start,
 
 }  // namespace
 
+bool SimulatesOnFixedStep(const FitProblem& problem) {
+  return !problem.equation_error() &&
+         problem.config().simulation.method == SimulationMethod::kFixedEuler &&
+         problem.config().simulation.dt > 0.0;
+}
+
 ScreeningGrid ChooseScreeningGrid(const FitProblem& current, const std::vector<double>& values,
                                   double floor_nrmse) {
   ScreeningGrid grid;
+  if (!SimulatesOnFixedStep(current)) return grid;
   const double dt = current.config().simulation.dt;
-  if (current.equation_error() ||
-      current.config().simulation.method != SimulationMethod::kFixedEuler || !(dt > 0.0))
-    return grid;
   std::vector<double> fine;
   const Evaluation at_fine = current.Evaluate(values, &fine);
   if (!at_fine.ok) return grid;

@@ -95,6 +95,10 @@ class ScreeningGrid {
   double reference_ = 0.0;
 };
 
+// True when `problem` simulates on a fixed step of its config's dt, the step a grid coarsens
+// (not with the events method, nor with the equation error, which simulates nothing).
+bool SimulatesOnFixedStep(const FitProblem& problem);
+
 // The levels the current model at `values` allows (`floor_nrmse`: NoiseFloorNrmse).
 ScreeningGrid ChooseScreeningGrid(const FitProblem& current, const std::vector<double>& values,
                                   double floor_nrmse);
