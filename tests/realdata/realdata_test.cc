@@ -696,7 +696,8 @@ TEST(DynoCoastdown, DiscoveryFindsCoulombFrictionOnAPureCoastDown) {
 // ---------------------------------------------------------------------------------------
 // ODrive cogging (docs/real-data.md, ODrive cogging): current-step spin-ups of a 150 KV BLDC
 // motor on an ODrive, without (spinup_4_nocomp) and with (spinup_3_comp) anti-cogging, runs
-// 12-19 (|iq_set| 0.6-0.9 A, around breakaway, where cogging holds or jerks the rotor).
+// 18-25 (|iq_set| 0.9-1.2 A: the first runs above breakaway, in which the rotor turns on every
+// record; below, the uncompensated rotor stays in the detent it starts in on some records).
 // rigid_load driven by the measured iq_A x Kt (8.27/150 N m/A), observed through the speed
 // derived from the encoder angle. The reference is the static cogging map (holding current
 // vs angle, one revolution), whose spectrum docs/real-data/odrive-cogging-map.py computes.
@@ -706,7 +707,7 @@ constexpr double kOdriveKt = 8.269933431 / 150.0;  // N m/A (spinup_analysis.m)
 std::string OdriveCommand(const std::string& file, const std::string& candidates,
                           const std::string& input = "iq_A") {
   return "--config configs/real/odrive.json --trace " + RealData() + "/odrive_cogging/" + file +
-         ".csv --split run --select run=12:19 --column t=t_s --column u=" + input +
+         ".csv --split run --select run=18:25 --column t=t_s --column u=" + input +
          " --scale u=0.0551329 --column theta=theta_rad --derive w=theta --initial-state trace "
          "--discover" +
          candidates;
@@ -764,9 +765,7 @@ class OdriveCogging : public ::testing::Test {
         CachedReport("odrive-nocomp-spinup5", OdriveCommand("spinup_5_nocomp", "")));
     nocomp6_ = new nlohmann::json(
         CachedReport("odrive-nocomp-spinup6", OdriveCommand("spinup_6_nocomp", "")));
-    comp_ = new nlohmann::json(
-        CachedReport("odrive-comp-coulomb-cogging",
-                     OdriveCommand("spinup_3_comp", " --candidates coulomb_friction,cogging")));
+    comp_ = new nlohmann::json(CachedReport("odrive-comp", OdriveCommand("spinup_3_comp", "")));
     comp_setpoint_ = new nlohmann::json(
         CachedReport("odrive-comp-setpoint", OdriveCommand("spinup_3_comp", "", "iq_set_A")));
   }
@@ -786,7 +785,7 @@ class OdriveCogging : public ::testing::Test {
   static nlohmann::json* nocomp_;         // spinup_4_nocomp, --discover (every candidate)
   static nlohmann::json* nocomp5_;        // spinup_5_nocomp, the same
   static nlohmann::json* nocomp6_;        // spinup_6_nocomp, the same
-  static nlohmann::json* comp_;           // spinup_3_comp, --candidates coulomb_friction,cogging
+  static nlohmann::json* comp_;           // spinup_3_comp, --discover (every candidate)
   static nlohmann::json* comp_setpoint_;  // spinup_3_comp, u = iq_set_A, every candidate
 };
 nlohmann::json* OdriveCogging::nocomp_ = nullptr;
@@ -810,26 +809,22 @@ TEST_F(OdriveCogging, MapDominantOrderAndAmplitude) {
 
 TEST_F(OdriveCogging, DiscoveryFindsCoggingOnUncompensatedRunsAtTheMapsDominantOrder) {
   // Scored at the measured angle (docs/discovery.md §6): cogging at the map's 7/rev first
-  // (NRMSE 0.915 -> 0.363), then Coulomb friction (-> 0.083) and a small 1/rev torque (gravity,
-  // Tg 0.0032 N m, -> 0.078). Scored free running (before 0.3) the same record kept cogging
-  // alone with J 2.91e-4 and B at its upper bound (the held rotor read as damping), NRMSE
-  // 0.52, and a 1e-9 change of the data moved the decisions.
+  // (NRMSE 0.344 -> 0.157), then Coulomb friction (-> 0.0949); a spring and a 1/rev torque
+  // (gravity) are refit and do not generalise. The final model: J 2.141e-4 kg m^2, Tc 0.0204
+  // N m (the repo's "0.4 A": 0.022), Tcog 0.0498 N m.
   const auto& d = (*nocomp_)["discovery"];
-  EXPECT_EQ(d["added"], nlohmann::json::array({"cogging", "coulomb_friction", "gravity"}));
+  EXPECT_EQ(d["added"], nlohmann::json::array({"cogging", "coulomb_friction"}));
   const nlohmann::json step = AddedStep(*nocomp_, "cogging");
   ASSERT_FALSE(step.is_null()) << "no cogging added on the uncompensated runs";
   const std::vector<double> map = CoggingMapHarmonics("iq_hold_A_a16");
   const auto map_order = std::max_element(map.begin(), map.end()) - map.begin();
   EXPECT_EQ(Value(step["parameters"]["periods"]), static_cast<double>(map_order));  // 7
   EXPECT_EQ(step["candidates"][0]["evidence_rule"], "prewhitened_bic");
-  // The final model: J 2.031e-4 kg m^2 (the compensated runs: 2.06-2.15e-4), Tc 0.0217 N m
-  // (the repo's "0.4 A": 0.022), Tcog 0.0557 N m (+16 % from the map's 7/rev 0.0479: the one
-  // harmonic takes up part of the map's other orders, half peak-to-peak 0.107 N m).
-  EXPECT_NEAR(Value(d["parameters_after"]["J"]), 2.031e-4, 0.01e-4);
-  EXPECT_NEAR(Value(d["parameters_after"]["Tc"]), 0.02174, 0.0002);
-  EXPECT_NEAR(Value(d["parameters_after"]["Tcog"]), 0.0557, 0.0005);
-  EXPECT_NEAR(Value(d["error_before"]["nrmse"]), 0.9148, 0.002);
-  EXPECT_NEAR(Value(d["error_after"]["nrmse"]), 0.0782, 0.002);
+  EXPECT_NEAR(Value(d["parameters_after"]["J"]), 2.141e-4, 0.01e-4);
+  EXPECT_NEAR(Value(d["parameters_after"]["Tc"]), 0.02035, 0.0002);
+  EXPECT_NEAR(Value(d["parameters_after"]["Tcog"]), 0.0498, 0.0005);
+  EXPECT_NEAR(Value(d["error_before"]["nrmse"]), 0.3444, 0.002);
+  EXPECT_NEAR(Value(d["error_after"]["nrmse"]), 0.0949, 0.002);
   // Nothing is unstable between the odd and the even runs; what is left depends on t (the
   // spin-ups' speed-dependent losses) and the report says so.
   EXPECT_EQ(d["adequacy"]["stability"]["unstable"], nlohmann::json::array());
@@ -839,72 +834,69 @@ TEST_F(OdriveCogging, DiscoveryFindsCoggingOnUncompensatedRunsAtTheMapsDominantO
   EXPECT_EQ(codes.count("effect_unstable"), 0u);
 }
 
-TEST_F(OdriveCogging, DominantOrderMatchesTheMapOnTheUncompensatedFilesWhereItIsFound) {
-  // The order comes from the torque balance along the measured motion (docs/effects.md):
-  // 7/rev on spinup_4 and spinup_6 (J 2.034e-4, Tcog 0.0368: -23 % from the map). On spinup_5
-  // the rotor is held at 0.8 A as well (it broke away there on the other two records), three
-  // runs of eight move, and the J, B fit is no fit (NRMSE 1.05, B at its bound): Coulomb
-  // friction is added, then a spring about the record's own angle (a held rotor's detent
-  // read as a spring), J 3.2e-4; the 7/rev cogging, far better by BIC, predicts the runs of
-  // the other direction worse (cross-validated NRMSE 0.85 -> 1.29). The report says the fit
-  // is degenerate, that structure is left and that a decision is unstable.
+TEST_F(OdriveCogging, UncompensatedRecordsAddTheMapsCoggingWithinFifteenPercent) {
+  // Each uncompensated record adds cogging at the map's dominant order, 7/rev, and its final
+  // amplitude lies within 15 % of the map's 7/rev (a16: 0.0479 N m): 0.0498, 0.0524, 0.0544
+  // N m (+4.0, +9.5, +13.6 %). One harmonic takes up a little of the map's other orders
+  // (28/rev at 0.031 N m, 14/rev at 0.019), as much as the angles a record dwells at allow.
+  // None is degenerate: B inside its bounds, NRMSE 0.068-0.095.
   const std::vector<double> map = CoggingMapHarmonics("iq_hold_A_a16");
   const auto map_order = std::max_element(map.begin(), map.end()) - map.begin();
-  for (const nlohmann::json* report : {nocomp_, nocomp6_}) {
+  const double map_tcog = map[map_order] * kOdriveKt;
+  const std::vector<std::pair<const nlohmann::json*, double>> expected = {
+      {nocomp_, 0.0498}, {nocomp5_, 0.0524}, {nocomp6_, 0.0544}};
+  for (const auto& [report, tcog] : expected) {
+    const auto& d = (*report)["discovery"];
     const nlohmann::json step = AddedStep(*report, "cogging");
-    ASSERT_FALSE(step.is_null()) << (*report)["discovery"]["conclusion"];
+    ASSERT_FALSE(step.is_null()) << d["conclusion"];
     EXPECT_EQ(Value(step["parameters"]["periods"]), static_cast<double>(map_order));
+    EXPECT_NEAR(Value(d["parameters_after"]["Tcog"]), tcog, 0.0005);
+    EXPECT_LT(std::abs(Value(d["parameters_after"]["Tcog"]) / map_tcog - 1.0), 0.15);
+    EXPECT_LT(Value(d["error_after"]["nrmse"]), 0.1);
+    for (const auto& w : (*report)["warnings"]) EXPECT_NE(w["code"], "parameter_at_bound");
   }
-  EXPECT_EQ((*nocomp6_)["discovery"]["added"],
-            nlohmann::json::array({"cogging", "coulomb_friction"}));
-  EXPECT_NEAR(Value((*nocomp6_)["discovery"]["parameters_after"]["J"]), 2.034e-4, 0.01e-4);
-  EXPECT_NEAR(Value((*nocomp6_)["discovery"]["error_after"]["nrmse"]), 0.1884, 0.002);
   EXPECT_EQ((*nocomp5_)["discovery"]["added"],
-            nlohmann::json::array({"coulomb_friction", "spring"}));
-  for (const auto& c : (*nocomp5_)["discovery"]["steps"][1]["candidates"]) {
-    if (c["effect"] != "cogging") continue;
-    EXPECT_EQ(Value(c["parameters"]["periods"]), static_cast<double>(map_order));
-    EXPECT_GT(Value(c["cross_validated_nrmse"]["after"]),
-              Value(c["cross_validated_nrmse"]["before"]));
-  }
-  std::set<std::string> codes;
-  for (const auto& w : (*nocomp5_)["warnings"]) codes.insert(w["code"].get<std::string>());
-  EXPECT_EQ(codes.count("parameter_at_bound"), 1u) << (*nocomp5_)["warnings"].dump();
-  EXPECT_EQ(codes.count("unexplained_structure"), 1u) << (*nocomp5_)["warnings"].dump();
-  EXPECT_EQ(codes.count("decision_unstable"), 1u) << (*nocomp5_)["warnings"].dump();
+            nlohmann::json::array({"cogging", "coulomb_friction"}));
+  EXPECT_NEAR(Value((*nocomp5_)["discovery"]["error_after"]["nrmse"]), 0.0685, 0.002);
+  EXPECT_EQ((*nocomp6_)["discovery"]["added"],
+            nlohmann::json::array({"cogging", "coulomb_friction", "gravity"}));
+  EXPECT_NEAR(Value((*nocomp6_)["discovery"]["error_after"]["nrmse"]), 0.0682, 0.002);
 }
 
-TEST_F(OdriveCogging, CoggingAmplitudeSmallerOnCompensatedRuns) {
-  const double nocomp = Value((*nocomp_)["discovery"]["parameters_after"]["Tcog"]);
-  // Driven by the torque the user asked for (iq_set_A), the compensated runs keep a 7/rev
-  // cogging of 0.0184 N m, a third of the uncompensated 0.0557: what the anti-cogging leaves.
-  const nlohmann::json net = AddedStep(*comp_setpoint_, "cogging");
-  ASSERT_FALSE(net.is_null()) << (*comp_setpoint_)["discovery"]["conclusion"];
-  EXPECT_EQ(Value(net["parameters"]["periods"]), 7.0);
-  const double left = Value((*comp_setpoint_)["discovery"]["parameters_after"]["Tcog"]);
-  EXPECT_NEAR(left, 0.01835, 0.0005);
-  EXPECT_LT(left, 0.5 * nocomp);
-  // Driven by the measured current iq_A, which carries the anti-cogging feed-forward, the
-  // motor's own cogging shows again (0.0422 N m at 7/rev): the compensation is in the input.
-  const double with_feed_forward = Value((*comp_)["discovery"]["parameters_after"]["Tcog"]);
+TEST_F(OdriveCogging, CompensationLeavesNoCoggingInTheTorqueTheUserAskedFor) {
+  // Driven by the setpoint iq_set_A (the torque the user asked for, without the anti-cogging
+  // feed-forward), the compensated record adds no cogging: refit in each round, it explains
+  // at most 9.1 % of the residual above the noise floor (the rule needs 10 %), and 3.5 % in
+  // the last (Tcog 0.0067 N m, a seventh of the uncompensated 0.0498).
+  EXPECT_EQ(AddedStep(*comp_setpoint_, "cogging"), nullptr)
+      << (*comp_setpoint_)["discovery"]["conclusion"];
+  const nlohmann::json& last = (*comp_setpoint_)["discovery"]["steps"].back();
+  bool refit = false;
+  for (const auto& c : last["candidates"]) {
+    if (c["effect"] != "cogging") continue;
+    refit = true;
+    EXPECT_LT(Value(c["parameters"]["Tcog"]),
+              0.25 * Value((*nocomp_)["discovery"]["parameters_after"]["Tcog"]));
+  }
+  EXPECT_TRUE(refit);
+  // Driven by the measured current iq_A, which carries the feed-forward, the motor's own
+  // cogging shows again: the compensation is in the input.
   EXPECT_EQ((*comp_)["discovery"]["added"], nlohmann::json::array({"coulomb_friction", "cogging"}));
-  EXPECT_NEAR(with_feed_forward, 0.04224, 0.0005);
-  EXPECT_LT(left, with_feed_forward);
-  EXPECT_LT(with_feed_forward, nocomp);  // 0.0422 vs 0.0557
+  EXPECT_NEAR(Value((*comp_)["discovery"]["parameters_after"]["Tcog"]), 0.0386, 0.0005);
 }
 
 // One motor, one inertia: the six spin-up records (compensated 3, 7, 8; uncompensated 4, 5, 6),
-// runs 12-19, the documented flags (the measured current as input, --discover). Measured
-// (2026-11-28): J = 2.068, 2.031, 3.195, 2.034, 2.148, 2.062 e-4; the median 2.065e-4 is 17 %
-// below the repo's rough 2.5e-4 and matches its own least-squares check (about 2.0e-4). Five
-// of six lie within 4 % of it; spinup_5 (+55 %) is the record whose J, B fit is no fit and
-// whose report says so (above).
+// runs 18-25, the documented flags (the measured current as input, --discover). Measured
+// (2026-12-02): J = 2.044, 2.141, 2.046, 2.051, 2.112, 2.060 e-4 (3, 4, 5, 6, 7, 8); the median
+// 2.056e-4 is 18 % below the repo's rough 2.5e-4 and matches its own least-squares check
+// (about 2.0e-4); every record lies within 4.2 % of it.
 TEST_F(OdriveCogging, OneMotorOneInertia) {
   std::vector<std::pair<std::string, double>> inertia;
   for (const char* file : {"spinup_3_comp", "spinup_4_nocomp", "spinup_5_nocomp", "spinup_6_nocomp",
                            "spinup_7_comp", "spinup_8_comp"}) {
-    // The uncompensated records' reports are the fixture's (the same commands, cached once).
+    // Four records' reports are the fixture's (the same commands, cached once).
     const std::map<std::string, std::string> fixture = {
+        {"spinup_3_comp", "odrive-comp"},
         {"spinup_4_nocomp", "odrive-nocomp"},
         {"spinup_5_nocomp", "odrive-nocomp-spinup5"},
         {"spinup_6_nocomp", "odrive-nocomp-spinup6"}};
@@ -919,15 +911,12 @@ TEST_F(OdriveCogging, OneMotorOneInertia) {
   for (const auto& [file, J] : inertia) values.push_back(J);
   std::sort(values.begin(), values.end());
   const double median = 0.5 * (values[2] + values[3]);
-  EXPECT_NEAR(median, 2.065e-4, 0.01e-4);
+  EXPECT_NEAR(median, 2.056e-4, 0.01e-4);
   EXPECT_LT(std::abs(median / 2.5e-4 - 1), 0.25);
   for (const auto& [file, J] : inertia) {
-    if (std::string(file) == "spinup_5_nocomp") {
-      EXPECT_NEAR(J, 3.195e-4, 0.01e-4);
-      continue;
-    }
-    EXPECT_LT(std::abs(J / median - 1), 0.05) << file << ": J " << J;
+    EXPECT_LT(std::abs(J / median - 1), 0.10) << file << ": J " << J;
   }
+  EXPECT_NEAR(values.back() / median - 1, 0.042, 0.005);  // the largest, spinup_4
 }
 
 // ---------------------------------------------------------------------------------------

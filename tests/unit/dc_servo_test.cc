@@ -604,6 +604,29 @@ TEST(DcServoEffects, CoulombBreaksAwayAboveTcAtTheAnalyticInstant) {
   }
 }
 
+TEST(DcServoEffects, ReversalAfterAStopIsContinuousInTheInitialState) {
+  // Spinning at w0 against -12 V with Coulomb friction: the shaft stops and reverses. w at
+  // 0.3 s against w0 from 100 to 101 rad/s, the stop instant moving through steps of 1e-5 s:
+  // a reversal that waits for the next step makes w a saw-tooth in w0 (a cost with jumps);
+  // breaking away within the step the shaft stopped in leaves it smooth.
+  const Motor m;
+  std::vector<double> end;
+  for (int k = 0; k <= 100; ++k) {
+    Scenario s;
+    s.Effect("coulomb_friction", {{"Tc", 0.002}});
+    s.experiment = Step(-12.0, 0.3, 1000.0);
+    s.experiment.initial.w = 100.0 + 0.01 * k;
+    s.settings.dt = 1e-5;
+    end.push_back(Simulate(s).Column("w").back());
+  }
+  double worst = 0.0, slope = 0.0;
+  for (std::size_t k = 2; k < end.size(); ++k) {
+    worst = std::max(worst, std::abs(end[k] - 2.0 * end[k - 1] + end[k - 2]));
+    slope = std::max(slope, std::abs(end[k] - end[k - 1]));
+  }
+  EXPECT_LT(worst, 1e-3 * slope) << "slope " << slope;
+}
+
 TEST(DcServoEffects, LoadTorqueIsSignedAndOpposesPositiveMotion) {
   const Motor m;
   for (double TL : {0.005, -0.005}) {

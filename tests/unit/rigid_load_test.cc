@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "blmd/io/config.h"
 #include "blmd/run.h"
@@ -94,6 +95,56 @@ TEST(RigidLoad, StaysAtRestBelowTheBreakawayTorque) {
                              R"({ "type": "step", "amplitude": 0.21 })", 0.0, 1.0);
   // Net torque 0.005 N·m: w(1 s) = (0.005 / B)(1 - e^{-2}) = 1.0808 rad/s.
   EXPECT_NEAR(moving.Column("w").back(), 0.005 / kB * (1.0 - std::exp(-1.0 / (kJ / kB))), 1e-6);
+}
+
+// w(t) of the shaft started at w0 > 0 against a constant drive torque -T (T > Tc) under Coulomb
+// friction Tc: it decelerates, w = (w0 + (T + Tc)/B) e^{-t/tau} - (T + Tc)/B, stops at
+// t_s = tau ln(1 + B w0 / (T + Tc)), and breaks away backwards at once,
+// w = -((T - Tc)/B) (1 - e^{-(t - t_s)/tau}).
+double Reversal(double t, double w0, double T, double Tc) {
+  const double tau = kJ / kB, t_s = tau * std::log(1.0 + kB * w0 / (T + Tc));
+  if (t <= t_s) return (w0 + (T + Tc) / kB) * std::exp(-t / tau) - (T + Tc) / kB;
+  return -(T - Tc) / kB * (1.0 - std::exp(-(t - t_s) / tau));
+}
+
+Trace Reversing(double w0, double duration) {
+  // Kt u = 0.5 x (-0.6) = -0.3 N·m against Tc = 0.1 N·m.
+  return Shaft(R"("coulomb_friction": { "Tc": 0.1 })", R"({ "type": "step", "amplitude": -0.6 })",
+               w0, duration);
+}
+
+TEST(RigidLoad, BreaksAwayBackwardsWithinTheStepItStopsIn) {
+  // The stop at t_s = 0.5 ln(1 + 4e-3 x 10 / 0.4) = 47.655 ms falls inside a 0.1 ms step; the
+  // shaft moves backwards for the rest of that step. Breaking away only at the next step
+  // lags the closed form by the step's remainder, (T - Tc)/J x 0.1 ms x 0.45 = 4.5e-3 rad/s.
+  const double w0 = 10.0, T = 0.3, Tc = 0.1;
+  const Trace trace = Reversing(w0, 0.2);
+  const auto& t = trace.Column("t");
+  const auto& w = trace.Column("w");
+  double worst = 0.0;
+  for (std::size_t k = 0; k < t.size(); ++k)
+    worst = std::max(worst, std::abs(w[k] - Reversal(t[k], w0, T, Tc)));
+  EXPECT_LT(worst, 1e-5);  // the stop instant's linear interpolation within its step
+}
+
+TEST(RigidLoad, ReversalIsContinuousInTheParameters) {
+  // w at 0.2 s against w0 from 10 to 10.1 rad/s: the stop instant moves through five steps.
+  // A reversal that waits for the next step makes w a saw-tooth of 2e-3 rad/s per step
+  // boundary crossed (and a least-squares cost a staircase); the exact reversal is smooth:
+  // its second differences are those of the closed form.
+  std::vector<double> end;
+  for (int k = 0; k <= 100; ++k) end.push_back(Reversing(10.0 + 1e-3 * k, 0.2).Column("w").back());
+  double worst = 0.0, worst_closed_form = 0.0;
+  for (std::size_t k = 2; k < end.size(); ++k) {
+    worst = std::max(worst, std::abs(end[k] - 2.0 * end[k - 1] + end[k - 2]));
+    const double w0 = 10.0 + 1e-3 * static_cast<double>(k);
+    worst_closed_form =
+        std::max(worst_closed_form,
+                 std::abs(Reversal(0.2, w0, 0.3, 0.1) - 2.0 * Reversal(0.2, w0 - 1e-3, 0.3, 0.1) +
+                          Reversal(0.2, w0 - 2e-3, 0.3, 0.1)));
+  }
+  EXPECT_LT(worst, 1e-7);
+  EXPECT_LT(worst_closed_form, 1e-7);
 }
 
 }  // namespace

@@ -28,9 +28,11 @@
 //
 // Sticking (Karnopp): at w = 0 the shaft stays at rest while |T_drive - TL - T_cog| does not
 // exceed the breakaway torque Tc + Ts; otherwise it breaks away with friction opposing the
-// net torque. A step in which w would change sign ends with w = 0 (stopped), so friction
-// never reverses the motion it opposes. SimulationSettings::friction_smoothing_w replaces
-// sign(w) by tanh(w / eps) (no sticking) for optimisers that need a smooth cost.
+// net torque. A step in which w would change sign stops the shaft at the interpolated instant,
+// so friction never reverses the motion it opposes; for the rest of that step the same rule
+// holds at rest (StopInStep: dc_servo and rigid_load; the BLMD drive ends the step at rest).
+// SimulationSettings::friction_smoothing_w replaces sign(w) by tanh(w / eps) (no sticking) for
+// optimisers that need a smooth cost.
 #pragma once
 
 #include <cmath>
@@ -121,6 +123,41 @@ struct ShaftEffects {
   bool StopsWithin(double w_old, double w_new) const {
     return has_friction() && smoothing_w <= 0.0 &&
            ((w_old > 0.0 && w_new < 0.0) || (w_old < 0.0 && w_new > 0.0));
+  }
+  // A step of dt from (w_old, theta_old) that ended at *w, *theta: when friction stopped the
+  // shaft inside it, the shaft stops at the interpolated instant (theta advanced by the mean
+  // speed up to it) and for the rest of the step sticks, unless `net`, the torque it feels at
+  // rest without friction (drive minus the positional effects), exceeds the breakaway torque:
+  // then it breaks away at once in the direction of `net` and moves for the remainder tau
+  // under the excess F, J dw/dt = F - B w from rest (J in kg·m², B in N·m·s/rad). Returns
+  // true when the shaft stopped. Waiting for the next step to break away would make the
+  // reversal's instant jump by a step whenever the stop crosses a step boundary, and the
+  // cost with it: a staircase in the parameters (docs/model-rigid-load.md, "Sticking").
+  bool StopInStep(double w_old, double theta_old, double dt, double J, double B, double net,
+                  double* w, double* theta) const {
+    if (!StopsWithin(w_old, *w)) return false;
+    const double fraction = w_old / (w_old - *w);
+    *theta = theta_old + 0.5 * w_old * fraction * dt;
+    *w = 0.0;
+    const double breakaway = FrictionMagnitude(0.0);
+    if (!(std::abs(net) > breakaway)) return true;
+    // w = (F/J) tau phi1(-a tau), theta = (F/J) tau^2 phi2(-a tau), a = B/J,
+    // phi1(x) = (e^x - 1)/x, phi2(x) = (e^x - 1 - x)/x^2 (their series near 0).
+    const double excess = net - std::copysign(breakaway, net);
+    const double tau = (1.0 - fraction) * dt;
+    const double x = -B / J * tau;
+    double phi1, phi2;
+    if (std::abs(x) < 1e-4) {
+      phi1 = 1.0 + x * (0.5 + x / 6.0);
+      phi2 = 0.5 + x * (1.0 / 6.0 + x / 24.0);
+    } else {
+      const double e = std::expm1(x);
+      phi1 = e / x;
+      phi2 = (e - x) / (x * x);
+    }
+    *w = excess / J * tau * phi1;
+    *theta += excess / J * tau * tau * phi2;
+    return true;
   }
 };
 

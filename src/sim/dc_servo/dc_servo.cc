@@ -28,12 +28,16 @@ double Sign(double x) { return x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : 0.0); }
 
 // One step of the reference from x = [i, w, theta] under the voltage u_eff, the armature closed
 // or open (i = 0), with the shaft's effects (friction with sticking, drag, cogging at the
-// angle effect_theta). A shaft that friction stops inside the step ends it at rest.
+// angle effect_theta). A shaft that friction stops inside the step stops there, and breaks
+// away for the rest of the step when the torque at rest (Kt i at the step's end minus the
+// positional effects) exceeds the breakaway torque (ShaftEffects::StopInStep).
 [[gnu::always_inline]] inline void ReferenceStep(const internal::DcServoDiscretisation& d,
-                                                 const ShaftEffects& shaft, double Kt, double dt,
-                                                 bool open, double u_eff, double effect_theta,
-                                                 double* i, double* w, double* theta) {
-  const double non_friction = shaft.NonFrictionTorque(effect_theta) + shaft.DragTorque(*w);
+                                                 const ShaftEffects& shaft, double Kt, double J,
+                                                 double B, double dt, bool open, double u_eff,
+                                                 double effect_theta, double* i, double* w,
+                                                 double* theta) {
+  const double positional = shaft.NonFrictionTorque(effect_theta);
+  const double non_friction = positional + shaft.DragTorque(*w);
   const double w_old = *w, theta_old = *theta;
   if (open) {
     *i = 0.0;
@@ -58,12 +62,7 @@ double Sign(double x) { return x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : 0.0); }
       *theta = x(2);
     }
   }
-  if (shaft.StopsWithin(w_old, *w)) {
-    // Friction stopped the shaft inside this step: it ends at rest, not reversed.
-    const double fraction = w_old / (w_old - *w);
-    *theta = theta_old + 0.5 * w_old * fraction * dt;
-    *w = 0.0;
-  }
+  shaft.StopInStep(w_old, theta_old, dt, J, B, Kt * *i - positional, w, theta);
 }
 
 }  // namespace
@@ -104,7 +103,7 @@ SimStatus DcServoModel::SimulateReference(const SimulationRequest& request, Trac
   const double dt = request.settings.dt;
   if (SimStatus status = CheckRequest(request); !status.ok()) return status;
 
-  const double Kt = values.Get("Kt");
+  const double Kt = values.Get("Kt"), J = values.Get("J"), B = values.Get("B");
   const ShaftEffects shaft =
       ShaftEffects::From(values, *request.effects, request.settings.friction_smoothing_w);
   const DriveEffects drive = DriveEffects::From(values, *request.effects);
@@ -149,8 +148,8 @@ SimStatus DcServoModel::SimulateReference(const SimulationRequest& request, Trac
     const double t_mid = t + 0.5 * dt;
     const bool open = (has_coast && t_mid >= experiment.coast_off_time) || input.OpenAt(t_mid);
     const double effect_theta = effect_angle.At(t, theta);
-    ReferenceStep(discrete, shaft, Kt, dt, open, u - drive.Vdt * Sign(i), effect_theta, &i, &w,
-                  &theta);
+    ReferenceStep(discrete, shaft, Kt, J, B, dt, open, u - drive.Vdt * Sign(i), effect_theta, &i,
+                  &w, &theta);
 
     // Recorded with the state at t_next: the voltage applied from t_next on, so that the u
     // column of a closed-loop trace means what it means in open loop (the input from that

@@ -315,7 +315,8 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
         theta = th1;
       }
     } else {
-      const double non_friction = shaft.NonFrictionTorque(theta) + shaft.DragTorque(w);
+      const double positional = shaft.NonFrictionTorque(theta);
+      const double non_friction = positional + shaft.DragTorque(w);
       if (open) {
         i = 0.0;
         bool stuck = false;
@@ -342,11 +343,7 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
           theta = th1;
         }
       }
-      if (shaft.StopsWithin(w_old, w)) {
-        const double fraction = w_old / (w_old - w);
-        theta = theta_old + 0.5 * w_old * fraction * dt;
-        w = 0.0;
-      }
+      shaft.StopInStep(w_old, theta_old, dt, J, B, Kt * i - positional, &w, &theta);
     }
 
     u = control(t_next, &reference);

@@ -61,20 +61,6 @@ ModelTraits RigidLoadModel::traits() const {
   return traits;
 }
 
-namespace {
-
-// A step whose friction reverses the speed ends where the shaft stops: w = 0 at the
-// interpolated instant, theta advanced by the mean speed up to it (both loops, open and closed).
-void StopWithin(const ShaftEffects& shaft, double w_old, double theta_old, double dt, double* w,
-                double* theta) {
-  if (!shaft.StopsWithin(w_old, *w)) return;
-  const double fraction = w_old / (w_old - *w);
-  *theta = theta_old + 0.5 * w_old * fraction * dt;
-  *w = 0.0;
-}
-
-}  // namespace
-
 // The closed loop: the controller samples at its own rate and holds its output; the current
 // (force) loop, a first-order lag, is a third state of the exact discretisation:
 // x = [w, theta, u_a], u_a' = ω_b (u − u_a), the shaft driven by Kt u_a.
@@ -126,8 +112,9 @@ SimStatus RigidLoadModel::SimulateClosedLoop(const SimulationRequest& request, T
     const double t = t_start + static_cast<double>(step) * dt;
     const double t_next = t_start + static_cast<double>(step + 1) * dt;
     const double drive = Kt * (lag ? u_a : u);
-    const double non_friction =
-        shaft.NonFrictionTorque(effect_angle.At(t, theta)) + shaft.DragTorque(w);
+    // (the drag vanishes at rest: what the shaft feels once stopped is drive - positional)
+    const double positional = shaft.NonFrictionTorque(effect_angle.At(t, theta));
+    const double non_friction = positional + shaft.DragTorque(w);
     bool stuck = false;
     const double friction = shaft.StepFriction(w, drive - non_friction, &stuck);
     const double w_old = w, theta_old = theta;
@@ -139,7 +126,7 @@ SimStatus RigidLoadModel::SimulateClosedLoop(const SimulationRequest& request, T
       w = x(0);
       theta = x(1);
       u_a = x(2);
-      StopWithin(shaft, w_old, theta_old, dt, &w, &theta);
+      shaft.StopInStep(w_old, theta_old, dt, J, B, drive - positional, &w, &theta);
     }
     // The controller samples at t_next when it falls on its period; recorded with the state
     // at t_next: the command that holds from t_next on (as dc_servo's u column).
@@ -192,8 +179,9 @@ SimStatus RigidLoadModel::Simulate(const SimulationRequest& request, Trace* out)
     // effect there whatever the rounding of t, as in dc_servo).
     const double u = input.At(t + 0.5 * dt);
     const double drive = Kt * u;
-    const double non_friction =
-        shaft.NonFrictionTorque(effect_angle.At(t, theta)) + shaft.DragTorque(w);
+    // (the drag vanishes at rest: what the shaft feels once stopped is drive - positional)
+    const double positional = shaft.NonFrictionTorque(effect_angle.At(t, theta));
+    const double non_friction = positional + shaft.DragTorque(w);
     bool stuck = false;
     const double friction = shaft.StepFriction(w, drive - non_friction, &stuck);
     const double w_old = w, theta_old = theta;
@@ -202,7 +190,7 @@ SimStatus RigidLoadModel::Simulate(const SimulationRequest& request, Trace* out)
           Ad * Eigen::Vector2d(w, theta) + Bd * (drive - friction - non_friction);
       w = x(0);
       theta = x(1);
-      StopWithin(shaft, w_old, theta_old, dt, &w, &theta);
+      shaft.StopInStep(w_old, theta_old, dt, J, B, drive - positional, &w, &theta);
     }
     now = {input.At(t_next + 0.5 * dt), w, theta};
     if (!internal::AllFinite(now.data() + 1, 2, request.settings.divergence_limit)) {
