@@ -11,10 +11,12 @@ J and B. Exit 1 when a perturbed run adds other effects without marking the deci
 
 With --variant K=V (repeatable) it instead runs each command on the data as recorded under
 each environment variant (e.g. BLMD_BATCH_ISA=baseline) and prints whether the effects added
-are the same and the largest relative difference of every fitted parameter's value.
+are the same and the largest relative difference of every fitted parameter's value; a
+variant bin=DIR runs DIR/blmd-ident instead (another build, e.g. with other compiler flags).
+With --show-differing each perturbed run that adds other effects is listed on stderr.
 
 Usage: decision_stability.py [--runs N] [--rel R] [--filter REGEX] [--bin DIR] [--env K=V]
-                             [--variant K=V ...]
+                             [--variant K=V ...] [--show-differing]
 (run from the repository root; the data from ../shared/realdata or $BLMD_REALDATA)
 """
 import argparse
@@ -130,7 +132,10 @@ def variants(page, data, binary, env, args):
         cells = []
         for variant in args.variant:
             key, _, value = variant.partition("=")
-            other, error = run(binary, argv, {**env, key: value})
+            if key == "bin":
+                other, error = run(os.path.join(value, "blmd-ident"), argv, env)
+            else:
+                other, error = run(binary, argv, {**env, key: value})
             if other is None:
                 cells.append("error")
                 bad += 1
@@ -157,6 +162,7 @@ def main():
     parser.add_argument("--bin", default=os.environ.get("BUILD_DIR", "build") + "/bin")
     parser.add_argument("--env", action="append", default=[])
     parser.add_argument("--variant", action="append", default=[])
+    parser.add_argument("--show-differing", action="store_true")
     args = parser.parse_args()
     data = os.environ.get("BLMD_REALDATA", "../shared/realdata")
     env = dict(os.environ)
@@ -196,6 +202,10 @@ def main():
                 differing += 1
                 if (set(o_added) ^ set(added)) <= (marked | o_marked):
                     differing_marked += 1
+                if args.show_differing:
+                    print(f"{name} run {r}: added {', '.join(o_added) or '-'}"
+                          f"{' (undecided: ' + ', '.join(sorted(o_marked)) + ')' if o_marked else ''}"
+                          f", J {oJ:.6g}", file=sys.stderr)
             for a, b in ((J, oJ), (B, oB)):
                 if a and b:
                     change = max(change, abs(b - a) / abs(a))
