@@ -288,6 +288,8 @@ json CandidatesJson(const std::vector<CandidateOutcome>& outcomes) {
       if (o.cross_validated) {
         c["cross_validated_nrmse"] = {{"before", Number(o.cv_before)},
                                       {"after", Number(o.cv_after)}};
+        if (!o.cv_perturbed.empty())
+          c["cross_validated_nrmse"]["perturbed"] = NumberList(o.cv_perturbed);
       }
       c["parameters"] = NumberMap(o.parameters);
     }

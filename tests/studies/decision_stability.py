@@ -9,6 +9,12 @@ perturbed runs added the same, whether every differing run's report marks the de
 (discovery.unstable or discovery.ambiguous), and the largest relative change of the headline
 J and B. Exit 1 when a perturbed run adds other effects without marking the decision.
 
+The decision that differs is the first round at which the two runs add different effects
+(what is added after it is a consequence: a Stribeck friction chosen in round 1 leaves no
+room for the Coulomb friction the other run adds in round 2). A differing run counts as
+marked when either report marks one of the two effects chosen in that round, or when every
+effect in which the two sets differ is marked.
+
 With --variant K=V (repeatable) it instead runs each command on the data as recorded under
 each environment variant (e.g. BLMD_BATCH_ISA=baseline) and prints whether the effects added
 are the same and the largest relative difference of every fitted parameter's value; a
@@ -141,14 +147,19 @@ def variants(page, data, binary, env, args):
                 bad += 1
                 continue
             o_added = tuple((other.get("discovery") or {}).get("added", []))
-            diff = 0.0
+            diff, worst, j_diff = 0.0, "", 0.0
             for pname, p in report["parameters"].items():
                 q = other["parameters"].get(pname)
                 if q and p["value"]:
-                    diff = max(diff, abs(q["value"] - p["value"]) / abs(p["value"]))
+                    d = abs(q["value"] - p["value"]) / abs(p["value"])
+                    if d > diff:
+                        diff, worst = d, pname
+                    if pname == "J":
+                        j_diff = d
             same = o_added == added
             bad += 0 if same and diff <= 1e-6 else 1
-            cells.append(f"{'yes' if same else 'NO'}, {diff:.2g}")
+            cells.append(f"{'yes' if same else 'NO'}, {diff:.2g}"
+                         f"{f' ({worst}; J {j_diff:.2g})' if diff > 1e-6 else ''}")
         print(f"| {name} | {', '.join(added) or '—'} | " + " | ".join(cells) + " |")
         sys.stdout.flush()
     return 1 if bad or errors else 0
@@ -200,7 +211,11 @@ def main():
                 same += 1
             else:
                 differing += 1
-                if (set(o_added) ^ set(added)) <= (marked | o_marked):
+                k = next((k for k, (a, b) in enumerate(zip(added, o_added)) if a != b),
+                         min(len(added), len(o_added)))
+                chosen = set(added[k:k + 1]) | set(o_added[k:k + 1])
+                if (set(o_added) ^ set(added)) <= (marked | o_marked) or \
+                        chosen & (marked | o_marked):
                     differing_marked += 1
                 if args.show_differing:
                     print(f"{name} run {r}: added {', '.join(o_added) or '-'}"

@@ -355,6 +355,10 @@ struct Round {
   RoundBase base;                  // what every candidate is compared with
   internal::ScreeningGrid grid;    // the screening grid's levels (screening.h)
   std::vector<int> levels;         // per run: the level it was planned and screened on
+  // Pairs of qualifying candidates (indices into runs) whose choice by cross-validation a
+  // perturbed copy of the data reverses, and the words for the last (QualifyingCandidates).
+  std::vector<std::pair<std::size_t, std::size_t>> undecided;
+  std::string undecided_reason;
 };
 
 // `work` on each of `items`, on `threads` threads.
@@ -647,6 +651,7 @@ void CrossValidateCandidates(const FitProblem& problem, const FitProblem& curren
     // The copies' fits also start a little off the values (where the previous fits stopped
     // is known only to their tolerance): a verdict that hinges on that is no more a finding.
     std::vector<std::optional<CrossValidation>>& copies = base_copies[level];
+    o.cv_perturbed.assign(perturbed.size(), std::numeric_limits<double>::quiet_NaN());
     for (std::size_t c = 0; c < perturbed.size() && o.stable; ++c) {
       if (!copies[c]) {
         const std::vector<double> start =
@@ -660,6 +665,7 @@ void CrossValidateCandidates(const FitProblem& problem, const FitProblem& curren
       const CrossValidation copy =
           BlockCrossValidate(config, StartingAt(run.free, start), perturbed[c], problem.observe(),
                              start, options.refit);
+      if (copy.ok) o.cv_perturbed[c] = copy.nrmse;
       if (!copies[c]->ok || !copy.ok) continue;
       const bool generalises = copy.nrmse < (1.0 - options.held_out_margin) * copies[c]->nrmse;
       if (generalises == o.generalises) continue;
@@ -702,8 +708,31 @@ std::vector<std::size_t> QualifyingCandidates(const DiscoveryOptions& options, R
     if (other_size > first_size || !std::isfinite(first_score) || !std::isfinite(other_score))
       continue;
     const bool simpler = other_size < first_size;
-    const bool gives_way = simpler ? !(first_score < (1.0 - options.held_out_margin) * other_score)
-                                   : other_score < (1.0 - options.held_out_margin) * first_score;
+    auto GivesWay = [&](double first_nrmse, double other_nrmse) {
+      return simpler ? !(first_nrmse < (1.0 - options.held_out_margin) * other_nrmse)
+                     : other_nrmse < (1.0 - options.held_out_margin) * first_nrmse;
+    };
+    const bool gives_way = GivesWay(first_score, other_score);
+    // The same choice on each perturbed copy (docs/discovery.md §3d): one that a change of
+    // the data far below their noise reverses is no finding, and the two are reported as
+    // models that explain the data equally well (RecordAmbiguity), the choice named.
+    const CandidateOutcome& f = runs[first].outcome;
+    const CandidateOutcome& g = runs[other].outcome;
+    if (f.cross_validated && g.cross_validated) {
+      for (std::size_t c = 0; c < f.cv_perturbed.size() && c < g.cv_perturbed.size(); ++c) {
+        const double fc = f.cv_perturbed[c], gc = g.cv_perturbed[c];
+        if (!std::isfinite(fc) || !std::isfinite(gc) || GivesWay(fc, gc) == gives_way) continue;
+        round->undecided.push_back({first, other});
+        round->undecided_reason =
+            "which of " + f.effect + " and " + g.effect +
+            " predicts the data they were not fitted to better hinges on the data's last bits "
+            "(cross-validated NRMSE " +
+            G(first_score) + " against " + G(other_score) + " on the data, " + G(fc) + " against " +
+            G(gc) + " on a copy changed by " + G(options.stability_perturbation, 2) +
+            " of its values)";
+        break;
+      }
+    }
     if (!gives_way) continue;
     runs[first].outcome.reason =
         simpler ? "tried, not needed: its " + std::to_string(first_size) +
@@ -735,9 +764,24 @@ std::vector<std::string> RecordAmbiguity(const Round& round,
                                          const DiscoveryOptions& options, DiscoveryResult* result) {
   const CandidateRun& best = round.runs[qualifying.front()];
   std::vector<std::string> tied = {best.outcome.effect};
+  bool by_bic = false;
   for (std::size_t q = 1; q < qualifying.size(); ++q) {
     const CandidateOutcome& o = round.runs[qualifying[q]].outcome;
-    if (std::abs(o.bic - best.outcome.bic) < options.ambiguity_margin) tied.push_back(o.effect);
+    if (std::abs(o.bic - best.outcome.bic) < options.ambiguity_margin) {
+      tied.push_back(o.effect);
+      by_bic = true;
+    }
+  }
+  // A choice between the winner and another that the perturbed copies reverse
+  // (QualifyingCandidates).
+  bool by_stability = false;
+  for (const auto& [a, b] : round.undecided) {
+    const std::size_t partner =
+        a == qualifying.front() ? b : (b == qualifying.front() ? a : round.runs.size());
+    if (partner == round.runs.size()) continue;
+    const std::string& name = round.runs[partner].outcome.effect;
+    if (std::find(tied.begin(), tied.end(), name) == tied.end()) tied.push_back(name);
+    by_stability = true;
   }
   if (tied.size() <= 1) return {};
   // The best of equals is added (the model with none of them fits clearly worse than each: it
@@ -767,14 +811,18 @@ std::vector<std::string> RecordAmbiguity(const Round& round,
     friction = friction || (search && search->pointer == internal::Pointer::kSignOfW);
     constant = constant || (search && search->pointer == internal::Pointer::kResidualMean);
   }
+  const std::string why =
+      by_bic ? " explain the residual equally well (BIC within " + G(options.ambiguity_margin) +
+                   ")" + (by_stability ? "; " + round.undecided_reason : std::string())
+             : " cannot be told apart: " + round.undecided_reason;
   result->ambiguity_reason =
-      names + " explain the residual equally well (BIC within " + G(options.ambiguity_margin) +
-      ")" +
+      names + why +
       (!analysis.w_changes_sign && friction && constant
            ? "; w never changes sign on this data, so friction and a constant load look "
              "alike: record motion in both directions to tell them apart"
-           : ": an experiment that drives them differently (other speeds, amplitudes or "
-             "directions; blmd-design) would tell them apart");
+           : std::string(by_stability ? "; " : ": ") +
+                 "an experiment that drives them differently (other speeds, amplitudes or "
+                 "directions; blmd-design) would tell them apart");
   return ambiguous_with;
 }
 

@@ -112,6 +112,10 @@ struct CandidateOutcome {
   bool cross_validated = false;
   double cv_before = 0.0, cv_after = 0.0;
   bool generalises = true;
+  // Its cross-validated NRMSE on each perturbed copy of the stability check (NaN where that
+  // failed): the choice between two candidates that their cross-validation makes is checked
+  // on these too (docs/discovery.md §3d).
+  std::vector<double> cv_perturbed;
   std::map<std::string, double> parameters;  // the effect's fitted parameters
   // Every free parameter of the model with this effect (J, B, ... and the effect's), as
   // refit: what an ambiguous round reports for each competing model.
