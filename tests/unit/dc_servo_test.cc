@@ -609,7 +609,6 @@ TEST(DcServoEffects, ReversalAfterAStopIsContinuousInTheInitialState) {
   // 0.3 s against w0 from 100 to 101 rad/s, the stop instant moving through steps of 1e-5 s:
   // a reversal that waits for the next step makes w a saw-tooth in w0 (a cost with jumps);
   // breaking away within the step the shaft stopped in leaves it smooth.
-  const Motor m;
   std::vector<double> end;
   for (int k = 0; k <= 100; ++k) {
     Scenario s;
