@@ -718,20 +718,22 @@ std::vector<std::size_t> QualifyingCandidates(const DiscoveryOptions& options, R
     // models that explain the data equally well (RecordAmbiguity), the choice named.
     const CandidateOutcome& f = runs[first].outcome;
     const CandidateOutcome& g = runs[other].outcome;
-    if (f.cross_validated && g.cross_validated) {
-      for (std::size_t c = 0; c < f.cv_perturbed.size() && c < g.cv_perturbed.size(); ++c) {
-        const double fc = f.cv_perturbed[c], gc = g.cv_perturbed[c];
-        if (!std::isfinite(fc) || !std::isfinite(gc) || GivesWay(fc, gc) == gives_way) continue;
-        round->undecided.push_back({first, other});
-        round->undecided_reason =
-            "which of " + f.effect + " and " + g.effect +
-            " predicts the data they were not fitted to better hinges on the data's last bits "
-            "(cross-validated NRMSE " +
-            G(first_score) + " against " + G(other_score) + " on the data, " + G(fc) + " against " +
-            G(gc) + " on a copy changed by " + G(options.stability_perturbation, 2) +
-            " of its values)";
-        break;
-      }
+    const std::size_t copies = f.cross_validated && g.cross_validated
+                                   ? std::min(f.cv_perturbed.size(), g.cv_perturbed.size())
+                                   : 0;
+    std::size_t c = 0;
+    while (c < copies && !(std::isfinite(f.cv_perturbed[c]) && std::isfinite(g.cv_perturbed[c]) &&
+                           GivesWay(f.cv_perturbed[c], g.cv_perturbed[c]) != gives_way))
+      ++c;
+    if (c < copies) {
+      round->undecided.push_back({first, other});
+      round->undecided_reason =
+          "which of " + f.effect + " and " + g.effect +
+          " predicts the data they were not fitted to better hinges on the data's last bits "
+          "(cross-validated NRMSE " +
+          G(first_score) + " against " + G(other_score) + " on the data, " + G(f.cv_perturbed[c]) +
+          " against " + G(g.cv_perturbed[c]) + " on a copy changed by " +
+          G(options.stability_perturbation, 2) + " of its values)";
     }
     if (!gives_way) continue;
     runs[first].outcome.reason =
@@ -775,11 +777,10 @@ std::vector<std::string> RecordAmbiguity(const Round& round,
   // A choice between the winner and another that the perturbed copies reverse
   // (QualifyingCandidates).
   bool by_stability = false;
+  const std::size_t winner = qualifying.front();
   for (const auto& [a, b] : round.undecided) {
-    const std::size_t partner =
-        a == qualifying.front() ? b : (b == qualifying.front() ? a : round.runs.size());
-    if (partner == round.runs.size()) continue;
-    const std::string& name = round.runs[partner].outcome.effect;
+    if (a != winner && b != winner) continue;
+    const std::string& name = round.runs[a == winner ? b : a].outcome.effect;
     if (std::find(tied.begin(), tied.end(), name) == tied.end()) tied.push_back(name);
     by_stability = true;
   }
