@@ -19,10 +19,11 @@ With --variant K=V (repeatable) it instead runs each command on the data as reco
 each environment variant (e.g. BLMD_BATCH_ISA=baseline) and prints whether the effects added
 are the same and the largest relative difference of every fitted parameter's value; a
 variant bin=DIR runs DIR/blmd-ident instead (another build, e.g. with other compiler flags).
-With --show-differing each perturbed run that adds other effects is listed on stderr.
+With --show-differing each perturbed run that adds other effects is listed on stderr; with
+--show-values every perturbed run's J and B.
 
 Usage: decision_stability.py [--runs N] [--rel R] [--filter REGEX] [--bin DIR] [--env K=V]
-                             [--variant K=V ...] [--show-differing]
+                             [--variant K=V ...] [--show-differing] [--show-values]
 (run from the repository root; the data from ../shared/realdata or $BLMD_REALDATA)
 """
 import argparse
@@ -174,6 +175,7 @@ def main():
     parser.add_argument("--env", action="append", default=[])
     parser.add_argument("--variant", action="append", default=[])
     parser.add_argument("--show-differing", action="store_true")
+    parser.add_argument("--show-values", action="store_true")
     args = parser.parse_args()
     data = os.environ.get("BLMD_REALDATA", "../shared/realdata")
     env = dict(os.environ)
@@ -221,6 +223,9 @@ def main():
                     print(f"{name} run {r}: added {', '.join(o_added) or '-'}"
                           f"{' (undecided: ' + ', '.join(sorted(o_marked)) + ')' if o_marked else ''}"
                           f", J {oJ:.6g}", file=sys.stderr)
+            if args.show_values:
+                print(f"{name} run {r}: J {oJ!r} (as recorded {J!r}), B {oB!r} ({B!r})",
+                      file=sys.stderr)
             for a, b in ((J, oJ), (B, oB)):
                 if a and b:
                     change = max(change, abs(b - a) / abs(a))
