@@ -4,8 +4,10 @@
 // instantaneous frequency against the zero crossings; the config reader's defaults.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <limits>
 #include <numbers>
 #include <random>
@@ -13,9 +15,11 @@
 #include <vector>
 
 #include "blmd/io/config.h"
+#include "blmd/run.h"
 #include "blmd/sim/blmd/blmd_drive.h"
 #include "blmd/sim/dc_servo/dc_servo.h"
 #include "blmd/sim/experiment.h"
+#include "sim/input_read.h"
 #include "support/fast_reference.h"
 #include "support/test_support.h"
 
@@ -169,9 +173,9 @@ TEST(Prbs, CursorValuesAndNextChangeAtTheBitEdges) {
   }
 }
 
-// The simulators' own way of reading: at step midpoints t + dt/2 from t = k dt, re-reading
-// only once NextChange is reached. The values read must be those of the stateless At at
-// every step (so the fast path and the reference see the same input).
+// The simulators' own way of reading: just after step midpoints (sim/input_read.h) from
+// t = k dt, re-reading only once NextChange is reached. The values read must be those of the
+// stateless At at every step (so the fast path and the reference see the same input).
 TEST(Prbs, ReadingOnlyAtNextChangeSeesEveryChange) {
   const double dt = 1e-5;
   const InputSignal signal = Prbs(10, 1, 0.001, 0.0);
@@ -180,7 +184,7 @@ TEST(Prbs, ReadingOnlyAtNextChangeSeesEveryChange) {
   long reads = 0, changes = 0;
   double previous = std::numeric_limits<double>::quiet_NaN();
   for (long step = 0; step < 200000; ++step) {
-    const double t_mid = static_cast<double>(step) * dt + 0.5 * dt;
+    const double t_mid = internal::InputReadTime(static_cast<double>(step) * dt, dt);
     if (t_mid >= next_change) {
       value = cursor.At(t_mid);
       next_change = cursor.NextChange(t_mid);
@@ -341,6 +345,77 @@ TEST(InputFastPath, PrbsAndChirpMatchTheReferencePaths) {
   input.f1 = 200.0;
   input.sweep = 0.05;
   EXPECT_LT(FastAgainstReference<BlmdDriveModel>(blmd), 1e-9) << "blmd chirp";
+}
+
+// Recorded samples stamped exactly on a step's midpoint (microsecond stamps with a 50 us
+// offset and dt = 100 us put one sample in a hundred there) take effect in the same step
+// whatever their last bit, so that a build that rounds t + dt / 2 differently (an FMA build)
+// simulates the same record. With dt a power of two the stamps (10 j + 3.5) dt and the
+// simulators' midpoints are exact in every build: the test nudges every stamp by one ulp up
+// and down and compares the two runs, on each model and each path.
+InputSignal MidpointStamps(double dt, double duration, double level, int direction) {
+  InputSignal input;
+  input.kind = InputSignal::Kind::kRecorded;
+  input.times = {0.0};
+  input.values = {level};
+  for (int j = 1; (10.0 * j + 3.5) * dt < duration; ++j) {
+    const double stamp = (10.0 * j + 3.5) * dt;
+    input.times.push_back(
+        std::nextafter(stamp, direction * std::numeric_limits<double>::infinity()));
+    input.values.push_back(level * (j % 2 == 1 ? 0.5 : 1.0));
+  }
+  return input;
+}
+
+// The worst relative difference between the runs on stamps nudged up and down, over the
+// fast path (Simulate) and, where the model has one, the reference path.
+template <typename ModelT>
+double MidpointStampSensitivity(Config config, double level, bool has_reference) {
+  Config up = config, down = config;
+  up.experiment.input = MidpointStamps(config.simulation.dt, config.experiment.duration, level, 1);
+  down.experiment.input =
+      MidpointStamps(config.simulation.dt, config.experiment.duration, level, -1);
+  std::string where;
+  if (!has_reference) {
+    Trace a, b;
+    EXPECT_TRUE(RunExperiment(up, &a).ok());
+    EXPECT_TRUE(RunExperiment(down, &b).ok());
+    return testing::WorstRelativeDeviation(a, b, &where);
+  }
+  const testing::FastAndReference a = testing::RunFastAndReference<ModelT>(up);
+  const testing::FastAndReference b = testing::RunFastAndReference<ModelT>(down);
+  EXPECT_TRUE(a.fast_status.ok() && a.reference_status.ok()) << a.fast_status.message;
+  EXPECT_TRUE(b.fast_status.ok() && b.reference_status.ok()) << b.fast_status.message;
+  return std::max(testing::WorstRelativeDeviation(a.fast, b.fast, &where),
+                  testing::WorstRelativeDeviation(a.reference, b.reference, &where));
+}
+
+TEST(RecordedInput, StampsOnAStepMidpointDoNotDependOnTheirLastBit) {
+  const Config shaft = ParseConfig(R"({
+  "name": "shaft", "model": "rigid_load",
+  "parameters": { "J": 2e-4, "B": 1e-5, "Kt": 0.05 },
+  "effects": { "coulomb_friction": { "Tc": 0.002 } },
+  "simulation": { "dt": 0.0001220703125 },
+  "experiment": { "input": { "type": "step", "amplitude": 1.0 }, "duration": 0.5,
+                  "sample_rate": 1000 }
+})",
+                                   "shaft.json");
+  const double rigid = MidpointStampSensitivity<DcServoModel>(shaft, 1.0, false);
+  Config servo = LoadConfig(testing::SourcePath("configs/ganesh-noload.json"));
+  servo.simulation.dt = 0x1p-17;  // 7.6 us
+  servo.experiment.duration = 0.2;
+  const double dc = MidpointStampSensitivity<DcServoModel>(servo, 24.0, true);
+  Config drive = LoadConfig(testing::SourcePath("configs/blmd-d31x.json"));
+  drive.simulation.dt = 0x1p-20;                // 0.95 us
+  drive.parameters.Set("Tpwm", 0x1p-12);        // 244 us, 256 steps
+  drive.parameters.Set("delta", 20 * 0x1p-20);  // 19 us
+  drive.experiment.duration = 0.02;
+  const double blmd = MidpointStampSensitivity<BlmdDriveModel>(drive, 1.0, true);
+  std::printf("[ measured ] one-ulp stamp nudges move rigid_load %.3g, dc_servo %.3g, blmd %.3g\n",
+              rigid, dc, blmd);
+  EXPECT_LT(rigid, 1e-9);
+  EXPECT_LT(dc, 1e-9);
+  EXPECT_LT(blmd, 1e-9);
 }
 
 }  // namespace

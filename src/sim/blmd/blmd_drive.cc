@@ -10,6 +10,7 @@
 #include "sim/blmd/blmd_events.h"
 #include "sim/blmd/blmd_legs.h"
 #include "sim/digital_cascade.h"
+#include "sim/input_read.h"
 #include "sim/sampler.h"
 
 namespace blmd {
@@ -305,7 +306,7 @@ SimStatus BlmdDriveModel::SimulateReference(const SimulationRequest& request, Tr
   ReferenceState s;
   s.w = experiment.initial.w;
   s.theta = experiment.initial.theta;
-  double reference = input.At(t_start + 0.5 * dt);
+  double reference = input.At(internal::InputReadTime(t_start, dt));
   double command = closed_loop ? controller.Tick(reference, s.w, s.theta) : 0.0;  // V
   std::array<double, 12> prev{}, now{};
   s.Pack(closed_loop ? command : input.At(t_start), c.drive.i0, settings.diagnostics, prev.data());
@@ -319,10 +320,10 @@ SimStatus BlmdDriveModel::SimulateReference(const SimulationRequest& request, Tr
   for (long step = 0; !sampler.done(); ++step) {
     const double t_low = t_start + static_cast<double>(step) * dt;
     const double t_high = t_start + static_cast<double>(step + 1) * dt;
-    // The demand over a step is read at its midpoint, so that an event on the step grid (a
-    // step's t0, a square wave's edge, a recorded sample) takes effect exactly there whatever
-    // the rounding of t_start + k dt (as dc_servo does).
-    const double demand = closed_loop ? command : input.At(t_low + 0.5 * dt);
+    // The demand over a step is read just after its midpoint (sim/input_read.h), so that an
+    // event on the step grid (a step's t0, a square wave's edge, a recorded sample) takes
+    // effect exactly there whatever the rounding of t_start + k dt (as dc_servo does).
+    const double demand = closed_loop ? command : input.At(internal::InputReadTime(t_low, dt));
     // cos(p theta - 2(j-1)pi/3) from one sine/cosine pair: the b and c phases are the a
     // phase rotated by -120 and -240 degrees.
     const double electrical_angle = c.p * s.theta;
@@ -360,7 +361,7 @@ SimStatus BlmdDriveModel::SimulateReference(const SimulationRequest& request, Tr
     if (closed_loop && (step + 1) % period == 0) {
       // The controller samples at t_high; its command holds from there on (recorded with
       // the state at t_high, as rigid_load's closed loop records it).
-      reference = input.At(t_high + 0.5 * dt);
+      reference = input.At(internal::InputReadTime(t_high, dt));
       command = controller.Tick(reference, s.w, s.theta);
     }
     s.Pack(closed_loop ? command : demand, c.drive.i0, settings.diagnostics, now.data());
@@ -379,7 +380,8 @@ SimStatus BlmdDriveModel::SimulateReference(const SimulationRequest& request, Tr
   // that a trace replays exactly through its u column as a recorded input.
   // (a cursor: the sample times increase, so each read continues where the last stopped)
   InputCursor u_cursor(experiment.input);
-  for (std::size_t k = 0; k < times.size(); ++k) u_column[k] = u_cursor.At(times[k] + 0.5 * dt);
+  for (std::size_t k = 0; k < times.size(); ++k)
+    u_column[k] = u_cursor.At(internal::InputReadTime(times[k], dt));
   return SimStatus::Ok();
 }
 

@@ -21,6 +21,7 @@
 #include "blmd/sim/effects.h"
 #include "sim/blmd/blmd_batch.h"
 #include "sim/blmd/blmd_legs.h"
+#include "sim/input_read.h"
 #include "sim/plain_shaft.h"
 #include "sim/sampler.h"
 
@@ -226,7 +227,7 @@ void BlmdDriveModel::SimulateBatch(const SimulationRequest* requests, std::size_
   std::vector<double> u_column(requests[0].sample_times->size());  // the same for every lane
   InputCursor u_cursor(requests[0].experiment->input);
   for (std::size_t r = 0; r < u_column.size(); ++r) {
-    u_column[r] = u_cursor.At((*requests[0].sample_times)[r] + 0.5 * dt);
+    u_column[r] = u_cursor.At(internal::InputReadTime((*requests[0].sample_times)[r], dt));
   }
   const internal::BatchIsa chosen = internal::ChosenBatchIsa();
   for (std::size_t first = 0, width = 0; first < lanes.size(); first += width) {

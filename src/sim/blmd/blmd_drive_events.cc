@@ -32,6 +32,7 @@
 #include "blmd/sim/effects.h"
 #include "sim/blmd/blmd_events.h"
 #include "sim/blmd/blmd_legs.h"
+#include "sim/input_read.h"
 #include "sim/plain_shaft.h"
 #include "sim/sampler.h"
 
@@ -943,7 +944,7 @@ SimulateBlmdEvents(const BlmdDriveModel& model, const SimulationRequest& request
   // The input is read again only where it may have changed (InputCursor::NextChange).
   double u_value = 0.0, u_next = -kNever;
   for (std::size_t k = 0; k < times.size(); ++k) {
-    const double at = times[k] + 0.5 * settings.dt;
+    const double at = InputReadTime(times[k], settings.dt);
     if (at >= u_next) {
       u_value = u_cursor.At(at);
       u_next = u_cursor.NextChange(at);

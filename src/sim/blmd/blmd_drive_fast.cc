@@ -17,6 +17,7 @@
 #include "blmd/sim/effects.h"
 #include "sim/blmd/blmd_events.h"
 #include "sim/blmd/blmd_legs.h"
+#include "sim/input_read.h"
 #include "sim/plain_shaft.h"
 #include "sim/sampler.h"
 
@@ -143,7 +144,7 @@ SimulateFast(const BlmdDriveModel& model, const SimulationRequest& request, Trac
   for (long step = 0; !sampler.done(); ++step) {
     const double t_low = t_high;
     t_high = t_start + static_cast<double>(step + 1) * dt;
-    const double t_mid = t_low + 0.5 * dt;
+    const double t_mid = internal::InputReadTime(t_low, dt);
     if (t_mid >= demand_next_change) {  // read again only when the signal can change
       demand = input.At(t_mid);
       demand_next_change = input.NextChange(t_mid);
@@ -283,7 +284,8 @@ SimulateFast(const BlmdDriveModel& model, const SimulationRequest& request, Trac
   sampler.Finish(out);
   auto& u_column = out->Column("u");
   InputCursor u_cursor(experiment.input);  // sample times increase: no search per sample
-  for (std::size_t k = 0; k < times.size(); ++k) u_column[k] = u_cursor.At(times[k] + 0.5 * dt);
+  for (std::size_t k = 0; k < times.size(); ++k)
+    u_column[k] = u_cursor.At(internal::InputReadTime(times[k], dt));
   return SimStatus::Ok();
 }
 

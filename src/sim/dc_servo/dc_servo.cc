@@ -6,6 +6,7 @@
 
 #include "blmd/sim/effects.h"
 #include "sim/dc_servo/dc_servo_steps.h"
+#include "sim/input_read.h"
 #include "sim/sampler.h"
 
 namespace blmd {
@@ -124,12 +125,13 @@ SimStatus DcServoModel::SimulateReference(const SimulationRequest& request, Trac
   pid.derivative_state = speed_loop ? w : theta;
   const double alpha = dt / (experiment.pid.tau_d + dt);
 
-  // The input over a step [t, t + dt) is read at its midpoint t + dt/2, so that an event on
-  // the step grid (a step's t0, a switching instant, an `open` sample, coast_off_time) takes
-  // effect at that grid point whatever the rounding of t = t_start + k dt; an event between
-  // grid points takes effect at the nearest one. The PID runs at t with the state at t.
+  // The input over a step [t, t + dt) is read just after its midpoint (sim/input_read.h), so
+  // that an event on the step grid (a step's t0, a switching instant, an `open` sample,
+  // coast_off_time) takes effect at that grid point whatever the rounding of t = t_start + k dt;
+  // an event between grid points takes effect at the nearest one, one on a midpoint at the
+  // earlier one. The PID runs at t with the state at t.
   auto control = [&](double t, double* reference) {
-    const double r = input.At(t + 0.5 * dt);
+    const double r = input.At(internal::InputReadTime(t, dt));
     *reference = r;
     return closed_loop ? pid.Control(experiment.pid, alpha, dt, r, speed_loop ? w : theta) : r;
   };
@@ -145,7 +147,7 @@ SimStatus DcServoModel::SimulateReference(const SimulationRequest& request, Trac
     // u: the voltage applied over [t, t_next), computed at t.
     const double t = t_start + static_cast<double>(step) * dt;
     const double t_next = t_start + static_cast<double>(step + 1) * dt;
-    const double t_mid = t + 0.5 * dt;
+    const double t_mid = internal::InputReadTime(t, dt);
     const bool open = (has_coast && t_mid >= experiment.coast_off_time) || input.OpenAt(t_mid);
     const double effect_theta = effect_angle.At(t, theta);
     ReferenceStep(discrete, shaft, Kt, J, B, dt, open, u - drive.Vdt * Sign(i), effect_theta, &i,

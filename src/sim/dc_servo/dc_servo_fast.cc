@@ -18,6 +18,7 @@
 #include "blmd/sim/dc_servo/dc_servo.h"
 #include "blmd/sim/effects.h"
 #include "sim/discretise.h"
+#include "sim/input_read.h"
 #include "sim/plain_shaft.h"
 #include "sim/sampler.h"
 
@@ -153,7 +154,7 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
     }
   };
   auto control = [&](double t, double* reference) {
-    read_input(t + 0.5 * dt);
+    read_input(internal::InputReadTime(t, dt));
     const double r = input_value;
     *reference = r;
     if (!closed_loop) return r;
@@ -212,8 +213,9 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
   // Steps from which on a single step is due: the one that records a sample (its end reaches
   // record_at), the one that reads a new input (its middle reaches the next change), the
   // first with the armature open.
-  const long coast_step = has_coast ? first_step(experiment.coast_off_time, 0.5 * dt)
-                                    : std::numeric_limits<long>::max() / 2;
+  const long coast_step =
+      has_coast ? first_step(experiment.coast_off_time, internal::kInputReadFraction * dt)
+                : std::numeric_limits<long>::max() / 2;
   double record_step_for = -1.0, change_step_for = -1.0;
   long record_step = 0, change_step = 0;
   // Whether the sample falls on the recording step's end (the sampler's alpha = 1, the usual
@@ -224,7 +226,7 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
   long advance = 1;  // steps taken by this iteration
   for (long step = 0; !sampler.done(); step += advance) {
     const double t = t_start + static_cast<double>(step) * dt;
-    const double t_mid = t + 0.5 * dt;
+    const double t_mid = internal::InputReadTime(t, dt);
     // The open flag is read at t_mid; control() already read the input there.
     const bool open = (has_coast && t_mid >= experiment.coast_off_time) || input_open;
     // Steps step .. step + n - 1 are one macro step while none of them reads a new input value
@@ -244,7 +246,7 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
             (sampler.next_time() - step_start) / (step_end - step_start) > 1.0 - 1e-9;
       }
       if (input_next_change != change_step_for) {
-        change_step = first_step(input_next_change, 0.5 * dt);
+        change_step = first_step(input_next_change, internal::kInputReadFraction * dt);
         change_step_for = input_next_change;
       }
       const long last = sample_on_step_end ? record_step + 1 : record_step;

@@ -8,6 +8,7 @@
 #include "blmd/sim/effects.h"
 #include "sim/digital_cascade.h"
 #include "sim/discretise.h"
+#include "sim/input_read.h"
 #include "sim/sampler.h"
 
 namespace blmd {
@@ -102,7 +103,7 @@ SimStatus RigidLoadModel::SimulateClosedLoop(const SimulationRequest& request, T
   internal::DigitalCascade controller(pid, Ts);
   const double t_start = times.front();
   double w = experiment.initial.w, theta = experiment.initial.theta, u_a = 0.0;
-  double reference = input.At(t_start + 0.5 * dt);
+  double reference = input.At(internal::InputReadTime(t_start, dt));
   double u = controller.Tick(reference, w, theta);
   std::array<double, 4> prev = {u, w, theta, reference};
   sampler.Record(t_start, prev.data(), t_start, prev.data());
@@ -131,7 +132,7 @@ SimStatus RigidLoadModel::SimulateClosedLoop(const SimulationRequest& request, T
     // The controller samples at t_next when it falls on its period; recorded with the state
     // at t_next: the command that holds from t_next on (as dc_servo's u column).
     if ((step + 1) % period == 0) {
-      reference = input.At(t_next + 0.5 * dt);
+      reference = input.At(internal::InputReadTime(t_next, dt));
       u = controller.Tick(reference, w, theta);
     }
     now = {u, w, theta, reference};
@@ -168,16 +169,16 @@ SimStatus RigidLoadModel::Simulate(const SimulationRequest& request, Trace* out)
   InputCursor input(experiment.input);
   const double t_start = times.front();
   double w = experiment.initial.w, theta = experiment.initial.theta;
-  std::array<double, 3> prev = {input.At(t_start + 0.5 * dt), w, theta};
+  std::array<double, 3> prev = {input.At(internal::InputReadTime(t_start, dt)), w, theta};
   sampler.Record(t_start, prev.data(), t_start, prev.data());
   std::array<double, 3> now = prev;
   EffectAngle effect_angle(request.sample_times, request.settings.effect_angle);
   for (long step = 0; !sampler.done(); ++step) {
     const double t = t_start + static_cast<double>(step) * dt;
     const double t_next = t_start + static_cast<double>(step + 1) * dt;
-    // The input over [t, t + dt) is read at the step's midpoint (events on the grid take
-    // effect there whatever the rounding of t, as in dc_servo).
-    const double u = input.At(t + 0.5 * dt);
+    // The input over [t, t + dt) is read just after the step's midpoint (sim/input_read.h:
+    // events on the grid take effect there whatever the rounding of t, as in dc_servo).
+    const double u = input.At(internal::InputReadTime(t, dt));
     const double drive = Kt * u;
     // (the drag vanishes at rest: what the shaft feels once stopped is drive - positional)
     const double positional = shaft.NonFrictionTorque(effect_angle.At(t, theta));
@@ -192,7 +193,7 @@ SimStatus RigidLoadModel::Simulate(const SimulationRequest& request, Trace* out)
       theta = x(1);
       shaft.StopInStep(w_old, theta_old, dt, J, B, drive - positional, &w, &theta);
     }
-    now = {input.At(t_next + 0.5 * dt), w, theta};
+    now = {input.At(internal::InputReadTime(t_next, dt)), w, theta};
     if (!internal::AllFinite(now.data() + 1, 2, request.settings.divergence_limit)) {
       return {SimStatus::Code::kDiverged,
               internal::DivergedMessage(request.settings.divergence_limit), t_next};
@@ -204,7 +205,8 @@ SimStatus RigidLoadModel::Simulate(const SimulationRequest& request, Trace* out)
   auto& u_column = out->Column("u");
   // (a cursor: the sample times increase, so each read continues where the last stopped)
   InputCursor u_cursor(experiment.input);
-  for (std::size_t k = 0; k < times.size(); ++k) u_column[k] = u_cursor.At(times[k] + 0.5 * dt);
+  for (std::size_t k = 0; k < times.size(); ++k)
+    u_column[k] = u_cursor.At(internal::InputReadTime(times[k], dt));
   return SimStatus::Ok();
 }
 
