@@ -836,15 +836,15 @@ TEST_F(OdriveCogging, DiscoveryFindsCoggingOnUncompensatedRunsAtTheMapsDominantO
 
 TEST_F(OdriveCogging, UncompensatedRecordsAddTheMapsCoggingWithinFifteenPercent) {
   // Each uncompensated record adds cogging at the map's dominant order, 7/rev, and its final
-  // amplitude lies within 15 % of the map's 7/rev (a16: 0.0479 N m): 0.0498, 0.0524, 0.0544
-  // N m (+4.0, +9.5, +13.6 %). One harmonic takes up a little of the map's other orders
+  // amplitude lies within 15 % of the map's 7/rev (a16: 0.0479 N m): 0.0491, 0.0524, 0.0544
+  // N m (+2.5, +9.5, +13.7 %). One harmonic takes up a little of the map's other orders
   // (28/rev at 0.031 N m, 14/rev at 0.019), as much as the angles a record dwells at allow.
   // None is degenerate: B inside its bounds, NRMSE 0.068-0.095.
   const std::vector<double> map = CoggingMapHarmonics("iq_hold_A_a16");
   const auto map_order = std::max_element(map.begin(), map.end()) - map.begin();
   const double map_tcog = map[map_order] * kOdriveKt;
   const std::vector<std::pair<const nlohmann::json*, double>> expected = {
-      {nocomp_, 0.0498}, {nocomp5_, 0.0524}, {nocomp6_, 0.0544}};
+      {nocomp_, 0.0491}, {nocomp5_, 0.0524}, {nocomp6_, 0.0544}};
   for (const auto& [report, tcog] : expected) {
     const auto& d = (*report)["discovery"];
     const nlohmann::json step = AddedStep(*report, "cogging");
@@ -885,37 +885,44 @@ TEST_F(OdriveCogging, CompensationLeavesNoCoggingInTheTorqueTheUserAskedFor) {
   EXPECT_NEAR(Value((*comp_)["discovery"]["parameters_after"]["Tcog"]), 0.0386, 0.0005);
 }
 
-TEST_F(OdriveCogging, ChoiceThatTheDataLastBitsReverseIsReportedAmbiguous) {
+TEST_F(OdriveCogging, CrossValidatedChoiceHoldsOnThePerturbedCopies) {
   // spinup_8 (compensated): in round 1 cogging, by cross-validation, takes the place of the
-  // Stribeck friction that is best by BIC (cross-validated NRMSE 0.2227 against 0.2307). On
-  // the stability check's copies of the data, changed by 1e-9 of their values, Stribeck
-  // friction's half-record fits land elsewhere (0.2173 and 0.2337): on the first copy the
-  // choice reverses. So the two are reported ambiguous, not one of them as a finding; before
-  // this check 6 of 10 perturbed runs of the same command added Stribeck friction and cogging
-  // instead of cogging and Coulomb friction, unmarked (docs/discovery.md §3d).
+  // Stribeck friction that is best by BIC (cross-validated NRMSE 0.2227 against 0.2282), and
+  // the stability check's copies of the data, changed by 1e-9 of their values, make the same
+  // choice (Stribeck 0.2262 and 0.2258). While recorded samples on a step's midpoint took
+  // effect in a step the last bit of t + dt/2 chose, Stribeck friction's half-record fits
+  // landed elsewhere on each copy (0.2173 and 0.2337), the choice reversed on one and the
+  // round was reported ambiguous (docs/model-dc-servo.md, "When the input changes").
   const nlohmann::json report =
       CachedReport("odrive-comp-spinup8", OdriveCommand("spinup_8_comp", ""));
   const auto& d = report["discovery"];
   EXPECT_EQ(d["added"], nlohmann::json::array({"cogging", "coulomb_friction"}));
-  ASSERT_EQ(d["ambiguous"].size(), 1u) << d.dump();
-  EXPECT_EQ(d["ambiguous"][0]["effects"], nlohmann::json::array({"cogging", "stribeck"}));
-  EXPECT_NE(d["ambiguous"][0]["reason"].get<std::string>().find("hinges on the data's last bits"),
-            std::string::npos);
+  EXPECT_EQ(d["ambiguous"].size(), 0u) << d["ambiguous"].dump();
+  double cogging = 0.0;
+  std::vector<double> stribeck;
   for (const auto& c : d["steps"][0]["candidates"]) {
+    if (c["effect"] == "cogging") cogging = Value(c["cross_validated_nrmse"]["after"]);
     if (c["effect"] != "stribeck") continue;
+    stribeck.push_back(Value(c["cross_validated_nrmse"]["after"]));
     ASSERT_EQ(c["cross_validated_nrmse"]["perturbed"].size(), 2u);
-    EXPECT_NEAR(Value(c["cross_validated_nrmse"]["after"]), 0.2307, 0.001);
+    for (const auto& v : c["cross_validated_nrmse"]["perturbed"]) stribeck.push_back(Value(v));
   }
-  std::set<std::string> codes;
-  for (const auto& w : report["warnings"]) codes.insert(w["code"].get<std::string>());
-  EXPECT_EQ(codes.count("discovery_ambiguous"), 1u);
+  EXPECT_NEAR(cogging, 0.2227, 0.001);
+  ASSERT_EQ(stribeck.size(), 3u);
+  EXPECT_NEAR(stribeck[0], 0.2282, 0.001);
+  // Each of the data and its copies prefers cogging, by about its margin.
+  for (double nrmse : stribeck) EXPECT_GT(nrmse, cogging + 0.002);
+  EXPECT_LT(*std::max_element(stribeck.begin(), stribeck.end()) -
+                *std::min_element(stribeck.begin(), stribeck.end()),
+            0.005);
+  for (const auto& w : report["warnings"]) EXPECT_NE(w["code"], "discovery_ambiguous");
 }
 
 // One motor, one inertia: the six spin-up records (compensated 3, 7, 8; uncompensated 4, 5, 6),
 // runs 18-25, the documented flags (the measured current as input, --discover). Measured
-// (2026-12-02): J = 2.044, 2.141, 2.046, 2.051, 2.112, 2.060 e-4 (3, 4, 5, 6, 7, 8); the median
-// 2.056e-4 is 18 % below the repo's rough 2.5e-4 and matches its own least-squares check
-// (about 2.0e-4); every record lies within 4.2 % of it.
+// (2026-12-02): J = 2.044, 2.139, 2.047, 2.051, 2.112, 2.060 e-4 (3, 4, 5, 6, 7, 8); the median
+// 2.055e-4 is 18 % below the repo's rough 2.5e-4 and matches its own least-squares check
+// (about 2.0e-4); every record lies within 4.1 % of it.
 TEST_F(OdriveCogging, OneMotorOneInertia) {
   std::vector<std::pair<std::string, double>> inertia;
   for (const char* file : {"spinup_3_comp", "spinup_4_nocomp", "spinup_5_nocomp", "spinup_6_nocomp",
@@ -943,7 +950,7 @@ TEST_F(OdriveCogging, OneMotorOneInertia) {
   for (const auto& [file, J] : inertia) {
     EXPECT_LT(std::abs(J / median - 1), 0.10) << file << ": J " << J;
   }
-  EXPECT_NEAR(values.back() / median - 1, 0.042, 0.005);  // the largest, spinup_4
+  EXPECT_NEAR(values.back() / median - 1, 0.041, 0.005);  // the largest, spinup_4
 }
 
 // ---------------------------------------------------------------------------------------

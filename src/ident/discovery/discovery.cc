@@ -331,6 +331,29 @@ double Bic(const FitProblem& problem, const Evaluation& evaluation, std::size_t 
   return bic + static_cast<double>(k) * std::log(static_cast<double>(total));
 }
 
+namespace internal {
+
+bool GivesWay(double first_nrmse, double other_nrmse, bool simpler, double margin) {
+  return simpler ? !(first_nrmse < (1.0 - margin) * other_nrmse)
+                 : other_nrmse < (1.0 - margin) * first_nrmse;
+}
+
+std::optional<std::size_t> FirstCopyReversingChoice(const CandidateOutcome& first,
+                                                    const CandidateOutcome& other, bool simpler,
+                                                    double margin) {
+  if (!first.cross_validated || !other.cross_validated) return std::nullopt;
+  const bool on_data = GivesWay(first.cv_after, other.cv_after, simpler, margin);
+  const std::size_t copies = std::min(first.cv_perturbed.size(), other.cv_perturbed.size());
+  for (std::size_t c = 0; c < copies; ++c) {
+    const double f = first.cv_perturbed[c], g = other.cv_perturbed[c];
+    if (std::isfinite(f) && std::isfinite(g) && GivesWay(f, g, simpler, margin) != on_data)
+      return c;
+  }
+  return std::nullopt;
+}
+
+}  // namespace internal
+
 namespace {
 
 // The effects a round tries: the user's list, else every effect declared for the model.
@@ -708,24 +731,17 @@ std::vector<std::size_t> QualifyingCandidates(const DiscoveryOptions& options, R
     if (other_size > first_size || !std::isfinite(first_score) || !std::isfinite(other_score))
       continue;
     const bool simpler = other_size < first_size;
-    auto GivesWay = [&](double first_nrmse, double other_nrmse) {
-      return simpler ? !(first_nrmse < (1.0 - options.held_out_margin) * other_nrmse)
-                     : other_nrmse < (1.0 - options.held_out_margin) * first_nrmse;
-    };
-    const bool gives_way = GivesWay(first_score, other_score);
+    const bool gives_way =
+        internal::GivesWay(first_score, other_score, simpler, options.held_out_margin);
     // The same choice on each perturbed copy (docs/discovery.md §3d): one that a change of
     // the data far below their noise reverses is no finding, and the two are reported as
     // models that explain the data equally well (RecordAmbiguity), the choice named.
     const CandidateOutcome& f = runs[first].outcome;
     const CandidateOutcome& g = runs[other].outcome;
-    const std::size_t copies = f.cross_validated && g.cross_validated
-                                   ? std::min(f.cv_perturbed.size(), g.cv_perturbed.size())
-                                   : 0;
-    std::size_t c = 0;
-    while (c < copies && !(std::isfinite(f.cv_perturbed[c]) && std::isfinite(g.cv_perturbed[c]) &&
-                           GivesWay(f.cv_perturbed[c], g.cv_perturbed[c]) != gives_way))
-      ++c;
-    if (c < copies) {
+    const std::optional<std::size_t> reversing =
+        internal::FirstCopyReversingChoice(f, g, simpler, options.held_out_margin);
+    if (reversing) {
+      const std::size_t c = *reversing;
       round->undecided.push_back({first, other});
       round->undecided_reason =
           "which of " + f.effect + " and " + g.effect +

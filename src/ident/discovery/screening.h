@@ -6,6 +6,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,20 @@ struct CandidateRun {
   double screen_bic = std::numeric_limits<double>::infinity();  // delta BIC at screening
   bool refitted = false;
 };
+
+// The cross-validated choice between the best qualifying candidate and another one
+// (docs/discovery.md §3d), from their out-of-sample NRMSE: whether the best gives way. To a
+// simpler one (`simpler`) unless the best predicts the held-out data better by `margin` (a
+// Stribeck curve must show its dip, not reshape a Coulomb friction); to one with as many
+// parameters only when that one predicts them better by `margin`.
+bool GivesWay(double first_nrmse, double other_nrmse, bool simpler, double margin);
+
+// The first of the stability check's perturbed copies on which that choice between `first`
+// and `other` (both cross-validated) is the reverse of the choice on the data, or none: a
+// choice that a change of the data far below its noise reverses is no finding.
+std::optional<std::size_t> FirstCopyReversingChoice(const CandidateOutcome& first,
+                                                    const CandidateOutcome& other, bool simpler,
+                                                    double margin);
 
 // The problem over `traces` with `free`, fitted at the measured angle when the config has a
 // position-dependent effect (the comment in screening.cc says why).
