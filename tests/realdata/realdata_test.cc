@@ -810,8 +810,8 @@ TEST_F(OdriveCogging, MapDominantOrderAndAmplitude) {
 TEST_F(OdriveCogging, DiscoveryFindsCoggingOnUncompensatedRunsAtTheMapsDominantOrder) {
   // Scored at the measured angle (docs/discovery.md §6): cogging at the map's 7/rev first
   // (NRMSE 0.344 -> 0.157), then Coulomb friction (-> 0.0949); a spring and a 1/rev torque
-  // (gravity) are refit and do not generalise. The final model: J 2.141e-4 kg m^2, Tc 0.0204
-  // N m (the repo's "0.4 A": 0.022), Tcog 0.0498 N m.
+  // (gravity) are refit and do not generalise. The final model: J 2.139e-4 kg m^2, Tc 0.0203
+  // N m (the repo's "0.4 A": 0.022), Tcog 0.0491 N m.
   const auto& d = (*nocomp_)["discovery"];
   EXPECT_EQ(d["added"], nlohmann::json::array({"cogging", "coulomb_friction"}));
   const nlohmann::json step = AddedStep(*nocomp_, "cogging");
@@ -820,9 +820,9 @@ TEST_F(OdriveCogging, DiscoveryFindsCoggingOnUncompensatedRunsAtTheMapsDominantO
   const auto map_order = std::max_element(map.begin(), map.end()) - map.begin();
   EXPECT_EQ(Value(step["parameters"]["periods"]), static_cast<double>(map_order));  // 7
   EXPECT_EQ(step["candidates"][0]["evidence_rule"], "prewhitened_bic");
-  EXPECT_NEAR(Value(d["parameters_after"]["J"]), 2.141e-4, 0.01e-4);
-  EXPECT_NEAR(Value(d["parameters_after"]["Tc"]), 0.02035, 0.0002);
-  EXPECT_NEAR(Value(d["parameters_after"]["Tcog"]), 0.0498, 0.0005);
+  EXPECT_NEAR(Value(d["parameters_after"]["J"]), 2.139e-4, 0.01e-4);
+  EXPECT_NEAR(Value(d["parameters_after"]["Tc"]), 0.02031, 0.0002);
+  EXPECT_NEAR(Value(d["parameters_after"]["Tcog"]), 0.0491, 0.0005);
   EXPECT_NEAR(Value(d["error_before"]["nrmse"]), 0.3444, 0.002);
   EXPECT_NEAR(Value(d["error_after"]["nrmse"]), 0.0949, 0.002);
   // Nothing is unstable between the odd and the even runs; what is left depends on t (the
@@ -867,7 +867,7 @@ TEST_F(OdriveCogging, CompensationLeavesNoCoggingInTheTorqueTheUserAskedFor) {
   // Driven by the setpoint iq_set_A (the torque the user asked for, without the anti-cogging
   // feed-forward), the compensated record adds no cogging: refit in each round, it explains
   // at most 9.1 % of the residual above the noise floor (the rule needs 10 %), and 3.5 % in
-  // the last (Tcog 0.0067 N m, a seventh of the uncompensated 0.0498).
+  // the last (Tcog 0.0067 N m, a seventh of the uncompensated 0.0491).
   EXPECT_EQ(AddedStep(*comp_setpoint_, "cogging"), nullptr)
       << (*comp_setpoint_)["discovery"]["conclusion"];
   const nlohmann::json& last = (*comp_setpoint_)["discovery"]["steps"].back();
