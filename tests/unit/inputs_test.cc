@@ -12,6 +12,7 @@
 #include <numbers>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "blmd/io/config.h"
@@ -367,25 +368,35 @@ InputSignal MidpointStamps(double dt, double duration, double level, int directi
   return input;
 }
 
-// The worst relative difference between the runs on stamps nudged up and down, over the
-// fast path (Simulate) and, where the model has one, the reference path.
-template <typename ModelT>
-double MidpointStampSensitivity(Config config, double level, bool has_reference) {
+// `config` with the stamps nudged up and with them nudged down.
+std::pair<Config, Config> NudgedUpAndDown(const Config& config, double level) {
   Config up = config, down = config;
   up.experiment.input = MidpointStamps(config.simulation.dt, config.experiment.duration, level, 1);
   down.experiment.input =
       MidpointStamps(config.simulation.dt, config.experiment.duration, level, -1);
+  return {up, down};
+}
+
+// The worst relative difference between the runs on stamps nudged up and down: the model's
+// Simulate (rigid_load has one path).
+double MidpointStampSensitivity(const Config& config, double level) {
+  const auto [up, down] = NudgedUpAndDown(config, level);
+  Trace a, b;
+  EXPECT_TRUE(RunExperiment(up, &a).ok());
+  EXPECT_TRUE(RunExperiment(down, &b).ok());
   std::string where;
-  if (!has_reference) {
-    Trace a, b;
-    EXPECT_TRUE(RunExperiment(up, &a).ok());
-    EXPECT_TRUE(RunExperiment(down, &b).ok());
-    return testing::WorstRelativeDeviation(a, b, &where);
-  }
+  return testing::WorstRelativeDeviation(a, b, &where);
+}
+
+// The same over the fast path (Simulate) and the reference path.
+template <typename ModelT>
+double MidpointStampSensitivityBothPaths(const Config& config, double level) {
+  const auto [up, down] = NudgedUpAndDown(config, level);
   const testing::FastAndReference a = testing::RunFastAndReference<ModelT>(up);
   const testing::FastAndReference b = testing::RunFastAndReference<ModelT>(down);
   EXPECT_TRUE(a.fast_status.ok() && a.reference_status.ok()) << a.fast_status.message;
   EXPECT_TRUE(b.fast_status.ok() && b.reference_status.ok()) << b.fast_status.message;
+  std::string where;
   return std::max(testing::WorstRelativeDeviation(a.fast, b.fast, &where),
                   testing::WorstRelativeDeviation(a.reference, b.reference, &where));
 }
@@ -400,17 +411,17 @@ TEST(RecordedInput, StampsOnAStepMidpointDoNotDependOnTheirLastBit) {
                   "sample_rate": 1000 }
 })",
                                    "shaft.json");
-  const double rigid = MidpointStampSensitivity<DcServoModel>(shaft, 1.0, false);
+  const double rigid = MidpointStampSensitivity(shaft, 1.0);
   Config servo = LoadConfig(testing::SourcePath("configs/ganesh-noload.json"));
   servo.simulation.dt = 0x1p-17;  // 7.6 us
   servo.experiment.duration = 0.2;
-  const double dc = MidpointStampSensitivity<DcServoModel>(servo, 24.0, true);
+  const double dc = MidpointStampSensitivityBothPaths<DcServoModel>(servo, 24.0);
   Config drive = LoadConfig(testing::SourcePath("configs/blmd-d31x.json"));
   drive.simulation.dt = 0x1p-20;                // 0.95 us
   drive.parameters.Set("Tpwm", 0x1p-12);        // 244 us, 256 steps
   drive.parameters.Set("delta", 20 * 0x1p-20);  // 19 us
   drive.experiment.duration = 0.02;
-  const double blmd = MidpointStampSensitivity<BlmdDriveModel>(drive, 1.0, true);
+  const double blmd = MidpointStampSensitivityBothPaths<BlmdDriveModel>(drive, 1.0);
   std::printf("[ measured ] one-ulp stamp nudges move rigid_load %.3g, dc_servo %.3g, blmd %.3g\n",
               rigid, dc, blmd);
   EXPECT_LT(rigid, 1e-9);
