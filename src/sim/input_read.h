@@ -6,8 +6,9 @@
 // the step that starts there, whatever the rounding of t. The read is not exactly at the
 // midpoint because recorded time stamps can fall there: stamps in whole microseconds with a
 // start of 796 us and dt = 100 us put about one sample in a hundred on a midpoint, and then
-// the last bit of t + dt / 2 (an FMA build rounds it once, others twice) decided in which of
-// two steps the new sample took effect: the same record gave the two builds costs 1e-3 apart.
+// the last bit of t + dt / 2 (an FMA build rounds t = t_start + k dt once, others twice)
+// decided in which of two steps the new sample took effect: the same record gave the two
+// builds costs 1e-3 apart.
 // 2^-20 dt past the midpoint lies far from any stamp with a few significant digits, so the
 // step a sample takes effect in no longer depends on the last bit.
 #pragma once
