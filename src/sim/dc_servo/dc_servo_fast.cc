@@ -198,12 +198,17 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
   // After a stretch whose sign proof failed, single steps up to its end (one attempt per
   // stretch: a failed proof costs three small matrix products, not three per step).
   long single_steps_until = 0;
-  // The first step index s whose time t_start + s dt, plus offset, reaches threshold, by the
-  // loop's own arithmetic (so the macro steps stop exactly where single steps would act).
+  // The first step index s whose start t_start + s dt (or, `at_read`, whose input read
+  // instant) reaches threshold, by the loop's own arithmetic (so the macro steps stop exactly
+  // where single steps would act).
   const double inv_dt = 1.0 / dt;
-  auto first_step = [&](double threshold, double offset) -> long {
+  auto first_step = [&](double threshold, bool at_read) -> long {
     if (!(threshold < 1e299)) return std::numeric_limits<long>::max() / 2;
-    auto at = [&](long s) { return t_start + static_cast<double>(s) * dt + offset; };
+    auto at = [&](long s) {
+      const double t = t_start + static_cast<double>(s) * dt;
+      return at_read ? internal::InputReadTime(t, dt) : t;
+    };
+    const double offset = at_read ? internal::kInputReadFraction * dt : 0.0;
     const double estimate = (threshold - offset - t_start) * inv_dt;  // then exact by the loops
     long s = estimate > 0.0 ? static_cast<long>(estimate) : 0;
     while (s > 0 && at(s - 1) >= threshold) --s;
@@ -213,9 +218,8 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
   // Steps from which on a single step is due: the one that records a sample (its end reaches
   // record_at), the one that reads a new input (its middle reaches the next change), the
   // first with the armature open.
-  const long coast_step =
-      has_coast ? first_step(experiment.coast_off_time, internal::kInputReadFraction * dt)
-                : std::numeric_limits<long>::max() / 2;
+  const long coast_step = has_coast ? first_step(experiment.coast_off_time, true)
+                                    : std::numeric_limits<long>::max() / 2;
   double record_step_for = -1.0, change_step_for = -1.0;
   long record_step = 0, change_step = 0;
   // Whether the sample falls on the recording step's end (the sampler's alpha = 1, the usual
@@ -238,7 +242,7 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
     advance = 1;
     if ((linear || (coulomb_macro && w != 0.0 && step >= single_steps_until)) && !open) {
       if (record_at != record_step_for) {
-        record_step = first_step(record_at, 0.0) - 1;  // the recording step's index
+        record_step = first_step(record_at, false) - 1;  // the recording step's index
         record_step_for = record_at;
         const double step_start = t_start + static_cast<double>(record_step) * dt;
         const double step_end = t_start + static_cast<double>(record_step + 1) * dt;
@@ -246,7 +250,7 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
             (sampler.next_time() - step_start) / (step_end - step_start) > 1.0 - 1e-9;
       }
       if (input_next_change != change_step_for) {
-        change_step = first_step(input_next_change, internal::kInputReadFraction * dt);
+        change_step = first_step(input_next_change, true);
         change_step_for = input_next_change;
       }
       const long last = sample_on_step_end ? record_step + 1 : record_step;
