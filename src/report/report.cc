@@ -444,7 +444,8 @@ void AddWarnings(IdentReport* report) {
     add("decision_unstable",
         "whether to add " + names +
             " hinges on the data's last bits: a change far below their noise moves its "
-            "evidence by more than the tolerance (discovery.unstable), so it was not added; "
+            "evidence or its cross-validated verdict beyond what decides it "
+            "(discovery.unstable, each with its reason), so it was not added; "
             "the free-running model with it is chaotic on this record (e.g. a simulated shaft "
             "settling in one detent or the next). Next: a record that keeps the shaft moving "
             "through the effect's field (a higher or steadier speed), or a held-out record "

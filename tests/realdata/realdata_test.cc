@@ -885,19 +885,34 @@ TEST_F(OdriveCogging, CompensationLeavesNoCoggingInTheTorqueTheUserAskedFor) {
   EXPECT_NEAR(Value((*comp_)["discovery"]["parameters_after"]["Tcog"]), 0.0386, 0.0005);
 }
 
-TEST_F(OdriveCogging, CrossValidatedChoiceHoldsOnThePerturbedCopies) {
+std::vector<std::string> WarningCodes(const nlohmann::json& report) {
+  std::vector<std::string> codes;
+  for (const auto& w : report["warnings"]) codes.push_back(w["code"].get<std::string>());
+  return codes;
+}
+
+bool Has(const std::vector<std::string>& codes, const std::string& code) {
+  return std::find(codes.begin(), codes.end(), code) != codes.end();
+}
+
+TEST_F(OdriveCogging, CrossValidatedChoiceThatTheCopiesScatterAcrossIsAmbiguous) {
   // spinup_8 (compensated): in round 1 cogging, by cross-validation, takes the place of the
-  // Stribeck friction that is best by BIC (cross-validated NRMSE 0.2227 against 0.2282), and
-  // the stability check's copies of the data, changed by 1e-9 of their values, make the same
-  // choice (Stribeck 0.2262 and 0.2258). While recorded samples on a step's midpoint took
-  // effect in a step the last bit of t + dt/2 chose, Stribeck friction's half-record fits
-  // landed elsewhere on each copy (0.2173 and 0.2337), the choice reversed on one and the
-  // round was reported ambiguous (docs/model-dc-servo.md, "When the input changes").
+  // Stribeck friction that is best by BIC (cross-validated NRMSE 0.2227 against 0.2282). The
+  // stability check's two copies of the data, changed by 1e-9 of their values, make the same
+  // choice (Stribeck 0.2262 and 0.2258), but the ratio the choice compares with 0.99 scatters
+  // from 0.976 to 0.986: a further copy's could lie from 0.954 to 1.01 (the Student-t
+  // prediction interval), and on 10 perturbed copies of the record 6 chose Stribeck friction.
+  // Before this check the record as recorded was reported with cogging and nothing ambiguous.
   const nlohmann::json report =
       CachedReport("odrive-comp-spinup8", OdriveCommand("spinup_8_comp", ""));
   const auto& d = report["discovery"];
   EXPECT_EQ(d["added"], nlohmann::json::array({"cogging", "coulomb_friction"}));
-  EXPECT_EQ(d["ambiguous"].size(), 0u) << d["ambiguous"].dump();
+  ASSERT_EQ(d["ambiguous"].size(), 1u) << d["conclusion"];
+  EXPECT_EQ(d["ambiguous"][0]["effects"], nlohmann::json::array({"cogging", "stribeck"}));
+  EXPECT_NE(d["ambiguous"][0]["reason"].get<std::string>().find(
+                "a further copy's ratio could lie anywhere from"),
+            std::string::npos)
+      << d["ambiguous"][0]["reason"];
   double cogging = 0.0;
   std::vector<double> stribeck;
   for (const auto& c : d["steps"][0]["candidates"]) {
@@ -910,20 +925,43 @@ TEST_F(OdriveCogging, CrossValidatedChoiceHoldsOnThePerturbedCopies) {
   EXPECT_NEAR(cogging, 0.2227, 0.001);
   ASSERT_EQ(stribeck.size(), 3u);
   EXPECT_NEAR(stribeck[0], 0.2282, 0.001);
-  // The data and each copy prefer cogging by more than the rule's 1 % margin
-  // (DiscoveryOptions::held_out_margin).
+  // No copy reverses the choice: the data and each copy prefer cogging by more than the
+  // rule's 1 % margin (DiscoveryOptions::held_out_margin). The scatter alone marks it.
   for (double nrmse : stribeck) EXPECT_LT(cogging, 0.99 * nrmse);
-  EXPECT_LT(*std::max_element(stribeck.begin(), stribeck.end()) -
-                *std::min_element(stribeck.begin(), stribeck.end()),
-            0.005);
-  for (const auto& w : report["warnings"]) EXPECT_NE(w["code"], "discovery_ambiguous");
+  EXPECT_TRUE(Has(WarningCodes(report), "discovery_ambiguous"));
+}
+
+TEST_F(OdriveCogging, CoggingThatOnlyTheCrossValidationsLastBitsWouldAddIsUndecided) {
+  // spinup_7 (compensated), round 2: the halves predict each other with NRMSE 0.2271 against
+  // 0.1132 fitted, just over the limit of twice the fitted (0.2264) under which they judge a
+  // candidate, and a copy of the data changed by 1e-9 can fall under it (0.2259 on one of 10).
+  // Cogging passes its evidence; where the halves judge it, it does not generalise (0.2271 ->
+  // 0.2575). Before this check it was added on the evidence alone on the data as recorded
+  // and refused on that copy; now it is undecided on both.
+  const nlohmann::json report =
+      CachedReport("odrive-one-motor-spinup_7_comp", OdriveCommand("spinup_7_comp", ""));
+  const auto& d = report["discovery"];
+  EXPECT_EQ(d["added"], nlohmann::json::array({"coulomb_friction"})) << d["conclusion"];
+  ASSERT_EQ(d["unstable"].size(), 1u);
+  EXPECT_EQ(d["unstable"][0]["effect"], "cogging");
+  EXPECT_NE(d["unstable"][0]["reason"].get<std::string>().find(
+                "whether the record's parts can judge it hinges on the data's last bits"),
+            std::string::npos)
+      << d["unstable"][0]["reason"];
+  EXPECT_NE(d["cross_validation_parts"].get<std::string>().find(
+                "in round 2 whether the parts can judge a candidate hinges"),
+            std::string::npos)
+      << d["cross_validation_parts"];
+  EXPECT_NEAR(Value(d["unstable"][0]["cross_validated_nrmse"]["before"]), 0.2271, 0.001);
+  EXPECT_NEAR(Value(d["unstable"][0]["cross_validated_nrmse"]["after"]), 0.2575, 0.002);
+  EXPECT_TRUE(Has(WarningCodes(report), "decision_unstable"));
 }
 
 // One motor, one inertia: the six spin-up records (compensated 3, 7, 8; uncompensated 4, 5, 6),
 // runs 18-25, the documented flags (the measured current as input, --discover). Measured
-// (2026-12-02): J = 2.044, 2.139, 2.047, 2.051, 2.112, 2.060 e-4 (3, 4, 5, 6, 7, 8); the median
-// 2.055e-4 is 18 % below the repo's rough 2.5e-4 and matches its own least-squares check
-// (about 2.0e-4); every record lies within 4.1 % of it.
+// (2026-12-02): J = 2.044, 2.139, 2.047, 2.051, 2.145, 2.060 e-4 (3, 4, 5, 6, 7, 8); the median
+// 2.056e-4 is 18 % below the repo's rough 2.5e-4 and matches its own least-squares check
+// (about 2.0e-4); every record lies within 4.4 % of it.
 TEST_F(OdriveCogging, OneMotorOneInertia) {
   std::vector<std::pair<std::string, double>> inertia;
   for (const char* file : {"spinup_3_comp", "spinup_4_nocomp", "spinup_5_nocomp", "spinup_6_nocomp",
@@ -951,7 +989,7 @@ TEST_F(OdriveCogging, OneMotorOneInertia) {
   for (const auto& [file, J] : inertia) {
     EXPECT_LT(std::abs(J / median - 1), 0.10) << file << ": J " << J;
   }
-  EXPECT_NEAR(values.back() / median - 1, 0.041, 0.005);  // the largest, spinup_4
+  EXPECT_NEAR(values.back() / median - 1, 0.044, 0.005);  // the largest, spinup_7
 }
 
 // ---------------------------------------------------------------------------------------

@@ -75,5 +75,71 @@ TEST(CrossValidatedChoice, ACopyThatKeepsTheChoiceOrCannotTellIsNoReversal) {
             std::nullopt);
 }
 
+TEST(DecisionOnCopies, ThePredictionIntervalIsStudentsForOneFurtherSample) {
+  // Samples 1, 2, 3: mean 2, s = 1, t(0.975, 2) = 4.302653, so 2 ± 4.302653·sqrt(4/3).
+  const internal::SideCheck check = internal::CheckSide({1.0, 2.0, 3.0}, 10.0);
+  EXPECT_NEAR(check.low, 2.0 - 4.968275, 1e-5);
+  EXPECT_NEAR(check.high, 2.0 + 4.968275, 1e-5);
+  EXPECT_TRUE(check.holds);  // 10 lies beyond it
+  EXPECT_FALSE(internal::CheckSide({1.0, 2.0, 3.0}, 6.0).holds);
+}
+
+TEST(DecisionOnCopies, CopiesThatAgreeToTheirLastDigitsHold) {
+  // A model that depends smoothly on its data: the copies move the ratio by ~1e-9.
+  const internal::SideCheck check =
+      internal::CheckSide({0.9812, 0.9812 * (1 + 2e-9), 0.9812 * (1 - 1e-9)}, 0.99);
+  EXPECT_TRUE(check.holds);
+  EXPECT_GT(check.low, 0.9811);
+  EXPECT_LT(check.high, 0.9813);
+}
+
+TEST(DecisionOnCopies, ACopyAcrossTheThresholdOrAWideScatterDoesNotHold) {
+  // One copy on the other side.
+  EXPECT_FALSE(internal::CheckSide({0.975, 0.995, 0.976}, 0.99).holds);
+  // All on the data's side, 1.5 % from the threshold, but scattered by as much: a further
+  // copy could cross it.
+  const internal::SideCheck wide = internal::CheckSide({0.9759, 0.9845, 0.9863}, 0.99);
+  EXPECT_FALSE(wide.holds);
+  EXPECT_LT(wide.low, 0.99);
+  EXPECT_GT(wide.high, 0.99);
+  // The same distance with a scatter ten times smaller holds.
+  EXPECT_TRUE(internal::CheckSide({0.9759, 0.9768, 0.9770}, 0.99).holds);
+}
+
+TEST(DecisionOnCopies, FailedCopiesDecideNothing) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const internal::SideCheck alone = internal::CheckSide({0.97, nan, nan}, 0.99);
+  EXPECT_TRUE(alone.holds);
+  EXPECT_EQ(alone.low, 0.97);
+  EXPECT_EQ(alone.high, 0.97);
+  EXPECT_TRUE(internal::CheckSide({nan, 0.995}, 0.99).holds);  // nothing on the data
+}
+
+TEST(DecisionOnCopies, TheChoiceIsCheckedAsTheRatioGivesWayCompares) {
+  // As many parameters: the other's NRMSE over the best's; fewer: the best's over the other's.
+  const CandidateOutcome stribeck = CrossValidated(0.2282, {0.2262, 0.2258});
+  const CandidateOutcome cogging = CrossValidated(0.2227, {0.2227, 0.2226});
+  const std::vector<double> same_size = internal::ChoiceRatios(stribeck, cogging, false);
+  ASSERT_EQ(same_size.size(), 3u);
+  EXPECT_DOUBLE_EQ(same_size[0], 0.2227 / 0.2282);
+  EXPECT_DOUBLE_EQ(same_size[2], 0.2226 / 0.2258);
+  const std::vector<double> fewer = internal::ChoiceRatios(stribeck, cogging, true);
+  EXPECT_DOUBLE_EQ(fewer[1], 0.2262 / 0.2227);
+  // No copy reverses this choice, but they scatter too widely for it to hold.
+  EXPECT_EQ(internal::FirstCopyReversingChoice(stribeck, cogging, false, kMargin), std::nullopt);
+  EXPECT_FALSE(internal::CheckRatio(same_size, 1.0 - kMargin).holds);
+}
+
+TEST(DecisionOnCopies, ARatioIsJudgedOnALogScale) {
+  // Ratios 1, e, e^2: logs 0, 1, 2, so the interval is exp(1 ± 4.968275), positive.
+  const internal::SideCheck check = internal::CheckRatio({1.0, std::exp(1.0), std::exp(2.0)}, 0.01);
+  EXPECT_NEAR(check.low, std::exp(1.0 - 4.968275), 1e-6);
+  EXPECT_NEAR(check.high, std::exp(1.0 + 4.968275), 1e-2);
+  EXPECT_TRUE(check.holds);  // 0.01 = exp(-4.6) lies below exp(-3.97)
+  EXPECT_FALSE(internal::CheckRatio({1.0, std::exp(1.0), std::exp(2.0)}, 0.05).holds);
+  // A ratio that is not positive cannot be judged: it decides nothing.
+  EXPECT_TRUE(internal::CheckRatio({0.5, -1.0, 0.0}, 0.99).holds);
+}
+
 }  // namespace
 }  // namespace blmd

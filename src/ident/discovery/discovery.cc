@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <boost/math/distributions/students_t.hpp>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -352,6 +353,53 @@ std::optional<std::size_t> FirstCopyReversingChoice(const CandidateOutcome& firs
   return std::nullopt;
 }
 
+SideCheck CheckSide(const std::vector<double>& samples, double threshold) {
+  SideCheck check;
+  if (samples.empty() || !std::isfinite(samples.front())) return check;
+  const bool below = samples.front() < threshold;
+  std::vector<double> finite;
+  for (double s : samples) {
+    if (!std::isfinite(s)) continue;
+    finite.push_back(s);
+    if ((s < threshold) != below) check.holds = false;
+  }
+  const double n = static_cast<double>(finite.size());
+  double mean = 0.0;
+  for (double s : finite) mean += s / n;
+  check.low = check.high = samples.front();
+  if (finite.size() < 2) return check;
+  double squares = 0.0;
+  for (double s : finite) squares += (s - mean) * (s - mean);
+  const double sd = std::sqrt(squares / (n - 1.0));
+  const double t =
+      boost::math::quantile(boost::math::complement(boost::math::students_t(n - 1.0), 0.025));
+  const double half = t * sd * std::sqrt(1.0 + 1.0 / n);
+  check.low = mean - half;
+  check.high = mean + half;
+  if (check.low < threshold && threshold < check.high) check.holds = false;
+  return check;
+}
+
+SideCheck CheckRatio(const std::vector<double>& ratios, double threshold) {
+  std::vector<double> logs;
+  for (double r : ratios)
+    logs.push_back(r > 0.0 ? std::log(r) : std::numeric_limits<double>::quiet_NaN());
+  SideCheck check = CheckSide(logs, std::log(threshold));
+  check.low = std::exp(check.low);
+  check.high = std::exp(check.high);
+  return check;
+}
+
+std::vector<double> ChoiceRatios(const CandidateOutcome& first, const CandidateOutcome& other,
+                                 bool simpler) {
+  auto ratio = [&](double f, double g) { return simpler ? f / g : g / f; };
+  std::vector<double> ratios = {ratio(first.cv_after, other.cv_after)};
+  const std::size_t copies = std::min(first.cv_perturbed.size(), other.cv_perturbed.size());
+  for (std::size_t c = 0; c < copies; ++c)
+    ratios.push_back(ratio(first.cv_perturbed[c], other.cv_perturbed[c]));
+  return ratios;
+}
+
 }  // namespace internal
 
 namespace {
@@ -611,10 +659,16 @@ void CrossValidateCandidates(const FitProblem& problem, const FitProblem& curren
   // Each candidate is cross-validated on the coarsest level of the screening grid on which its
   // refit model simulates within the grid's tolerance (docs/discovery.md §3c), and compared
   // with the current model's cross-validation on the same level, computed when first needed,
-  // as are those on each perturbed copy.
+  // with those on each perturbed copy.
   const double dt = current.config().simulation.dt;
-  std::map<int, CrossValidation> base_cvs;
-  std::map<int, std::vector<std::optional<CrossValidation>>> base_copies;
+  struct Level {
+    CrossValidation on_data;
+    std::vector<CrossValidation> on_copies;
+    // Whether the parts can judge a candidate (below), and whether that holds on the copies.
+    bool usable = true;
+    bool usable_holds = true;
+  };
+  std::map<int, Level> levels;
   auto OnStep = [](Config config, double step) {
     config.simulation.dt = step;
     return config;
@@ -623,32 +677,60 @@ void CrossValidateCandidates(const FitProblem& problem, const FitProblem& curren
     CandidateRun& run = round->runs[k];
     CandidateOutcome& o = run.outcome;
     if (!PassesEvidence(o, options)) continue;
-    const int level = round->grid.LevelHolding(problem, run.config, run.free, run.fit.values);
-    const double step = round->grid.Step(level, dt);
-    auto found = base_cvs.find(level);
-    if (found == base_cvs.end()) {
-      found = base_cvs
-                  .emplace(level, BlockCrossValidate(OnStep(current.config(), step),
-                                                     StartingAt(current.free(), fit.values),
-                                                     problem.traces(), problem.observe(),
-                                                     fit.values, options.refit))
-                  .first;
+    const int level_index = round->grid.LevelHolding(problem, run.config, run.free, run.fit.values);
+    const double step = round->grid.Step(level_index, dt);
+    auto found = levels.find(level_index);
+    if (found == levels.end()) {
+      Level level;
+      level.on_data =
+          BlockCrossValidate(OnStep(current.config(), step), StartingAt(current.free(), fit.values),
+                             problem.traces(), problem.observe(), fit.values, options.refit);
       if (result->cross_validation_parts.empty())
-        result->cross_validation_parts = found->second.parts;
-      base_copies[level].resize(perturbed.size());
+        result->cross_validation_parts = level.on_data.parts;
+      // The copies' fits also start a little off the values (where the previous fits stopped
+      // is known only to their tolerance): a verdict that hinges on that is no finding either.
+      std::vector<double> usable_ratio = {level.on_data.nrmse / round->base.nrmse};
+      for (std::size_t c = 0; c < perturbed.size() && level.on_data.ok; ++c) {
+        const std::vector<double> start =
+            Jittered(fit.values, current.free(), 0x5eed1000u + c, options.stability_start);
+        level.on_copies.push_back(
+            BlockCrossValidate(OnStep(current.config(), step), StartingAt(current.free(), start),
+                               perturbed[c], problem.observe(), start, options.refit));
+        usable_ratio.push_back(level.on_copies.back().ok
+                                   ? level.on_copies.back().nrmse / round->base.nrmse
+                                   : std::numeric_limits<double>::quiet_NaN());
+      }
+      // Parts that do not predict each other even with the current model (a cross-validated
+      // NRMSE over twice the fitted one) cannot judge a candidate: the evidence alone decides,
+      // and the report says why (cross_validation_parts). Whether they can is itself checked
+      // on the copies: where it hinges on the data's last bits, a candidate is added only when
+      // it generalises on the data and on every copy, so that either way it would be added.
+      level.usable = level.on_data.nrmse <= 2.0 * round->base.nrmse;
+      const internal::SideCheck usable = internal::CheckRatio(usable_ratio, 2.0);
+      level.usable_holds = usable.holds;
+      if (level.on_data.ok && !level.usable_holds) {
+        result->cross_validation_parts +=
+            " (in round " + std::to_string(round->number) +
+            " whether the parts can judge a candidate hinges on the data's last bits: they "
+            "predict each other with NRMSE " +
+            G(level.on_data.nrmse) + " against " + G(round->base.nrmse) +
+            " fitted, and a change of the data of " + G(options.stability_perturbation, 2) +
+            " could give " + G(usable.low * round->base.nrmse) + " to " +
+            G(usable.high * round->base.nrmse) +
+            " against a limit of twice the fitted; a candidate is added only where it "
+            "generalises on the data and on every copy)";
+      } else if (level.on_data.ok && !level.usable) {
+        result->cross_validation_parts += " (not used in round " + std::to_string(round->number) +
+                                          ": the parts predict each other with NRMSE " +
+                                          G(level.on_data.nrmse) + " against " +
+                                          G(round->base.nrmse) + " fitted)";
+      }
+      found = levels.emplace(level_index, std::move(level)).first;
     }
-    const CrossValidation& base_cv = found->second;
+    const Level& level = found->second;
+    const CrossValidation& base_cv = level.on_data;
     if (!base_cv.ok) break;  // nothing to compare with: the evidence alone decides
-    // Parts that do not predict each other even with the current model (a cross-validated
-    // NRMSE over twice the fitted one) cannot judge a candidate: the evidence alone decides,
-    // and the report says why (cross_validation_parts).
-    if (!(base_cv.nrmse <= 2.0 * round->base.nrmse)) {
-      result->cross_validation_parts += " (not used in round " + std::to_string(round->number) +
-                                        ": the parts predict each other with NRMSE " +
-                                        G(base_cv.nrmse) + " against " + G(round->base.nrmse) +
-                                        " fitted)";
-      break;
-    }
+    if (!level.usable && level.usable_holds) break;
     if (progress) {
       progress->BeginStage(
           "discovery round " + std::to_string(round->number) + ": cross-validating " + o.effect, 0);
@@ -670,35 +752,52 @@ void CrossValidateCandidates(const FitProblem& problem, const FitProblem& curren
     }
     // The verdict again on each perturbed copy (docs/discovery.md §3d): the half-record fits
     // of a model that is chaotic on this record land in other minima under a change of the
-    // data far below their noise, and a verdict that flips is not a finding.
-    // The copies' fits also start a little off the values (where the previous fits stopped
-    // is known only to their tolerance): a verdict that hinges on that is no more a finding.
-    std::vector<std::optional<CrossValidation>>& copies = base_copies[level];
+    // data far below their noise, and a verdict that flips, or that the copies' scatter says
+    // a further copy could flip, is not a finding.
     o.cv_perturbed.assign(perturbed.size(), std::numeric_limits<double>::quiet_NaN());
-    for (std::size_t c = 0; c < perturbed.size() && o.stable; ++c) {
-      if (!copies[c]) {
-        const std::vector<double> start =
-            Jittered(fit.values, current.free(), 0x5eed1000u + c, options.stability_start);
-        copies[c] =
-            BlockCrossValidate(OnStep(current.config(), step), StartingAt(current.free(), start),
-                               perturbed[c], problem.observe(), start, options.refit);
-      }
+    std::vector<double> ratios = {cv.nrmse / base_cv.nrmse};
+    std::optional<std::size_t> reversing;
+    for (std::size_t c = 0; c < level.on_copies.size(); ++c) {
+      const CrossValidation& copy_base = level.on_copies[c];
       const std::vector<double> start =
           Jittered(run.fit.values, run.free, 0x5eed2000u + c, options.stability_start);
       const CrossValidation copy =
           BlockCrossValidate(config, StartingAt(run.free, start), perturbed[c], problem.observe(),
                              start, options.refit);
       if (copy.ok) o.cv_perturbed[c] = copy.nrmse;
-      if (!copies[c]->ok || !copy.ok) continue;
-      const bool generalises = copy.nrmse < (1.0 - options.held_out_margin) * copies[c]->nrmse;
-      if (generalises == o.generalises) continue;
-      o.stable = false;
-      o.reason = "unstable: a change of the data of " + G(options.stability_perturbation, 2) +
-                 " of their values reverses its cross-validated verdict (NRMSE " + G(o.cv_before) +
-                 " -> " + G(o.cv_after) + " on the data, " + G(copies[c]->nrmse) + " -> " +
-                 G(copy.nrmse) + " on a copy), so the record cannot decide it (not added)";
-      RecordUnstable(o, result);
+      const bool both = copy_base.ok && copy.ok;
+      ratios.push_back(both ? copy.nrmse / copy_base.nrmse
+                            : std::numeric_limits<double>::quiet_NaN());
+      if (!both || reversing) continue;
+      const bool generalises = copy.nrmse < (1.0 - options.held_out_margin) * copy_base.nrmse;
+      if (generalises != o.generalises) reversing = c;
     }
+    const internal::SideCheck verdict = internal::CheckRatio(ratios, 1.0 - options.held_out_margin);
+    const std::string by = G(options.stability_perturbation, 2) + " of their values";
+    const std::string change = "a change of the data of " + by;
+    const std::string on_data =
+        "cross-validated NRMSE " + G(o.cv_before) + " -> " + G(o.cv_after) + " on the data";
+    if (reversing) {
+      const std::size_t c = *reversing;
+      o.stable = false;
+      o.reason = "unstable: " + change + " reverses its cross-validated verdict (" + on_data +
+                 ", " + G(level.on_copies[c].nrmse) + " -> " + G(o.cv_perturbed[c]) +
+                 " on a copy), so the record cannot decide it (not added)";
+    } else if (!verdict.holds) {
+      o.stable = false;
+      o.reason = "unstable: the copies of the data changed by " + by +
+                 " scatter so that a further one could reverse its cross-validated verdict (" +
+                 on_data + ": a ratio of " + G(ratios.front()) + ", a further copy's within " +
+                 G(verdict.low) + " to " + G(verdict.high) + " against " +
+                 G(1.0 - options.held_out_margin) + "), so the record cannot decide it (not added)";
+    } else if (!level.usable_holds && !o.generalises) {
+      o.stable = false;
+      o.reason =
+          "unstable: whether the record's parts can judge it hinges on the data's last "
+          "bits, and where they can, it does not generalise (" +
+          on_data + "), so the record cannot decide it (not added)";
+    }
+    if (!o.stable) RecordUnstable(o, result);
   }
 }
 
@@ -738,18 +837,34 @@ std::vector<std::size_t> QualifyingCandidates(const DiscoveryOptions& options, R
     // models that explain the data equally well (RecordAmbiguity), the choice named.
     const CandidateOutcome& f = runs[first].outcome;
     const CandidateOutcome& g = runs[other].outcome;
+    // So is one that the copies scatter too widely to hold (internal::CheckSide).
     const std::optional<std::size_t> reversing =
         internal::FirstCopyReversingChoice(f, g, simpler, options.held_out_margin);
+    const internal::SideCheck held =
+        f.cross_validated && g.cross_validated
+            ? internal::CheckRatio(internal::ChoiceRatios(f, g, simpler),
+                                   1.0 - options.held_out_margin)
+            : internal::SideCheck{};
+    const std::string which = "which of " + f.effect + " and " + g.effect +
+                              " predicts the data they were not fitted to better hinges on the "
+                              "data's last bits (cross-validated NRMSE " +
+                              G(first_score) + " against " + G(other_score) + " on the data, ";
     if (reversing) {
       const std::size_t c = *reversing;
       round->undecided.push_back({first, other});
+      round->undecided_reason = which + G(f.cv_perturbed[c]) + " against " + G(g.cv_perturbed[c]) +
+                                " on a copy changed by " + G(options.stability_perturbation, 2) +
+                                " of its values)";
+    } else if (!held.holds) {
+      std::string copies;
+      for (std::size_t c = 0; c < std::min(f.cv_perturbed.size(), g.cv_perturbed.size()); ++c)
+        copies += (copies.empty() ? "" : ", ") + G(f.cv_perturbed[c]) + " against " +
+                  G(g.cv_perturbed[c]);
+      round->undecided.push_back({first, other});
       round->undecided_reason =
-          "which of " + f.effect + " and " + g.effect +
-          " predicts the data they were not fitted to better hinges on the data's last bits "
-          "(cross-validated NRMSE " +
-          G(first_score) + " against " + G(other_score) + " on the data, " + G(f.cv_perturbed[c]) +
-          " against " + G(g.cv_perturbed[c]) + " on a copy changed by " +
-          G(options.stability_perturbation, 2) + " of its values)";
+          which + copies + " on copies changed by " + G(options.stability_perturbation, 2) +
+          " of their values: a further copy's ratio could lie anywhere from " + G(held.low) +
+          " to " + G(held.high) + ", across the margin's " + G(1.0 - options.held_out_margin) + ")";
     }
     if (!gives_way) continue;
     runs[first].outcome.reason =
@@ -916,7 +1031,8 @@ std::string Undecided(const DiscoveryResult& result) {
   std::string names;
   for (const auto& o : result.unstable) names += (names.empty() ? "" : ", ") + o.effect;
   return "; undecided: " + names +
-         " (its evidence moves under a change of the data far below their noise)";
+         " (its evidence or its cross-validated verdict moves under a change of the data far "
+         "below their noise)";
 }
 
 // The conclusion in words: what was added, "nothing missing", or "unexplained" when the

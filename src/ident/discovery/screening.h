@@ -43,6 +43,32 @@ std::optional<std::size_t> FirstCopyReversingChoice(const CandidateOutcome& firs
                                                     const CandidateOutcome& other, bool simpler,
                                                     double margin);
 
+// A decision made on the data, checked on the stability check's perturbed copies
+// (docs/discovery.md §3d). `samples` is the statistic the decision compares with `threshold`,
+// on the data first, then on each copy (NaN where it could not be computed). The decision
+// holds when every finite sample lies on the data's side of the threshold and the 95 %
+// Student-t prediction interval for one further copy, mean ± t(0.975, n-1)·s·sqrt(1 + 1/n)
+// over the n finite samples (Hahn, Meeker & Escobar, Statistical Intervals, 2nd ed., 2017,
+// ch. 4), does not reach it: copies that scatter as widely as the distance to the threshold
+// say that a further one could reverse the decision, even when these few did not. One finite
+// sample: nothing to check, it holds.
+struct SideCheck {
+  bool holds = true;
+  double low = 0.0, high = 0.0;  // the prediction interval (the data's value when n = 1)
+};
+SideCheck CheckSide(const std::vector<double>& samples, double threshold);
+
+// CheckSide for a ratio of two positive numbers (NRMSE over NRMSE), on a log scale where its
+// scatter is symmetric and the interval stays positive; the interval is given as ratios.
+SideCheck CheckRatio(const std::vector<double>& ratios, double threshold);
+
+// The choice above on the data and every copy as the ratio CheckRatio tests: the ratio of
+// the two out-of-sample NRMSE that GivesWay compares with 1 - margin (the best's over the
+// simpler one's; the other's over the best's when it has as many parameters). NaN on a copy
+// where either failed.
+std::vector<double> ChoiceRatios(const CandidateOutcome& first, const CandidateOutcome& other,
+                                 bool simpler);
+
 // The problem over `traces` with `free`, fitted at the measured angle when the config has a
 // position-dependent effect (the comment in screening.cc says why).
 FitProblem MakeProblem(const Config& config, const std::vector<FitTrace>& traces,
