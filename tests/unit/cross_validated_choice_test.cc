@@ -115,6 +115,17 @@ TEST(DecisionOnCopies, FailedCopiesDecideNothing) {
   EXPECT_TRUE(internal::CheckSide({nan, 0.995}, 0.99).holds);  // nothing on the data
 }
 
+TEST(DecisionOnCopies, AFailedCopyLeavesAWiderInterval) {
+  // A failed copy is left out, and two samples give t(0.975, 1) = 12.71 rather than three's
+  // 4.30: the same two values that hold beside a third agreeing one may no longer hold.
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_TRUE(internal::CheckSide({0.975, 0.977, 0.976}, 0.99).holds);  // up to 0.98097
+  const internal::SideCheck two = internal::CheckSide({0.975, 0.977, nan}, 0.99);
+  EXPECT_FALSE(two.holds);
+  // 0.976 ± 12.7062·0.0014142·sqrt(3/2)
+  EXPECT_NEAR(two.high, 0.976 + 12.7062 * std::sqrt(2e-6) * std::sqrt(1.5), 1e-5);
+}
+
 TEST(DecisionOnCopies, TheChoiceIsCheckedAsTheRatioGivesWayCompares) {
   // As many parameters: the other's NRMSE over the best's; fewer: the best's over the other's.
   const CandidateOutcome stribeck = CrossValidated(0.2282, {0.2262, 0.2258});

@@ -711,11 +711,11 @@ void CrossValidateCandidates(const FitProblem& problem, const FitProblem& curren
       if (level.on_data.ok && !level.usable_holds) {
         result->cross_validation_parts +=
             " (in round " + std::to_string(round->number) +
-            " whether the parts can judge a candidate hinges on the data's last bits: they "
+            ", whether the parts can judge a candidate hinges on the data's last bits: they "
             "predict each other with NRMSE " +
             G(level.on_data.nrmse) + " against " + G(round->base.nrmse) +
             " fitted, and a change of the data of " + G(options.stability_perturbation, 2) +
-            " could give " + G(usable.low * round->base.nrmse) + " to " +
+            " of their values could give " + G(usable.low * round->base.nrmse) + " to " +
             G(usable.high * round->base.nrmse) +
             " against a limit of twice the fitted; a candidate is added only where it "
             "generalises on the data and on every copy)";
@@ -739,7 +739,18 @@ void CrossValidateCandidates(const FitProblem& problem, const FitProblem& curren
     const CrossValidation cv =
         BlockCrossValidate(config, StartingAt(run.free, run.fit.values), problem.traces(),
                            problem.observe(), run.fit.values, options.refit);
-    if (!cv.ok) continue;  // the candidate keeps its evidence-only verdict
+    if (!cv.ok) {
+      // The candidate keeps its evidence-only verdict, unless that hinges on whether the
+      // parts could judge it: then nothing decides it.
+      if (!level.usable_holds) {
+        o.stable = false;
+        o.reason =
+            "unstable: whether the record's parts can judge it hinges on the data's last bits, "
+            "and its cross-validation failed, so the record cannot decide it (not added)";
+        RecordUnstable(o, result);
+      }
+      continue;
+    }
     o.cross_validated = true;
     if (internal::SimulatesOnFixedStep(current)) o.cross_validation_step = step;
     o.cv_before = base_cv.nrmse;
@@ -768,9 +779,11 @@ void CrossValidateCandidates(const FitProblem& problem, const FitProblem& curren
       const bool both = copy_base.ok && copy.ok;
       ratios.push_back(both ? copy.nrmse / copy_base.nrmse
                             : std::numeric_limits<double>::quiet_NaN());
-      if (!both || reversing) continue;
+      if (!both) continue;
       const bool generalises = copy.nrmse < (1.0 - options.held_out_margin) * copy_base.nrmse;
-      if (generalises != o.generalises) reversing = c;
+      if (generalises == o.generalises) continue;
+      reversing = c;  // unstable: the other copies cannot change that
+      break;
     }
     const internal::SideCheck verdict = internal::CheckRatio(ratios, 1.0 - options.held_out_margin);
     const std::string by = G(options.stability_perturbation, 2) + " of their values";
@@ -790,12 +803,17 @@ void CrossValidateCandidates(const FitProblem& problem, const FitProblem& curren
                  on_data + ": a ratio of " + G(ratios.front()) + ", a further copy's within " +
                  G(verdict.low) + " to " + G(verdict.high) + " against " +
                  G(1.0 - options.held_out_margin) + "), so the record cannot decide it (not added)";
-    } else if (!level.usable_holds && !o.generalises) {
+    } else if (!level.usable_holds &&
+               (!o.generalises || !std::all_of(ratios.begin(), ratios.end(),
+                                               [](double r) { return std::isfinite(r); }))) {
+      // Added either way only when it generalises on the data and on every copy.
       o.stable = false;
       o.reason =
           "unstable: whether the record's parts can judge it hinges on the data's last "
-          "bits, and where they can, it does not generalise (" +
-          on_data + "), so the record cannot decide it (not added)";
+          "bits, and where they can, it " +
+          std::string(o.generalises ? "could not be cross-validated on every copy"
+                                    : "does not generalise") +
+          " (" + on_data + "), so the record cannot decide it (not added)";
     }
     if (!o.stable) RecordUnstable(o, result);
   }
@@ -1031,8 +1049,8 @@ std::string Undecided(const DiscoveryResult& result) {
   std::string names;
   for (const auto& o : result.unstable) names += (names.empty() ? "" : ", ") + o.effect;
   return "; undecided: " + names +
-         " (its evidence or its cross-validated verdict moves under a change of the data far "
-         "below their noise)";
+         " (a change of the data far below their noise moves, or could move, its evidence, its "
+         "cross-validated verdict or whether the record's parts can judge it)";
 }
 
 // The conclusion in words: what was added, "nothing missing", or "unexplained" when the

@@ -79,6 +79,10 @@ struct DiscoveryOptions {
   // The cross-validation's verdict is checked the same way, on the copies, with its fits
   // started `stability_start` (relative) off the values, which earlier fits reach only to
   // their tolerance: a verdict that flips is not a finding either.
+  //
+  // Nor is one whose copies scatter so widely that the 95 % prediction interval for a further
+  // copy reaches its threshold; the same holds for the choice between two candidates and for
+  // whether the record's parts can judge a candidate at all (docs/discovery.md §3d).
   double stability_start = 1e-6;
 };
 
@@ -122,7 +126,9 @@ struct CandidateOutcome {
   std::map<std::string, double> model_parameters;
   // The stability check (DiscoveryOptions::stability_checks): the plain ΔBIC, free running,
   // at the values judged (refit, else screened) on the data as given and on each perturbed
-  // copy; `stable` false when one moved by more than the tolerance (or failed to simulate).
+  // copy; `stable` false when one moved by more than the tolerance (or failed to simulate),
+  // or when the cross-validated verdict, its scatter on the copies, or whether the record's
+  // parts can judge it does not hold (docs/discovery.md §3d; the reason says which).
   bool stability_checked = false;
   bool stable = true;
   double stability_delta_bic = 0.0;
