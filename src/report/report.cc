@@ -443,12 +443,12 @@ void AddWarnings(IdentReport* report) {
     for (const auto& o : discovery.unstable) names += (names.empty() ? "" : ", ") + o.effect;
     add("decision_unstable",
         "whether to add " + names +
-            " hinges on the data's last bits: a change far below their noise moves, or could "
-            "move, its evidence, its cross-validated verdict or whether the record's parts can "
-            "judge it (discovery.unstable, each with its reason), so it was not added; the "
-            "model with it, or its fits on the record's parts, are chaotic on this record (e.g. "
-            "a simulated shaft settling in one detent or the next). Next: a record that keeps the "
-            "shaft moving "
+            " hinges on the data's last bits or is too close to call: a change far below "
+            "their noise moves, or could move, its evidence, its cross-validated verdict or "
+            "whether the record's parts can judge it (discovery.unstable, each with its "
+            "reason), so it was not added (a chaotic record, e.g. a simulated shaft settling in "
+            "one detent or the next, or parts that predict each other about as well as the "
+            "limit for judging a candidate). Next: a record that keeps the shaft moving "
             "through the effect's field (a higher or steadier speed), or a held-out record "
             "(--validate) to judge it");
   }

@@ -937,11 +937,11 @@ TEST_F(OdriveCogging, CrossValidatedChoiceThatTheCopiesScatterAcrossIsAmbiguous)
 
 TEST_F(OdriveCogging, CoggingThatOnlyTheCrossValidationsLastBitsWouldAddIsUndecided) {
   // spinup_7 (compensated), round 2: the halves predict each other with NRMSE 0.2271 against
-  // 0.1132 fitted, just over the limit of twice the fitted (0.2264) under which they judge a
-  // candidate, and a copy of the data changed by 1e-9 can fall under it (0.2259 on one of 10).
-  // Cogging passes its evidence; where the halves judge it, it does not generalise (0.2271 ->
-  // 0.2575). Before this check it was added on the evidence alone on the data as recorded
-  // and refused on that copy; now it is undecided on both.
+  // 0.1132 fitted, 0.3 % over the limit of twice the fitted (0.2264) under which they judge a
+  // candidate; a copy of the data changed by 1e-9 can fall under it (0.2259 on one of 10),
+  // and so can a build with FMA contractions. Cogging passes its evidence; where the halves
+  // judge it, it does not generalise (0.2271 -> 0.2575). Before this check it was added on
+  // the evidence alone on the data as recorded and refused on that copy; now it is undecided.
   const nlohmann::json report =
       CachedReport("odrive-one-motor-spinup_7_comp", OdriveCommand("spinup_7_comp", ""));
   const auto& d = report["discovery"];
@@ -949,13 +949,19 @@ TEST_F(OdriveCogging, CoggingThatOnlyTheCrossValidationsLastBitsWouldAddIsUndeci
   ASSERT_EQ(d["unstable"].size(), 1u);
   EXPECT_EQ(d["unstable"][0]["effect"], "cogging");
   EXPECT_NE(d["unstable"][0]["reason"].get<std::string>().find(
-                "whether the record's parts can judge it hinges on the data's last bits"),
+                "whether the record's parts can judge it is too close to call"),
             std::string::npos)
       << d["unstable"][0]["reason"];
   EXPECT_NE(d["cross_validation_parts"].get<std::string>().find(
-                "in round 2, whether the parts can judge a candidate hinges"),
+                "in round 2, whether the parts can judge a candidate is too close to call"),
             std::string::npos)
       << d["cross_validation_parts"];
+  // Its parts' fits are chaotic (the copies move their NRMSE by about 0.5 %), so 0.3 % from
+  // the limit is too close to call whatever the two copies say (DiscoveryOptions::usable_band):
+  // a build with FMA contractions, whose copies happened to agree, gives the same verdict.
+  EXPECT_NE(d["cross_validation_parts"].get<std::string>().find(
+                "within 5 % of the limit of twice the fitted"),
+            std::string::npos);
   EXPECT_NEAR(Value(d["unstable"][0]["cross_validated_nrmse"]["before"]), 0.2271, 0.001);
   EXPECT_NEAR(Value(d["unstable"][0]["cross_validated_nrmse"]["after"]), 0.2575, 0.002);
   EXPECT_TRUE(Has(WarningCodes(report), "decision_unstable"));

@@ -703,22 +703,33 @@ void CrossValidateCandidates(const FitProblem& problem, const FitProblem& curren
       // Parts that do not predict each other even with the current model (a cross-validated
       // NRMSE over twice the fitted one) cannot judge a candidate: the evidence alone decides,
       // and the report says why (cross_validation_parts). Whether they can is itself checked
-      // on the copies: where it hinges on the data's last bits, a candidate is added only when
-      // it generalises on the data and on every copy, so that either way it would be added.
+      // on the copies and near the limit: where it is too close to call, a candidate is added only
+      // when it generalises on the data and on every copy, so that either way it would be added.
       level.usable = level.on_data.nrmse <= 2.0 * round->base.nrmse;
       const internal::SideCheck usable = internal::CheckRatio(usable_ratio, 2.0);
-      level.usable_holds = usable.holds;
+      const double to_limit = level.on_data.nrmse / (2.0 * round->base.nrmse) - 1.0;
+      // Near the limit is too close to call only where the parts' fits are chaotic: a copy's
+      // NRMSE more than 1e-6 (a thousand times the change of the data) from the data's.
+      bool chaotic = false;
+      for (double r : usable_ratio) {
+        if (std::isfinite(r) && !(std::abs(r / usable_ratio.front() - 1.0) <= 1e-6)) chaotic = true;
+      }
+      const bool near = chaotic && std::abs(to_limit) <= options.usable_band;
+      level.usable_holds = usable.holds && !near;
       if (level.on_data.ok && !level.usable_holds) {
+        const std::string could =
+            "a change of the data of " + G(options.stability_perturbation, 2) +
+            " of their values could give " + G(usable.low * round->base.nrmse) + " to " +
+            G(usable.high * round->base.nrmse);
         result->cross_validation_parts +=
             " (in round " + std::to_string(round->number) +
-            ", whether the parts can judge a candidate hinges on the data's last bits: they "
-            "predict each other with NRMSE " +
-            G(level.on_data.nrmse) + " against " + G(round->base.nrmse) +
-            " fitted, and a change of the data of " + G(options.stability_perturbation, 2) +
-            " of their values could give " + G(usable.low * round->base.nrmse) + " to " +
-            G(usable.high * round->base.nrmse) +
-            " against a limit of twice the fitted; a candidate is added only where it "
-            "generalises on the data and on every copy)";
+            ", whether the parts can judge a candidate is too close to call: they predict "
+            "each other with NRMSE " +
+            G(level.on_data.nrmse) + " against " + G(round->base.nrmse) + " fitted, " +
+            (near ? "within " + G(100.0 * options.usable_band) +
+                        " % of the limit of twice the fitted, and " + could
+                  : "and " + could + ", across the limit of twice the fitted") +
+            "; a candidate is added only where it generalises on the data and on every copy)";
       } else if (level.on_data.ok && !level.usable) {
         result->cross_validation_parts += " (not used in round " + std::to_string(round->number) +
                                           ": the parts predict each other with NRMSE " +
@@ -745,7 +756,7 @@ void CrossValidateCandidates(const FitProblem& problem, const FitProblem& curren
       if (!level.usable_holds) {
         o.stable = false;
         o.reason =
-            "unstable: whether the record's parts can judge it hinges on the data's last bits, "
+            "unstable: whether the record's parts can judge it is too close to call, "
             "and its cross-validation failed, so the record cannot decide it (not added)";
         RecordUnstable(o, result);
       }
@@ -809,8 +820,8 @@ void CrossValidateCandidates(const FitProblem& problem, const FitProblem& curren
       // Added either way only when it generalises on the data and on every copy.
       o.stable = false;
       o.reason =
-          "unstable: whether the record's parts can judge it hinges on the data's last "
-          "bits, and where they can, it " +
+          "unstable: whether the record's parts can judge it is too close to call, and "
+          "where they can, it " +
           std::string(o.generalises ? "could not be cross-validated on every copy"
                                     : "does not generalise") +
           " (" + on_data + "), so the record cannot decide it (not added)";

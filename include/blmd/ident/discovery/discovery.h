@@ -84,6 +84,13 @@ struct DiscoveryOptions {
   // copy reaches its threshold; the same holds for the choice between two candidates and for
   // whether the record's parts can judge a candidate at all (docs/discovery.md §3d).
   double stability_start = 1e-6;
+  // Whether the record's parts can judge a candidate (their cross-validated NRMSE within
+  // twice the fitted one) is treated as too close to call within `usable_band` (relative) of
+  // that limit when the parts' fits are chaotic (a copy's NRMSE more than 1e-6 from the
+  // data's), whatever the copies' interval says: there the parts' NRMSE moves by about 0.5 %
+  // under a change of 1e-9 of the data or another build's rounding, more than two copies
+  // reliably show (docs/discovery.md §3d).
+  double usable_band = 0.05;
 };
 
 struct CandidateOutcome {
