@@ -647,6 +647,78 @@ void CheckStability(const FitProblem& problem, const FitProblem& current, const 
   }
 }
 
+// The current model's cross-validation on one level of the screening grid (`config` has its
+// step), on the data and on each perturbed copy, and whether the record's parts can judge a
+// candidate there (CrossValidateCandidates).
+struct CurrentOnParts {
+  CrossValidation on_data;
+  std::vector<CrossValidation> on_copies;
+  // Whether the parts can judge a candidate (below), and whether that holds on the copies.
+  bool usable = true;
+  bool usable_holds = true;
+};
+
+CurrentOnParts CrossValidateCurrent(const FitProblem& problem, const FitProblem& current,
+                                    const FitResult& fit,
+                                    const std::vector<std::vector<FitTrace>>& perturbed,
+                                    const Config& config, const DiscoveryOptions& options,
+                                    const Round& round, DiscoveryResult* result) {
+  CurrentOnParts level;
+  level.on_data =
+      BlockCrossValidate(config, StartingAt(current.free(), fit.values), problem.traces(),
+                         problem.observe(), fit.values, options.refit);
+  if (result->cross_validation_parts.empty()) result->cross_validation_parts = level.on_data.parts;
+  // The copies' fits also start a little off the values (where the previous fits stopped
+  // is known only to their tolerance): a verdict that hinges on that is no finding either.
+  std::vector<double> usable_ratio = {level.on_data.nrmse / round.base.nrmse};
+  for (std::size_t c = 0; c < perturbed.size() && level.on_data.ok; ++c) {
+    const std::vector<double> start =
+        Jittered(fit.values, current.free(), 0x5eed1000u + c, options.stability_start);
+    level.on_copies.push_back(BlockCrossValidate(config, StartingAt(current.free(), start),
+                                                 perturbed[c], problem.observe(), start,
+                                                 options.refit));
+    usable_ratio.push_back(level.on_copies.back().ok
+                               ? level.on_copies.back().nrmse / round.base.nrmse
+                               : std::numeric_limits<double>::quiet_NaN());
+  }
+  // Parts that do not predict each other even with the current model (a cross-validated
+  // NRMSE over twice the fitted one) cannot judge a candidate: the evidence alone decides,
+  // and the report says why (cross_validation_parts). Whether they can is itself checked
+  // on the copies and near the limit: where it is too close to call, a candidate is added only
+  // when it generalises on the data and on every copy, so that either way it would be added.
+  level.usable = level.on_data.nrmse <= 2.0 * round.base.nrmse;
+  const internal::SideCheck usable = internal::CheckRatio(usable_ratio, 2.0);
+  const double to_limit = level.on_data.nrmse / (2.0 * round.base.nrmse) - 1.0;
+  // Near the limit is too close to call only where the parts' fits are chaotic: a copy's
+  // NRMSE more than 1e-6 (a thousand times the change of the data) from the data's.
+  bool chaotic = false;
+  for (double r : usable_ratio) {
+    if (std::isfinite(r) && !(std::abs(r / usable_ratio.front() - 1.0) <= 1e-6)) chaotic = true;
+  }
+  const bool near = chaotic && std::abs(to_limit) <= options.usable_band;
+  level.usable_holds = usable.holds && !near;
+  if (level.on_data.ok && !level.usable_holds) {
+    const std::string could = "a change of the data of " + G(options.stability_perturbation, 2) +
+                              " of their values could give " + G(usable.low * round.base.nrmse) +
+                              " to " + G(usable.high * round.base.nrmse);
+    result->cross_validation_parts +=
+        " (in round " + std::to_string(round.number) +
+        ", whether the parts can judge a candidate is too close to call: they predict "
+        "each other with NRMSE " +
+        G(level.on_data.nrmse) + " against " + G(round.base.nrmse) + " fitted, " +
+        (near ? "within " + G(100.0 * options.usable_band) +
+                    " % of the limit of twice the fitted, and " + could
+              : "and " + could + ", across the limit of twice the fitted") +
+        "; a candidate is added only where it generalises on the data and on every copy)";
+  } else if (level.on_data.ok && !level.usable) {
+    result->cross_validation_parts += " (not used in round " + std::to_string(round.number) +
+                                      ": the parts predict each other with NRMSE " +
+                                      G(level.on_data.nrmse) + " against " + G(round.base.nrmse) +
+                                      " fitted)";
+  }
+  return level;
+}
+
 // Block cross-validation of every candidate that passes the evidence, best first: each must
 // predict the record's parts it was not fitted to better than the current model does.
 void CrossValidateCandidates(const FitProblem& problem, const FitProblem& current,
@@ -661,14 +733,7 @@ void CrossValidateCandidates(const FitProblem& problem, const FitProblem& curren
   // with the current model's cross-validation on the same level, computed when first needed,
   // with those on each perturbed copy.
   const double dt = current.config().simulation.dt;
-  struct Level {
-    CrossValidation on_data;
-    std::vector<CrossValidation> on_copies;
-    // Whether the parts can judge a candidate (below), and whether that holds on the copies.
-    bool usable = true;
-    bool usable_holds = true;
-  };
-  std::map<int, Level> levels;
+  std::map<int, CurrentOnParts> levels;
   auto OnStep = [](Config config, double step) {
     config.simulation.dt = step;
     return config;
@@ -681,64 +746,13 @@ void CrossValidateCandidates(const FitProblem& problem, const FitProblem& curren
     const double step = round->grid.Step(level_index, dt);
     auto found = levels.find(level_index);
     if (found == levels.end()) {
-      Level level;
-      level.on_data =
-          BlockCrossValidate(OnStep(current.config(), step), StartingAt(current.free(), fit.values),
-                             problem.traces(), problem.observe(), fit.values, options.refit);
-      if (result->cross_validation_parts.empty())
-        result->cross_validation_parts = level.on_data.parts;
-      // The copies' fits also start a little off the values (where the previous fits stopped
-      // is known only to their tolerance): a verdict that hinges on that is no finding either.
-      std::vector<double> usable_ratio = {level.on_data.nrmse / round->base.nrmse};
-      for (std::size_t c = 0; c < perturbed.size() && level.on_data.ok; ++c) {
-        const std::vector<double> start =
-            Jittered(fit.values, current.free(), 0x5eed1000u + c, options.stability_start);
-        level.on_copies.push_back(
-            BlockCrossValidate(OnStep(current.config(), step), StartingAt(current.free(), start),
-                               perturbed[c], problem.observe(), start, options.refit));
-        usable_ratio.push_back(level.on_copies.back().ok
-                                   ? level.on_copies.back().nrmse / round->base.nrmse
-                                   : std::numeric_limits<double>::quiet_NaN());
-      }
-      // Parts that do not predict each other even with the current model (a cross-validated
-      // NRMSE over twice the fitted one) cannot judge a candidate: the evidence alone decides,
-      // and the report says why (cross_validation_parts). Whether they can is itself checked
-      // on the copies and near the limit: where it is too close to call, a candidate is added only
-      // when it generalises on the data and on every copy, so that either way it would be added.
-      level.usable = level.on_data.nrmse <= 2.0 * round->base.nrmse;
-      const internal::SideCheck usable = internal::CheckRatio(usable_ratio, 2.0);
-      const double to_limit = level.on_data.nrmse / (2.0 * round->base.nrmse) - 1.0;
-      // Near the limit is too close to call only where the parts' fits are chaotic: a copy's
-      // NRMSE more than 1e-6 (a thousand times the change of the data) from the data's.
-      bool chaotic = false;
-      for (double r : usable_ratio) {
-        if (std::isfinite(r) && !(std::abs(r / usable_ratio.front() - 1.0) <= 1e-6)) chaotic = true;
-      }
-      const bool near = chaotic && std::abs(to_limit) <= options.usable_band;
-      level.usable_holds = usable.holds && !near;
-      if (level.on_data.ok && !level.usable_holds) {
-        const std::string could =
-            "a change of the data of " + G(options.stability_perturbation, 2) +
-            " of their values could give " + G(usable.low * round->base.nrmse) + " to " +
-            G(usable.high * round->base.nrmse);
-        result->cross_validation_parts +=
-            " (in round " + std::to_string(round->number) +
-            ", whether the parts can judge a candidate is too close to call: they predict "
-            "each other with NRMSE " +
-            G(level.on_data.nrmse) + " against " + G(round->base.nrmse) + " fitted, " +
-            (near ? "within " + G(100.0 * options.usable_band) +
-                        " % of the limit of twice the fitted, and " + could
-                  : "and " + could + ", across the limit of twice the fitted") +
-            "; a candidate is added only where it generalises on the data and on every copy)";
-      } else if (level.on_data.ok && !level.usable) {
-        result->cross_validation_parts += " (not used in round " + std::to_string(round->number) +
-                                          ": the parts predict each other with NRMSE " +
-                                          G(level.on_data.nrmse) + " against " +
-                                          G(round->base.nrmse) + " fitted)";
-      }
-      found = levels.emplace(level_index, std::move(level)).first;
+      found = levels
+                  .emplace(level_index, CrossValidateCurrent(problem, current, fit, perturbed,
+                                                             OnStep(current.config(), step),
+                                                             options, *round, result))
+                  .first;
     }
-    const Level& level = found->second;
+    const CurrentOnParts& level = found->second;
     const CrossValidation& base_cv = level.on_data;
     if (!base_cv.ok) break;  // nothing to compare with: the evidence alone decides
     if (!level.usable && level.usable_holds) break;
