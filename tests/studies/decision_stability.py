@@ -148,19 +148,22 @@ def variants(page, data, binary, env, args):
                 bad += 1
                 continue
             o_added = tuple((other.get("discovery") or {}).get("added", []))
-            diff, worst, j_diff = 0.0, "", 0.0
+            diff, over, j_diff = 0.0, [], 0.0
             for pname, p in report["parameters"].items():
                 q = other["parameters"].get(pname)
                 if q and p["value"]:
                     d = abs(q["value"] - p["value"]) / abs(p["value"])
-                    if d > diff:
-                        diff, worst = d, pname
+                    diff = max(diff, d)
+                    if d > 1e-6:
+                        over.append(f"{pname} {d:.2g}")
                     if pname == "J":
                         j_diff = d
             same = o_added == added
             bad += 0 if same and diff <= 1e-6 else 1
-            cells.append(f"{'yes' if same else 'NO'}, {diff:.2g}"
-                         f"{f' ({worst}; J {j_diff:.2g})' if diff > 1e-6 else ''}")
+            # Every value beyond 1e-6 is named, not only the largest: one value over the bar
+            # can hide another.
+            listed = f" ({', '.join(over)}; J {j_diff:.2g})" if over else ""
+            cells.append(f"{'yes' if same else 'NO'}, {diff:.2g}{listed}")
         print(f"| {name} | {', '.join(added) or '—'} | " + " | ".join(cells) + " |")
         sys.stdout.flush()
     return 1 if bad or errors else 0
