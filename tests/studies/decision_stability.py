@@ -17,7 +17,9 @@ effect in which the two sets differ is marked.
 
 With --variant K=V (repeatable) it instead runs each command on the data as recorded under
 each environment variant (e.g. BLMD_BATCH_ISA=baseline) and prints whether the effects added
-are the same and the largest relative difference of every fitted parameter's value; a
+are the same, the largest relative difference of every fitted parameter's value and of its
+95 % interval's end points (relative to the larger of the end point and the value), and any
+parameter whose interval comes from another method; a
 variant bin=DIR runs DIR/blmd-ident instead (another build, e.g. with other compiler flags).
 With --show-differing each perturbed run that adds other effects is listed on stderr; with
 --show-values every perturbed run's J and B.
@@ -149,6 +151,7 @@ def variants(page, data, binary, env, args):
                 continue
             o_added = tuple((other.get("discovery") or {}).get("added", []))
             diff, over, j_diff = 0.0, [], 0.0
+            ci_diff, ci_over, method_differs = 0.0, [], []
             for pname, p in report["parameters"].items():
                 q = other["parameters"].get(pname)
                 if q and p["value"]:
@@ -158,12 +161,27 @@ def variants(page, data, binary, env, args):
                         over.append(f"{pname} {d:.2g}")
                     if pname == "J":
                         j_diff = d
+                # The printed 95 % interval is a headline number too: its end points, and
+                # which method gave it.
+                if q and p.get("ci95") and q.get("ci95"):
+                    c = max(abs(b - a) / max(abs(a), abs(p["value"]), 1e-300)
+                            for a, b in zip(p["ci95"], q["ci95"]))
+                    ci_diff = max(ci_diff, c)
+                    if c > 1e-6:
+                        ci_over.append(f"{pname} {c:.2g}")
+                    if p.get("interval_method") != q.get("interval_method"):
+                        method_differs.append(pname)
             same = o_added == added
-            bad += 0 if same and diff <= 1e-6 else 1
+            bad += 0 if same and diff <= 1e-6 and ci_diff <= 1e-6 and not method_differs else 1
             # Every value beyond 1e-6 is named, not only the largest: one value over the bar
             # can hide another.
             listed = f" ({', '.join(over)}; J {j_diff:.2g})" if over else ""
-            cells.append(f"{'yes' if same else 'NO'}, {diff:.2g}{listed}")
+            intervals = f"; intervals {ci_diff:.2g}"
+            if ci_over:
+                intervals += f" ({', '.join(ci_over)})"
+            if method_differs:
+                intervals += f", method differs: {', '.join(method_differs)}"
+            cells.append(f"{'yes' if same else 'NO'}, {diff:.2g}{listed}{intervals}")
         print(f"| {name} | {', '.join(added) or '—'} | " + " | ".join(cells) + " |")
         sys.stdout.flush()
     return 1 if bad or errors else 0
