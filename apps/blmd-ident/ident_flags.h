@@ -13,6 +13,7 @@
 
 #include "../common/app_main.h"
 #include "../common/error_flags.h"
+#include "../common/init_config.h"
 #include "../common/trace_flags.h"
 #include "app/request.h"
 #include "blmd/app/identify.h"
@@ -44,7 +45,11 @@ struct IdentFlags {
   bool new_baselines = false;
   double drift_alpha = 0.01;
 
-  // `batch`: the command line has --batch (--config and --trace then come from its rows).
+  // --init-config MODEL: a starting config on stdout, alone (as blmd-sim's).
+  std::string init_model;
+
+  // `batch`: the command line has --batch (--config and --trace then come from its rows) or
+  // --init-config (then neither is read).
   void Add(CLI::App& app, bool batch = false) {
     CLI::Option* config =
         app.add_option("--config", config_path, "model and identification set-up (JSON)");
@@ -54,6 +59,7 @@ struct IdentFlags {
       config->required();
       trace->required();
     }
+    AddInitConfigFlag(app, &init_model);
     CLI::Option* manifest = app.add_option(
         "--batch", batch_path,
         "a manifest CSV (id,trace,config,baseline): one identification per row, rows in "

@@ -132,13 +132,15 @@ int main(int argc, char** argv) {
   const std::vector<std::string> args(argv + std::min(argc, 1), argv + argc);
   // With --batch, --config and --trace come from the manifest's rows.
   const bool batch = std::any_of(args.begin(), args.end(), [](const std::string& a) {
-    return blmd::app::FlagOf(a) == "--batch";
+    return blmd::app::FlagOf(a) == "--batch" || blmd::app::FlagOf(a) == "--init-config";
   });
   IdentFlags flags;
   flags.Add(app, batch);
   return blmd::app::Main(
       app, argc, argv,
       [&]() -> int {
+        if (app.count("--init-config") > 0)
+          return blmd::app::PrintStartingConfig(app, flags.init_model);
         flags.threads = blmd::app::CapThreads(flags.threads);
         if (!flags.batch_path.empty()) return RunBatchCommand(flags, args);
         // Every output checked before any work: writable, not an input, not another output.

@@ -4,6 +4,7 @@
 #include <iostream>
 
 #include "../common/app_main.h"
+#include "../common/init_config.h"
 #include "../common/trace_flags.h"
 #include "app/request.h"
 #include "blmd/io/config.h"
@@ -43,36 +44,9 @@ struct SimFlags {
     trace_flags.Add(app);
     app.add_option("--input", input_path, "drive the model with the u column of this trace");
     app.add_flag("--quiet", quiet, "print nothing on success");
-    app.add_option("--init-config", init_model,
-                   "print a starting config for MODEL (" + ModelNames() +
-                       ") on stdout and exit; no other flag")
-        ->type_name("MODEL");
-  }
-
-  static std::string ModelNames() {
-    std::vector<std::string> names;
-    for (const blmd::Model* model : blmd::ModelRegistry()) names.emplace_back(model->name());
-    return blmd::Join(names, ", ");
+    blmd::app::AddInitConfigFlag(app, &init_model);
   }
 };
-
-// --init-config MODEL: the starting config on stdout (docs/cli.md §1.1), alone.
-int PrintStartingConfig(const CLI::App& app, const SimFlags& f) {
-  for (const CLI::Option* option : app.get_options()) {
-    if (option->count() > 0 && option->get_name() != "--init-config") {
-      throw blmd::InputError("--init-config prints a config and takes no other flag (got " +
-                             option->get_name() + ")");
-    }
-  }
-  std::string text;
-  try {
-    text = blmd::StartingConfigText(f.init_model);
-  } catch (const blmd::InputError& error) {
-    throw blmd::InputError(std::string("--init-config: ") + error.what());
-  }
-  std::cout << text;
-  return blmd::kExitOk;
-}
 
 // The summary: samples, each column's range and final value, the closed loop's step figures.
 void PrintSummary(const SimFlags& f, const blmd::Config& config, const blmd::Trace& trace) {
@@ -108,7 +82,7 @@ void PrintSummary(const SimFlags& f, const blmd::Config& config, const blmd::Tra
 }
 
 int Run(const CLI::App& app, SimFlags& f) {
-  if (app.count("--init-config") > 0) return PrintStartingConfig(app, f);
+  if (app.count("--init-config") > 0) return blmd::app::PrintStartingConfig(app, f.init_model);
   for (const char* flag : {"--config", "--out"}) {
     if (app.count(flag) == 0) {
       throw blmd::InputError(std::string(flag) + " is required (see " + app.get_name() +

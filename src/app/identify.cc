@@ -6,7 +6,9 @@
 #include <utility>
 
 #include "blmd/app/baseline.h"
+#include "blmd/error.h"
 #include "blmd/format.h"
+#include "blmd/ident/fit/cutoff_choice.h"
 #include "blmd/ident/fit/progress.h"
 #include "blmd/ident/residual/adequacy.h"
 #include "blmd/ident/uncertainty/trace_jackknife.h"
@@ -35,6 +37,63 @@ FitResult WidenedByTraces(const FitProblem& problem, const FitResult& fit,
   return copy;
 }
 
+// The settings that shaped the fit, as the run applied them (the config's, then the flags'),
+// into the final model's config: --write-config writes them, so that a refit from the written
+// config reproduces the report (docs/export.md §1). The equation error's cut-off is written
+// as used, also where it was the default.
+void RecordFitSettings(const IdentRequest& request, const FitProblem& problem, Config* config) {
+  IdentificationSettings& ident = config->identification;
+  ident.method = request.method;
+  ident.options = request.options.method_options.is_object() ? request.options.method_options
+                                                             : nlohmann::json::object();
+  ident.observe = request.observe;
+  ident.weighting = request.noise.weighting;
+  ident.noise_std = request.noise.std;
+  if (problem.equation_error() && !problem.equation_traces().empty()) {
+    ident.filter_hz = problem.equation_traces().front().cutoff_hz;
+  }
+}
+
+// The equation error's cut-off (ident/fit/cutoff_choice.h, docs/identification.md §8a): the
+// fit at each cut-off of the ladder, the plateau where the estimates hold, and the cut-off in
+// use (the user's, else the plateau's highest) written into the config.
+CutoffChoice ChooseEquationCutoff(IdentRequest* request, const Optimizer& optimizer) {
+  CutoffChoice choice;
+  Config& config = request->config;
+  IdentificationSettings& ident = config.identification;
+  if (ident.error != "equation" || request->traces.empty()) return choice;
+  const double user_hz = ident.filter_hz;
+  Config probe = config;
+  probe.identification.filter_hz = 0.0;  // the record's own rate: sample rate / 10
+  const FitProblem at_default(probe, request->traces, request->observe, request->free);
+  if (at_default.equation_traces().empty()) return choice;
+  choice.ran = true;
+  choice.user_set = user_hz > 0.0;
+  choice.sample_hz = 10.0 * at_default.equation_traces().front().cutoff_hz;
+  choice.chosen_hz = user_hz;
+  OptimizerOptions options = request->options;
+  options.progress = nullptr;
+  for (double hz : CutoffLadder(choice.sample_hz, user_hz)) {
+    CutoffLevel level;
+    level.hz = hz;
+    try {
+      Config at = config;
+      at.identification.filter_hz = hz;
+      const FitProblem problem(at, request->traces, request->observe, request->free);
+      const FitResult fit = optimizer.Minimize(problem, options);
+      level.ok = fit.evaluation.ok;
+      level.estimates = fit.estimates;
+      if (!level.ok) level.reason = fit.evaluation.reason;
+    } catch (const InputError& error) {
+      level.reason = error.what();  // a cut-off the record is too short for
+    }
+    choice.levels.push_back(std::move(level));
+  }
+  DecideCutoff(&choice);
+  ident.filter_hz = choice.chosen_hz;
+  return choice;
+}
+
 }  // namespace
 
 IdentOutcome Identify(IdentRequest request) {
@@ -45,6 +104,11 @@ IdentOutcome Identify(IdentRequest request) {
     model_only.model = std::string(request.config.model->name());
     CompareWithBaseline(model_only, request.baseline_path);
   }
+  // The equation error's cut-off first: every fit below (and discovery) uses it.
+  if (request.config.identification.error == "equation") {
+    Stage(request.options.progress, "equation error: cut-off ladder");
+  }
+  const CutoffChoice cutoff = ChooseEquationCutoff(&request, optimizer);
   const FitProblem unweighted(request.config, std::move(request.traces), request.observe,
                               request.free);
   std::unique_ptr<FitProblem> validation;
@@ -172,12 +236,34 @@ IdentOutcome Identify(IdentRequest request) {
                            ") reached NRMSE " + FormatSignificant(scan.nrmse_final, 4) +
                            " (docs/identification.md §2a)");
   }
+  RecordFitSettings(request, problem, &outcome.final_config);
+  // A record whose u follows the residual was made in closed loop (diagnostics.h, feedback):
+  // said once, with what it means for the output error and for the measured response.
+  const ModelReport& first_model = report.first_fit();
+  if (!first_model.fit.equation_error && first_model.residual.analysis &&
+      first_model.residual.analysis->closed_loop) {
+    report.notes.push_back(
+        "the record looks closed loop: the first fit's residual correlates with later u (p = " +
+        FormatSignificant(first_model.residual.analysis->feedback_p, 2) +
+        ", the input's future after prewhitening), so u was computed from the measured motion; "
+        "the output error from the recorded u is right only where the model is, and the "
+        "measured frequency response is the loop's, not the plant's (docs/identification.md "
+        "§9)");
+  }
   WidenForAmbiguity(&report);
   AddLinearViews(&report, problem, outcome.final_config, outcome.final_parameters);
+  if (report.frequency_response && report.frequency_response->available &&
+      !ClosedLoopAdvice(report).empty()) {
+    report.frequency_response->caveat =
+        "the record looks closed loop (u was computed from the measured motion), so this is "
+        "the response of the loop as the drive closed it, tending to the inverse of its "
+        "controller where the loop is stiff, not the plant's";
+  }
   if (!request.baseline_path.empty()) {
     report.baseline = CompareWithBaseline(report, request.baseline_path);
   }
   report.units_hints = CheckUnits(problem, outcome.first_fit.values);
+  if (cutoff.ran) report.cutoff = cutoff;
   AddWarnings(&report);
   outcome.report = std::move(report);
   return outcome;

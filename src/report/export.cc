@@ -92,6 +92,35 @@ json ModelConfigJson(const Config& config, const ParameterSet& values,
   }
   ident["free"] = names;
   ident["bounds"] = bounds;
+  // Every setting that shaped the fit, as it ran (flags applied): a refit from this config
+  // reproduces the report.
+  const IdentificationSettings& settings = config.identification;
+  ident["observe"] = settings.observe;
+  ident["error"] = settings.error;
+  if (settings.error == "equation") {
+    ident["filter_hz"] = settings.filter_hz;
+    ident["decimate"] = settings.decimate;
+  } else {
+    ident.erase("filter_hz");
+    ident.erase("decimate");
+  }
+  if (settings.method.empty()) {
+    ident.erase("method");
+  } else {
+    ident["method"] = settings.method;
+  }
+  if (settings.options.is_object() && !settings.options.empty()) {
+    ident["options"] = settings.options;
+  } else {
+    ident.erase("options");
+  }
+  ident["weighting"] = settings.weighting;
+  if (settings.noise_std.empty()) {
+    ident.erase("noise_std");
+  } else {
+    ident["noise_std"] = settings.noise_std;
+  }
+  ident["effect_angle"] = settings.effect_angle;
   // Provenance and the intervals, as a comment.
   json intervals = json::object();
   for (const auto& [name, p] : report.final_model.parameters) {

@@ -291,6 +291,59 @@ void WidenForAmbiguity(IdentReport* report) {
   }
 }
 
+namespace {
+
+// The warning of a cut-off off the plateau (cutoff_choice.h): how the estimates move, where
+// they hold, and the flag that uses it.
+std::string CutoffWarning(const CutoffChoice& choice) {
+  const auto hz = [](double v) { return Figure(v, 3) + " Hz"; };
+  std::string moves;
+  const CutoffLevel* used = nullptr;
+  for (const CutoffLevel& level : choice.levels) {
+    if (level.ok && level.hz == choice.chosen_hz) used = &level;
+  }
+  if (used && !used->estimates.empty()) {
+    const ParameterEstimate& first = used->estimates.front();
+    moves = first.name + " is " + Figure(first.value, 4) + " at " + hz(used->hz);
+    for (const CutoffLevel& level : choice.levels) {
+      if (!level.ok || &level == used || level.estimates.empty()) continue;
+      moves += ", " + Figure(level.estimates.front().value, 4) + " at " + hz(level.hz);
+    }
+    moves += ": ";
+  }
+  const std::string start = "the equation error's estimates move with its low-pass cut-off (" +
+                            moves + "beyond their 95 % intervals): the differentiated motion's "
+                            "noise biases J towards zero at high cut-offs";
+  if (choice.plateau) {
+    return start + "; they hold from " + hz(choice.stable_low_hz) + " to " +
+           hz(choice.stable_high_hz) + "; next: --filter-hz " + Figure(choice.stable_high_hz, 3);
+  }
+  return start + "; no two neighbouring cut-offs agree; next: a record with more acceleration "
+                 "or a finer encoder, or the output error (--error output) where the motion "
+                 "can be simulated";
+}
+
+}  // namespace
+
+std::string ClosedLoopAdvice(const IdentReport& report) {
+  const ModelReport& first = report.first_fit();
+  if (first.fit.equation_error || !first.residual.analysis ||
+      !first.residual.analysis->closed_loop) {
+    return "";
+  }
+  std::string text = "the record is closed loop (u was computed from the measured motion: the "
+                     "residual correlates with later u, p = " +
+                     Figure(first.residual.analysis->feedback_p, 2) +
+                     "), and a simulation from the recorded u drifts wherever the model errs, "
+                     "since the loop that held the real shaft is not simulated";
+  if (report.model == "rigid_load") {
+    return text + "; fit the equation error (--error equation, the input the model needs along "
+                  "the measured motion), then --discover";
+  }
+  return text + "; fit a record of the drive in open loop (a torque or voltage command it "
+                "applies as given)";
+}
+
 void AddWarnings(IdentReport* report) {
   std::vector<Warning>& warnings = report->warnings;
   warnings.clear();
@@ -326,13 +379,15 @@ void AddWarnings(IdentReport* report) {
   if (report->adequacy && report->adequacy->ok && !report->adequacy->flagged.empty()) {
     add("model_inadequate",
         report->adequacy->StructureMessage() +
-            ": the model misses something that biases its values; next: run --discover to find "
-            "the effect" +
+            ": the model misses something that biases its values; next: " +
+            (ClosedLoopAdvice(*report).empty() ? "run --discover to find the effect"
+                                                : ClosedLoopAdvice(*report)) +
             (one_direction
                  ? "; the shaft turned one way only, so J and a constant torque (friction, a "
                    "load) are confounded: record motion in both directions"
                  : ""));
   }
+  if (report->cutoff && report->cutoff->sensitive) add("cutoff_sensitive", CutoffWarning(*report->cutoff));
   bool any_at_bound = false;
   for (const auto& [name, p] : model.parameters)
     any_at_bound = any_at_bound || (p.free && p.at_bound);
@@ -456,7 +511,9 @@ void AddWarnings(IdentReport* report) {
     add("unexplained_structure",
         discovery.adequacy.StructureMessage() +
             ": the final model misses something that no effect of the vocabulary explains; the "
-            "values may be biased by it (discovery.adequacy)");
+            "values may be biased by it (discovery.adequacy)" +
+            (ClosedLoopAdvice(*report).empty() ? std::string()
+                                                : "; next: " + ClosedLoopAdvice(*report)));
   }
   for (const std::string& effect : discovery.adequacy.unstable) {
     std::string detail;

@@ -161,6 +161,7 @@ json FrequencyResponseJson(const FrequencyResponseReport& r) {
   out["model_sampling"] = "zero_order_hold";
   out["input"] = r.input;
   out["note"] = r.note;
+  if (!r.caveat.empty()) out["caveat"] = r.caveat;
   out["sample_rate_hz"] = Number(r.sample_rate_hz);
   out["segment_length"] = r.segment_length;
   out["averages"] = r.averages;
@@ -272,6 +273,7 @@ json CandidatesJson(const std::vector<CandidateOutcome>& outcomes) {
       c["delta_bic"] = Number(o.delta_bic);
       c["delta_bic_white"] = Number(o.delta_bic_white);
       c["evidence_rule"] = o.evidence_rule;
+      if (o.deterministic) c["deterministic"] = true;
       if (o.has_held_out) {
         c["held_out_nrmse"] = {{"before", Number(o.held_out_before)},
                                {"after", Number(o.held_out_after)}};
@@ -446,6 +448,8 @@ void to_json(json& out, const ResidualAnalysis& analysis) {
   out["whiteness_p"] = Number(analysis.whiteness_p);
   out["white"] = analysis.white;
   out["w_changes_sign"] = analysis.w_changes_sign;
+  out["feedback_p"] = Number(analysis.feedback_p);
+  out["closed_loop"] = analysis.closed_loop;
   json columns = json::object();
   for (const auto& d : analysis.columns) {
     json c;
@@ -461,6 +465,12 @@ void to_json(json& out, const ResidualAnalysis& analysis) {
                       {"peak", Number(d.input_ccf_peak)},
                       {"peak_lag", d.input_ccf_peak_lag},
                       {"band95", Number(d.input_ccf_band95)}};
+    if (!d.future_ccf.empty()) {
+      c["future_ccf"] = {{"values", d.future_ccf},
+                         {"peak", Number(d.feedback_peak)},
+                         {"peak_lead", d.feedback_peak_lead},
+                         {"p", Number(d.feedback_p)}};
+    }
     auto sign = [](const SignDependence& s) {
       if (!s.available) return json(nullptr);
       return json{{"mean_positive", Number(s.mean_positive)},
@@ -654,6 +664,32 @@ void to_json(json& out, const IdentReport& report) {
                     {"evaluations", report.noise.evaluations},
                     {"converged", report.noise.converged},
                     {"columns", columns}};
+  }
+  if (report.cutoff && report.cutoff->ran) {
+    const CutoffChoice& c = *report.cutoff;
+    json levels = json::array();
+    for (const CutoffLevel& level : c.levels) {
+      json entry = {{"hz", Number(level.hz)}, {"ok", level.ok}};
+      if (level.ok) {
+        json values = json::object();
+        for (const ParameterEstimate& e : level.estimates) {
+          json v = {{"value", Number(e.value)}};
+          if (e.has_interval) v["ci95"] = {Number(e.ci95_low), Number(e.ci95_high)};
+          values[e.name] = v;
+        }
+        entry["parameters"] = values;
+        entry["agrees_with_next_lower"] = level.agrees_below;
+      } else {
+        entry["reason"] = level.reason;
+      }
+      levels.push_back(entry);
+    }
+    json cutoff = {{"hz", Number(c.chosen_hz)},     {"user_set", c.user_set},
+                   {"sample_hz", Number(c.sample_hz)}, {"plateau", c.plateau},
+                   {"sensitive", c.sensitive},      {"reason", c.reason},
+                   {"levels", levels}};
+    if (c.plateau) cutoff["stable_hz"] = {Number(c.stable_low_hz), Number(c.stable_high_hz)};
+    out["equation_cutoff"] = cutoff;
   }
   if (!report.notes.empty()) out["notes"] = report.notes;
   if (report.adequacy) out["adequacy"] = AdequacyJson(*report.adequacy);

@@ -237,6 +237,10 @@ std::string HumanSummary(const IdentReport& report) {
                 : report.adequacy->StructureMessage())
         << "\n";
   }
+  if (report.cutoff && report.cutoff->ran) {
+    out << "cut-off: the equation error's low-pass at " << Figure(report.cutoff->chosen_hz, 3)
+        << " Hz, " << report.cutoff->reason << "\n";
+  }
   for (const std::string& note : report.notes) out << "note: " << note << "\n";
   if (model.intervals_optimistic) {
     out << "note: the intervals assume white residuals and are optimistic here\n";

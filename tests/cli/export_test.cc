@@ -254,5 +254,47 @@ TEST(Export, GuardDrivesScriptFlagsTheChangedDrive) {
                          "/axis-2//tonight.json, key baseline)\n");
 }
 
+TEST(Export, WriteConfigKeepsTheSettingsThatShapedTheFit) {
+  // The equation error with a cut-off and a weighting from the command line: the written
+  // config holds them, and a refit from it alone (no such flags) gives the same values to
+  // 1e-9. Before, --filter-hz was dropped and the refit fell back to the default cut-off.
+  TempDir dir;
+  const std::string trace = SourcePath("testdata/realdata/delta_a3_servo/lorenz_jm_1.csv");
+  const std::string config = SourcePath("configs/real/delta-a3.json");
+  CommandResult run = blmd::testing::Run(
+      BinPath("blmd-ident") + " --config " + config + " --trace " + trace +
+      " --error equation --filter-hz 12 --weighting variance --quiet --report " +
+      dir.File("r.json") + " --write-config " + dir.File("final.json"));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json written = nlohmann::json::parse(Slurp(dir.File("final.json")));
+  const nlohmann::json& ident = written["identification"];
+  EXPECT_EQ(ident["error"], "equation");
+  EXPECT_EQ(ident["filter_hz"], 12.0);
+  EXPECT_EQ(ident["weighting"], "variance");
+  EXPECT_EQ(ident["observe"], nlohmann::json({"u"}));
+  EXPECT_EQ(ident["method"], "ceres");
+  run = blmd::testing::Run(BinPath("blmd-ident") + " --config " + dir.File("final.json") +
+                           " --trace " + trace + " --quiet --report " + dir.File("again.json"));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json first = nlohmann::json::parse(Slurp(dir.File("r.json")));
+  const nlohmann::json again = nlohmann::json::parse(Slurp(dir.File("again.json")));
+  EXPECT_EQ(again["fit"]["error"]["filter_hz"], 12.0);
+  for (const char* name : {"J", "B"}) {
+    const double a = first["parameters"][name]["value"].get<double>();
+    const double b = again["parameters"][name]["value"].get<double>();
+    EXPECT_NEAR(b, a, 1e-9 * std::abs(a)) << name;
+  }
+  // The default cut-off, chosen from the data, is written as used.
+  run = blmd::testing::Run(BinPath("blmd-ident") + " --config " + config + " --trace " + trace +
+                           " --error equation --quiet --report " + dir.File("d.json") +
+                           " --write-config " + dir.File("d-final.json"));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json chosen = nlohmann::json::parse(Slurp(dir.File("d.json")));
+  const nlohmann::json chosen_config = nlohmann::json::parse(Slurp(dir.File("d-final.json")));
+  EXPECT_EQ(chosen_config["identification"]["filter_hz"], chosen["equation_cutoff"]["hz"]);
+  EXPECT_EQ(chosen["equation_cutoff"]["user_set"], false);
+  EXPECT_EQ(chosen["equation_cutoff"]["hz"], 25.0);
+}
+
 }  // namespace
 }  // namespace blmd::testing

@@ -103,5 +103,31 @@ TEST(InitConfigCli, TakesNoOtherFlag) {
   EXPECT_EQ(bare.err, "error: --config is required (see " + BinPath("blmd-sim") + " --help)\n");
 }
 
+TEST(InitConfigCli, BlmdIdentPrintsTheSameStartingConfig) {
+  // A new user starts from blmd-ident, the command that reads the config: it prints the
+  // same config as blmd-sim, alone on its command line, and still needs --config and
+  // --trace without it.
+  for (const char* model : {"rigid_load", "dc_servo", "blmd"}) {
+    SCOPED_TRACE(model);
+    const CommandResult sim = testing::Run(BinPath("blmd-sim") + " --init-config " + model);
+    const CommandResult ident = testing::Run(BinPath("blmd-ident") + " --init-config " + model);
+    ASSERT_EQ(ident.exit_code, 0) << ident.err;
+    EXPECT_EQ(ident.out, sim.out);
+    EXPECT_EQ(ident.err, "");
+  }
+  const CommandResult other =
+      testing::Run(BinPath("blmd-ident") + " --init-config rigid_load --discover");
+  EXPECT_EQ(other.exit_code, 2);
+  EXPECT_EQ(other.out, "");
+  EXPECT_EQ(other.err,
+            "error: --init-config prints a config and takes no other flag (got --discover)\n");
+  const CommandResult unknown = testing::Run(BinPath("blmd-ident") + " --init-config dc_motor");
+  EXPECT_EQ(unknown.exit_code, 2);
+  EXPECT_EQ(unknown.err,
+            "error: --init-config: unknown model 'dc_motor' (valid: blmd, dc_servo, rigid_load)\n");
+  const CommandResult bare = testing::Run(BinPath("blmd-ident") + " --quiet");
+  EXPECT_EQ(bare.exit_code, 2);
+}
+
 }  // namespace
 }  // namespace blmd

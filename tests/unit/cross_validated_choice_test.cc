@@ -152,5 +152,20 @@ TEST(DecisionOnCopies, ARatioIsJudgedOnALogScale) {
   EXPECT_TRUE(internal::CheckRatio({0.5, -1.0, 0.0}, 0.99).holds);
 }
 
+TEST(DecisionOnCopies, AScorePastTheThresholdOnTheDataAndTheCopyDecidesAlike) {
+  constexpr double kBicMargin = 10.0;
+  // A shaft dithering between encoder counts at standstill: Coulomb friction's plain ΔBIC
+  // moves from -8415 to -4328 on a copy changed by 1e-9; both far past -10, same decision.
+  EXPECT_FALSE(internal::ScoreMoveReverses(-8415.0, -4328.0, kBicMargin, 841.5));
+  EXPECT_FALSE(internal::ScoreMoveReverses(-8415.0, -4639.0, kBicMargin, 841.5));
+  // A detent that captures the shaft on one copy and not the other: -3462 against +417.
+  EXPECT_TRUE(internal::ScoreMoveReverses(-3462.0, 417.0, kBicMargin, 346.2));
+  EXPECT_TRUE(internal::ScoreMoveReverses(417.0, -3462.0, kBicMargin, 41.7));
+  // Across the threshold by less than the score's usual move: the same decision.
+  EXPECT_FALSE(internal::ScoreMoveReverses(-10.4, -9.8, kBicMargin, 1.0));
+  // Neither side passes: nothing is added either way.
+  EXPECT_FALSE(internal::ScoreMoveReverses(-5.0, 300.0, kBicMargin, 1.0));
+}
+
 }  // namespace
 }  // namespace blmd

@@ -39,6 +39,9 @@ struct FrequencyResponseReport {
   std::string reason;  // why there is none
   std::string input;   // the linear part's input, e.g. "u (V)"
   std::string note;    // what the model curve leaves out (its linear part only)
+  // Set when the record looks closed loop (ResidualAnalysis::closed_loop): what the measured
+  // response then is. Identify sets it.
+  std::string caveat;
   double sample_rate_hz = 0.0;
   std::size_t segment_length = 0;  // samples per Welch segment (WelchSegmentLength)
   std::size_t averages = 0;        // segments averaged, over every trace used

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "blmd/ident/discovery/discovery.h"
+#include "blmd/ident/fit/cutoff_choice.h"
 #include "blmd/ident/fit/fit_errors.h"
 #include "blmd/ident/fit/noise_model.h"
 #include "blmd/ident/fit/problem.h"
@@ -203,6 +204,9 @@ struct IdentReport {
   // A plain fit's adequacy check (no discovery; with discovery it is discovery->adequacy):
   // what its residual still depends on (residual/adequacy.h). Set by Identify.
   std::optional<AdequacyReport> adequacy;
+  // The equation error's cut-off: the ladder of fits, the plateau and the cut-off in use
+  // (cutoff_choice.h; "equation_cutoff" in the JSON). Set by Identify.
+  std::optional<CutoffChoice> cutoff;
   // Facts about how the data was used that are not warnings (a closed-loop config fitted from
   // the recorded u; coloured residual noise), one line each.
   std::vector<std::string> notes;
@@ -278,6 +282,10 @@ void WidenForAmbiguity(IdentReport* report);
 
 // The warnings about the final model (docs/report.md "Warnings"): stable codes, from the
 // report's own figures. Sets report->warnings.
+// The next step for a record that looks closed loop (ResidualAnalysis::closed_loop on the
+// first fit's residual, output error only), "" otherwise.
+std::string ClosedLoopAdvice(const IdentReport& report);
+
 void AddWarnings(IdentReport* report);
 
 // Sets report->linear_model from `final_config` at `final_parameters`, and the views of it:

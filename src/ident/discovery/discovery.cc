@@ -234,6 +234,12 @@ void RefitCandidate(const FitProblem& base, const RoundBase& round, const Candid
   run->outcome.nrmse = std::sqrt(run->fit.evaluation.nrmse2);
   run->outcome.explained_share = ExplainedShare(round.nrmse, run->outcome.nrmse, round.floor_nrmse);
   run->outcome.material = run->outcome.explained_share >= options.min_explained_share;
+  // A deterministic residual that the whitening filter absorbed (DiscoveryOptions::
+  // deterministic_share): the plain BIC carries it if the record's parts confirm it.
+  run->outcome.deterministic = run->outcome.evidence_rule == "prewhitened_bic" &&
+                               !(run->outcome.delta_bic < -options.bic_margin) &&
+                               run->outcome.delta_bic_white < -options.bic_margin &&
+                               run->outcome.explained_share >= options.deterministic_share;
   const std::size_t offset = base.num_free();
   for (std::size_t k = 0; k < plan.free.size(); ++k) {
     run->outcome.parameters[plan.free[k].name] = run->fit.values[offset + k];
@@ -276,7 +282,8 @@ void RefitCandidate(const FitProblem& base, const RoundBase& round, const Candid
       run->outcome.reason = why;
     }
   }
-  if (run->outcome.valid && !(run->outcome.delta_bic < -options.bic_margin)) {
+  if (run->outcome.valid && !(run->outcome.delta_bic < -options.bic_margin) &&
+      !run->outcome.deterministic) {
     run->outcome.reason = "BIC does not fall by more than " + G(options.bic_margin);
   } else if (run->outcome.valid && !run->outcome.material) {
     run->outcome.reason = "tried, not needed: explains " +
@@ -296,7 +303,11 @@ void RefitCandidate(const FitProblem& base, const RoundBase& round, const Candid
 std::string Evidence(const std::string& effect, const ResidualAnalysis& analysis,
                      const CandidateOutcome& outcome, double nrmse_before, int order) {
   std::string text =
-      "BIC " + G(outcome.delta_bic, 5) +
+      outcome.deterministic
+          ? "BIC " + G(outcome.delta_bic_white, 5) + " counting every sample (" +
+                G(outcome.delta_bic, 5) +
+                " on whitened residuals, whose noise model absorbs this deterministic residual)"
+          : "BIC " + G(outcome.delta_bic, 5) +
       (outcome.evidence_rule == "prewhitened_bic" &&
                G(outcome.delta_bic_white, 5) != G(outcome.delta_bic, 5)
            ? " on whitened residuals (" + G(outcome.delta_bic_white, 5) + " counting every sample)"
@@ -333,6 +344,12 @@ double Bic(const FitProblem& problem, const Evaluation& evaluation, std::size_t 
 }
 
 namespace internal {
+
+bool ScoreMoveReverses(double on_data, double on_copy, double margin, double tolerance) {
+  const bool passes_on_data = on_data < -margin;
+  const bool passes_on_copy = on_copy < -margin;
+  return passes_on_data != passes_on_copy && !(std::abs(on_copy - on_data) <= tolerance);
+}
 
 bool GivesWay(double first_nrmse, double other_nrmse, bool simpler, double margin) {
   return simpler ? !(first_nrmse < (1.0 - margin) * other_nrmse)
@@ -540,8 +557,9 @@ bool ScreenAndRefit(const FitProblem& current, const FitResult& fit, double curr
 // generalising to the part of the record it was not fitted to; and a decision that holds when
 // the data change far below their noise (§3d).
 bool PassesEvidence(const CandidateOutcome& o, const DiscoveryOptions& options) {
-  return o.fitted && o.valid && o.held_out_better && o.delta_bic < -options.bic_margin &&
-         o.material && o.stable;
+  const bool evidence = o.delta_bic < -options.bic_margin ||
+                        (o.deterministic && o.delta_bic_white < -options.bic_margin);
+  return o.fitted && o.valid && o.held_out_better && evidence && o.material && o.stable;
 }
 
 // A copy of the data with every measured value, the recorded input and the initial state
@@ -625,14 +643,20 @@ void CheckStability(const FitProblem& problem, const FitProblem& current, const 
       const double moved =
           PlainBic(run.config, run.free, perturbed[c], observe, values) - base[c + 1];
       o.stability_perturbed.push_back(moved);
-      // Only a move that could change the decision counts: one side of it passes the
-      // evidence threshold, and it is large against the score itself (a model with sticking
-      // friction moves its score by a few units under any change; a chaotic one by its size).
+      // Only a move that changes the decision counts: the data and the copy on opposite
+      // sides of the evidence threshold, by more than is usual for the score itself (a
+      // model with sticking friction moves its score by a few units under any change; a
+      // chaotic one by its size). A score past the threshold on both decides alike, however
+      // far it moves (a shaft dithering between encoder counts at standstill flips the sign
+      // of its speed under any change, and moves a friction's ΔBIC by thousands on either
+      // side of -8000).
       const double delta = o.stability_delta_bic;
       const double tolerance =
           std::max(options.stability_tolerance, options.stability_relative * std::abs(delta));
-      const bool could_pass = std::min(delta, moved) < -options.bic_margin;
-      if (could_pass && !(std::abs(moved - delta) <= tolerance)) o.stable = false;
+      if ((!std::isfinite(moved) && delta < -options.bic_margin) ||
+          internal::ScoreMoveReverses(delta, moved, options.bic_margin, tolerance)) {
+        o.stable = false;
+      }
     }
   });
   for (std::size_t k : checked) {
@@ -755,7 +779,11 @@ void CrossValidateCandidates(const FitProblem& problem, const FitProblem& curren
     const CurrentOnParts& level = found->second;
     const CrossValidation& base_cv = level.on_data;
     if (!base_cv.ok) break;  // nothing to compare with: the evidence alone decides
-    if (!level.usable && level.usable_holds) break;
+    // Parts that do not predict each other with the current model cannot judge a candidate:
+    // the evidence alone decides, except for a deterministic one (§3a), which is judged by
+    // whether it makes the parts predict each other, below.
+    const bool parts_unusable = !level.usable && level.usable_holds;
+    if (parts_unusable && !o.deterministic) continue;
     if (progress) {
       progress->BeginStage(
           "discovery round " + std::to_string(round->number) + ": cross-validating " + o.effect, 0);
@@ -781,7 +809,13 @@ void CrossValidateCandidates(const FitProblem& problem, const FitProblem& curren
     o.cv_before = base_cv.nrmse;
     o.cv_after = cv.nrmse;
     o.generalises = cv.nrmse < (1.0 - options.held_out_margin) * base_cv.nrmse;
-    if (!o.generalises) {
+    if (parts_unusable && o.generalises && !(cv.nrmse <= 2.0 * o.nrmse)) {
+      o.generalises = false;
+      o.reason = "tried, not needed: the record's parts do not predict each other with it either "
+                 "(cross-validated NRMSE " +
+                 G(o.cv_after) + " against " + G(o.nrmse) +
+                 " fitted), so they cannot confirm a residual the whitened evidence refuses";
+    } else if (!o.generalises) {
       o.reason = "tried, not needed: does not generalise (cross-validated NRMSE " + G(o.cv_before) +
                  " -> " + G(o.cv_after) + ", needs a fall of more than " +
                  G(100.0 * options.held_out_margin) + " %)";
@@ -855,7 +889,16 @@ std::vector<std::size_t> QualifyingCandidates(const DiscoveryOptions& options, R
   std::vector<std::size_t> qualifying;
   for (std::size_t k : round->order) {
     const auto& o = runs[k].outcome;
-    if (PassesEvidence(o, options) && o.generalises) qualifying.push_back(k);
+    const bool confirmed = !o.deterministic || o.cross_validated;
+    if (PassesEvidence(o, options) && o.generalises && confirmed) qualifying.push_back(k);
+  }
+  for (std::size_t k : round->order) {
+    CandidateOutcome& o = runs[k].outcome;
+    if (o.deterministic && !o.cross_validated && PassesEvidence(o, options) && o.reason.empty()) {
+      o.reason = "its BIC changes by " + G(o.delta_bic_white, 5) + " counting every sample but by " +
+                 G(o.delta_bic, 5) +
+                 " on whitened residuals, and it was not cross-validated (not added)";
+    }
   }
   auto out_of_sample = [&](const CandidateOutcome& o) {
     if (o.cross_validated) return o.cv_after;

@@ -36,6 +36,13 @@ struct CandidateRun {
 // parameters only when that one predicts them better by `margin`.
 bool GivesWay(double first_nrmse, double other_nrmse, bool simpler, double margin);
 
+// The stability check of a candidate's plain ΔBIC (docs/discovery.md §3d): whether its move
+// from `on_data` to `on_copy` under a change of the data far below their noise could reverse
+// the decision, which compares the score with -`margin`: the two lie on opposite sides of it
+// and the move exceeds `tolerance`. A score that passes on the data and on the copy, however
+// far it moves, decides the same way on both.
+bool ScoreMoveReverses(double on_data, double on_copy, double margin, double tolerance);
+
 // The first of the stability check's perturbed copies on which that choice between `first`
 // and `other` (both cross-validated) is the reverse of the choice on the data, or none: a
 // choice that a change of the data far below its noise reverses is no finding.

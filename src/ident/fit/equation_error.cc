@@ -30,6 +30,27 @@ Biquad BilinearSection(std::complex<double> s, double sample_hz) {
   return section;
 }
 
+// The samples at rest (docs/identification.md §8b): runs of at least 0.1 s and 20 samples over
+// which the filtered speed stays within 2 % of its largest magnitude. A held shaft dithers
+// between encoder counts, so its differentiated speed changes sign under any change of the
+// data; over such a run the friction is static.
+std::vector<char> RestSamples(const std::vector<double>& t, const std::vector<double>& w) {
+  std::vector<char> rest(w.size(), 0);
+  double top = 0.0;
+  for (double v : w) top = std::max(top, std::abs(v));
+  if (!(top > 0.0)) return rest;
+  const double limit = 0.005 * top;
+  std::size_t begin = 0;
+  for (std::size_t k = 0; k <= w.size(); ++k) {
+    if (k < w.size() && std::abs(w[k]) <= limit) continue;
+    if (k - begin >= 20 && t[k - 1] - t[begin] >= 0.1) {
+      std::fill(rest.begin() + static_cast<long>(begin), rest.begin() + static_cast<long>(k), 1);
+    }
+    begin = k + 1;
+  }
+  return rest;
+}
+
 // Pre-warped analog cut-off (rad/s) of a digital cut-off at cutoff_hz.
 double Prewarp(double cutoff_hz, double sample_hz) {
   return 2.0 * sample_hz * std::tan(kPi * cutoff_hz / sample_hz);
@@ -222,6 +243,9 @@ EquationTrace PrepareEquationTrace(const FitTrace& fit_trace,
   // commutes with J d/dt and B, so the filter cannot bias J and B.
   const std::vector<double> filtered_input = FiltFilt(motion_filter, u);
   std::vector<double> input(filtered_input.begin() + 1, filtered_input.end() - 1);
+  out.u = input;
+  out.at_rest = RestSamples(out.t, out.w);
+  for (char rest : out.at_rest) out.rest_samples += rest ? 1 : 0;
   if (!out.anti_alias.empty()) input = FiltFilt(out.anti_alias, input);
   std::vector<double> kept_t, kept_u, kept_w, kept_theta;
   for (std::size_t j = 0; j < out.t.size(); j += static_cast<std::size_t>(out.decimate)) {
@@ -250,7 +274,13 @@ void PredictInput(const EquationTrace& trace, const ParameterSet& parameters,
     for (std::size_t j = 0; j < n; ++j) {
       const double w = trace.w[j];
       torque[j] = shaft.NonFrictionTorque(trace.theta[j]) + shaft.DragTorque(w);
-      if (friction && w != 0.0) {
+      if (friction && !trace.at_rest.empty() && trace.at_rest[j]) {
+        // At rest friction is static: whatever balances the drive, up to its breakaway
+        // torque (Karnopp's zero-velocity band), not a sign of a speed that dithers.
+        const double applied = Kt * trace.u[j] - torque[j] - J * trace.a[j] - B * w;
+        const double breakaway = shaft.FrictionMagnitude(0.0);
+        torque[j] += std::clamp(applied, -breakaway, breakaway);
+      } else if (friction && w != 0.0) {
         torque[j] += w > 0.0 ? shaft.FrictionMagnitude(w) : -shaft.FrictionMagnitude(w);
       }
     }

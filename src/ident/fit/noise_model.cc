@@ -16,10 +16,15 @@ double QuantisationStep(const std::vector<double>& y) {
   }
   if (sorted.size() < 20) return 0.0;
   std::sort(sorted.begin(), sorted.end());
+  // Gaps below 1e-9 of the column's range are the rounding of two texts of one value to
+  // neighbouring doubles, not a step: a lattice of more than 1e9 steps over the range is no
+  // converter's or encoder's (a 10 000-count encoder over 10^5 turns has 1e9), and with such
+  // a q every value would lie "on" it, (v - origin) / q being beyond a double's fraction.
+  const double negligible = 1e-9 * (sorted.back() - sorted.front());
   double q = 0.0;
   for (std::size_t k = 1; k < sorted.size(); ++k) {
     const double gap = sorted[k] - sorted[k - 1];
-    if (gap > 0.0 && (q == 0.0 || gap < q)) q = gap;
+    if (gap > negligible && (q == 0.0 || gap < q)) q = gap;
   }
   if (!(q > 0.0)) return 0.0;
   // Values read from text carry rounding of about 1e-15 of their size: a thousandth of a step.

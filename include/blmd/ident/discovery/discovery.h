@@ -55,6 +55,14 @@ struct DiscoveryOptions {
   //   (NRMSE_before^2 - NRMSE_after^2) / (NRMSE_before^2 - floor^2),
   // the floor from the measured columns' second differences (NoiseFloor, adequacy.h).
   double min_explained_share = 0.10;
+  // A deterministic residual that the prewhitened evidence's noise model absorbs (a
+  // square-wave-like friction residual is what an AR(2) model predicts best): a candidate
+  // whose prewhitened ΔBIC does not pass but whose plain ΔBIC does, that explains at least
+  // this share of the residual above the noise floor, and that is cross-validated on the
+  // record's parts and generalises there, passes the evidence (docs/discovery.md §3a,
+  // "Deterministic residuals"). Coloured noise is not explained at this share by one
+  // effect, and does not generalise from one half of a record to the other.
+  double deterministic_share = 0.25;
   // Generalisation without held-out traces: the record is cut in two (record_parts.h), the
   // model with and without the candidate fitted on each part and scored on the other; the
   // pooled cross-validated NRMSE must fall by more than `held_out_margin`. false: skip it
@@ -111,6 +119,10 @@ struct CandidateOutcome {
   double held_out_before = 0.0, held_out_after = 0.0;
   bool held_out_better = true;
   std::string evidence_rule;  // "prewhitened_bic" or "held_out" (docs/discovery.md)
+  // The prewhitened ΔBIC does not pass but the plain one does, and the candidate explains at
+  // least DiscoveryOptions::deterministic_share of the residual above the noise floor: it
+  // passes the evidence when its cross-validation confirms it (docs/discovery.md §3a).
+  bool deterministic = false;
   double nrmse = 0.0;
   // The stopping rule: the share of what was left above the noise floor that the candidate
   // explains (negative: not computed), and whether it clears DiscoveryOptions'

@@ -67,6 +67,13 @@ struct EquationTrace {
   std::vector<Biquad> anti_alias;      // empty without decimation
   int decimate = 1;
   double cutoff_hz = 0.0;  // the motion filter's cut-off in use
+  // The recorded input through the motion's filter, at full rate (as t, w, a), and the
+  // samples at rest: runs of at least 0.1 s where the filtered speed stays within 2 % of its
+  // largest; there a friction is static, the torque that balances the drive up to its
+  // breakaway torque (Karnopp 1985), not the sign of a speed that dithers about zero.
+  std::vector<double> u;
+  std::vector<char> at_rest;
+  std::size_t rest_samples = 0;
   // At the kept samples: t, u (the recorded input, anti-alias filtered), and the filtered
   // w and theta, for reports and plots.
   Trace measured;
