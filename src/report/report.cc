@@ -403,10 +403,19 @@ void AddWarnings(IdentReport* report) {
     if (!p.free) continue;
     const ParameterEstimate& e = p.estimate;
     if (p.has_bounds && p.at_bound) {
-      add("parameter_at_bound",
-          name + " = " + Figure(e.value, 6) + " is at its bound [" + Figure(p.lower, 4) + ", " +
-              Figure(p.upper, 4) +
-              "]: the bound, not the data, set it; widen the bound or change the model");
+      // A positive parameter's default range spans three decades either side of its start
+      // (docs/identification.md §2): a start a decade beyond the bound moves the range with it.
+      const bool at_lower = std::abs(e.value - p.lower) <= std::abs(e.value - p.upper);
+      const double beyond = at_lower ? 0.1 * p.lower : 10.0 * p.upper;
+      const std::string next =
+          p.lower > 0.0
+              ? "next: start the search beyond it (--initial " + name + "=" + Figure(beyond, 3) +
+                    ": the default range spans three decades either side of the start), or "
+                    "widen identification.bounds; else change the model"
+              : "next: widen identification.bounds, or change the model";
+      add("parameter_at_bound", name + " = " + Figure(e.value, 6) + " is at its bound [" +
+                                    Figure(p.lower, 4) + ", " + Figure(p.upper, 4) +
+                                    "]: the bound, not the data, set it; " + next);
     }
     if (!e.has_interval) {
       no_interval += (no_interval.empty() ? "" : ", ") + name;

@@ -58,6 +58,7 @@ void ApplyReport(const std::string& path, TuneInput* input) {
   Config& config = input->config;
   ApplyFinalModel(report, &config);
   input->report_inadequacy = ReportInadequacy(report);
+  input->report_ran_discovery = report.ran_discovery();
   for (const StoredParameter& entry : report.parameters()) {
     if (entry.free && entry.has_ci95) {
       input->box.push_back(Interval(config, entry.name, entry.ci95_low, entry.ci95_high));

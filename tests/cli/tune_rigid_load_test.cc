@@ -303,6 +303,9 @@ TEST(TuneRigidLoad, InadequateReportIsWarnedAndFailOnWarningRefuses) {
     if (w["code"] == "report_inadequate") message = w["message"];
   }
   EXPECT_NE(message.find("warning unexplained_structure"), std::string::npos) << message;
+  // The report ran --discover: the advice is a better record, not --discover again.
+  EXPECT_EQ(message.find("--discover"), std::string::npos) << message;
+  EXPECT_NE(message.find("identify again from a better record"), std::string::npos) << message;
   const CommandResult strict = Tune(arguments + " --fail-on-warning --json");
   EXPECT_EQ(strict.exit_code, 3) << strict.err;
   EXPECT_EQ(json::parse(strict.out)["sampled_loop"]["speed_loop"]["kp"],

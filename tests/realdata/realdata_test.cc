@@ -1089,5 +1089,53 @@ TEST(Hslu, HeldOutSpeedLoopRecordRefusesEveryCandidate) {
   EXPECT_TRUE(warned);
 }
 
+// ---------------------------------------------------------------------------------------
+// Records found for this release (testdata/realdata, docs/real-data.md): committed with the
+// repository, so these run everywhere. The Delta servo under its PD position loop, fitted as a
+// new user would from the starting config: the output error says the record is closed loop
+// and advises the equation error; the equation error chooses its cut-off from the data and
+// gives J within 10 % of the record's independent 1.93e-4 with an interval that covers it,
+// friction added and neither spring nor gravity on the free rotor.
+
+std::string DeltaCommand(int run, const std::string& extra) {
+  return "--config configs/real/delta-a3.json --trace testdata/realdata/delta_a3_servo/lorenz_jm_" +
+         std::to_string(run) + ".csv --discover" + extra;
+}
+
+TEST(DeltaServo, TheOutputErrorSaysTheRecordIsClosedLoopAndAdvisesTheEquationError) {
+  const nlohmann::json report = CachedReport("delta-1-output", DeltaCommand(1, ""));
+  EXPECT_TRUE(FirstFit(report)["residual"]["closed_loop"].get<bool>());
+  bool advised = false;
+  for (const auto& w : report["warnings"])
+    advised = advised || w["message"].get<std::string>().find("--error equation") != std::string::npos;
+  EXPECT_TRUE(advised);
+  bool noted = false;
+  for (const auto& note : report["notes"])
+    noted = noted || note.get<std::string>().rfind("the record looks closed loop", 0) == 0;
+  EXPECT_TRUE(noted);
+}
+
+TEST(DeltaServo, TheEquationErrorGivesJWithinTenPercentOnBothRuns) {
+  constexpr double kIndependentJ = 1.93e-4;
+  for (int run : {1, 2}) {
+    SCOPED_TRACE(run);
+    const nlohmann::json report = CachedReport("delta-" + std::to_string(run) + "-equation",
+                                               DeltaCommand(run, " --error equation"));
+    EXPECT_EQ(Value(report["equation_cutoff"]["hz"]), 25.0);
+    EXPECT_FALSE(report["equation_cutoff"]["user_set"].get<bool>());
+    const auto& added = report["discovery"]["added"];
+    auto has = [&](const char* effect) {
+      return std::find(added.begin(), added.end(), effect) != added.end();
+    };
+    EXPECT_TRUE(has("coulomb_friction"));
+    EXPECT_FALSE(has("spring"));
+    EXPECT_FALSE(has("gravity"));
+    const auto& j = report["parameters"]["J"];
+    EXPECT_LT(std::abs(Value(j["value"]) / kIndependentJ - 1.0), 0.10);
+    EXPECT_LE(Value(j["ci95"][0]), kIndependentJ);
+    EXPECT_GE(Value(j["ci95"][1]), kIndependentJ);
+  }
+}
+
 }  // namespace
 }  // namespace blmd::testing

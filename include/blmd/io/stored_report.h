@@ -38,6 +38,8 @@ class StoredReport {
   const std::string& model() const { return model_; }
   // The final model's effects; has_effects() false when the report has no "effects" list.
   bool has_effects() const { return has_effects_; }
+  // Whether the report ran discovery (a "discovery" block): advice then is not --discover.
+  bool ran_discovery() const { return document_.root().contains("discovery"); }
   const std::vector<std::string>& effects() const { return effects_; }
   // In the report's order.
   const std::vector<StoredParameter>& parameters() const { return parameters_; }

@@ -40,6 +40,7 @@ struct TuneInput {
   // Why the report's model is not to be acted on (ReportInadequacy, io/stored_report.h);
   // empty when it is, or without a report. Tune adds the warning report_inadequate.
   std::vector<std::string> report_inadequacy;
+  bool report_ran_discovery = false;  // the report's identification ran --discover
 };
 
 // Reads `config_path` and, when `report_path` is not empty, a blmd-ident report of the same

@@ -6,6 +6,7 @@
 #include <functional>
 
 #include "blmd/constants.h"
+#include "blmd/ident/fit/noise_model.h"
 #include "blmd/io/csv.h"
 #include "blmd/sim/effects.h"
 #include "blmd/sim/trace.h"
@@ -363,8 +364,21 @@ CandidatePlan PlanStribeck(const PlanContext& context) {
   // Stribeck part below 2 % of Ts at the top speed), i.e. ws <= w_max / 2; a larger ws only
   // reshapes a Coulomb friction over the whole range (a case: ws of 0.54-0.63 w_max named
   // on traces with Coulomb friction and cogging).
-  plan.constraint = [w_max](const ParameterSet& p) -> std::string {
+  // Nor can a dip narrower than the measured speed's resolution be seen: a speed quantised in
+  // steps of q (an encoder's count over the sampling interval, when w is derived from it) is
+  // 0 or at least q, and a curve of width ws < q is then static friction, which the model's
+  // sticking already has (a case: ws 0.05 and 0.1 rad/s added on frictionless closed-loop
+  // records whose derived speed moves in steps of 0.63 and 1.26 rad/s).
+  double resolution = 0.0;
+  for (const auto& trace : context.problem.traces()) {
+    if (trace.trace.Has("w")) resolution = std::max(resolution, QuantisationStep(trace.trace.Column("w")));
+  }
+  plan.constraint = [w_max, resolution](const ParameterSet& p) -> std::string {
     const double ws = p.Get("ws");
+    if (ws < resolution) {
+      return "ws = " + G(ws) + " is below the measured speed's resolution (" + G(resolution) +
+             " rad/s steps): no Stribeck dip can be seen in these data";
+    }
     if (ws <= 0.5 * w_max) return "";
     return "ws = " + G(ws) + " is not well inside the speed range (at most half of " + G(w_max) +
            ", where the curve reaches its Coulomb plateau): no Stribeck dip in these data";
@@ -485,6 +499,27 @@ CandidatePlan PlanCogging(const PlanContext& context) {
   }
   plan.amplitude = "Tcog";
   return plan;
+}
+
+// The median fraction of a revolution the shaft turns between two samples in motion (the
+// measured angle, else the integral of the measured speed: AngleNyquistOrder needs a recorded
+// angle); samples with a step above a tenth of the largest count as in motion. 0 when it
+// does not move.
+double TurnsBetweenSamples(const FitProblem& problem) {
+  std::vector<double> steps;
+  for (const auto& trace : problem.traces()) {
+    const std::vector<double> theta = MeasuredAngle(trace);
+    double largest = 0.0;
+    for (std::size_t k = 1; k < theta.size(); ++k)
+      largest = std::max(largest, std::abs(theta[k] - theta[k - 1]));
+    for (std::size_t k = 1; k < theta.size(); ++k) {
+      const double step = std::abs(theta[k] - theta[k - 1]);
+      if (std::isfinite(step) && step > 0.1 * largest) steps.push_back(step / kTwoPi);
+    }
+  }
+  if (steps.empty()) return 0.0;
+  std::nth_element(steps.begin(), steps.begin() + static_cast<long>(steps.size() / 2), steps.end());
+  return steps[steps.size() / 2];
 }
 
 // The torque balance along the measured motion for the position-dependent candidates
@@ -781,6 +816,16 @@ CandidatePlan PlanGravity(const PlanContext& context) {
   if (!MeasuredAngleRange(context.problem, &lowest, &highest) || !(highest - lowest > 1e-3)) {
     plan.applicable = false;
     plan.not_applicable = "needs a measured angle that moves (theta or w)";
+    return plan;
+  }
+  // One period per revolution must be resolved by the samples, with a margin: a shaft that
+  // turns more than a quarter of a revolution between samples (the samples' Nyquist order in
+  // angle below 2) aliases any slow residual onto "one period per revolution" (a 100 Hz
+  // record of a wheel at 2500 rpm: 0.4 turns per sample).
+  if (TurnsBetweenSamples(context.problem) > 0.25) {
+    plan.applicable = false;
+    plan.not_applicable = "the samples resolve no period per revolution (the shaft turns more "
+                          "than a quarter of a revolution between samples)";
     return plan;
   }
   double tg_scale = T;
