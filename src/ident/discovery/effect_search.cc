@@ -540,6 +540,20 @@ struct TorqueBalance {
   std::vector<Sample> samples;
 };
 
+// The trace's measured speed: its w column, else the central differences of `theta` (the
+// measured angle, MeasuredAngle), the ends repeating their neighbours.
+std::vector<double> MeasuredSpeed(const FitTrace& trace, const std::vector<double>& theta) {
+  if (trace.trace.Has("w")) return trace.trace.Column("w");
+  const auto& t = trace.trace.Column("t");
+  const std::size_t n = theta.size();
+  std::vector<double> w(n, 0.0);
+  if (n < 3 || t.size() != n) return w;
+  for (std::size_t k = 1; k + 1 < n; ++k) w[k] = (theta[k + 1] - theta[k - 1]) / (t[k + 1] - t[k - 1]);
+  w[0] = w[1];
+  w[n - 1] = w[n - 2];
+  return w;
+}
+
 // The measured angle's range over every trace (false when no trace has an angle).
 bool MeasuredAngleRange(const FitProblem& problem, double* lowest, double* highest) {
   bool any = false;
@@ -576,15 +590,7 @@ bool MeasureTorqueBalance(const FitProblem& problem, const std::vector<double>& 
     if (n < 20) continue;
     if (!torque_input && !trace.trace.Has("i")) continue;
     const std::vector<double>& drive = trace.trace.Column(torque_input ? "u" : "i");
-    std::vector<double> w(n, 0.0);
-    if (trace.trace.Has("w")) {
-      w = trace.trace.Column("w");
-    } else {
-      for (std::size_t k = 1; k + 1 < n; ++k)
-        w[k] = (theta[k + 1] - theta[k - 1]) / (t[k + 1] - t[k - 1]);
-      w[0] = w[1];
-      w[n - 1] = w[n - 2];
-    }
+    const std::vector<double> w = MeasuredSpeed(trace, theta);
     for (std::size_t k = 0; k < n; ++k) {
       const double torque = torque_input ? Kt * drive[k] : Kt * (drive[k] - i0);
       double friction = 0.0;
@@ -645,6 +651,9 @@ bool RegressOnAngle(const TorqueBalance& balance,
 // A spring or gravity torque that the drive does not hold where the shaft rests is not on
 // the shaft: a free rotor's residual taken up by a slow position function (a spring whose
 // rest angle lies turns away, gravity on a rotor that rests anywhere with no torque).
+// The most turns a spring candidate may wind over (PlanSpring).
+constexpr double kSpringMaxTurns = 100.0;
+
 struct StillRun {
   double theta = 0.0;  // the run's mean measured angle, rad (m)
   double drive = 0.0;  // its mean measured drive (u, or i for dc_servo)
@@ -664,15 +673,7 @@ std::vector<StillRun> StandstillRuns(const FitProblem& problem, double w_max) {
     const std::vector<double>& drive = trace.trace.Column(torque_input ? "u" : "i");
     const std::size_t n = theta.size();
     if (n < 20 || t.size() != n) continue;
-    std::vector<double> w(n, 0.0);
-    if (trace.trace.Has("w")) {
-      w = trace.trace.Column("w");
-    } else {
-      for (std::size_t k = 1; k + 1 < n; ++k)
-        w[k] = (theta[k + 1] - theta[k - 1]) / (t[k + 1] - t[k - 1]);
-      w[0] = w[1];
-      w[n - 1] = w[n - 2];
-    }
+    const std::vector<double> w = MeasuredSpeed(trace, theta);
     std::size_t begin = 0;
     for (std::size_t k = 0; k <= n; ++k) {
       const bool still = k < n && std::isfinite(w[k]) && std::abs(w[k]) <= limit &&
@@ -785,10 +786,12 @@ CandidatePlan PlanSpring(const PlanContext& context) {
   plan.constraint = [still, effects, torque_input, linear_axis, beyond, lowest, highest,
                      T](const ParameterSet& p) -> std::string {
     const double theta0 = p.Get("theta0");
-    if (!linear_axis && highest - lowest > 2.0 * kTwoPi) {
-      return "implausible: the shaft turns " + G((highest - lowest) / kTwoPi, 3) +
-             " revolutions, over which no spring winds (a slow drift or a load the model "
-             "lacks takes this shape)";
+    // Nor does a torsion spring wind over a hundred turns (a retractor's clock spring winds a
+    // few tens): on a shaft that turned more, the shape is a slow drift or a load.
+    if (!linear_axis && highest - lowest > kSpringMaxTurns * kTwoPi) {
+      return "implausible: the shaft turns " + G((highest - lowest) / kTwoPi, 4) +
+             " revolutions, more than any torsion spring winds (" + G(kSpringMaxTurns, 3) +
+             "): no spring acts on this shaft";
     }
     const double outside = std::max({0.0, lowest - theta0, theta0 - highest});
     if (outside > beyond) {
