@@ -243,9 +243,10 @@ IdentOutcome Identify(IdentRequest request) {
   if (!first_model.fit.equation_error && first_model.residual.analysis &&
       first_model.residual.analysis->closed_loop) {
     report.notes.push_back(
-        "the record looks closed loop: the first fit's residual correlates with later u (p = " +
+        "the record looks closed loop: the first fit's residual is followed by u at the same and "
+        "later samples (p = " +
         FormatSignificant(first_model.residual.analysis->feedback_p, 2) +
-        ", the input's future after prewhitening), so u was computed from the measured motion; "
+        ", after prewhitening), so u was computed from the measured motion; "
         "the output error from the recorded u is right only where the model is, and the "
         "measured frequency response is the loop's, not the plant's (docs/identification.md "
         "§9)");

@@ -331,8 +331,8 @@ std::string ClosedLoopAdvice(const IdentReport& report) {
       !first.residual.analysis->closed_loop) {
     return "";
   }
-  std::string text = "the record is closed loop (u was computed from the measured motion: the "
-                     "residual correlates with later u, p = " +
+  std::string text = "the record is closed loop (u was computed from the measured motion: u at the "
+                     "same and later samples follows the residual, p = " +
                      Figure(first.residual.analysis->feedback_p, 2) +
                      "), and a simulation from the recorded u drifts wherever the model errs, "
                      "since the loop that held the real shaft is not simulated";
