@@ -5,6 +5,8 @@
 // exit 2 with one line and nothing written.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -247,6 +249,11 @@ TEST(DesignCli, EquationErrorConfigIsRefused) {
                                          " --duration 2 --limit u=1 --noise u=0.01");
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_NE(run.err.find("the equation error"), std::string::npos) << run.err;
+  // With the next step: design for the output error of the same model, whose experiment
+  // drives the motion the equation error differentiates.
+  EXPECT_NE(run.err.find("next: design with \"error\": \"output\""), std::string::npos)
+      << run.err;
+  EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1);
 }
 
 }  // namespace

@@ -289,7 +289,10 @@ DesignProblem MakeDesignProblem(const Config& config) {
   if (config.identification.error == "equation") {
     throw InputError(config.path +
                      ": the equation error (identification.error) is not designed "
-                     "for: blmd-design predicts the output error's precision");
+                     "for: blmd-design predicts the output error's precision; next: design with "
+                     "\"error\": \"output\" and the motion observed (\"observe\": [\"w\"] or "
+                     "[\"theta\"]) in a copy of this config: an experiment that determines J and "
+                     "B by the output error drives the motion the equation error differentiates");
   }
   DesignProblem problem;
   problem.config = config;
