@@ -39,7 +39,7 @@ inline const std::vector<std::string>& RowForbiddenFlags() {
       "--config",       "--trace",         "--report",      "--html",    "--json",
       "--write-config", "--export-matlab", "--baseline",    "--batch",   "--out",
       "--baseline-dir", "--new-baselines", "--drift-alpha", "--threads", "--progress",
-      "--no-progress",  "--quiet",       "--init-config"};
+      "--no-progress",  "--quiet",         "--init-config"};
   return flags;
 }
 

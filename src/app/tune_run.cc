@@ -146,18 +146,17 @@ TuneReport RunTune(const std::string& config_path, const std::string& report_pat
   TuneRequest request = MakeTuneRequest(settings, input.config);
   TuneResult result = Tune(input, request);
   if (!result.refused && !input.report_inadequacy.empty()) {
-    result.warnings.emplace_back("report_inadequate",
-                                 "the identified model is not to be trusted (" +
-                                     Join(input.report_inadequacy, "; ") +
-                                     "): the gains and margins rest on it; " +
-                                     (input.report_ran_discovery
-                                          ? std::string("identify again from a better record "
-                                                        "(one that drives what the model misses: "
-                                                        "the report's warnings say what) or leave "
-                                                        "more margin")
-                                          : std::string("identify again with --discover (or "
-                                                        "from a better record) or leave more "
-                                                        "margin")));
+    result.warnings.emplace_back(
+        "report_inadequate",
+        "the identified model is not to be trusted (" + Join(input.report_inadequacy, "; ") +
+            "): the gains and margins rest on it; " +
+            (input.report_ran_discovery ? std::string("identify again from a better record "
+                                                      "(one that drives what the model misses: "
+                                                      "the report's warnings say what) or leave "
+                                                      "more margin")
+                                        : std::string("identify again with --discover (or "
+                                                      "from a better record) or leave more "
+                                                      "margin")));
   }
   return MakeTuneReport(std::move(input), std::move(request), std::move(result));
 }

@@ -312,15 +312,17 @@ std::string CutoffWarning(const CutoffChoice& choice) {
     moves += ": ";
   }
   const std::string start = "the equation error's estimates move with its low-pass cut-off (" +
-                            moves + "beyond their 95 % intervals): the differentiated motion's "
+                            moves +
+                            "beyond their 95 % intervals): the differentiated motion's "
                             "noise biases J towards zero at high cut-offs";
   if (choice.plateau) {
     return start + "; they hold from " + hz(choice.stable_low_hz) + " to " +
            hz(choice.stable_high_hz) + "; next: --filter-hz " + Figure(choice.stable_high_hz, 3);
   }
-  return start + "; no two neighbouring cut-offs agree; next: a record with more acceleration "
-                 "or a finer encoder, or the output error (--error output) where the motion "
-                 "can be simulated";
+  return start +
+         "; no two neighbouring cut-offs agree; next: a record with more acceleration "
+         "or a finer encoder, or the output error (--error output) where the motion "
+         "can be simulated";
 }
 
 }  // namespace
@@ -331,17 +333,20 @@ std::string ClosedLoopAdvice(const IdentReport& report) {
       !first.residual.analysis->closed_loop) {
     return "";
   }
-  std::string text = "the record is closed loop (u was computed from the measured motion: u at the "
-                     "same and later samples follows the residual, p = " +
-                     Figure(first.residual.analysis->feedback_p, 2) +
-                     "), and a simulation from the recorded u drifts wherever the model errs, "
-                     "since the loop that held the real shaft is not simulated";
+  std::string text =
+      "the record is closed loop (u was computed from the measured motion: u at the "
+      "same and later samples follows the residual, p = " +
+      Figure(first.residual.analysis->feedback_p, 2) +
+      "), and a simulation from the recorded u drifts wherever the model errs, "
+      "since the loop that held the real shaft is not simulated";
   if (report.model == "rigid_load") {
-    return text + "; fit the equation error (--error equation, the input the model needs along "
-                  "the measured motion), then --discover";
+    return text +
+           "; fit the equation error (--error equation, the input the model needs along "
+           "the measured motion), then --discover";
   }
-  return text + "; fit a record of the drive in open loop (a torque or voltage command it "
-                "applies as given)";
+  return text +
+         "; fit a record of the drive in open loop (a torque or voltage command it "
+         "applies as given)";
 }
 
 void AddWarnings(IdentReport* report) {
@@ -381,13 +386,14 @@ void AddWarnings(IdentReport* report) {
         report->adequacy->StructureMessage() +
             ": the model misses something that biases its values; next: " +
             (ClosedLoopAdvice(*report).empty() ? "run --discover to find the effect"
-                                                : ClosedLoopAdvice(*report)) +
+                                               : ClosedLoopAdvice(*report)) +
             (one_direction
                  ? "; the shaft turned one way only, so J and a constant torque (friction, a "
                    "load) are confounded: record motion in both directions"
                  : ""));
   }
-  if (report->cutoff && report->cutoff->sensitive) add("cutoff_sensitive", CutoffWarning(*report->cutoff));
+  if (report->cutoff && report->cutoff->sensitive)
+    add("cutoff_sensitive", CutoffWarning(*report->cutoff));
   bool any_at_bound = false;
   for (const auto& [name, p] : model.parameters)
     any_at_bound = any_at_bound || (p.free && p.at_bound);
@@ -522,7 +528,7 @@ void AddWarnings(IdentReport* report) {
             ": the final model misses something that no effect of the vocabulary explains; the "
             "values may be biased by it (discovery.adequacy)" +
             (ClosedLoopAdvice(*report).empty() ? std::string()
-                                                : "; next: " + ClosedLoopAdvice(*report)));
+                                               : "; next: " + ClosedLoopAdvice(*report)));
   }
   for (const std::string& effect : discovery.adequacy.unstable) {
     std::string detail;

@@ -684,10 +684,10 @@ void to_json(json& out, const IdentReport& report) {
       }
       levels.push_back(entry);
     }
-    json cutoff = {{"hz", Number(c.chosen_hz)},     {"user_set", c.user_set},
-                   {"sample_hz", Number(c.sample_hz)}, {"plateau", c.plateau},
-                   {"sensitive", c.sensitive},      {"reason", c.reason},
-                   {"levels", levels}};
+    json cutoff = {
+        {"hz", Number(c.chosen_hz)}, {"user_set", c.user_set},   {"sample_hz", Number(c.sample_hz)},
+        {"plateau", c.plateau},      {"sensitive", c.sensitive}, {"reason", c.reason},
+        {"levels", levels}};
     if (c.plateau) cutoff["stable_hz"] = {Number(c.stable_low_hz), Number(c.stable_high_hz)};
     out["equation_cutoff"] = cutoff;
   }

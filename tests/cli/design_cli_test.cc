@@ -6,7 +6,6 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -251,8 +250,7 @@ TEST(DesignCli, EquationErrorConfigIsRefused) {
   EXPECT_NE(run.err.find("the equation error"), std::string::npos) << run.err;
   // With the next step: design for the output error of the same model, whose experiment
   // drives the motion the equation error differentiates.
-  EXPECT_NE(run.err.find("next: design with \"error\": \"output\""), std::string::npos)
-      << run.err;
+  EXPECT_NE(run.err.find("next: design with \"error\": \"output\""), std::string::npos) << run.err;
   EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1);
 }
 

@@ -261,10 +261,10 @@ TEST(Export, WriteConfigKeepsTheSettingsThatShapedTheFit) {
   TempDir dir;
   const std::string trace = SourcePath("testdata/realdata/delta_a3_servo/lorenz_jm_1.csv");
   const std::string config = SourcePath("configs/real/delta-a3.json");
-  CommandResult run = blmd::testing::Run(
-      BinPath("blmd-ident") + " --config " + config + " --trace " + trace +
-      " --error equation --filter-hz 12 --weighting variance --quiet --report " +
-      dir.File("r.json") + " --write-config " + dir.File("final.json"));
+  CommandResult run =
+      blmd::testing::Run(BinPath("blmd-ident") + " --config " + config + " --trace " + trace +
+                         " --error equation --filter-hz 12 --weighting variance --quiet --report " +
+                         dir.File("r.json") + " --write-config " + dir.File("final.json"));
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const nlohmann::json written = nlohmann::json::parse(Slurp(dir.File("final.json")));
   const nlohmann::json& ident = written["identification"];

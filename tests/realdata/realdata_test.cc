@@ -1107,7 +1107,8 @@ TEST(DeltaServo, TheOutputErrorSaysTheRecordIsClosedLoopAndAdvisesTheEquationErr
   EXPECT_TRUE(FirstFit(report)["residual"]["closed_loop"].get<bool>());
   bool advised = false;
   for (const auto& w : report["warnings"])
-    advised = advised || w["message"].get<std::string>().find("--error equation") != std::string::npos;
+    advised =
+        advised || w["message"].get<std::string>().find("--error equation") != std::string::npos;
   EXPECT_TRUE(advised);
   bool noted = false;
   for (const auto& note : report["notes"])

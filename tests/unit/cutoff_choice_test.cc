@@ -1,10 +1,10 @@
 // The equation error's cut-off ladder (include/blmd/ident/fit/cutoff_choice.h,
 // docs/identification.md §8a): the plateau, the default on it, a user's cut-off judged.
+#include "blmd/ident/fit/cutoff_choice.h"
+
 #include <gtest/gtest.h>
 
 #include <vector>
-
-#include "blmd/ident/fit/cutoff_choice.h"
 
 namespace blmd {
 namespace {
@@ -20,7 +20,8 @@ ParameterEstimate Estimate(const char* name, double value, double relative_half_
 }
 
 // A ladder with J per rung (B fixed, determined), highest cut-off first.
-CutoffChoice Ladder(const std::vector<double>& hz, const std::vector<double>& j, double user_hz = 0.0) {
+CutoffChoice Ladder(const std::vector<double>& hz, const std::vector<double>& j,
+                    double user_hz = 0.0) {
   CutoffChoice choice;
   choice.ran = true;
   choice.sample_hz = 1000.0;

@@ -83,7 +83,8 @@ TEST(FeedbackTest, AnInputOfAFewStepsIsNotJudged) {
 }
 
 TEST(FeedbackTest, TooShortARecordIsNotJudged) {
-  const ColumnDiagnostics d = TestFeedback(std::vector<double>(30, 1.0), std::vector<double>(30, 2.0), 20);
+  const ColumnDiagnostics d =
+      TestFeedback(std::vector<double>(30, 1.0), std::vector<double>(30, 2.0), 20);
   EXPECT_TRUE(d.future_ccf.empty());
   EXPECT_EQ(d.feedback_p, 1.0);
 }

@@ -28,7 +28,8 @@ struct IdentificationSettings {
   // from the recorded input and compares the observed columns; "equation" (rigid_load only)
   // compares the recorded input with the one the model needs along the measured motion.
   std::string error = "output";
-  double filter_hz = 0.0;  // equation: Butterworth cut-off of the measured motion, Hz; 0: chosen by blmd-ident from the data (cutoff_choice.h), fs/10 elsewhere
+  double filter_hz = 0.0;  // equation: Butterworth cut-off of the measured motion, Hz; 0: chosen by
+                           // blmd-ident from the data (cutoff_choice.h), fs/10 elsewhere
   int decimate = 1;        // equation: keep every N-th sample, after an anti-alias filter
   // How the cost weights the observed columns (docs/identification.md §1a): "noise" (each
   // column by 1/sigma^2 of its noise, estimated from the residual unless fixed in

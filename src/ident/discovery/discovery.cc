@@ -308,14 +308,15 @@ std::string Evidence(const std::string& effect, const ResidualAnalysis& analysis
                 G(outcome.delta_bic, 5) +
                 " on whitened residuals, whose noise model absorbs this deterministic residual)"
           : "BIC " + G(outcome.delta_bic, 5) +
-      (outcome.evidence_rule == "prewhitened_bic" &&
-               G(outcome.delta_bic_white, 5) != G(outcome.delta_bic, 5)
-           ? " on whitened residuals (" + G(outcome.delta_bic_white, 5) + " counting every sample)"
-           : std::string()) +
-      ", NRMSE " + G(nrmse_before) + " -> " + G(outcome.nrmse) +
-      (outcome.has_held_out
-           ? ", held-out NRMSE " + G(outcome.held_out_before) + " -> " + G(outcome.held_out_after)
-           : std::string());
+                (outcome.evidence_rule == "prewhitened_bic" &&
+                         G(outcome.delta_bic_white, 5) != G(outcome.delta_bic, 5)
+                     ? " on whitened residuals (" + G(outcome.delta_bic_white, 5) +
+                           " counting every sample)"
+                     : std::string()) +
+                ", NRMSE " + G(nrmse_before) + " -> " + G(outcome.nrmse) +
+                (outcome.has_held_out ? ", held-out NRMSE " + G(outcome.held_out_before) + " -> " +
+                                            G(outcome.held_out_after)
+                                      : std::string());
   if (outcome.explained_share >= 0.0)
     text += ", explains " + G(100.0 * outcome.explained_share, 3) +
             " % of the residual above the noise floor";
@@ -811,10 +812,11 @@ void CrossValidateCandidates(const FitProblem& problem, const FitProblem& curren
     o.generalises = cv.nrmse < (1.0 - options.held_out_margin) * base_cv.nrmse;
     if (parts_unusable && o.generalises && !(cv.nrmse <= 2.0 * o.nrmse)) {
       o.generalises = false;
-      o.reason = "tried, not needed: the record's parts do not predict each other with it either "
-                 "(cross-validated NRMSE " +
-                 G(o.cv_after) + " against " + G(o.nrmse) +
-                 " fitted), so they cannot confirm a residual the whitened evidence refuses";
+      o.reason =
+          "tried, not needed: the record's parts do not predict each other with it either "
+          "(cross-validated NRMSE " +
+          G(o.cv_after) + " against " + G(o.nrmse) +
+          " fitted), so they cannot confirm a residual the whitened evidence refuses";
     } else if (!o.generalises) {
       o.reason = "tried, not needed: does not generalise (cross-validated NRMSE " + G(o.cv_before) +
                  " -> " + G(o.cv_after) + ", needs a fall of more than " +
@@ -895,8 +897,8 @@ std::vector<std::size_t> QualifyingCandidates(const DiscoveryOptions& options, R
   for (std::size_t k : round->order) {
     CandidateOutcome& o = runs[k].outcome;
     if (o.deterministic && !o.cross_validated && PassesEvidence(o, options) && o.reason.empty()) {
-      o.reason = "its BIC changes by " + G(o.delta_bic_white, 5) + " counting every sample but by " +
-                 G(o.delta_bic, 5) +
+      o.reason = "its BIC changes by " + G(o.delta_bic_white, 5) +
+                 " counting every sample but by " + G(o.delta_bic, 5) +
                  " on whitened residuals, and it was not cross-validated (not added)";
     }
   }

@@ -371,7 +371,8 @@ CandidatePlan PlanStribeck(const PlanContext& context) {
   // records whose derived speed moves in steps of 0.63 and 1.26 rad/s).
   double resolution = 0.0;
   for (const auto& trace : context.problem.traces()) {
-    if (trace.trace.Has("w")) resolution = std::max(resolution, QuantisationStep(trace.trace.Column("w")));
+    if (trace.trace.Has("w"))
+      resolution = std::max(resolution, QuantisationStep(trace.trace.Column("w")));
   }
   plan.constraint = [w_max, resolution](const ParameterSet& p) -> std::string {
     const double ws = p.Get("ws");
@@ -548,7 +549,8 @@ std::vector<double> MeasuredSpeed(const FitTrace& trace, const std::vector<doubl
   const std::size_t n = theta.size();
   std::vector<double> w(n, 0.0);
   if (n < 3 || t.size() != n) return w;
-  for (std::size_t k = 1; k + 1 < n; ++k) w[k] = (theta[k + 1] - theta[k - 1]) / (t[k + 1] - t[k - 1]);
+  for (std::size_t k = 1; k + 1 < n; ++k)
+    w[k] = (theta[k + 1] - theta[k - 1]) / (t[k + 1] - t[k - 1]);
   w[0] = w[1];
   w[n - 1] = w[n - 2];
   return w;
@@ -708,9 +710,9 @@ std::string HeldAtStandstill(const std::vector<StillRun>& runs, const ParameterS
   const ShaftEffects shaft = ShaftEffects::From(values, all, 0.0);
   const ShaftEffects alone = ShaftEffects::From(values, {candidate}, 0.0);
   const double Kt = values.Get("Kt");
-  const double i0 =
-      std::find(effects.begin(), effects.end(), "current_offset") != effects.end() ? values.Get("i0")
-                                                                                   : 0.0;
+  const double i0 = std::find(effects.begin(), effects.end(), "current_offset") != effects.end()
+                        ? values.Get("i0")
+                        : 0.0;
   const double holding = shaft.Tc + shaft.Ts;
   double with = 0.0, without = 0.0, largest = 0.0, largest_theta = 0.0;
   for (const StillRun& run : runs) {
@@ -827,8 +829,9 @@ CandidatePlan PlanGravity(const PlanContext& context) {
   // record of a wheel at 2500 rpm: 0.4 turns per sample).
   if (TurnsBetweenSamples(context.problem) > 0.25) {
     plan.applicable = false;
-    plan.not_applicable = "the samples resolve no period per revolution (the shaft turns more "
-                          "than a quarter of a revolution between samples)";
+    plan.not_applicable =
+        "the samples resolve no period per revolution (the shaft turns more "
+        "than a quarter of a revolution between samples)";
     return plan;
   }
   double tg_scale = T;

@@ -73,17 +73,18 @@ void DecideCutoff(CutoffChoice* choice) {
     choice->stable_low_hz = levels[last].hz;
   }
   const std::string plateau_text =
-      choice->plateau ? "J and the other determined estimates move by less than 2 % per octave from " +
-                            hz(choice->stable_low_hz) + " to " + hz(choice->stable_high_hz)
-                      : "no two neighbouring cut-offs of " + hz(levels.back().hz) + " to " +
-                            hz(levels.front().hz) + " give estimates that agree";
+      choice->plateau
+          ? "J and the other determined estimates move by less than 2 % per octave from " +
+                hz(choice->stable_low_hz) + " to " + hz(choice->stable_high_hz)
+          : "no two neighbouring cut-offs of " + hz(levels.back().hz) + " to " +
+                hz(levels.front().hz) + " give estimates that agree";
   if (!choice->user_set) {
     choice->chosen_hz = choice->plateau ? choice->stable_high_hz : 0.1 * choice->sample_hz;
     choice->sensitive = !choice->plateau;
-    choice->reason = choice->plateau
-                         ? "chosen from the data: the highest cut-off of the plateau (" +
-                               plateau_text + ")"
-                         : "sample rate / 10 (" + plateau_text + ")";
+    choice->reason =
+        choice->plateau
+            ? "chosen from the data: the highest cut-off of the plateau (" + plateau_text + ")"
+            : "sample rate / 10 (" + plateau_text + ")";
     return;
   }
   // A user's cut-off: on the plateau, or agreeing with a neighbour.

@@ -188,8 +188,10 @@ void FeedbackInto(const std::vector<double>& e, const std::vector<double>& u, in
   const std::vector<double> a = FitAutoregression(u, 10), b = FitAutoregression(e, 10);
   std::vector<double> alpha = Whitened(u, a), beta = Whitened(e, b);
   // Aligned at their ends: sample k of the original is alpha[k - a.size()], beta[k - b.size()].
-  if (a.size() > b.size()) beta.erase(beta.begin(), beta.begin() + static_cast<long>(a.size() - b.size()));
-  if (b.size() > a.size()) alpha.erase(alpha.begin(), alpha.begin() + static_cast<long>(b.size() - a.size()));
+  if (a.size() > b.size())
+    beta.erase(beta.begin(), beta.begin() + static_cast<long>(a.size() - b.size()));
+  if (b.size() > a.size())
+    alpha.erase(alpha.begin(), alpha.begin() + static_cast<long>(b.size() - a.size()));
   const std::size_t n = alpha.size();
   double sa = 0.0, sb = 0.0;
   for (std::size_t k = 0; k < n; ++k) {
@@ -226,8 +228,10 @@ void FeedbackInto(const std::vector<double>& e, const std::vector<double>& u, in
   for (std::size_t r = 0; r < rows; ++r) {
     const std::size_t k = r + m + 1;
     y(static_cast<Eigen::Index>(r)) = beta[k];
-    for (std::size_t j = 1; j <= m + 1; ++j) past(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(j - 1)) = alpha[k - j];
-    for (std::size_t j = 0; j < m; ++j) future(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(j)) = alpha[k + j];
+    for (std::size_t j = 1; j <= m + 1; ++j)
+      past(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(j - 1)) = alpha[k - j];
+    for (std::size_t j = 0; j < m; ++j)
+      future(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(j)) = alpha[k + j];
   }
   const Eigen::VectorXd restricted = y - past * past.colPivHouseholderQr().solve(y);
   Eigen::MatrixXd both(rows, 2 * m + 1);

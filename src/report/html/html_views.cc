@@ -154,7 +154,8 @@ void WriteFrequencyResponse(Page& page, const IdentReport& report) {
     page.EndSection();
     return;
   }
-  if (!r.caveat.empty()) h += "<p class=\"note\"><strong>Caveat:</strong> " + Escape(r.caveat) + ".</p>\n";
+  if (!r.caveat.empty())
+    h += "<p class=\"note\"><strong>Caveat:</strong> " + Escape(r.caveat) + ".</p>\n";
   std::size_t points = r.outputs.empty() ? 0 : r.outputs.front().f_hz.size();
   h += "<p class=\"note\">Measured: H1 = P<sub>uy</sub>/P<sub>uu</sub> from the recorded input u "
        "to each output, Welch's averaged spectra over " +

@@ -20,8 +20,8 @@ namespace blmd {
 // The fit at one cut-off of the ladder.
 struct CutoffLevel {
   double hz = 0.0;
-  bool ok = false;          // the fit ran (a cut-off too low for the record's length fails)
-  std::string reason;       // why not
+  bool ok = false;     // the fit ran (a cut-off too low for the record's length fails)
+  std::string reason;  // why not
   std::vector<ParameterEstimate> estimates;
   bool agrees_below = false;  // its estimates agree with the next lower level's
 };
@@ -30,12 +30,12 @@ struct CutoffChoice {
   bool ran = false;
   double sample_hz = 0.0;
   double chosen_hz = 0.0;
-  bool user_set = false;       // --filter-hz or identification.filter_hz
-  bool plateau = false;        // some neighbouring levels agree
-  double stable_low_hz = 0.0;  // the plateau the choice rests on (or, for a user's cut-off,
-  double stable_high_hz = 0.0; // the highest plateau of the ladder)
-  bool sensitive = false;      // the cut-off used lies off the plateau: its estimates move
-  std::string reason;          // one line: which cut-off and why
+  bool user_set = false;            // --filter-hz or identification.filter_hz
+  bool plateau = false;             // some neighbouring levels agree
+  double stable_low_hz = 0.0;       // the plateau the choice rests on (or, for a user's cut-off,
+  double stable_high_hz = 0.0;      // the highest plateau of the ladder)
+  bool sensitive = false;           // the cut-off used lies off the plateau: its estimates move
+  std::string reason;               // one line: which cut-off and why
   std::vector<CutoffLevel> levels;  // highest cut-off first
 };
 

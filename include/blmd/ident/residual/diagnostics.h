@@ -47,7 +47,7 @@ struct ColumnDiagnostics {
   std::vector<double> future_ccf;
   double feedback_p = 1.0;
   double feedback_input_kurtosis = 0.0;  // of the whitened input (kFeedbackMinEvents)
-  int feedback_peak_lead = 0;  // samples by which the most correlated u follows (0: same)
+  int feedback_peak_lead = 0;            // samples by which the most correlated u follows (0: same)
   double feedback_peak = 0.0;
   SignDependence sign_w, sign_i;
   std::vector<AnglePeak> angle_peaks;  // strongest first
