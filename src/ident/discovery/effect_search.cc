@@ -10,6 +10,7 @@
 #include "blmd/io/csv.h"
 #include "blmd/sim/effects.h"
 #include "blmd/sim/trace.h"
+#include "ident/discovery/plausibility.h"
 #include "ident/fit/jacobian.h"
 
 namespace blmd::internal {
@@ -502,27 +503,6 @@ CandidatePlan PlanCogging(const PlanContext& context) {
   return plan;
 }
 
-// The median fraction of a revolution the shaft turns between two samples in motion (the
-// measured angle, else the integral of the measured speed: AngleNyquistOrder needs a recorded
-// angle); samples with a step above a tenth of the largest count as in motion. 0 when it
-// does not move.
-double TurnsBetweenSamples(const FitProblem& problem) {
-  std::vector<double> steps;
-  for (const auto& trace : problem.traces()) {
-    const std::vector<double> theta = MeasuredAngle(trace);
-    double largest = 0.0;
-    for (std::size_t k = 1; k < theta.size(); ++k)
-      largest = std::max(largest, std::abs(theta[k] - theta[k - 1]));
-    for (std::size_t k = 1; k < theta.size(); ++k) {
-      const double step = std::abs(theta[k] - theta[k - 1]);
-      if (std::isfinite(step) && step > 0.1 * largest) steps.push_back(step / kTwoPi);
-    }
-  }
-  if (steps.empty()) return 0.0;
-  std::nth_element(steps.begin(), steps.begin() + static_cast<long>(steps.size() / 2), steps.end());
-  return steps[steps.size() / 2];
-}
-
 // The torque balance along the measured motion for the position-dependent candidates
 // (spring, gravity), in integral form. At every sample with a measured drive torque
 // (rigid_load: Kt u; dc_servo: Kt i from the measured current) the current model leaves
@@ -540,21 +520,6 @@ struct TorqueBalance {
   };
   std::vector<Sample> samples;
 };
-
-// The trace's measured speed: its w column, else the central differences of `theta` (the
-// measured angle, MeasuredAngle), the ends repeating their neighbours.
-std::vector<double> MeasuredSpeed(const FitTrace& trace, const std::vector<double>& theta) {
-  if (trace.trace.Has("w")) return trace.trace.Column("w");
-  const auto& t = trace.trace.Column("t");
-  const std::size_t n = theta.size();
-  std::vector<double> w(n, 0.0);
-  if (n < 3 || t.size() != n) return w;
-  for (std::size_t k = 1; k + 1 < n; ++k)
-    w[k] = (theta[k + 1] - theta[k - 1]) / (t[k + 1] - t[k - 1]);
-  w[0] = w[1];
-  w[n - 1] = w[n - 2];
-  return w;
-}
 
 // The measured angle's range over every trace (false when no trace has an angle).
 bool MeasuredAngleRange(const FitProblem& problem, double* lowest, double* highest) {
@@ -646,98 +611,8 @@ bool RegressOnAngle(const TorqueBalance& balance,
   return true;
 }
 
-// Physical plausibility of a position-dependent torque (spring, gravity) at standstill
-// (docs/discovery.md §2, "Plausibility"). Where the measured shaft is held still, nothing
-// accelerates it, so the drive torque balances every torque that acts there:
-//   T_drive = T_position(theta) + T_other(theta) + f,  |f| <= Tc + Ts (static friction).
-// A spring or gravity torque that the drive does not hold where the shaft rests is not on
-// the shaft: a free rotor's residual taken up by a slow position function (a spring whose
-// rest angle lies turns away, gravity on a rotor that rests anywhere with no torque).
 // The most turns a spring candidate may wind over (PlanSpring).
 constexpr double kSpringMaxTurns = 100.0;
-
-struct StillRun {
-  double theta = 0.0;  // the run's mean measured angle, rad (m)
-  double drive = 0.0;  // its mean measured drive (u, or i for dc_servo)
-};
-
-// The runs of at least 0.1 s and 20 samples over which the measured speed stays within 2 %
-// of the record's top speed (a quantised angle's derivative dithers about zero there).
-std::vector<StillRun> StandstillRuns(const FitProblem& problem, double w_max) {
-  std::vector<StillRun> runs;
-  const Config& config = problem.config();
-  const bool torque_input = config.model->traits().input_is_torque;
-  const double limit = 0.02 * w_max;
-  for (const auto& trace : problem.traces()) {
-    if (!torque_input && !trace.trace.Has("i")) continue;
-    const std::vector<double> theta = MeasuredAngle(trace);
-    const auto& t = trace.trace.Column("t");
-    const std::vector<double>& drive = trace.trace.Column(torque_input ? "u" : "i");
-    const std::size_t n = theta.size();
-    if (n < 20 || t.size() != n) continue;
-    const std::vector<double> w = MeasuredSpeed(trace, theta);
-    std::size_t begin = 0;
-    for (std::size_t k = 0; k <= n; ++k) {
-      const bool still = k < n && std::isfinite(w[k]) && std::abs(w[k]) <= limit &&
-                         std::isfinite(theta[k]) && std::isfinite(drive[k]);
-      if (still) continue;
-      if (k - begin >= 20 && t[k - 1] - t[begin] >= 0.1) {
-        StillRun run;
-        for (std::size_t j = begin; j < k; ++j) {
-          run.theta += theta[j];
-          run.drive += drive[j];
-        }
-        run.theta /= static_cast<double>(k - begin);
-        run.drive /= static_cast<double>(k - begin);
-        runs.push_back(run);
-      }
-      begin = k + 1;
-    }
-  }
-  return runs;
-}
-
-// Empty when the candidate's torque is held where the shaft rests; else why not. The static
-// torque the drive leaves unheld by friction at each run, max(0, |T_drive - T_other| - Tc - Ts),
-// is compared with and without the candidate: with it, its root mean square may exceed the
-// one without by at most 5 % of the torque scale (the drive's noise and a friction's spread).
-std::string HeldAtStandstill(const std::vector<StillRun>& runs, const ParameterSet& values,
-                             const std::vector<std::string>& effects, const std::string& candidate,
-                             bool torque_input, double torque_scale) {
-  if (runs.empty()) return "";
-  std::vector<std::string> all = effects;
-  all.push_back(candidate);
-  const ShaftEffects shaft = ShaftEffects::From(values, all, 0.0);
-  const ShaftEffects alone = ShaftEffects::From(values, {candidate}, 0.0);
-  const double Kt = values.Get("Kt");
-  const double i0 = std::find(effects.begin(), effects.end(), "current_offset") != effects.end()
-                        ? values.Get("i0")
-                        : 0.0;
-  const double holding = shaft.Tc + shaft.Ts;
-  double with = 0.0, without = 0.0, largest = 0.0, largest_theta = 0.0;
-  for (const StillRun& run : runs) {
-    const double drive = torque_input ? Kt * run.drive : Kt * (run.drive - i0);
-    const double own = alone.NonFrictionTorque(run.theta);
-    const double other = shaft.NonFrictionTorque(run.theta) - own;
-    const double unheld_with = std::max(0.0, std::abs(drive - other - own) - holding);
-    const double unheld_without = std::max(0.0, std::abs(drive - other) - holding);
-    with += unheld_with * unheld_with;
-    without += unheld_without * unheld_without;
-    if (std::abs(own) > std::abs(largest)) {
-      largest = own;
-      largest_theta = run.theta;
-    }
-  }
-  const double count = static_cast<double>(runs.size());
-  const double rms_with = std::sqrt(with / count), rms_without = std::sqrt(without / count);
-  if (rms_with <= rms_without + 0.05 * torque_scale) return "";
-  return "implausible: the shaft rests " + std::to_string(runs.size()) +
-         (runs.size() == 1 ? " time" : " times") + " in the record, and there the drive does not " +
-         "hold this torque (" + G(largest) + " N·m at " + G(largest_theta) +
-         " rad; the torque the drive and friction leave unheld at rest would rise from " +
-         G(rms_without) + " to " + G(rms_with) + " N·m RMS): no " + candidate +
-         " acts on this shaft";
-}
 
 // spring: T_effects = K (theta - theta0) = K theta - K theta0, linear in (K, K theta0). K is
 // searched up to the stiffness whose torque over the measured angle's range is a few torque
@@ -780,13 +655,11 @@ CandidatePlan PlanSpring(const PlanContext& context) {
   // A spring must be held where the shaft rests, and a rotary one cannot be wound more than a
   // turn beyond the motion (a linear one more than the motion's span beyond it): a rest
   // angle turns away is a slow drift or a load, not a spring.
-  const std::vector<StillRun> still = StandstillRuns(context.problem, context.w_max);
-  const std::vector<std::string> effects = context.problem.config().effects;
-  const bool torque_input = context.problem.config().model->traits().input_is_torque;
+  const auto held = HeldAtStandstillCheck(context.problem, context.w_max, T, "spring");
   const bool linear_axis = context.problem.config().linear_axis;
   const double beyond = linear_axis ? span : kTwoPi;
-  plan.constraint = [still, effects, torque_input, linear_axis, beyond, lowest, highest,
-                     T](const ParameterSet& p) -> std::string {
+  plan.constraint = [held, linear_axis, beyond, lowest,
+                     highest](const ParameterSet& p) -> std::string {
     const double theta0 = p.Get("theta0");
     // Nor does a torsion spring wind over a hundred turns (a retractor's clock spring winds a
     // few tens): on a shaft that turned more, the shape is a slow drift or a load.
@@ -802,7 +675,7 @@ CandidatePlan PlanSpring(const PlanContext& context) {
              (linear_axis ? std::string("the motion's span") : std::string("a turn")) +
              "): no spring acts on this shaft";
     }
-    return HeldAtStandstill(still, p, effects, "spring", torque_input, T);
+    return held(p);
   };
   return plan;
 }
@@ -862,12 +735,7 @@ CandidatePlan PlanGravity(const PlanContext& context) {
   plan.amplitude = "Tg";
   // Gravity must be held where the shaft rests: a rotor that rests at any angle with no
   // drive torque carries no unbalanced mass.
-  const std::vector<StillRun> still = StandstillRuns(context.problem, context.w_max);
-  const std::vector<std::string> effects = context.problem.config().effects;
-  const bool torque_input = context.problem.config().model->traits().input_is_torque;
-  plan.constraint = [still, effects, torque_input, T](const ParameterSet& p) -> std::string {
-    return HeldAtStandstill(still, p, effects, "gravity", torque_input, T);
-  };
+  plan.constraint = HeldAtStandstillCheck(context.problem, context.w_max, T, "gravity");
   return plan;
 }
 

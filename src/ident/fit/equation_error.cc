@@ -11,6 +11,7 @@
 #include "blmd/io/config.h"
 #include "blmd/io/csv.h"
 #include "blmd/sim/effects.h"
+#include "ident/fit/rest_runs.h"
 
 namespace blmd {
 namespace {
@@ -31,7 +32,7 @@ Biquad BilinearSection(std::complex<double> s, double sample_hz) {
 }
 
 // The samples at rest (docs/identification.md §8b): runs of at least 0.1 s and 20 samples over
-// which the filtered speed stays within 2 % of its largest magnitude. A held shaft dithers
+// which the filtered speed stays within 0.5 % of its largest magnitude. A held shaft dithers
 // between encoder counts, so its differentiated speed changes sign under any change of the
 // data; over such a run the friction is static.
 std::vector<char> RestSamples(const std::vector<double>& t, const std::vector<double>& w) {
@@ -39,14 +40,8 @@ std::vector<char> RestSamples(const std::vector<double>& t, const std::vector<do
   double top = 0.0;
   for (double v : w) top = std::max(top, std::abs(v));
   if (!(top > 0.0)) return rest;
-  const double limit = 0.005 * top;
-  std::size_t begin = 0;
-  for (std::size_t k = 0; k <= w.size(); ++k) {
-    if (k < w.size() && std::abs(w[k]) <= limit) continue;
-    if (k - begin >= 20 && t[k - 1] - t[begin] >= 0.1) {
-      std::fill(rest.begin() + static_cast<long>(begin), rest.begin() + static_cast<long>(k), 1);
-    }
-    begin = k + 1;
+  for (const auto& [begin, end] : internal::RestRuns(t, w, 0.005 * top)) {
+    std::fill(rest.begin() + static_cast<long>(begin), rest.begin() + static_cast<long>(end), 1);
   }
   return rest;
 }
