@@ -397,6 +397,8 @@ json IntervalJson(const IntervalRecord& r) {
   if (r.has_bandwidth) {
     out["bandwidth"] = r.bandwidth;
     out["prewhitening_gain"] = r.prewhitening_gain;
+    out["degrees_of_freedom"] = r.degrees_of_freedom;
+    out["t_quantile"] = r.t_quantile;
   }
   if (!r.unavailable.empty()) out["unavailable"] = r.unavailable;
   if (r.leave_one_trace_out) {
@@ -520,7 +522,11 @@ json AdequacyJson(const AdequacyReport& a) {
   for (const auto& t : a.tests) tests.push_back(test_json(t));
   out["tests"] = tests;
   json flagged = json::array();
-  for (const auto& t : a.flagged) flagged.push_back(t.Describe());
+  for (const auto& t : a.flagged) {  // each name once (a state flagged in two columns)
+    if (std::find(flagged.begin(), flagged.end(), t.Describe()) == flagged.end()) {
+      flagged.push_back(t.Describe());
+    }
+  }
   out["depends_on"] = flagged;
   json stability = json::object();
   stability["checked"] = a.stability_checked;

@@ -121,6 +121,7 @@ void SetSandwichIntervals(const FitProblem& problem, const Eigen::MatrixXd& jaco
   const SandwichCovariance sandwich = HacSandwichCovariance(jacobian, residuals, layout);
   IntervalRecord record;
   record.method = "hac_prewhitened";
+  const double t_quantile = sandwich.ok ? StudentTQuantile975(sandwich.degrees_of_freedom) : 0.0;
   for (std::size_t k = 0; k < result->estimates.size(); ++k) {
     ParameterEstimate& e = result->estimates[k];
     const auto index = static_cast<Eigen::Index>(k);
@@ -152,7 +153,7 @@ void SetSandwichIntervals(const FitProblem& problem, const Eigen::MatrixXd& jaco
     }
     if (sandwich.covariance(index, index) > 0.0) {
       SetInterval(problem.free()[k], std::sqrt(sandwich.covariance(index, index)),
-                  "hac_prewhitened", &e);
+                  "hac_prewhitened", &e, t_quantile);
       record.variance_ratio[e.name] = sandwich.variance_ratio[k];
     }
   }
@@ -160,6 +161,8 @@ void SetSandwichIntervals(const FitProblem& problem, const Eigen::MatrixXd& jaco
     record.has_bandwidth = true;
     record.bandwidth = sandwich.bandwidth;
     record.prewhitening_gain = sandwich.max_var_eigenvalue;
+    record.degrees_of_freedom = sandwich.degrees_of_freedom;
+    record.t_quantile = t_quantile;
   } else {
     record.unavailable = sandwich.reason;
   }

@@ -1,7 +1,10 @@
 #include "blmd/ident/uncertainty/uncertainty.h"
 
 #include <algorithm>
+#include <boost/math/distributions/normal.hpp>
+#include <boost/math/distributions/students_t.hpp>
 #include <cmath>
+#include <limits>
 
 namespace blmd {
 namespace {
@@ -49,6 +52,14 @@ double AndrewsBartlettBandwidth(const std::vector<MatrixXd>& series, double leng
 }
 
 }  // namespace
+
+double StudentTQuantile975(double degrees_of_freedom) {
+  if (!(degrees_of_freedom < 1e7)) {
+    return boost::math::quantile(boost::math::complement(boost::math::normal(), 0.025));
+  }
+  return boost::math::quantile(
+      boost::math::complement(boost::math::students_t(std::max(degrees_of_freedom, 1.0)), 0.025));
+}
 
 SandwichCovariance HacSandwichCovariance(const MatrixXd& jacobian, const VectorXd& residuals,
                                          const ResidualLayout& layout) {
@@ -176,6 +187,20 @@ SandwichCovariance HacSandwichCovariance(const MatrixXd& jacobian, const VectorX
         at += static_cast<Index>(rows);
       }
     }
+  }
+  // Degrees of freedom of the long-run variance (Satterthwaite 1946: a variance estimate whose
+  // log has variance V behaves like a chi-square with 2/V degrees of freedom). Two sources add:
+  // the prewhitening filter, whose recolouring (1 - a)^-2 has Var(ln) = 4 (1 + a) /
+  // (T (1 - a)) for an AR(1) coefficient a estimated from T pairs (Box & Jenkins: Var(a) =
+  // (1 - a^2) / T), here with a the largest |eigenvalue| of A; and the Bartlett kernel, whose
+  // estimate has Var(ln) = 4 L / (3 T) (Andrews 1991, eq. 5.2 with the kernel's integral of
+  // k^2 = 2/3). With white scores it is about 3T/8 and the t quantile 1.96; with
+  // a = 0.95 and T = 4000 it is about 51 (t = 2.01).
+  {
+    const double a = std::min(result.max_var_eigenvalue, kMaxPrewhiteningGain);
+    const double v_prewhitening = 4.0 * (1.0 + a) / (total * (1.0 - a));
+    const double v_kernel = 4.0 * std::max(bandwidth, 1.0) / (3.0 * total);
+    result.degrees_of_freedom = 2.0 / (v_prewhitening + v_kernel);
   }
   const MatrixXd recolour = (MatrixXd::Identity(p, p) - A).inverse();
   const MatrixXd s = recolour * s_h * recolour.transpose();

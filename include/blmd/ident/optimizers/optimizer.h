@@ -96,7 +96,9 @@ struct IntervalRecord {
   std::map<std::string, double> variance_ratio;  // per free parameter: HAC over white variance
   bool has_bandwidth = false;                    // the sandwich ran
   double bandwidth = 0.0, prewhitening_gain = 0.0;
-  std::string unavailable;  // why the sandwich gave no interval
+  double degrees_of_freedom = 0.0;  // of the long-run variance (when it ran)
+  double t_quantile = 0.0;          // Student t's 97.5 % point at those degrees of freedom
+  std::string unavailable;          // why the sandwich gave no interval
   std::optional<JackknifeRecord> leave_one_trace_out;
 };
 

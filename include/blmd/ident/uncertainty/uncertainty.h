@@ -27,6 +27,7 @@
 
 #include <Eigen/Dense>
 #include <cstddef>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -46,6 +47,8 @@ struct SandwichCovariance {
   Eigen::MatrixXd white;            // the sandwich with independent samples, for comparison
   double bandwidth = 0.0;           // Bartlett lag window L (whitened scores)
   double max_var_eigenvalue = 0.0;  // largest |eigenvalue| of the prewhitening A (after the cap)
+  // Of the long-run variance (Satterthwaite): the 95 % interval uses Student's t with these.
+  double degrees_of_freedom = std::numeric_limits<double>::infinity();
   // Per parameter: the HAC variance over the white-noise variance (>= 1 when the residuals
   // are positively correlated); the factor by which the classic interval was too narrow is
   // its square root.
@@ -56,6 +59,10 @@ struct SandwichCovariance {
 // (rows in `layout` order). Not ok when J^T J is singular (smallest singular value below
 // 1e-12 of the largest, after scaling each column of J to unit norm) or a value is not
 // finite.
+// Student t's 97.5 % point with `degrees_of_freedom` (the normal's 1.95996 when infinite or
+// above 1e7); the half-width of a 95 % interval in standard deviations.
+double StudentTQuantile975(double degrees_of_freedom);
+
 SandwichCovariance HacSandwichCovariance(const Eigen::MatrixXd& jacobian,
                                          const Eigen::VectorXd& residuals,
                                          const ResidualLayout& layout);
