@@ -21,6 +21,12 @@ inline void AddDialectFlags(CLI::App& app, DialectSettings* dialect) {
                  "rows that repeat a time stamp: error (default), first (keep the first row), "
                  "mean (average the rows of each instant)")
       ->check(CLI::IsMember({"error", "first", "mean"}));
+  app.add_option("--no-header", dialect->no_header,
+                 "the trace files have no header row: NAMES (comma separated, e.g. u,theta) "
+                 "name their columns in order");
+  app.add_option("--sample-rate", dialect->sample_rate,
+                 "the trace files have no time column: their rows are samples at HZ (t = k/HZ)")
+      ->check(CLI::PositiveNumber);
 }
 
 struct DialectFlags : DialectSettings {

@@ -92,11 +92,30 @@ DuplicateTime DialectSettings::Duplicates() const {
                                     : DuplicateTime::kError;
 }
 
+std::vector<std::string> DialectSettings::Names() const {
+  std::vector<std::string> names;
+  if (no_header.empty()) return names;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t comma = no_header.find(',', start);
+    std::string name =
+        no_header.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+    const std::size_t first = name.find_first_not_of(" \t");
+    const std::size_t last = name.find_last_not_of(" \t");
+    names.push_back(first == std::string::npos ? "" : name.substr(first, last - first + 1));
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return names;
+}
+
 TraceInputOptions TraceSettings::Options(const std::vector<std::string>& observe,
                                          bool equation_error) const {
   TraceInputOptions options;
   options.delimiter = Delimiter();
   options.duplicate_time = Duplicates();
+  options.names = Names();
+  options.sample_rate = sample_rate;
   for (const auto& text : columns) {
     const auto [name, header] = ParseTextAssignment(text, "--column");
     options.columns[name] = header;
@@ -138,6 +157,8 @@ std::string TraceSettings::RowsLine() const {
   if (!split.empty()) line += " --split " + split;
   if (initial_state == "trace") line += " --initial-state trace";
   if (Duplicates() != DuplicateTime::kError) line += " --duplicate-time " + duplicate_time;
+  if (!no_header.empty()) line += " --no-header " + no_header;
+  if (sample_rate > 0.0) line += " --sample-rate " + FormatNumber(sample_rate);
   if (!resample.empty()) line += " --resample " + resample;
   return line;
 }
@@ -366,6 +387,8 @@ Trace ReadInputTrace(const std::string& path, const DialectSettings& dialect) {
   options.strict_columns = {"t", "u", "open"};  // other columns may hold text
   options.delimiter = dialect.Delimiter();
   options.duplicate_time = dialect.Duplicates();
+  options.names = dialect.Names();
+  options.sample_rate = dialect.sample_rate;
   return ReadTraceCsv(path, options);
 }
 

@@ -29,6 +29,10 @@ namespace blmd {
 struct DialectSettings {
   std::string delimiter;       // "", ",", ";" or "tab" ("": detected from the header)
   std::string duplicate_time;  // "", "error", "first" or "mean" ("": error)
+  std::string no_header;       // --no-header NAMES: comma-separated column names ("": a header)
+  double sample_rate = 0.0;    // --sample-rate HZ: the time column made from the rate (0: read)
+
+  std::vector<std::string> Names() const;  // no_header split at commas (each trimmed)
 
   char Delimiter() const;
   DuplicateTime Duplicates() const;

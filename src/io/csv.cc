@@ -129,6 +129,13 @@ class TraceParser {
     if (bytes_seen_ == 0) Fail(0, 0, "empty file: expected a header row such as 't,u,i,w'");
     if (!have_header_) Fail(line_number_, 0, "no header row: expected a row such as 't,u,i,w'");
     if (rows_ == 0) Fail(line_number_, 0, "no data rows after the header");
+    if (options_.sample_rate > 0.0) {  // --sample-rate: the time column made, first
+      std::vector<double> t(rows_);
+      for (std::size_t k = 0; k < rows_; ++k) {
+        t[k] = static_cast<double>(k) / options_.sample_rate;
+      }
+      trace_.Append(options_.time_column.empty() ? "t" : options_.time_column, std::move(t));
+    }
     // Linear in the number of columns: names are unique (checked in the header).
     for (std::size_t c = 0; c < names_.size(); ++c) {
       if (!text_[c]) trace_.Append(names_[c], std::move(columns_[c]));
@@ -174,8 +181,11 @@ class TraceParser {
         return;
       }
       if (content.empty()) Fail(line_number_, 1, "empty line where the header row was expected");
-      Header(line);
-      return;
+      if (options_.names.empty()) {
+        Header(line);
+        return;
+      }
+      GivenNames(line);  // no header row: this line is the first row of data
     }
     if (blank_line_ > 0) Fail(blank_line_, 1, "empty line inside the data");
     if (line.empty()) {  // fine as the very last line (a second final newline), else an error
@@ -323,9 +333,50 @@ class TraceParser {
       }
       names_.push_back(std::move(name));
     }
+    SetUpColumns();
+  }
+
+  // --no-header: the names come from the options; the separator from the first data line.
+  void GivenNames(std::string_view line) {
+    CheckText(line);
+    delimiter_ = DetectDelimiter(line);
+    std::unordered_set<std::string> seen;
+    for (const std::string& name : options_.names) {
+      double ignored = 0.0;
+      const auto result = std::from_chars(name.data(), name.data() + name.size(), ignored);
+      if (name.empty() || (result.ec == std::errc() && result.ptr == name.data() + name.size())) {
+        Fail(0, 0,
+             "--no-header: column name " + QuoteName(name) +
+                 " is empty or a number; name the columns, e.g. --no-header u,theta");
+      }
+      if (!seen.insert(name).second) {
+        Fail(0, 0, "--no-header: duplicate column name " + QuoteName(name));
+      }
+      names_.push_back(name);
+    }
+    SetUpColumns();
+  }
+
+  std::string HeaderLabel() const {
+    return options_.names.empty() ? "the header has" : "--no-header names";
+  }
+
+  void SetUpColumns() {
     have_header_ = true;
+    if (options_.sample_rate > 0.0) {
+      const std::string time = options_.time_column.empty() ? "t" : options_.time_column;
+      if (std::find(names_.begin(), names_.end(), time) != names_.end()) {
+        Fail(0, 0,
+             "--sample-rate: the file has a time column '" + time +
+                 "' already; give one or the other");
+      }
+    }
     for (const auto& required : options_.required) {
-      if (seen.find(required) == seen.end()) {
+      if (options_.sample_rate > 0.0 &&
+          required == (options_.time_column.empty() ? "t" : options_.time_column)) {
+        continue;  // made from the rate
+      }
+      if (std::find(names_.begin(), names_.end(), required) == names_.end()) {
         Fail(0, 0,
              "missing required column '" + required + "' (header has: " + HeaderSummary(names_) +
                  ")");
@@ -359,8 +410,10 @@ class TraceParser {
     }
     if (fields_.size() > width) {
       Fail(line_number_, static_cast<long>(width + 1),
-           "too many fields: the header has " + std::to_string(width) + " columns" +
-               (delimiter_ == ',' ? "" : std::string(" (separator '") + delimiter_ + "')"));
+           "too many fields: " + HeaderLabel() + " " + std::to_string(width) + " columns" +
+               (delimiter_ == ','    ? ""
+                : delimiter_ == '\t' ? std::string(" (separator tab)")
+                                     : std::string(" (separator '") + delimiter_ + "')"));
     }
     for (std::size_t c = 0; c < fields_.size(); ++c) {
       double value;

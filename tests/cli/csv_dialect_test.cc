@@ -180,6 +180,65 @@ TEST(CsvDialects, Mg996rServoLogWithRepeatedTimeStamps) {
   EXPECT_EQ(trace.Column("Voltage_V")[2], -1.3079999685287476);
 }
 
+// A logger's dump: no header row, tab separated, no time column, a fixed rate. Read with
+// --no-header NAMES and --sample-rate HZ, it fits as the same samples with a header and a
+// time column do (before: "header expected but found the number ...").
+TEST(CsvDialects, HeaderlessFileAtAFixedRate) {
+  CsvReadOptions options;
+  options.names = {"u", "theta"};
+  options.sample_rate = 1000.0;
+  const Trace trace = ParseTraceCsv("# logger v2\n1.5\t0\n-2\t0.25\n3\t0.5\n", "log.tsv", options);
+  ASSERT_EQ(trace.names(), (std::vector<std::string>{"t", "u", "theta"}));
+  EXPECT_EQ(trace.Column("t"), (std::vector<double>{0.0, 0.001, 0.002}));
+  EXPECT_EQ(trace.Column("u"), (std::vector<double>{1.5, -2.0, 3.0}));
+  EXPECT_EQ(trace.comments, (std::vector<std::string>{"logger v2"}));
+  EXPECT_EQ(ErrorOf("1\t2\t3\n", options),
+            "log.csv:1:3: too many fields: --no-header names 2 columns (separator tab)");
+  EXPECT_EQ(ErrorOf("1\t2\n3\n", options), "log.csv:2:2: too few fields: expected 2, found 1");
+  options.names = {"t", "u"};
+  EXPECT_EQ(ErrorOf("0\t1\n", options),
+            "log.csv: --sample-rate: the file has a time column 't' already; give one or the "
+            "other");
+  options.names = {"u", "u"};
+  EXPECT_EQ(ErrorOf("0\t1\n", options), "log.csv: --no-header: duplicate column name 'u'");
+  options.names = {"u", "2"};
+  EXPECT_EQ(ErrorOf("0\t1\n", options),
+            "log.csv: --no-header: column name '2' is empty or a number; name the columns, e.g. "
+            "--no-header u,theta");
+
+  // End to end: the Ganesh square-wave record, once as blmd-sim writes it and once as a
+  // headerless tab-separated dump of u, i, w at 2 kHz.
+  TempDir dir;
+  const std::string config = SourcePath("configs/ganesh-square.json");
+  CommandResult run = blmd::testing::Run(BinPath("blmd-sim") + " --config " + config + " --out " +
+                                         dir.File("sim.csv") + " --quiet");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const Trace sim = ReadTraceCsv(dir.File("sim.csv"));
+  std::ostringstream dump;
+  dump.precision(17);
+  for (std::size_t k = 0; k < sim.rows(); ++k) {
+    dump << sim.Column("u")[k] << '\t' << sim.Column("i")[k] << '\t' << sim.Column("w")[k] << '\n';
+  }
+  const std::string tsv = dir.Write("dump.tsv", dump.str());
+  const std::string fit = BinPath("blmd-ident") + " --config " + config + " --quiet --report ";
+  run = blmd::testing::Run(fit + dir.File("with_header.json") + " --trace " + dir.File("sim.csv"));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  run = blmd::testing::Run(fit + dir.File("headerless.json") + " --trace " + tsv +
+                           " --no-header u,i,w --sample-rate 2000");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json a = nlohmann::json::parse(Slurp(dir.File("with_header.json")));
+  const nlohmann::json b = nlohmann::json::parse(Slurp(dir.File("headerless.json")));
+  EXPECT_EQ(b["trace"]["samples"], a["trace"]["samples"]);
+  for (const char* name : {"J", "B"}) {
+    const double x = a["parameters"][name]["value"].get<double>();
+    EXPECT_NEAR(b["parameters"][name]["value"].get<double>() / x, 1.0, 1e-9) << name;
+  }
+  run = blmd::testing::Run(fit + dir.File("bad.json") + " --trace " + tsv);
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find("header expected but found the number"), std::string::npos) << run.err;
+  EXPECT_FALSE(FileExists(dir.File("bad.json")));
+}
+
 // 200 000 columns: the header and the rows are read in one pass each (was quadratic in the
 // number of columns: 26 s through blmd-ident on this machine; now 0.46 s).
 TEST(CsvDialects, WideHeaderReadsEveryColumn) {

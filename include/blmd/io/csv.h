@@ -35,6 +35,14 @@ struct CsvReadOptions {
   // has one outside quotes, else ';', else tab, else ',').
   char delimiter = 0;
   DuplicateTime duplicate_time = DuplicateTime::kError;
+  // A file without a header row (a logger's dump): when not empty, these name its columns in
+  // order and its first line that is not a comment is data; every row must have this many
+  // fields. The names are checked as a header's are (none empty, none repeated, none a number).
+  std::vector<std::string> names;
+  // > 0: the file has no time column and its rows are samples at this rate (Hz): a column
+  // named time_column ("t" when that is empty) is made, t = k / sample_rate for row k = 0, 1,
+  // ... after the merging of repeated rows. A file that has such a column is an error.
+  double sample_rate = 0.0;
 };
 
 // Reads the file in chunks (the text is never held whole: memory is about the numbers'

@@ -129,6 +129,8 @@ std::vector<FitTrace> LoadFitTraces(const std::string& path, const TraceInputOpt
   // selects or splits). The trace's rows are then the file's lines, for every message.
   csv.time_column = "";
   csv.delimiter = options.delimiter;
+  csv.names = options.names;
+  csv.sample_rate = options.sample_rate;
   // The columns this fit reads are read strictly; any other may hold text (a timestamp, a
   // state name) or empty cells, and is then left out (docs/trace-format.md).
   csv.strict_columns = UsedHeaders(options);

@@ -45,6 +45,10 @@ struct TraceInputOptions {
   // within each experiment, after selection and splitting.
   char delimiter = 0;
   DuplicateTime duplicate_time = DuplicateTime::kError;
+  // A file without a header row (--no-header): its columns' names in order; and its rate
+  // (--sample-rate, Hz) when it has no time column (CsvReadOptions::names, sample_rate).
+  std::vector<std::string> names;
+  double sample_rate = 0.0;
   // --resample: each experiment linearly interpolated onto the uniform grid t0 + k step
   // (s), k = 0, 1, ... up to its last time stamp (`open`, a switch, is held, not
   // interpolated); with `resample_median` the step is the experiment's median step. A
