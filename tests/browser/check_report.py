@@ -59,8 +59,8 @@ def chromium(binary, arguments, url, log_path):
 
 
 def expected_plots(report):
-    """Per trace and observed column: the trace, its first transient, its residual; per
-    column the autocorrelation; one cost slice per free parameter. When discovery added an
+    """Per trace and observed column: the trace, its first transient (where u has a step), its
+    residual; per column the autocorrelation; one cost slice per free parameter. When discovery added an
     effect, also per trace and column the residual after discovery, and one slice per
     parameter of the final model."""
     observe = report["fit"]["observe"]
@@ -75,7 +75,7 @@ def expected_plots(report):
         count += len(observe) * traces + len(discovery["parameters_after"])
     # The adequacy check (docs/discovery.md §7): the residual against each flagged state.
     if discovery and discovery.get("adequacy", {}).get("ok"):
-        count += len(discovery["adequacy"].get("depends_on", []))
+        count += sum(1 for t in discovery["adequacy"].get("tests", []) if t.get("flagged"))
     # The linear views: Bode magnitude, phase and coherence per output of the frequency
     # response; a step response per output with a final value.
     frequency = report.get("frequency_response", {})
@@ -182,8 +182,10 @@ def main():
     log = os.path.join(args.out, "chromium.log")
     open(log, "wb").close()
     report = json.load(open(args.json))
-    expected = expected_plots(report)
     source = open(args.html, encoding="utf-8").read()
+    # A trace whose u has no step gets a note instead of its first-transient plots.
+    expected = expected_plots(report) - source.count("No first-transient view") * len(
+        report["fit"]["observe"])
 
     # 1. The DOM as the browser built it.
     dom = chromium(args.chromium, ["--dump-dom"], url, log)

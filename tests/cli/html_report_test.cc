@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <map>
 #include <regex>
@@ -207,11 +208,42 @@ TEST(FirstTransientWindow, LastsTwoTimeConstantsFromTheStep) {
     std::vector<FitTrace> traces = {LoadFitTrace(dir.Write("first-order.csv", csv), input, {})};
     const FitProblem problem(config, std::move(traces), {"w"},
                              MakeFreeParameters(config, {"J", "B"}));
-    const auto [begin, end] = FirstTransientWindow(problem, 0, problem.traces()[0].trace);
+    const auto window = FirstTransientWindow(problem, 0, problem.traces()[0].trace);
+    ASSERT_TRUE(window.has_value());
+    const auto [begin, end] = *window;
     // 63.2 % is first reached at the sample t0 + tau (1 - e^-1 = 0.63212 > 0.632).
     EXPECT_NEAR(end, t0 + 2 * tau, 1e-9);
     EXPECT_NEAR(begin, std::max(0.0, t0 - 0.05 * 2 * tau), 1e-9);
   }
+}
+
+// No step, no view: u that creeps over 5 % of its range (a loop's torque, a ramp: here
+// u = t^2 from rest) or that steps but changes again within 20 samples. (Before, a 36 ms
+// window was drawn over a closed-loop record's noisy torque, with no step in it.)
+TEST(FirstTransientWindow, NoneWithoutAStepThatHolds) {
+  const Config config = LoadConfig(SourcePath("configs/ganesh-noload.json"));
+  const auto window = [&](const std::function<double(int)>& u) {
+    TempDir dir;
+    std::string csv = "t,u,w\n";
+    double w = 0.0;
+    for (int k = 0; k <= 1000; ++k) {
+      char line[128];
+      std::snprintf(line, sizeof line, "%.6f,%.17g,%.17g\n", k * 1e-3, u(k), w);
+      csv += line;
+      w += 0.05 * (u(k) - w);
+    }
+    TraceInputOptions input;
+    input.required = {"w"};
+    std::vector<FitTrace> traces = {LoadFitTrace(dir.Write("u.csv", csv), input, {})};
+    const FitProblem problem(config, std::move(traces), {"w"},
+                             MakeFreeParameters(config, {"J", "B"}));
+    return FirstTransientWindow(problem, 0, problem.traces()[0].trace);
+  };
+  EXPECT_FALSE(window([](int k) { return 1e-6 * k * k; }).has_value());  // creeps
+  EXPECT_FALSE(window([](int k) { return k >= 100 ? (k / 10) % 2 : 0.0; }).has_value());
+  const auto step = window([](int k) { return k >= 100 ? 1.0 : 0.0; });  // a step that holds
+  ASSERT_TRUE(step.has_value());
+  EXPECT_NEAR(step->first, 0.1 - 0.05 * (step->second - 0.1) / 1.0, 1e-3);
 }
 
 TEST(HtmlReport, HasEveryPartOfAFitWithoutDiscovery) {

@@ -95,13 +95,14 @@ std::vector<CostSlice> ComputeCostSlices(const FitProblem& problem,
   return slices;
 }
 
-std::pair<double, double> FirstTransientWindow(const FitProblem& problem, std::size_t k,
-                                               const Trace& simulated) {
+std::optional<std::pair<double, double>> FirstTransientWindow(const FitProblem& problem,
+                                                              std::size_t k,
+                                                              const Trace& simulated) {
   const Trace& measured = problem.measured(k);
   const std::vector<double>& t = measured.Column("t");
   const std::size_t n = t.size();
-  if (n == 0) return {0.0, 0.0};
-  if (n <= 20) return {t.front(), t.back()};
+  if (n == 0) return std::nullopt;
+  if (n <= 20) return std::make_pair(t.front(), t.back());
   // The input's changes: beyond 5 % of its range.
   std::size_t start = 0, next_change = n;
   if (measured.Has("u")) {
@@ -118,9 +119,15 @@ std::pair<double, double> FirstTransientWindow(const FitProblem& problem, std::s
       if (std::abs(u[0]) <= threshold) {
         while (start < n && !(std::abs(u[start] - u[0]) > threshold)) ++start;
         if (start == n) start = 0;
+        // A step makes most of its move in one sample; a loop's torque, a ramp or a chirp
+        // creeps over the 5 %.
+        if (start > 0 && std::abs(u[start] - u[start - 1]) < 0.5 * std::abs(u[start] - u[0])) {
+          return std::nullopt;
+        }
       }
       next_change = start + 1;
       while (next_change < n && !(std::abs(u[next_change] - u[start]) > threshold)) ++next_change;
+      if (next_change - start < 20) return std::nullopt;  // u does not hold after the step
     }
   }
   // Per observed column: the time it takes to cover 63.2 % of its change over the segment.
@@ -147,7 +154,7 @@ std::pair<double, double> FirstTransientWindow(const FitProblem& problem, std::s
       }
     }
   }
-  if (!any) settle = 0.5 * (t[next_change - 1] - t[start]);
+  if (!any) return std::nullopt;  // nothing observed responds to it
   const double length = 2.0 * settle;
   double begin = std::max(t.front(), t[start] - 0.05 * length);
   double end = std::min(t.back(), t[start] + length);
@@ -157,7 +164,7 @@ std::pair<double, double> FirstTransientWindow(const FitProblem& problem, std::s
   std::size_t count = 0;
   for (std::size_t i = first; i < n && t[i] <= end; ++i) ++count;
   if (count < 20) end = t[std::min(n - 1, first + 19)];
-  return {begin, end};
+  return std::make_pair(begin, end);
 }
 
 }  // namespace blmd

@@ -382,7 +382,8 @@ void WriteTraces(Page& page, const IdentReport& report, const FitProblem& proble
   h += ". Each plot draws at most five samples per pixel column (first, last, lowest, highest, "
        "first "
        "gap), so spikes stay visible. The second plot of each column is the first transient, "
-       "enlarged; any figure can be enlarged to the whole window with its <i>enlarge</i> "
+       "enlarged, where u has a step; any figure can be enlarged to the whole window with its "
+       "<i>enlarge</i> "
        "link.</p>\n";
   if (problem.equation_error()) {
     h += "<p class=\"note\">Equation error (docs/identification.md &sect;8): the measured curve is "
@@ -400,13 +401,14 @@ void WriteTraces(Page& page, const IdentReport& report, const FitProblem& proble
     const std::string trace_note = traces > 1 ? " (trace " + std::to_string(k + 1) + ")" : "";
     if (traces > 1)
       h += "<h3>Trace " + std::to_string(k + 1) + ": <code>" + Escape(ft.path) + "</code></h3>\n";
-    const std::pair<double, double> window =
+    const std::optional<std::pair<double, double>> transient =
         FirstTransientWindow(problem, k, fit.ok ? fit.traces[k] : measured);
+    const std::pair<double, double> window = transient.value_or(std::make_pair(0.0, 0.0));
     std::size_t begin = 0, end = t.size();
     while (begin < t.size() && t[begin] < window.first) ++begin;
     end = begin;
     while (end < t.size() && t[end] <= window.second) ++end;
-    for (int detail = 0; detail < 2; ++detail) {
+    for (int detail = 0; detail < (transient ? 2 : 1); ++detail) {
       h += "<div class=\"grid\">\n";
       for (const auto& column : problem.observe()) {
         const ColumnInfo info = DescribeColumn(column, model);
@@ -444,6 +446,11 @@ void WriteTraces(Page& page, const IdentReport& report, const FitProblem& proble
             LinePlotSvg(plot, series), caption);
       }
       h += "</div>\n";
+    }
+    if (!transient) {
+      h += "<p class=\"note\">No first-transient view" + trace_note +
+           ": u has no step that holds for 20 samples with a response to it (it changes "
+           "gradually, as a loop's output, a ramp or a chirp does).</p>\n";
     }
   }
   page.EndSection();

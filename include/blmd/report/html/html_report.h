@@ -34,6 +34,7 @@
 #pragma once
 
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -94,9 +95,12 @@ std::vector<CostSlice> ComputeCostSlices(const FitProblem& problem,
 // and lasts twice the time the slowest observed column takes to cover 63.2 % of its change
 // until u's next change (one time constant of a first-order response, so the window shows
 // 86 % of it), with 5 % of that length before the start. At least 20 samples wide, inside
-// the trace.
-std::pair<double, double> FirstTransientWindow(const FitProblem& problem, std::size_t k,
-                                               const Trace& simulated);
+// the trace. None when there is no step there: u reaches the 5 % by a gradual change (more
+// than half of the move made before its last sample, as under a feedback loop, a ramp or a
+// chirp), u then holds for fewer than 20 samples, or no observed column responds.
+std::optional<std::pair<double, double>> FirstTransientWindow(const FitProblem& problem,
+                                                              std::size_t k,
+                                                              const Trace& simulated);
 
 // The HTML text. Throws std::invalid_argument when a required input is null.
 std::string MakeHtmlReport(const HtmlReportInputs& inputs, const HtmlReportOptions& options = {});
