@@ -101,6 +101,12 @@ void SetNoise(const Config& config, const std::string& config_path, const Design
   for (std::size_t c = 0; c < problem.observe.size(); ++c) {
     const std::string& column = problem.observe[c];
     if (!request->noise_source[c].empty()) continue;
+    if (const auto at = request->report_noise.find(column);
+        s.trace_path.empty() && at != request->report_noise.end()) {
+      problem.sigma[c] = at->second;  // the report's residual: its noise and model error
+      request->noise_source[c] = "report";
+      continue;
+    }
     if (s.trace_path.empty()) {
       throw InputError("--noise: no noise level for the observed column '" + column +
                        "' (give --noise " + column +
@@ -127,6 +133,8 @@ void ReadTrace(const Config& config, const DesignSettings& s, DesignRequest* req
   }
   request->trace = traces.front().trace;
   request->trace_sha256 = traces.front().sha256;
+  // --initial-state trace: the replay starts where the record does (a coast-down from speed).
+  request->problem.config.experiment.initial = traces.front().initial;
   if (request->trace.rows() < 3) {
     throw InputError(s.trace_path + ": " + std::to_string(request->trace.rows()) +
                      " rows: a recorded experiment needs at least 3");
@@ -145,9 +153,20 @@ void ApplyDesignReport(const std::string& path, Config* config, DesignRequest* r
   std::vector<std::string>& free = config->identification.free;
   for (const StoredParameter& p : report.parameters()) {
     if (p.free && std::find(free.begin(), free.end(), p.name) == free.end()) free.push_back(p.name);
+    // The bounds the report's fit searched in (discovery scales an effect's bounds to the
+    // data; the effect's defaults may not hold the fitted value).
+    if (p.free && p.has_bounds && p.bound_low <= p.value * (1 + 1e-9) &&
+        p.value <= p.bound_high * (1 + 1e-9)) {
+      config->identification.bounds[p.name] = {p.bound_low, p.bound_high};
+      // A value at its bound may lie outside it by the rounding of its log (1e-8 read back
+      // as 9.999999999999982e-09).
+      config->parameters.Set(p.name, std::clamp(p.value, p.bound_low, p.bound_high));
+    }
   }
   request->report_path = path;
   request->report_sha256 = report.sha256();
+  request->report_noise = report.noise_std();
+  request->report_variance_ratio = report.variance_ratio();
   const std::vector<std::string> reasons = ReportInadequacy(report);
   if (!reasons.empty()) {
     request->warnings.emplace_back(
@@ -264,6 +283,15 @@ DesignRequest MakeDesignRequest(Config config, const std::string& config_path,
   request.config_path = config_path;
   request.config_sha256 = Sha256Hex(ReadFileText(config_path, kMaxConfigBytes, "config"));
   request.problem = MakeDesignProblem(config);
+  if (!s.from_report.empty()) {
+    // What the report's record achieved beyond white noise (its residual's colour and the
+    // model's error): each parameter's variance widened by the report's ratio.
+    for (const FreeParameter& p : request.problem.free) {
+      const auto at = request.report_variance_ratio.find(p.name);
+      request.problem.variance_factor.push_back(
+          at == request.report_variance_ratio.end() ? 1.0 : at->second);
+    }
+  }
   request.options.threads = s.threads;
   request.options.sample_rate = config.experiment.sample_rate;
   bool has_input_limit = false;
@@ -416,6 +444,9 @@ DesignReport RunDesign(const DesignRequest& request) {
   if (report.ok) AddReference(request, problem, &report);
   report.report_path = request.report_path;
   report.report_sha256 = request.report_sha256;
+  for (std::size_t k = 0; k < request.problem.variance_factor.size(); ++k) {
+    report.variance_factor[request.problem.free[k].name] = request.problem.variance_factor[k];
+  }
   report.breakaway_torque = request.breakaway_torque;
   report.breakaway_u = request.breakaway_u;
   report.warnings = request.warnings;

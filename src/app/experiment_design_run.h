@@ -38,6 +38,9 @@ struct DesignRequest {
   Trace trace;                             // --trace: t, u and the observed columns as read
   InputSignal recorded;                    // --trace: its u (and open) held between samples
   std::string report_path, report_sha256;  // --from-report
+  // --from-report: each observed column's noise and each free parameter's variance ratio (the
+  // residual's colour on that record) as the report gives them.
+  std::map<std::string, double> report_noise, report_variance_ratio;
   // The drive torque the shaft must overcome to move (N·m; friction, cogging, load) and the
   // |u| that gives it at standstill; 0 when the model has none or the model's torque per
   // unit input at standstill is not known (docs/design.md §7).

@@ -1,6 +1,7 @@
 #include "blmd/io/stored_report.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "blmd/error.h"
 #include "blmd/format.h"
@@ -46,6 +47,12 @@ StoredReport StoredReport::Load(const std::string& path, const std::string& role
     p.free = entry.value("free", false);
     p.at_bound = entry.contains("at_bound") && entry["at_bound"].is_boolean() &&
                  entry["at_bound"].get<bool>();
+    const json& bounds = entry.contains("bounds") ? entry["bounds"] : json();
+    if (IsPair(bounds) && bounds[0].get<double>() < bounds[1].get<double>()) {
+      p.has_bounds = true;
+      p.bound_low = bounds[0].get<double>();
+      p.bound_high = bounds[1].get<double>();
+    }
     const json& ci = entry.contains("ci95") ? entry["ci95"] : json();
     if (IsPair(ci)) {
       p.has_ci95 = true;
@@ -78,6 +85,28 @@ StoredReport StoredReport::Load(const std::string& path, const std::string& role
       root["fit"]["nrmse"].is_number()) {
     report.nrmse_ = root["fit"]["nrmse"].get<double>();
   }
+  // Optional figures, taken where they are positive finite numbers and ignored otherwise
+  // (reports of older versions lack them).
+  const auto positive_numbers = [](const json& object, const char* key,
+                                   std::map<std::string, double>* out) {
+    if (!object.is_object()) return;
+    for (const auto& [name, value] : object.items()) {
+      const json& x =
+          key ? (value.is_object() && value.contains(key) ? value[key] : json()) : value;
+      if (x.is_number() && std::isfinite(x.get<double>()) && x.get<double>() > 0.0) {
+        (*out)[name] = x.get<double>();
+      }
+    }
+  };
+  if (root.contains("noise") && root["noise"].is_object() && root["noise"].contains("columns")) {
+    positive_numbers(root["noise"]["columns"], "std", &report.noise_std_);
+  }
+  const json* interval = &root;
+  for (const char* key : {"method_summary", "details", "interval", "variance_ratio"}) {
+    interval = interval->is_object() && interval->contains(key) ? &(*interval)[key] : nullptr;
+    if (!interval) break;
+  }
+  if (interval) positive_numbers(*interval, nullptr, &report.variance_ratio_);
   if (root.contains("warnings") && root["warnings"].is_array()) {
     for (const json& w : root["warnings"]) {
       if (!w.is_object() || !w.contains("code") || !w["code"].is_string()) continue;

@@ -163,7 +163,9 @@ nlohmann::json DesignReportJson(const DesignReport& report) {
     out["trace"] = {{"path", report.trace_path}, {"sha256", report.trace_sha256}};
   }
   if (!report.report_path.empty()) {
-    out["from_report"] = {{"path", report.report_path}, {"sha256", report.report_sha256}};
+    out["from_report"] = {{"path", report.report_path},
+                          {"sha256", report.report_sha256},
+                          {"variance_factor", report.variance_factor}};
   }
   out["breakaway"] = report.breakaway_u > 0.0
                          ? json{{"torque", report.breakaway_torque}, {"u", report.breakaway_u}}
@@ -262,6 +264,16 @@ std::string DesignSummary(const DesignReport& report) {
     out << "\n";
   }
   if (!report.chosen_within_limits) out << "  note: the recorded response exceeds a --limit\n";
+  if (!report.variance_factor.empty()) {
+    out << "  from the report: variances widened by what its record's residual cost beyond white "
+           "noise (";
+    bool first = true;
+    for (const auto& [name, factor] : report.variance_factor) {
+      out << (first ? "" : ", ") << name << " x" << Sig(factor, 3);
+      first = false;
+    }
+    out << ")\n";
+  }
   if (report.breakaway_u > 0.0) {
     out << "  breakaway: " << Sig(report.breakaway_torque, 4)
         << " N·m of friction, cogging and load at rest; |u| >= " << Sig(report.breakaway_u, 4)

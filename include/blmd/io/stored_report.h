@@ -18,7 +18,10 @@ struct StoredParameter {
   std::string name;
   double value = 0.0;
   bool free = false;
-  bool at_bound = false;  // the report says the bound, not the data, set it
+  bool at_bound = false;    // the report says the bound, not the data, set it
+  bool has_bounds = false;  // the search bounds the fit used (its "bounds")
+  double bound_low = std::numeric_limits<double>::quiet_NaN();
+  double bound_high = std::numeric_limits<double>::quiet_NaN();
   bool has_ci95 = false;
   double ci95_low = std::numeric_limits<double>::quiet_NaN();
   double ci95_high = std::numeric_limits<double>::quiet_NaN();
@@ -50,6 +53,13 @@ class StoredReport {
   const double* FindFixedParameter(const std::string& effect, const std::string& name) const;
   // The final model's NRMSE on its fit traces (fit.nrmse); NaN when the report gives none.
   double nrmse() const { return nrmse_; }
+  // Per observed column: the noise standard deviation the fit used (noise.columns.C.std: the
+  // residual's, or --noise-std's), in the column's unit. Empty when the report gives none.
+  const std::map<std::string, double>& noise_std() const { return noise_std_; }
+  // Per free parameter: the interval's variance over the white-noise variance on this record
+  // (method_summary.details.interval.variance_ratio: what the residual's colour cost). Empty
+  // when the report gives none (methods other than ceres do not record it).
+  const std::map<std::string, double>& variance_ratio() const { return variance_ratio_; }
   // The report's warnings, code and message, in its order.
   const std::vector<std::pair<std::string, std::string>>& warnings() const { return warnings_; }
 
@@ -74,6 +84,7 @@ class StoredReport {
   std::vector<StoredParameter> parameters_;
   std::map<std::string, std::map<std::string, double>> step_parameters_;  // effect -> name -> value
   double nrmse_ = std::numeric_limits<double>::quiet_NaN();
+  std::map<std::string, double> noise_std_, variance_ratio_;
   std::vector<std::pair<std::string, std::string>> warnings_;
 };
 

@@ -37,6 +37,9 @@ struct DesignReport {
   long evaluated = 0;
   std::map<std::string, long> rejected;
   std::string report_path, report_sha256;  // --from-report ("" without)
+  // --from-report: the factor each free parameter's predicted variance was widened by (the
+  // report's variance ratio; 1 where it gives none).
+  std::map<std::string, double> variance_factor;
   // The torque that holds the shaft at rest (N·m) and the |u| that overcomes it with the
   // margin (docs/design.md §7); 0: none or not known for the model.
   double breakaway_torque = 0.0, breakaway_u = 0.0;

@@ -433,6 +433,13 @@ PrecisionPrediction PredictPrecision(const DesignProblem& dp, const Trace& respo
   if (columns.empty() ||
       !Covariances(columns, dp.sigma, dp.config.identification.weighting == "noise", &out))
     return out;
+  if (dp.variance_factor.size() == out.names.size()) {
+    const Eigen::VectorXd root =
+        Eigen::Map<const Eigen::VectorXd>(dp.variance_factor.data(),
+                                          static_cast<Index>(dp.variance_factor.size()))
+            .cwiseSqrt();
+    out.covariance = root.asDiagonal() * out.covariance * root.asDiagonal();
+  }
   const Eigen::LDLT<MatrixXd> ldlt(out.covariance);
   if (!out.covariance.allFinite() || ldlt.info() != Eigen::Success ||
       !(ldlt.vectorD().minCoeff() > 0.0)) {

@@ -62,6 +62,12 @@ struct DesignProblem {
   std::vector<std::string> observe;  // the observed columns
   std::vector<FreeParameter> free;   // the free parameters (bounds for the difference step)
   std::vector<double> sigma;         // per observed column: noise standard deviation, its unit
+  // Per free parameter (empty: all 1): the factor by which the residual's colour widens its
+  // variance beyond the white-noise prediction, as measured on a record (blmd-design
+  // --from-report: the report's HAC variance over its white-noise variance). It multiplies the
+  // covariance's row and column of the parameter by its square root (the Cramér–Rao bound,
+  // a white-noise figure, is left as it is).
+  std::vector<double> variance_factor;
 };
 
 // A config's design problem: its observed columns and free parameters (identification), the
