@@ -101,6 +101,36 @@ TEST(Export, WriteConfigReproducesTheFitsSimulation) {
   EXPECT_EQ(run.exit_code, 0) << run.err;
 }
 
+// A parameter that ends on its lower bound on the log scale: exp(ln 1e-8) is
+// 9.999999999999982e-09, below the bound, and the written config was refused on the refit
+// ("initial value ... is outside its bounds"). The fit's values are inside their bounds.
+TEST(Export, WriteConfigOfAParameterAtItsBoundRefits) {
+  TempDir dir;
+  nlohmann::json config = nlohmann::json::parse(Slurp(SourcePath("configs/ganesh-square.json")));
+  config["parameters"]["B"] = 1e-12;  // no friction: B goes to its lower bound
+  const std::string truth = dir.Write("truth.json", config.dump());
+  CommandResult run = blmd::testing::Run(BinPath("blmd-sim") + " --config " + truth + " --out " +
+                                         dir.File("t.csv") + " --noise w=0.5 --quiet");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  config["parameters"]["B"] = 2.261e-5;
+  config["identification"]["bounds"]["B"] = {1e-8, 1e-2};
+  const std::string start = dir.Write("start.json", config.dump());
+  run = blmd::testing::Run(BinPath("blmd-ident") + " --config " + start + " --trace " +
+                           dir.File("t.csv") + " --quiet --report " + dir.File("r.json") +
+                           " --write-config " + dir.File("final.json"));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json report = nlohmann::json::parse(Slurp(dir.File("r.json")));
+  EXPECT_TRUE(report["parameters"]["B"]["at_bound"].get<bool>());
+  EXPECT_GE(report["parameters"]["B"]["value"].get<double>(), 1e-8);
+  run = blmd::testing::Run(BinPath("blmd-ident") + " --config " + dir.File("final.json") +
+                           " --trace " + dir.File("t.csv") + " --quiet --report " +
+                           dir.File("refit.json"));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json refit = nlohmann::json::parse(Slurp(dir.File("refit.json")));
+  const double J = report["parameters"]["J"]["value"].get<double>();
+  EXPECT_NEAR(refit["parameters"]["J"]["value"].get<double>(), J, 1e-6 * J);
+}
+
 TEST(Export, MatlabScriptRunsInOctave) {
   TempDir dir;
   const CommandResult run = blmd::testing::Run(

@@ -195,10 +195,9 @@ FitResult CeresOptimizer::Minimize(const FitProblem& problem,
   ceres::Solver::Summary ceres_summary;
   ceres::Solve(solver_options, &ceres_problem, &ceres_summary);
   FitResult result;
-  result.values.resize(p);
-  for (std::size_t k = 0; k < p; ++k) {
-    result.values[k] = problem.free()[k].log_scale ? std::exp(x[k]) : x[k];
-  }
+  // Clamped: Ceres keeps ln x inside [ln lower, ln upper], and exp(ln 1e-8) is a rounding
+  // below 1e-8; a value outside its bounds would not load back from --write-config.
+  result.values = FromSearchCoordinates(problem, x, /*clamp=*/true);
   result.evaluation = problem.Evaluate(result.values);
   result.estimates = MakeEstimates(problem, result.values);
 
