@@ -120,6 +120,10 @@ TraceInputOptions TraceSettings::Options(const std::vector<std::string>& observe
     const auto [name, header] = ParseTextAssignment(text, "--column");
     options.columns[name] = header;
   }
+  if (sample_rate > 0.0 && options.columns.count("t")) {
+    throw InputError("--sample-rate makes the time column: not with --column t=" +
+                     options.columns.at("t") + " (give one or the other)");
+  }
   for (const auto& text : scales) {
     const auto [name, factor] = ParseAssignment(text, "--scale");
     options.scales[name] = factor;

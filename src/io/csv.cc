@@ -129,16 +129,17 @@ class TraceParser {
     if (bytes_seen_ == 0) Fail(0, 0, "empty file: expected a header row such as 't,u,i,w'");
     if (!have_header_) Fail(line_number_, 0, "no header row: expected a row such as 't,u,i,w'");
     if (rows_ == 0) Fail(line_number_, 0, "no data rows after the header");
-    if (options_.sample_rate > 0.0) {  // --sample-rate: the time column made, first
+    // Linear in the number of columns: names are unique (checked in the header).
+    for (std::size_t c = 0; c < names_.size(); ++c) {
+      if (!text_[c]) trace_.Append(names_[c], std::move(columns_[c]));
+    }
+    // --sample-rate: the time column made, after the file's (whose field numbers stay theirs).
+    if (options_.sample_rate > 0.0) {
       std::vector<double> t(rows_);
       for (std::size_t k = 0; k < rows_; ++k) {
         t[k] = static_cast<double>(k) / options_.sample_rate;
       }
       trace_.Append(options_.time_column.empty() ? "t" : options_.time_column, std::move(t));
-    }
-    // Linear in the number of columns: names are unique (checked in the header).
-    for (std::size_t c = 0; c < names_.size(); ++c) {
-      if (!text_[c]) trace_.Append(names_[c], std::move(columns_[c]));
     }
     if (trace_.num_columns() == 0) {
       Fail(0, 0,

@@ -188,7 +188,7 @@ TEST(CsvDialects, HeaderlessFileAtAFixedRate) {
   options.names = {"u", "theta"};
   options.sample_rate = 1000.0;
   const Trace trace = ParseTraceCsv("# logger v2\n1.5\t0\n-2\t0.25\n3\t0.5\n", "log.tsv", options);
-  ASSERT_EQ(trace.names(), (std::vector<std::string>{"t", "u", "theta"}));
+  ASSERT_EQ(trace.names(), (std::vector<std::string>{"u", "theta", "t"}));
   EXPECT_EQ(trace.Column("t"), (std::vector<double>{0.0, 0.001, 0.002}));
   EXPECT_EQ(trace.Column("u"), (std::vector<double>{1.5, -2.0, 3.0}));
   EXPECT_EQ(trace.comments, (std::vector<std::string>{"logger v2"}));
@@ -233,6 +233,20 @@ TEST(CsvDialects, HeaderlessFileAtAFixedRate) {
     const double x = a["parameters"][name]["value"].get<double>();
     EXPECT_NEAR(b["parameters"][name]["value"].get<double>() / x, 1.0, 1e-9) << name;
   }
+  // Without a header row, row k is line k + 1 (after the comments): a time column that
+  // goes backwards is named at its own line.
+  const std::string backwards = dir.Write("backwards.tsv", "0\t1\t0\n0.001\t1\t0\n0.0005\t1\t0\n");
+  run = blmd::testing::Run(fit + dir.File("b.json") + " --trace " + backwards +
+                           " --no-header t,u,w --observe w");
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find("backwards.tsv:3:1: time 't' must strictly increase"), std::string::npos)
+      << run.err;
+  run = blmd::testing::Run(fit + dir.File("c.json") + " --trace " + tsv +
+                           " --no-header u,i,w --sample-rate 2000 --column t=u");
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_EQ(run.err,
+            "error: --sample-rate makes the time column: not with --column t=u (give one or the "
+            "other)\n");
   run = blmd::testing::Run(fit + dir.File("bad.json") + " --trace " + tsv);
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_NE(run.err.find("header expected but found the number"), std::string::npos) << run.err;

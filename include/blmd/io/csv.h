@@ -40,8 +40,9 @@ struct CsvReadOptions {
   // fields. The names are checked as a header's are (none empty, none repeated, none a number).
   std::vector<std::string> names;
   // > 0: the file has no time column and its rows are samples at this rate (Hz): a column
-  // named time_column ("t" when that is empty) is made, t = k / sample_rate for row k = 0, 1,
-  // ... after the merging of repeated rows. A file that has such a column is an error.
+  // named time_column ("t" when that is empty) is made after the file's, t = k / sample_rate
+  // for row k = 0, 1, ... (no two rows share a time, so duplicate_time has nothing to merge).
+  // A file that has such a column is an error.
   double sample_rate = 0.0;
 };
 

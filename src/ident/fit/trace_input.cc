@@ -160,8 +160,11 @@ struct TraceFile {
 
 TraceFile LocateTrace(const Trace& trace, const std::string& path,
                       const TraceInputOptions& options) {
-  // Line of row k: comments, the header, then k + 1.
-  TraceFile file{path, options, static_cast<long>(trace.comments.size()) + 2, {}};
+  // Line of row k: comments, the header (none with --no-header), then k + 1.
+  TraceFile file{path,
+                 options,
+                 static_cast<long>(trace.comments.size()) + (options.names.empty() ? 2 : 1),
+                 {}};
   for (std::size_t c = 0; c < trace.num_columns(); ++c) {
     file.fields[trace.names()[c]] = static_cast<long>(c + 1);
   }

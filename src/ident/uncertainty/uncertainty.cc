@@ -200,7 +200,7 @@ SandwichCovariance HacSandwichCovariance(const MatrixXd& jacobian, const VectorX
     const double a = std::min(result.max_var_eigenvalue, kMaxPrewhiteningGain);
     const double v_prewhitening = 4.0 * (1.0 + a) / (total * (1.0 - a));
     const double v_kernel = 4.0 * std::max(bandwidth, 1.0) / (3.0 * total);
-    result.degrees_of_freedom = 2.0 / (v_prewhitening + v_kernel);
+    result.degrees_of_freedom = std::max(1.0, 2.0 / (v_prewhitening + v_kernel));
   }
   const MatrixXd recolour = (MatrixXd::Identity(p, p) - A).inverse();
   const MatrixXd s = recolour * s_h * recolour.transpose();

@@ -449,8 +449,8 @@ void WriteTraces(Page& page, const IdentReport& report, const FitProblem& proble
     }
     if (!transient) {
       h += "<p class=\"note\">No first-transient view" + trace_note +
-           ": u has no step that holds for 20 samples with a response to it (it changes "
-           "gradually, as a loop's output, a ramp or a chirp does).</p>\n";
+           ": u has no step that holds for 20 samples with a response to it (a loop's "
+           "output, a ramp or a chirp changes gradually; a fast PRBS does not hold).</p>\n";
     }
   }
   page.EndSection();

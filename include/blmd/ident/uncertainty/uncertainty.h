@@ -55,14 +55,14 @@ struct SandwichCovariance {
   std::vector<double> variance_ratio;
 };
 
-// The prewhitened HAC sandwich from the cost's weighted residuals r and their Jacobian J
-// (rows in `layout` order). Not ok when J^T J is singular (smallest singular value below
-// 1e-12 of the largest, after scaling each column of J to unit norm) or a value is not
-// finite.
 // Student t's 97.5 % point with `degrees_of_freedom` (the normal's 1.95996 when infinite or
 // above 1e7); the half-width of a 95 % interval in standard deviations.
 double StudentTQuantile975(double degrees_of_freedom);
 
+// The prewhitened HAC sandwich from the cost's weighted residuals r and their Jacobian J
+// (rows in `layout` order). Not ok when J^T J is singular (smallest singular value below
+// 1e-12 of the largest, after scaling each column of J to unit norm) or a value is not
+// finite.
 SandwichCovariance HacSandwichCovariance(const Eigen::MatrixXd& jacobian,
                                          const Eigen::VectorXd& residuals,
                                          const ResidualLayout& layout);
