@@ -1,22 +1,16 @@
 #include "blmd/ident/discovery/discovery.h"
 
-#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
-#include <functional>
 #include <limits>
-#include <map>
 #include <optional>
 
+#include "blmd/format.h"
 #include "blmd/ident/discovery/evidence.h"
-#include "blmd/io/csv.h"
-#include "blmd/random.h"
 #include "blmd/sim/effects.h"
 #include "ident/discovery/effect_search.h"
+#include "ident/discovery/round.h"
 #include "ident/discovery/screening.h"
-#include "ident/fit/counting_cost.h"
-#include "ident/fit/jacobian.h"
-#include "ident/residual/record_parts.h"
 #include "parallel.h"
 
 namespace blmd {
@@ -28,7 +22,14 @@ using internal::PointingDiagnostic;
 
 std::string G(double v, int digits = 4) { return FormatSignificant(v, digits); }
 using internal::CandidateRun;
+using internal::CheckStability;
+using internal::CrossValidateCandidates;
+using internal::ForEachItem;
 using internal::MakeProblem;
+using internal::PassesEvidence;
+using internal::PerturbedTraces;
+using internal::Round;
+using internal::RoundBase;
 using internal::ScreenCandidate;
 
 // The share of what `before` leaves above the noise floor that `after` explains (all in
@@ -39,79 +40,7 @@ double ExplainedShare(double before, double after, double floor) {
   return (before * before - after * after) / above;
 }
 
-// Block cross-validation (docs/discovery.md §3b): `config` with `free` (initial values: the
-// full fit's) fitted on each part of the record and scored on the other; the pooled NRMSE,
-// sqrt of the mean of the two held-out costs. Each part's score is its own NRMSE (its
-// columns' own variances). A model with a position-dependent effect is fitted and scored at
-// the measured angle, as discovery fits it: a free-running prediction of a shaft in a cogging
-// field over half a record hangs on where detents capture it (§6), not on the torque.
-struct CrossValidation {
-  bool ok = false;
-  std::string reason;
-  double nrmse = 0.0;
-  std::string parts;  // how the record was cut (RecordParts::description)
-};
-
-CrossValidation BlockCrossValidate(const Config& config, const std::vector<FreeParameter>& free,
-                                   const std::vector<FitTrace>& traces,
-                                   const std::vector<std::string>& observe,
-                                   const std::vector<double>& values,
-                                   const OptimizerOptions& refit) {
-  CrossValidation out;
-  // The parts, the second starting from this model's own state at the cut.
-  const internal::RecordParts parts =
-      internal::SplitRecord(FitProblem(config, traces, observe, free), values);
-  out.parts = parts.description;
-  if (!parts.ok) {
-    out.reason = parts.reason;
-    return out;
-  }
-  double sum = 0.0;
-  for (int fold = 0; fold < 2; ++fold) {
-    const std::vector<FitTrace>& fit_on = fold == 0 ? parts.first : parts.second;
-    const std::vector<FitTrace>& score_on = fold == 0 ? parts.second : parts.first;
-    const FitProblem fit_problem = MakeProblem(config, fit_on, observe, free);
-    OptimizerOptions options = refit;
-    options.method_options = nlohmann::json::object();
-    options.method_options["max_iterations"] = 20;
-    const FitResult fit = FindOptimizer("ceres").Minimize(fit_problem, options);
-    if (!fit.evaluation.ok) {
-      out.reason = "a fold's fit failed: " + fit.evaluation.reason;
-      return out;
-    }
-    const FitProblem score_problem = MakeProblem(config, score_on, observe, free);
-    const Evaluation score = score_problem.Evaluate(fit.values);
-    if (!score.ok) {
-      out.reason = "a fold's prediction failed: " + score.reason;
-      return out;
-    }
-    sum += score.nrmse2;
-  }
-  out.ok = true;
-  out.nrmse = std::sqrt(0.5 * sum);
-  return out;
-}
-
-// The free parameters of `problem` starting at `values`.
-std::vector<FreeParameter> StartingAt(const std::vector<FreeParameter>& free,
-                                      const std::vector<double>& values) {
-  std::vector<FreeParameter> out = free;
-  for (std::size_t k = 0; k < out.size() && k < values.size(); ++k)
-    out[k].initial = std::clamp(values[k], out[k].lower, out[k].upper);
-  return out;
-}
-
 // Full refit (Ceres, all free parameters) from the screening point, and the verdict.
-// What every candidate of a round is compared with, computed once per round: the current
-// model's residuals on the fit traces (for the prewhitened evidence) or its error on the
-// held-out traces (for the held-out rule).
-struct RoundBase {
-  std::vector<double> residuals;  // empty when its evaluation failed
-  Evaluation held_out;            // ok only with held-out traces that simulate
-  double nrmse = 0.0;             // the current model's
-  double floor_nrmse = 0.0;       // the noise floor (NoiseFloorNrmse)
-};
-
 RoundBase MakeRoundBase(const FitProblem& base, const std::vector<double>& values,
                         double floor_nrmse, const DiscoveryOptions& options) {
   RoundBase round;
@@ -358,27 +287,6 @@ std::vector<std::string> CandidateEffects(const DiscoveryOptions& options,
   return candidates;
 }
 
-// One round of the search: the candidates planned, screened and refit, and their order.
-struct Round {
-  int number = 1;  // from 1, for the progress stages and the report's words
-  std::vector<CandidatePlan> plans;
-  std::vector<CandidateRun> runs;  // one per plan
-  std::vector<std::size_t> order;  // indices into runs, best first
-  RoundBase base;                  // what every candidate is compared with
-  internal::ScreeningGrid grid;    // the screening grid's levels (screening.h)
-  std::vector<int> levels;         // per run: the level it was planned and screened on
-  // Pairs of qualifying candidates (indices into runs) whose choice by cross-validation a
-  // perturbed copy of the data reverses, and the words for the last (QualifyingCandidates).
-  std::vector<std::pair<std::size_t, std::size_t>> undecided;
-  std::string undecided_reason;
-};
-
-// `work` on each of `items`, on `threads` threads.
-void ForEachItem(const std::vector<std::size_t>& items, int threads,
-                 const std::function<void(std::size_t)>& work) {
-  internal::ParallelFor(items.size(), threads, [&](std::size_t k) { work(items[k]); });
-}
-
 // Plans every candidate not yet in the model, screens each with one Gauss-Newton step, refits
 // the promising ones and orders them best first. False when no candidate is left to try.
 bool ScreenAndRefit(const FitProblem& current, const FitResult& fit, double current_bic,
@@ -475,332 +383,6 @@ bool ScreenAndRefit(const FitProblem& current, const FitResult& fit, double curr
     return a.effect < b.effect;
   });
   return true;
-}
-
-// The stopping rule (docs/discovery.md §3b): the evidence, physically valid, material, and
-// generalising to the part of the record it was not fitted to; and a decision that holds when
-// the data change far below their noise (§3d).
-bool PassesEvidence(const CandidateOutcome& o, const DiscoveryOptions& options) {
-  const bool evidence = o.delta_bic < -options.bic_margin ||
-                        (o.deterministic && o.delta_bic_white < -options.bic_margin);
-  return o.fitted && o.valid && o.held_out_better && evidence && o.material && o.stable;
-}
-
-// A copy of the data with every measured value, the recorded input and the initial state
-// scaled by 1 + relative·z, z standard normal from `seed` (time stays as recorded).
-std::vector<FitTrace> PerturbedTraces(const std::vector<FitTrace>& traces, std::uint64_t seed,
-                                      double relative) {
-  Random random(seed);
-  std::vector<FitTrace> out = traces;
-  for (FitTrace& f : out) {
-    for (std::size_t c = 0; c < f.trace.num_columns(); ++c) {
-      if (f.trace.names()[c] == "t") continue;
-      for (double& v : f.trace.Column(c)) v *= 1.0 + relative * random.Normal();
-    }
-    for (double& v : f.input.values) v *= 1.0 + relative * random.Normal();
-    for (double* v : {&f.initial.i, &f.initial.w, &f.initial.theta})
-      *v *= 1.0 + relative * random.Normal();
-  }
-  return out;
-}
-
-// `values` each scaled by 1 + relative·z (z standard normal from `seed`), kept in their bounds.
-std::vector<double> Jittered(std::vector<double> values, const std::vector<FreeParameter>& free,
-                             std::uint64_t seed, double relative) {
-  Random random(seed);
-  for (std::size_t k = 0; k < values.size() && k < free.size(); ++k) {
-    values[k] =
-        std::clamp(values[k] * (1.0 + relative * random.Normal()), free[k].lower, free[k].upper);
-  }
-  return values;
-}
-
-// The plain BIC of `config` with `free` at `values` on `traces`, scored as the report scores
-// it (the measured angle for a position-dependent effect unless effect_angle is
-// "simulated"); +inf when it does not simulate.
-double PlainBic(const Config& config, const std::vector<FreeParameter>& free,
-                const std::vector<FitTrace>& traces, const std::vector<std::string>& observe,
-                const std::vector<double>& values) {
-  const FitProblem problem(config, traces, observe, free);
-  const Evaluation evaluation = problem.Evaluate(values);
-  return evaluation.ok ? Bic(problem, evaluation, problem.num_free())
-                       : std::numeric_limits<double>::infinity();
-}
-
-// Records `o` in result->unstable, replacing an earlier round's outcome of the same effect.
-void RecordUnstable(const CandidateOutcome& o, DiscoveryResult* result) {
-  auto same = [&](const CandidateOutcome& u) { return u.effect == o.effect; };
-  result->unstable.erase(std::remove_if(result->unstable.begin(), result->unstable.end(), same),
-                         result->unstable.end());
-  result->unstable.push_back(o);
-}
-
-// The stability check (DiscoveryOptions::stability_checks, docs/discovery.md §3d): every
-// candidate with a screened or refit point is scored again on the perturbed copies; one whose
-// plain ΔBIC moves by more than the tolerance is marked unstable (never added), its reason
-// saying by how much, and listed in result->unstable.
-void CheckStability(const FitProblem& problem, const FitProblem& current, const FitResult& fit,
-                    const std::vector<std::vector<FitTrace>>& perturbed,
-                    const DiscoveryOptions& options, Round* round, DiscoveryResult* result) {
-  if (perturbed.empty()) return;
-  const std::vector<std::string>& observe = problem.observe();
-  // The current model on the data as given, then on each copy.
-  std::vector<double> base = {
-      PlainBic(current.config(), current.free(), problem.traces(), observe, fit.values)};
-  for (const auto& traces : perturbed)
-    base.push_back(PlainBic(current.config(), current.free(), traces, observe, fit.values));
-  for (double b : base) {
-    if (!std::isfinite(b)) return;  // nothing to compare with
-  }
-  std::vector<std::size_t> checked;
-  for (std::size_t k = 0; k < round->runs.size(); ++k) {
-    if (!round->runs[k].screen_values.empty()) checked.push_back(k);
-  }
-  ForEachItem(checked, internal::ThreadCount(options.refit.threads), [&](std::size_t k) {
-    CandidateRun& run = round->runs[k];
-    CandidateOutcome& o = run.outcome;
-    const std::vector<double>& values = o.fitted ? run.fit.values : run.screen_values;
-    o.stability_checked = true;
-    o.stability_delta_bic =
-        PlainBic(run.config, run.free, problem.traces(), observe, values) - base[0];
-    for (std::size_t c = 0; c < perturbed.size(); ++c) {
-      const double moved =
-          PlainBic(run.config, run.free, perturbed[c], observe, values) - base[c + 1];
-      o.stability_perturbed.push_back(moved);
-      // Only a move that changes the decision counts: the data and the copy on opposite
-      // sides of the evidence threshold, by more than is usual for the score itself (a
-      // model with sticking friction moves its score by a few units under any change; a
-      // chaotic one by its size). A score past the threshold on both decides alike, however
-      // far it moves (a shaft dithering between encoder counts at standstill flips the sign
-      // of its speed under any change, and moves a friction's ΔBIC by thousands on either
-      // side of -8000).
-      const double delta = o.stability_delta_bic;
-      const double tolerance =
-          std::max(options.stability_tolerance, options.stability_relative * std::abs(delta));
-      if ((!std::isfinite(moved) && delta < -options.bic_margin) ||
-          internal::ScoreMoveReverses(delta, moved, options.bic_margin, tolerance)) {
-        o.stable = false;
-      }
-    }
-  });
-  for (std::size_t k : checked) {
-    CandidateOutcome& o = round->runs[k].outcome;
-    if (o.stable) continue;
-    std::string moved;
-    for (double d : o.stability_perturbed) moved += (moved.empty() ? "" : ", ") + G(d, 4);
-    o.reason = "unstable: a change of the data of " + G(options.stability_perturbation, 2) +
-               " of their values moves its plain BIC change from " + G(o.stability_delta_bic, 4) +
-               " to " + moved + ", so the record cannot decide it (not added)";
-    RecordUnstable(o, result);
-  }
-}
-
-// The current model's cross-validation on one level of the screening grid (`config` has its
-// step), on the data and on each perturbed copy, and whether the record's parts can judge a
-// candidate there (CrossValidateCandidates).
-struct CurrentOnParts {
-  CrossValidation on_data;
-  std::vector<CrossValidation> on_copies;
-  // Whether the parts can judge a candidate (below), and whether that holds on the copies.
-  bool usable = true;
-  bool usable_holds = true;
-};
-
-CurrentOnParts CrossValidateCurrent(const FitProblem& problem, const FitProblem& current,
-                                    const FitResult& fit,
-                                    const std::vector<std::vector<FitTrace>>& perturbed,
-                                    const Config& config, const DiscoveryOptions& options,
-                                    const Round& round, DiscoveryResult* result) {
-  CurrentOnParts level;
-  level.on_data =
-      BlockCrossValidate(config, StartingAt(current.free(), fit.values), problem.traces(),
-                         problem.observe(), fit.values, options.refit);
-  if (result->cross_validation_parts.empty()) result->cross_validation_parts = level.on_data.parts;
-  // The copies' fits also start a little off the values (where the previous fits stopped
-  // is known only to their tolerance): a verdict that hinges on that is no finding either.
-  std::vector<double> usable_ratio = {level.on_data.nrmse / round.base.nrmse};
-  for (std::size_t c = 0; c < perturbed.size() && level.on_data.ok; ++c) {
-    const std::vector<double> start =
-        Jittered(fit.values, current.free(), 0x5eed1000u + c, options.stability_start);
-    level.on_copies.push_back(BlockCrossValidate(config, StartingAt(current.free(), start),
-                                                 perturbed[c], problem.observe(), start,
-                                                 options.refit));
-    usable_ratio.push_back(level.on_copies.back().ok
-                               ? level.on_copies.back().nrmse / round.base.nrmse
-                               : std::numeric_limits<double>::quiet_NaN());
-  }
-  // Parts that do not predict each other even with the current model (a cross-validated
-  // NRMSE over twice the fitted one) cannot judge a candidate: the evidence alone decides,
-  // and the report says why (cross_validation_parts). Whether they can is itself checked
-  // on the copies and near the limit: where it is too close to call, a candidate is added only
-  // when it generalises on the data and on every copy, so that either way it would be added.
-  level.usable = level.on_data.nrmse <= 2.0 * round.base.nrmse;
-  const internal::SideCheck usable = internal::CheckRatio(usable_ratio, 2.0);
-  const double to_limit = level.on_data.nrmse / (2.0 * round.base.nrmse) - 1.0;
-  // Near the limit is too close to call only where the parts' fits are chaotic: a copy's
-  // NRMSE more than 1e-6 (a thousand times the change of the data) from the data's.
-  bool chaotic = false;
-  for (double r : usable_ratio) {
-    if (std::isfinite(r) && !(std::abs(r / usable_ratio.front() - 1.0) <= 1e-6)) chaotic = true;
-  }
-  const bool near = chaotic && std::abs(to_limit) <= options.usable_band;
-  level.usable_holds = usable.holds && !near;
-  if (level.on_data.ok && !level.usable_holds) {
-    const std::string could = "a change of the data of " + G(options.stability_perturbation, 2) +
-                              " of their values could give " + G(usable.low * round.base.nrmse) +
-                              " to " + G(usable.high * round.base.nrmse);
-    result->cross_validation_parts +=
-        " (in round " + std::to_string(round.number) +
-        ", whether the parts can judge a candidate is too close to call: they predict "
-        "each other with NRMSE " +
-        G(level.on_data.nrmse) + " against " + G(round.base.nrmse) + " fitted, " +
-        (near ? "within " + G(100.0 * options.usable_band) +
-                    " % of the limit of twice the fitted, and " + could
-              : "and " + could + ", across the limit of twice the fitted") +
-        "; a candidate is added only where it generalises on the data and on every copy)";
-  } else if (level.on_data.ok && !level.usable) {
-    result->cross_validation_parts += " (not used in round " + std::to_string(round.number) +
-                                      ": the parts predict each other with NRMSE " +
-                                      G(level.on_data.nrmse) + " against " + G(round.base.nrmse) +
-                                      " fitted)";
-  }
-  return level;
-}
-
-// Block cross-validation of every candidate that passes the evidence, best first: each must
-// predict the record's parts it was not fitted to better than the current model does.
-void CrossValidateCandidates(const FitProblem& problem, const FitProblem& current,
-                             const FitResult& fit,
-                             const std::vector<std::vector<FitTrace>>& perturbed,
-                             const DiscoveryOptions& options, Round* round,
-                             DiscoveryResult* result) {
-  if (!options.cross_validate || (options.held_out && !options.held_out->empty())) return;
-  ProgressObserver* const progress = options.refit.progress;
-  // Each candidate is cross-validated on the coarsest level of the screening grid on which its
-  // refit model simulates within the grid's tolerance (docs/discovery.md §3c), and compared
-  // with the current model's cross-validation on the same level, computed when first needed,
-  // with those on each perturbed copy.
-  const double dt = current.config().simulation.dt;
-  std::map<int, CurrentOnParts> levels;
-  auto OnStep = [](Config config, double step) {
-    config.simulation.dt = step;
-    return config;
-  };
-  for (std::size_t k : round->order) {
-    CandidateRun& run = round->runs[k];
-    CandidateOutcome& o = run.outcome;
-    if (!PassesEvidence(o, options)) continue;
-    const int level_index = round->grid.LevelHolding(problem, run.config, run.free, run.fit.values);
-    const double step = round->grid.Step(level_index, dt);
-    auto found = levels.find(level_index);
-    if (found == levels.end()) {
-      found = levels
-                  .emplace(level_index, CrossValidateCurrent(problem, current, fit, perturbed,
-                                                             OnStep(current.config(), step),
-                                                             options, *round, result))
-                  .first;
-    }
-    const CurrentOnParts& level = found->second;
-    const CrossValidation& base_cv = level.on_data;
-    if (!base_cv.ok) break;  // nothing to compare with: the evidence alone decides
-    // Parts that do not predict each other with the current model cannot judge a candidate:
-    // the evidence alone decides, except for a deterministic one (§3a), which is judged by
-    // whether it makes the parts predict each other, below.
-    const bool parts_unusable = !level.usable && level.usable_holds;
-    if (parts_unusable && !o.deterministic) continue;
-    if (progress) {
-      progress->BeginStage(
-          "discovery round " + std::to_string(round->number) + ": cross-validating " + o.effect, 0);
-    }
-    const Config config = OnStep(run.config, step);
-    const CrossValidation cv =
-        BlockCrossValidate(config, StartingAt(run.free, run.fit.values), problem.traces(),
-                           problem.observe(), run.fit.values, options.refit);
-    if (!cv.ok) {
-      // The candidate keeps its evidence-only verdict, unless that hinges on whether the
-      // parts could judge it: then nothing decides it.
-      if (!level.usable_holds) {
-        o.stable = false;
-        o.reason =
-            "unstable: whether the record's parts can judge it is too close to call, "
-            "and its cross-validation failed, so the record cannot decide it (not added)";
-        RecordUnstable(o, result);
-      }
-      continue;
-    }
-    o.cross_validated = true;
-    if (internal::SimulatesOnFixedStep(current)) o.cross_validation_step = step;
-    o.cv_before = base_cv.nrmse;
-    o.cv_after = cv.nrmse;
-    o.generalises = cv.nrmse < (1.0 - options.held_out_margin) * base_cv.nrmse;
-    if (parts_unusable && o.generalises && !(cv.nrmse <= 2.0 * o.nrmse)) {
-      o.generalises = false;
-      o.reason =
-          "tried, not needed: the record's parts do not predict each other with it either "
-          "(cross-validated NRMSE " +
-          G(o.cv_after) + " against " + G(o.nrmse) +
-          " fitted), so they cannot confirm a residual the whitened evidence refuses";
-    } else if (!o.generalises) {
-      o.reason = "tried, not needed: does not generalise (cross-validated NRMSE " + G(o.cv_before) +
-                 " -> " + G(o.cv_after) + ", needs a fall of more than " +
-                 G(100.0 * options.held_out_margin) + " %)";
-    }
-    // The verdict again on each perturbed copy (docs/discovery.md §3d): the half-record fits
-    // of a model that is chaotic on this record land in other minima under a change of the
-    // data far below their noise, and a verdict that flips, or that the copies' scatter says
-    // a further copy could flip, is not a finding.
-    o.cv_perturbed.assign(perturbed.size(), std::numeric_limits<double>::quiet_NaN());
-    std::vector<double> ratios = {cv.nrmse / base_cv.nrmse};
-    std::optional<std::size_t> reversing;
-    for (std::size_t c = 0; c < level.on_copies.size(); ++c) {
-      const CrossValidation& copy_base = level.on_copies[c];
-      const std::vector<double> start =
-          Jittered(run.fit.values, run.free, 0x5eed2000u + c, options.stability_start);
-      const CrossValidation copy =
-          BlockCrossValidate(config, StartingAt(run.free, start), perturbed[c], problem.observe(),
-                             start, options.refit);
-      if (copy.ok) o.cv_perturbed[c] = copy.nrmse;
-      const bool both = copy_base.ok && copy.ok;
-      ratios.push_back(both ? copy.nrmse / copy_base.nrmse
-                            : std::numeric_limits<double>::quiet_NaN());
-      if (!both) continue;
-      const bool generalises = copy.nrmse < (1.0 - options.held_out_margin) * copy_base.nrmse;
-      if (generalises == o.generalises) continue;
-      reversing = c;  // unstable: the other copies cannot change that
-      break;
-    }
-    const internal::SideCheck verdict = internal::CheckRatio(ratios, 1.0 - options.held_out_margin);
-    const std::string by = G(options.stability_perturbation, 2) + " of their values";
-    const std::string change = "a change of the data of " + by;
-    const std::string on_data =
-        "cross-validated NRMSE " + G(o.cv_before) + " -> " + G(o.cv_after) + " on the data";
-    if (reversing) {
-      const std::size_t c = *reversing;
-      o.stable = false;
-      o.reason = "unstable: " + change + " reverses its cross-validated verdict (" + on_data +
-                 ", " + G(level.on_copies[c].nrmse) + " -> " + G(o.cv_perturbed[c]) +
-                 " on a copy), so the record cannot decide it (not added)";
-    } else if (!verdict.holds) {
-      o.stable = false;
-      o.reason = "unstable: the copies of the data changed by " + by +
-                 " scatter so that a further one could reverse its cross-validated verdict (" +
-                 on_data + ": a ratio of " + G(ratios.front()) + ", a further copy's within " +
-                 G(verdict.low) + " to " + G(verdict.high) + " against " +
-                 G(1.0 - options.held_out_margin) + "), so the record cannot decide it (not added)";
-    } else if (!level.usable_holds &&
-               (!o.generalises || !std::all_of(ratios.begin(), ratios.end(),
-                                               [](double r) { return std::isfinite(r); }))) {
-      // Added either way only when it generalises on the data and on every copy.
-      o.stable = false;
-      o.reason =
-          "unstable: whether the record's parts can judge it is too close to call, and "
-          "where they can, it " +
-          std::string(o.generalises ? "could not be cross-validated on every copy"
-                                    : "does not generalise") +
-          " (" + on_data + "), so the record cannot decide it (not added)";
-    }
-    if (!o.stable) RecordUnstable(o, result);
-  }
 }
 
 // The candidates that qualify, best first, after parsimony and generalisation: the best by BIC
