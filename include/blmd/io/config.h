@@ -33,14 +33,15 @@ struct IdentificationSettings {
   int decimate = 1;        // equation: keep every N-th sample, after an anti-alias filter
   // How the cost weights the observed columns (docs/identification.md §1a): "noise" (each
   // column by 1/sigma^2 of its noise, estimated from the residual unless fixed in
-  // noise_std; maximum likelihood) or "variance" (by 1/its signal variance, as before 0.3).
+  // noise_std; maximum likelihood) or "variance" (by 1/its signal variance: the weights do
+  // not depend on the residual, and a column with a large signal counts for less).
   std::string weighting = "noise";
   std::map<std::string, double> noise_std;  // fixed sigma per observed column, its units
   // The angle a position-dependent effect (cogging, spring, gravity) sees when the model is
   // fitted or scored (docs/discovery.md §6): "measured" (the trace's theta, else the integral
   // of its w; the effect's torque is then a known function of time, and the fit and its
   // score do not hinge on where a simulated shaft settles in a detent) or "simulated" (the
-  // free-running model's own angle, as before 0.3).
+  // free-running model's own angle: the fit then follows where the simulated shaft settles).
   std::string effect_angle = "measured";
 };
 

@@ -144,7 +144,11 @@ struct Experiment {
 };
 
 // How a model's equations are integrated (docs/model-blmd.md §5 and §9).
-//   kFixedEuler  backward Euler at the fixed step dt (every model; the default but for blmd)
+//   kFixedEuler  a fixed step dt (every model; the default but for blmd): dc_servo and
+//                rigid_load advance their linear part exactly over each step with the input
+//                and effect torques held (docs/model-dc-servo.md, "Exact discretisation");
+//                the blmd drive's sub-systems by backward Euler (docs/model-blmd.md §5). The
+//                name is the config's, kept for the configs that use it.
 //   kEvents      blmd only (its default, Model::default_settings): the PWM and diode switching
 //   instants located to rounding, a
 //                Taylor series of the smooth drive between them (second order for the

@@ -32,7 +32,7 @@
 namespace blmd {
 
 struct NoiseSettings {
-  std::string weighting = "noise";    // "noise" (maximum likelihood) or "variance" (as before)
+  std::string weighting = "noise";    // "noise" (maximum likelihood) or "variance" (1/Var_c)
   std::map<std::string, double> std;  // fixed sigma per column (the column's units)
   int max_fits = 4;                   // the reweighting's fits at most (the first included)
   double tolerance = 0.05;            // stop when no sigma moves by more than this (relative)

@@ -54,9 +54,9 @@ class BlmdDriveModel final : public Model {
   // settled stretches handled in closed form, the electrical angle's sine and cosine
   // advanced by rotation, and outputs written only at the sample steps.
   SimStatus Simulate(const SimulationRequest& request, Trace* out) const override;
+  LinearModel Linearise(const ParameterSet& values) const override;
   // 1.5 Ke i_max: the motor torque at the largest phase current (the q-axis torque of
   // docs/model-blmd.md with the peak phase current as i_q).
-  LinearModel Linearise(const ParameterSet& values) const override;
   double DriveTorqueScale(const ParameterSet& values, double i_max, double u_max,
                           double w_max) const override;
   // The closed current loop i_j / (Kc Td cos) = Kf C G / (1 + Kf C G) / Kf per phase, with

@@ -32,8 +32,8 @@ class DcServoModel final : public Model {
   // The fast path (src/sim/dc_servo/dc_servo_fast.cc): the same exact discretisation unrolled into
   // scalar arithmetic, outputs written only at the sample steps.
   SimStatus Simulate(const SimulationRequest& request, Trace* out) const override;
-  // Kt i_max: the motor torque at the largest current.
   LinearModel Linearise(const ParameterSet& values) const override;
+  // Kt i_max: the motor torque at the largest current.
   double DriveTorqueScale(const ParameterSet& values, double i_max, double u_max,
                           double w_max) const override;
   // The reference path (src/sim/dc_servo/dc_servo.cc): the straightforward step loop with Eigen's

@@ -28,9 +28,9 @@ class RigidLoadModel final : public Model {
   SimulationSettings default_settings() const override;
   ModelTraits traits() const override;
   SimStatus Simulate(const SimulationRequest& request, Trace* out) const override;
+  LinearModel Linearise(const ParameterSet& values) const override;
   // max(Kt u_max, B w_max): the drive torque, or the damping torque at the top speed when
   // the shaft moves without a drive (a coast-down, u = 0).
-  LinearModel Linearise(const ParameterSet& values) const override;
   double DriveTorqueScale(const ParameterSet& values, double i_max, double u_max,
                           double w_max) const override;
 
