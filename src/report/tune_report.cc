@@ -279,6 +279,19 @@ json PolesJson(const ClosedLoopPoles& poles) {
 
 // rigid_load's summary: each loop's gains (continuous SI and per sample) and its margins on
 // the sampled loop beside the continuous loop's, the step, the box.
+// The summary's line of the worst case over the corners of the 95 % box ("" without corners);
+// `peak`: the peak input's words, appended (the sampled loop's), or "".
+std::string WorstLine(const TuneInput& input, const TuneResult& result, const std::string& peak) {
+  if (result.corners.empty()) return "";
+  const WorstCase& w = result.worst;
+  return "  worst over the " + std::to_string(result.corners.size()) +
+         " corners of the 95 % box (" + input.box_source + "): crossover " +
+         Text(w.crossover_low_hz.value) + " to " + Text(w.crossover_high_hz.value) +
+         " Hz, phase margin " + Text(w.phase_margin_deg.value) + " deg, gain margin " +
+         Text(w.gain_margin_db.value) + " dB, overshoot " + Text(w.overshoot_percent.value) +
+         " %, settling " + Text(w.settling_time_s.value) + " s" + peak + "\n";
+}
+
 std::string SampledSummary(const TuneReport& report) {
   const TuneInput& input = report.input;
   const TuneRequest& request = report.request;
@@ -291,7 +304,6 @@ std::string SampledSummary(const TuneReport& report) {
   const std::string unit = SampledOutputUnit(config, speed);
   const double ts = 1.0 / request.drive.sample_rate_hz;
   const ClosedLoopStep& s = result.nominal.step;
-  const WorstCase& w = result.worst;
   auto margins = [](const LoopMargins& m) {
     return "crossover " + Text(m.crossover_hz) + " Hz, phase margin " + Text(m.phase_margin_deg) +
            " deg, gain margin " + Text(m.gain_margin_db) + " dB";
@@ -323,14 +335,7 @@ std::string SampledSummary(const TuneReport& report) {
       << " s, overshoot " << Text(s.overshoot_percent) << " %, settling " << Text(s.settling_time_s)
       << " s, steady-state error " << Text(s.steady_state_error) << " " << unit << ", peak "
       << Text(s.peak_u) << " " << u << "\n";
-  if (!result.corners.empty()) {
-    out << "  worst over the " << result.corners.size() << " corners of the 95 % box ("
-        << input.box_source << "): crossover " << Text(w.crossover_low_hz.value) << " to "
-        << Text(w.crossover_high_hz.value) << " Hz, phase margin " << Text(w.phase_margin_deg.value)
-        << " deg, gain margin " << Text(w.gain_margin_db.value) << " dB, overshoot "
-        << Text(w.overshoot_percent.value) << " %, settling " << Text(w.settling_time_s.value)
-        << " s, peak " << Text(w.peak_u.value) << " " << u << "\n";
-  }
+  out << WorstLine(input, result, ", peak " + Text(result.worst.peak_u.value) + " " + u);
   for (const auto& [code, message] : result.warnings)
     out << "  warning (" << code << "): " << message << "\n";
   return out.str();
@@ -397,7 +402,6 @@ std::string TuneSummary(const TuneReport& report) {
   const GainUnits& units = report.units;
   const LoopMargins& m = result.nominal.margins;
   const ClosedLoopStep& s = result.nominal.step;
-  const WorstCase& w = result.worst;
   if (result.sampled.used) return SampledSummary(report);
   const std::string unit = IsSpeed(request) ? "rad/s" : "rad";
   std::ostringstream out;
@@ -414,14 +418,7 @@ std::string TuneSummary(const TuneReport& report) {
       << " s, overshoot " << Text(s.overshoot_percent) << " %, settling " << Text(s.settling_time_s)
       << " s, steady-state error " << Text(s.steady_state_error) << " " << unit << ", peak "
       << Text(s.peak_u) << " V / " << Text(s.peak_i) << " A\n";
-  if (!result.corners.empty()) {
-    out << "  worst over the " << result.corners.size() << " corners of the 95 % box ("
-        << input.box_source << "): crossover " << Text(w.crossover_low_hz.value) << " to "
-        << Text(w.crossover_high_hz.value) << " Hz, phase margin " << Text(w.phase_margin_deg.value)
-        << " deg, gain margin " << Text(w.gain_margin_db.value) << " dB, overshoot "
-        << Text(w.overshoot_percent.value) << " %, settling " << Text(w.settling_time_s.value)
-        << " s\n";
-  }
+  out << WorstLine(input, result, "");
   for (const auto& [code, message] : result.warnings)
     out << "  warning (" << code << "): " << message << "\n";
   return out.str();
