@@ -15,6 +15,7 @@
 #include "blmd/error.h"
 #include "blmd/io/files.h"
 #include "blmd/io/mat.h"
+#include "io/readable_file.h"
 
 namespace blmd {
 namespace {
@@ -565,23 +566,9 @@ class TraceParser {
 
 Trace ReadTraceCsv(const std::string& path, const CsvReadOptions& options, std::string* sha256) {
   if (IsMatFile(path)) return ReadTraceMat(path, options, sha256);
-  const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) throw InputError(path + ": cannot read: " + std::strerror(errno));
-  struct Closer {
-    int fd;
-    ~Closer() { close(fd); }
-  } closer{fd};
-  struct stat info {};
-  if (fstat(fd, &info) != 0) throw InputError(path + ": cannot read: " + std::strerror(errno));
-  if (S_ISDIR(info.st_mode)) throw InputError(path + ": cannot read: " + std::strerror(EISDIR));
-  const std::size_t size = S_ISREG(info.st_mode) ? static_cast<std::size_t>(info.st_size) : 0;
-  auto read_some = [&](char* into, std::size_t bytes) {
-    while (true) {
-      const ssize_t n = read(fd, into, bytes);
-      if (n >= 0) return static_cast<std::size_t>(n);
-      if (errno != EINTR) throw InputError(path + ": cannot read: " + std::strerror(errno));
-    }
-  };
+  const internal::ReadableFile file(path);
+  const std::size_t size = file.size();
+  auto read_some = [&](char* into, std::size_t bytes) { return file.ReadSome(into, bytes); };
   TraceParser parser(path, options, size);
   Sha256 hash;
   // Chunks of options.read_chunk_bytes; the part of a line that straddles two chunks is

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "blmd/error.h"
+#include "io/readable_file.h"
 
 namespace blmd {
 namespace {
@@ -300,20 +301,11 @@ std::string Sha256Hex(const std::string& bytes) {
 }
 
 std::string Sha256OfFile(const std::string& path) {
-  const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) throw InputError(path + ": cannot read: " + std::strerror(errno));
-  struct Closer {
-    int fd;
-    ~Closer() { close(fd); }
-  } closer{fd};
+  const internal::ReadableFile file(path);
   Sha256 hash;
   std::vector<char> buffer(std::size_t{1} << 20);
-  while (true) {
-    const ssize_t n = read(fd, buffer.data(), buffer.size());
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0) throw InputError(path + ": cannot read: " + std::strerror(errno));
-    if (n == 0) break;
-    hash.Update(std::string_view(buffer.data(), static_cast<std::size_t>(n)));
+  while (const std::size_t n = file.ReadSome(buffer.data(), buffer.size())) {
+    hash.Update(std::string_view(buffer.data(), n));
   }
   return hash.HexDigest();
 }

@@ -21,6 +21,7 @@
 
 #include "blmd/error.h"
 #include "blmd/io/files.h"
+#include "io/readable_file.h"
 
 namespace blmd {
 namespace {
@@ -381,18 +382,8 @@ bool IsMatFile(const std::string& path) {
 Trace ReadTraceMat(const std::string& path, const CsvReadOptions& options, std::string* sha256) {
   // The same errors as a CSV file for a file that cannot be opened; the bytes hashed.
   {
-    const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
-    if (fd < 0) throw InputError(path + ": cannot read: " + std::strerror(errno));
-    struct Closer {
-      int fd;
-      ~Closer() { close(fd); }
-    } closer{fd};
-    struct stat info {};
-    if (fstat(fd, &info) != 0) throw InputError(path + ": cannot read: " + std::strerror(errno));
-    if (S_ISDIR(info.st_mode)) throw InputError(path + ": cannot read: " + std::strerror(EISDIR));
-    if (S_ISREG(info.st_mode) && info.st_size == 0) {
-      throw InputError(path + ": empty file: not a MAT file");
-    }
+    const internal::ReadableFile file(path);
+    if (file.regular() && file.size() == 0) throw InputError(path + ": empty file: not a MAT file");
     if (sha256) *sha256 = Sha256OfFile(path);
   }
   const MatHeader header = ReadHeader(path);
