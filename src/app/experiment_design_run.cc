@@ -155,14 +155,8 @@ void ApplyDesignReport(const std::string& path, Config* config, DesignRequest* r
     if (p.free && std::find(free.begin(), free.end(), p.name) == free.end()) free.push_back(p.name);
     // The bounds the report's fit searched in (discovery scales an effect's bounds to the
     // data; the effect's defaults may not hold the fitted value).
-    const double slack =
-        1e-9 * std::max({std::abs(p.bound_low), std::abs(p.bound_high), std::abs(p.value)});
-    if (p.free && p.has_bounds && p.value >= p.bound_low - slack &&
-        p.value <= p.bound_high + slack) {
+    if (p.free && p.has_bounds && p.bound_low <= p.value && p.value <= p.bound_high) {
       config->identification.bounds[p.name] = {p.bound_low, p.bound_high};
-      // A value at its bound may lie outside it by the rounding of its log (1e-8 read back
-      // as 9.999999999999982e-09).
-      config->parameters.Set(p.name, std::clamp(p.value, p.bound_low, p.bound_high));
     }
   }
   request->report_path = path;

@@ -93,20 +93,7 @@ DuplicateTime DialectSettings::Duplicates() const {
 }
 
 std::vector<std::string> DialectSettings::Names() const {
-  std::vector<std::string> names;
-  if (no_header.empty()) return names;
-  std::size_t start = 0;
-  while (true) {
-    const std::size_t comma = no_header.find(',', start);
-    std::string name =
-        no_header.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
-    const std::size_t first = name.find_first_not_of(" \t");
-    const std::size_t last = name.find_last_not_of(" \t");
-    names.push_back(first == std::string::npos ? "" : name.substr(first, last - first + 1));
-    if (comma == std::string::npos) break;
-    start = comma + 1;
-  }
-  return names;
+  return no_header.empty() ? std::vector<std::string>{} : ParseNameList(no_header, "--no-header");
 }
 
 TraceInputOptions TraceSettings::Options(const std::vector<std::string>& observe,

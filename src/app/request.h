@@ -32,7 +32,7 @@ struct DialectSettings {
   std::string no_header;       // --no-header NAMES: comma-separated column names ("": a header)
   double sample_rate = 0.0;    // --sample-rate HZ: the time column made from the rate (0: read)
 
-  std::vector<std::string> Names() const;  // no_header split at commas (each trimmed)
+  std::vector<std::string> Names() const;  // no_header's names (ParseNameList)
 
   char Delimiter() const;
   DuplicateTime Duplicates() const;

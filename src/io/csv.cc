@@ -1,9 +1,5 @@
 #include "blmd/io/csv.h"
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <charconv>
 #include <cmath>
@@ -24,6 +20,13 @@ std::string_view Trim(std::string_view s) {
   while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
   while (!s.empty() && (s.back() == ' ' || s.back() == '\t')) s.remove_suffix(1);
   return s;
+}
+
+// Whether the whole of `s` reads as a number (a column's name must not).
+bool IsNumber(std::string_view s) {
+  double ignored = 0.0;
+  const auto result = std::from_chars(s.data(), s.data() + s.size(), ignored);
+  return result.ec == std::errc() && result.ptr == s.data() + s.size();
 }
 
 std::string Hex(unsigned char c) {
@@ -322,9 +325,7 @@ class TraceParser {
                    "'); use ',' between columns");
         }
       }
-      double ignored = 0.0;
-      const auto result = std::from_chars(field.data(), field.data() + field.size(), ignored);
-      if (result.ec == std::errc() && result.ptr == field.data() + field.size()) {
+      if (IsNumber(field)) {
         Fail(line_number_, column_index,
              "header expected but found the number " + Quote(field) +
                  ": the first row must name the columns, e.g. t,u,i,w");
@@ -344,9 +345,7 @@ class TraceParser {
     delimiter_ = DetectDelimiter(line);
     std::unordered_set<std::string> seen;
     for (const std::string& name : options_.names) {
-      double ignored = 0.0;
-      const auto result = std::from_chars(name.data(), name.data() + name.size(), ignored);
-      if (name.empty() || (result.ec == std::errc() && result.ptr == name.data() + name.size())) {
+      if (name.empty() || IsNumber(name)) {
         Fail(0, 0,
              "--no-header: column name " + QuoteName(name) +
                  " is empty or a number; name the columns, e.g. --no-header u,theta");

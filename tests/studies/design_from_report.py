@@ -18,10 +18,11 @@ A record that design cannot replay as one open-loop experiment (several experime
 """
 import json
 import os
-import re
 import subprocess
 import sys
 import tempfile
+
+import real_data_commands
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 BIN = os.path.join(sys.argv[1] if len(sys.argv) > 1 else
@@ -55,18 +56,6 @@ blmd_ident() {  # the same record through blmd-design --from-report
 '''
 
 
-def commands():
-    page = open(os.path.join(ROOT, "docs", "real-data.md"), encoding="utf-8").read()
-    script = SHELL
-    for block in re.findall(r"```sh\n(.*?)```", page, flags=re.S):
-        if "--report docs/real-data/" not in block:
-            continue
-        block = block.replace("../shared/realdata", DATA).replace("build/bin/blmd-ident",
-                                                                    "blmd_ident")
-        script += "(\n" + block + ")\n"
-    return script
-
-
 def main():
     if not os.path.isdir(DATA):
         print("no real data at " + DATA, file=sys.stderr)
@@ -74,7 +63,7 @@ def main():
     rows = []
     with tempfile.TemporaryDirectory() as out:
         env = dict(os.environ, OUT=out, DESIGN=os.path.join(BIN, "blmd-design"))
-        subprocess.run(["bash", "-c", commands()], cwd=ROOT, env=env, check=True)
+        subprocess.run(["bash", "-c", real_data_commands.script(ROOT, DATA, SHELL)], cwd=ROOT, env=env, check=True)
         for line in open(os.path.join(out, "pairs")):
             report_path, design_path = line.split()
             report = json.load(open(os.path.join(ROOT, report_path)))

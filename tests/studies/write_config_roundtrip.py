@@ -11,10 +11,11 @@ the largest relative difference between the refit's values and the first run's.
 """
 import json
 import os
-import re
 import subprocess
 import sys
 import tempfile
+
+import real_data_commands
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 PATTERN = sys.argv[1] if len(sys.argv) > 1 else "."
@@ -65,14 +66,7 @@ def main():
     if not os.path.isdir(DATA):
         print("no real data at " + DATA, file=sys.stderr)
         return 2
-    page = open(os.path.join(ROOT, "docs", "real-data.md"), encoding="utf-8").read()
-    script = SHELL
-    for block in re.findall(r"```sh\n(.*?)```", page, flags=re.S):
-        if "--report docs/real-data/" not in block:
-            continue
-        block = block.replace("../shared/realdata", DATA).replace("build/bin/blmd-ident",
-                                                                    "blmd_ident")
-        script += "(\n" + block + ")\n"
+    script = real_data_commands.script(ROOT, DATA, SHELL)
     print("| command's report | values | largest relative difference | refit |")
     print("|---|---|---|---|")
     worst = 0.0
