@@ -11,7 +11,7 @@
 #include "blmd/ident/fit/cutoff_choice.h"
 #include "blmd/ident/fit/progress.h"
 #include "blmd/ident/residual/adequacy.h"
-#include "blmd/ident/uncertainty/trace_jackknife.h"
+#include "blmd/ident/optimizers/trace_jackknife.h"
 #include "blmd/io/csv.h"
 #include "blmd/report/export.h"
 #include "blmd/report/report.h"
@@ -164,6 +164,18 @@ IdentOutcome Identify(IdentRequest request) {
     // The final model is the answer: its parameters, fit, residual and
     // validation head the report; the first fit moves to discovery.before.
     std::unique_ptr<FitProblem> final_problem = FinalProblem(unweighted, discovery);
+    if (final_problem) {
+      // The final model fitted once more as a plain fit of the written config would fit it
+      // (the user's method and options, from discovery's values): discovery's last refit
+      // stops on its own tolerances, where the user's method would still move, and a refit
+      // from --write-config's file would then not reproduce this report.
+      Stage(progress, "final model: fitted as a plain fit (" + request.method + ")");
+      FitResult polished = optimizer.Minimize(*final_problem, options);
+      if (polished.evaluation.ok &&
+          polished.evaluation.cost <= outcome.discovery->final_fit.evaluation.cost) {
+        outcome.discovery->final_fit = std::move(polished);
+      }
+    }
     NoiseModel final_noise = outcome.noise;
     if (final_problem && outcome.noise.weighting == "noise") {
       // The final model's own residual sets its weights: the first model's residual held the
