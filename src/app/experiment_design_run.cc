@@ -11,6 +11,7 @@
 #include "blmd/io/stored_report.h"
 #include "blmd/report/report.h"
 #include "blmd/run.h"
+#include "blmd/sim/effects.h"
 #include "blmd/version.h"
 #include "io/flags.h"
 
@@ -177,37 +178,20 @@ void ApplyDesignReport(const std::string& path, Config* config, DesignRequest* r
 // moved by 10-20 % between records and directions).
 constexpr double kBreakawayMargin = 1.2;
 
-// The drive torque per unit u at standstill (no back-EMF): rigid_load Kt (u is the torque
-// command), dc_servo Kt/R (u a voltage); 0 where it is not a constant (the blmd's current
-// loop and PWM).
-double StallTorquePerInput(const Config& config) {
-  const std::string model(config.model->name());
-  const ParameterSet& p = config.parameters;
-  if (model == "rigid_load") return std::abs(p.Get("Kt"));
-  if (model == "dc_servo") return std::abs(p.Get("Kt")) / p.Get("R");
-  return 0.0;
-}
-
 // The friction warning and the breakaway: the torque that holds a shaft at rest, the |u|
 // that overcomes it with the margin; the search rejects inputs below it.
 void SetBreakaway(const Config& config, DesignRequest* request) {
-  const auto has = [&](const char* effect) {
-    return std::find(config.effects.begin(), config.effects.end(), effect) != config.effects.end();
-  };
   const ParameterSet& p = config.parameters;
-  if (!has("coulomb_friction") && !has("stribeck")) {
+  bool friction = false;
+  const double torque = TorqueAtRest(p, config.effects, &friction);
+  if (!friction) {
     request->warnings.emplace_back(
-        "no_friction",
-        "the model declares no friction (coulomb_friction, stribeck): a real drive's breakaway "
-        "friction can hold the shaft still under a designed input of small amplitude; identify "
-        "with --discover and design from that report (--from-report)");
+        "no_friction", "the model declares no friction (" + Join(FrictionAtRestEffects()) +
+                           "): a real drive's breakaway friction can hold the shaft still under "
+                           "a designed input of small amplitude; identify with --discover and "
+                           "design from that report (--from-report)");
   }
-  double torque = 0.0;
-  if (has("coulomb_friction")) torque = std::max(torque, std::abs(p.Get("Tc")));
-  if (has("stribeck")) torque = std::max(torque, std::abs(p.Get("Ts")));
-  if (has("cogging")) torque += std::abs(p.Get("Tcog"));
-  if (has("load_torque")) torque += std::abs(p.Get("TL"));
-  const double per_input = StallTorquePerInput(config);
+  const double per_input = config.model->StallTorquePerInput(p);
   if (!(torque > 0.0) || !(per_input > 0.0)) return;
   request->breakaway_torque = torque;
   request->breakaway_u = kBreakawayMargin * torque / per_input;

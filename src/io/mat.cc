@@ -318,7 +318,7 @@ void Collect(const matvar_t& var, const std::string& name, const std::string& pa
 // The variables of the file, read with libmatio (under its lock).
 MatContents ReadContents(const std::string& path, MatHeader header) {
   std::lock_guard<std::mutex> lock(MatioMutex());
-  static const bool logging = [] { return Mat_LogInitFunc("blmd", MatioLog) == 0; }();
+  static const bool logging = [] { return Mat_LogInitFunc("blmd-ident", MatioLog) == 0; }();
   (void)logging;
   MatioMessage().clear();
   auto matio_says = [] {

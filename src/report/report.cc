@@ -8,6 +8,7 @@
 
 #include "blmd/error.h"
 #include "blmd/sim/effects.h"
+#include "blmd/sim/model.h"
 #include "report/text.h"
 
 namespace blmd {
@@ -339,7 +340,7 @@ std::string ClosedLoopAdvice(const IdentReport& report) {
       Figure(first.residual.analysis->feedback_p, 2) +
       "), and a simulation from the recorded u drifts wherever the model errs, "
       "since the loop that held the real shaft is not simulated";
-  if (report.model == "rigid_load") {
+  if (FindModel(report.model).traits().input_is_torque) {
     return text +
            "; fit the equation error (--error equation, the input the model needs along "
            "the measured motion), then --discover";

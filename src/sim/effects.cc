@@ -1,6 +1,7 @@
 #include "blmd/sim/effects.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "blmd/constants.h"
 #include "blmd/error.h"
@@ -8,15 +9,19 @@
 namespace blmd {
 namespace {
 
-ParamInfo P(std::string name, std::string unit, std::string meaning, bool positive,
-            bool non_negative, double lower, double upper, std::string key = "") {
+// How a parameter's values are limited: any sign, 0 or more, or more than 0 (then searched
+// on a log scale when free).
+enum class Sign { kAny, kNonNegative, kPositive };
+
+ParamInfo P(std::string name, std::string unit, std::string meaning, Sign sign, double lower,
+            double upper, std::string key = "") {
   ParamInfo info;
   info.key = std::move(key);
   info.name = std::move(name);
   info.unit = std::move(unit);
   info.meaning = std::move(meaning);
-  info.positive = positive;
-  info.non_negative = non_negative;
+  info.positive = sign == Sign::kPositive;
+  info.non_negative = sign == Sign::kNonNegative;
   info.default_lower = lower;
   info.default_upper = upper;
   return info;
@@ -25,7 +30,7 @@ ParamInfo P(std::string name, std::string unit, std::string meaning, bool positi
 // A phase, rad: an angle that wraps (ParamInfo::periodic).
 ParamInfo Phase(std::string name, std::string meaning, std::string key = "") {
   ParamInfo info =
-      P(std::move(name), "rad", std::move(meaning), false, false, -kPi, kPi, std::move(key));
+      P(std::move(name), "rad", std::move(meaning), Sign::kAny, -kPi, kPi, std::move(key));
   info.periodic = true;
   return info;
 }
@@ -36,58 +41,71 @@ std::vector<EffectInfo> MakeRegistry() {
       // dc_servo is not listed: its fast path (src/sim/dc_servo/dc_servo_fast.cc) skips DragTorque
       // when the shaft has no friction, drag or cogging, so dB alone would be ignored there.
       {"asymmetric_viscous",
-       {P("dB", "N·m·s/rad", "direction-dependent viscous damping: B+ = B + dB, B- = B - dB", false,
-          false, -1e5, 1e5)},
+       {P("dB", "N·m·s/rad", "direction-dependent viscous damping: B+ = B + dB, B- = B - dB",
+          Sign::kAny, -1e5, 1e5)},
        "T = dB |w| (B+ = B + dB for w > 0, B- = B - dB for w < 0; valid while |dB| < B)",
        {"blmd", "rigid_load"}},
       {"cogging",
-       {P("Tcog", "N·m", "cogging torque amplitude", false, true, 0.0, 10.0),
-        P("periods", "1/rev", "cogging periods per shaft revolution", true, false, 1.0, 200.0),
+       {P("Tcog", "N·m", "cogging torque amplitude", Sign::kNonNegative, 0.0, 10.0),
+        P("periods", "1/rev", "cogging periods per shaft revolution", Sign::kPositive, 1.0, 200.0),
         Phase("phase", "cogging phase")},
        "T = Tcog sin(periods theta + phase)",
        all,
-       /*position_dependent=*/true},
+       /*position_dependent=*/true,
+       EffectInfo::AtRest::kLoads,
+       "Tcog"},
       {"coulomb_friction",
-       {P("Tc", "N·m", "Coulomb friction torque", false, true, 0.0, 10.0)},
+       {P("Tc", "N·m", "Coulomb friction torque", Sign::kNonNegative, 0.0, 10.0)},
        "T = Tc sign(w), sticking at rest",
-       all},
+       all,
+       /*position_dependent=*/false,
+       EffectInfo::AtRest::kHoldsByFriction,
+       "Tc"},
       {"current_offset",
-       {P("i0", "A", "current sensor offset", false, false, -10.0, 10.0)},
+       {P("i0", "A", "current sensor offset", Sign::kAny, -10.0, 10.0)},
        "i_measured = i + i0",
        {"blmd", "dc_servo"}},
       {"dead_time",
-       {P("Vdt", "V", "drive voltage lost to inverter blanking", false, true, 0.0, 50.0)},
+       {P("Vdt", "V", "drive voltage lost to inverter blanking", Sign::kNonNegative, 0.0, 50.0)},
        "u_eff = u - Vdt sign(i)",
        {"dc_servo"}},
       // The flat name of gravity's phase is gravity_phase: cogging owns `phase`. Inside the
       // gravity object of a config and in --effect it is `phase` (ParamInfo::key).
       {"gravity",
-       {P("Tg", "N·m", "gravity torque amplitude (unbalanced arm or pendulum: m g l)", false, true,
-          0.0, 100.0),
+       {P("Tg", "N·m", "gravity torque amplitude (unbalanced arm or pendulum: m g l)",
+          Sign::kNonNegative, 0.0, 100.0),
         Phase("gravity_phase", "gravity phase (stable equilibrium at theta = -phase)", "phase")},
        "T = -Tg sin(theta + phase) on the shaft (T_effects = Tg sin(theta + phase))",
        all,
-       /*position_dependent=*/true},
+       /*position_dependent=*/true,
+       EffectInfo::AtRest::kLoads,
+       "Tg"},
       {"load_torque",
-       {P("TL", "N·m", "constant load torque opposing positive motion", false, false, -100.0,
-          100.0)},
+       {P("TL", "N·m", "constant load torque opposing positive motion", Sign::kAny, -100.0, 100.0)},
        "T = TL",
-       all},
+       all,
+       /*position_dependent=*/false,
+       EffectInfo::AtRest::kLoads,
+       "TL"},
       {"quadratic_drag",
-       {P("Cd", "N·m·s²/rad²", "quadratic (fan, windage) drag coefficient", false, true, 0.0, 1.0)},
+       {P("Cd", "N·m·s²/rad²", "quadratic (fan, windage) drag coefficient", Sign::kNonNegative, 0.0,
+          1.0)},
        "T = Cd w |w|",
        all},
       {"spring",
-       {P("K", "N·m/rad", "torsional spring stiffness", false, true, 0.0, 1e4),
-        P("theta0", "rad", "spring rest angle", false, false, -1e4, 1e4)},
+       {P("K", "N·m/rad", "torsional spring stiffness", Sign::kNonNegative, 0.0, 1e4),
+        P("theta0", "rad", "spring rest angle", Sign::kAny, -1e4, 1e4)},
        "T = -K (theta - theta0) on the shaft (T_effects = K (theta - theta0))",
        all,
        /*position_dependent=*/true},
       {"stribeck",
-       {P("Ts", "N·m", "extra breakaway friction at rest", false, true, 0.0, 10.0),
-        P("ws", "rad/s", "Stribeck velocity", true, false, 1e-3, 1e3)},
+       {P("Ts", "N·m", "extra breakaway friction at rest", Sign::kNonNegative, 0.0, 10.0),
+        P("ws", "rad/s", "Stribeck velocity", Sign::kPositive, 1e-3, 1e3)},
        "T = Ts exp(-(w/ws)^2) sign(w)",
-       all},
+       all,
+       /*position_dependent=*/false,
+       EffectInfo::AtRest::kHoldsByFriction,
+       "Ts"},
   };
   return effects;
 }
@@ -127,6 +145,34 @@ bool IsEffectParameter(const std::string& parameter, std::string* effect_name) {
     }
   }
   return false;
+}
+
+double TorqueAtRest(const ParameterSet& values, const std::vector<std::string>& enabled,
+                    bool* friction) {
+  double holding = 0.0, loads = 0.0;
+  bool any_friction = false;
+  for (const EffectInfo& effect : EffectRegistry()) {
+    if (effect.at_rest == EffectInfo::AtRest::kNothing ||
+        std::find(enabled.begin(), enabled.end(), effect.name) == enabled.end())
+      continue;
+    const double amplitude = std::abs(values.Get(effect.at_rest_amplitude));
+    if (effect.at_rest == EffectInfo::AtRest::kHoldsByFriction) {
+      any_friction = true;
+      holding = std::max(holding, amplitude);
+    } else {
+      loads += amplitude;
+    }
+  }
+  if (friction) *friction = any_friction;
+  return holding + loads;
+}
+
+std::vector<std::string> FrictionAtRestEffects() {
+  std::vector<std::string> names;
+  for (const EffectInfo& effect : EffectRegistry()) {
+    if (effect.at_rest == EffectInfo::AtRest::kHoldsByFriction) names.push_back(effect.name);
+  }
+  return names;
 }
 
 ShaftEffects ShaftEffects::From(const ParameterSet& values, const std::vector<std::string>& enabled,

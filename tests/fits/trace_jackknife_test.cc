@@ -1,9 +1,9 @@
-// Leave-one-trace-out intervals (include/blmd/ident/uncertainty/trace_jackknife.h): the
+// Leave-one-trace-out intervals (include/blmd/ident/optimizers/trace_jackknife.h): the
 // spread between traces enters the intervals. Four traces of the Ganesh servo (square wave, 1 %
 // white noise on i and w), each with its own damping B drawn around a population value, as
 // the runs of a real rig differ (direction, temperature). The pooled fit's HAC interval
 // describes the noise only; the jackknife over traces must cover the population value.
-#include "blmd/ident/uncertainty/trace_jackknife.h"
+#include "blmd/ident/optimizers/trace_jackknife.h"
 
 #include <gtest/gtest.h>
 

@@ -15,9 +15,9 @@
 #include <vector>
 
 #include "blmd/ident/discovery/discovery.h"
-#include "blmd/ident/discovery/evidence.h"
 #include "blmd/ident/fit/problem.h"
 #include "blmd/ident/optimizers/optimizer.h"
+#include "blmd/ident/residual/evidence.h"
 #include "blmd/io/config.h"
 #include "blmd/random.h"
 #include "blmd/run.h"

@@ -20,9 +20,9 @@
 #include <string>
 #include <vector>
 
-#include "blmd/ident/fit/noise_model.h"
 #include "blmd/ident/fit/problem.h"
 #include "blmd/ident/fit/trace_input.h"
+#include "blmd/ident/optimizers/noise_model.h"
 #include "blmd/ident/optimizers/optimizer.h"
 #include "blmd/io/config.h"
 #include "support/independent_servo.h"

@@ -1,6 +1,6 @@
 // The noise model behind discovery's evidence (evidence.h): Yule-Walker AR fits with the
 // order chosen by BIC, on series whose model is known.
-#include "blmd/ident/discovery/evidence.h"
+#include "blmd/ident/residual/evidence.h"
 
 #include <gtest/gtest.h>
 

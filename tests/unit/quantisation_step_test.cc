@@ -1,4 +1,4 @@
-// The step of a quantised column (QuantisationStep, include/blmd/ident/fit/noise_model.h):
+// The step of a quantised column (QuantisationStep, include/blmd/ident/optimizers/noise_model.h):
 // an encoder's or a converter's lattice is found, and a column printed with a fixed number of
 // decimals is not mistaken for one whose step is the rounding of its text.
 #include <gtest/gtest.h>
@@ -8,7 +8,7 @@
 #include <cstdlib>
 #include <vector>
 
-#include "blmd/ident/fit/noise_model.h"
+#include "blmd/ident/optimizers/noise_model.h"
 
 namespace blmd {
 namespace {

@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "blmd/ident/discovery/discovery.h"
-#include "blmd/ident/fit/noise_model.h"
 #include "blmd/ident/fit/problem.h"
+#include "blmd/ident/optimizers/noise_model.h"
 #include "blmd/ident/optimizers/optimizer.h"
 #include "blmd/ident/optimizers/start_scan.h"
 #include "blmd/io/config.h"
@@ -39,7 +39,7 @@ struct IdentRequest {
   DiscoveryOptions discovery;
   // A stored report to guard against (--baseline, docs/export.md): empty for none.
   std::string baseline_path;
-  // How the cost weights the observed columns (ident/fit/noise_model.h): by their noise,
+  // How the cost weights the observed columns (ident/optimizers/noise_model.h): by their noise,
   // estimated from the residual unless fixed, or by their variance.
   NoiseSettings noise;
 };

@@ -51,6 +51,14 @@ struct EffectInfo {
   // Its torque depends on the shaft angle (cogging, spring, gravity): discovery fits it at the
   // measured angle (docs/discovery.md, "Cogging: the measured angle").
   bool position_dependent = false;
+  // What it does to a shaft at rest, for the breakaway a designed input must exceed
+  // (TorqueAtRest, docs/design.md §7): friction that holds the shaft (the largest such
+  // amplitude counts), a torque that loads it whatever the angle it rests at (added at its
+  // amplitude), or neither. A spring's torque at rest depends on where the shaft rests
+  // against its rest angle, which no parameter says: neither.
+  enum class AtRest { kNothing, kHoldsByFriction, kLoads };
+  AtRest at_rest = AtRest::kNothing;
+  std::string at_rest_amplitude{};  // the parameter whose |value| is that torque, N·m
 };
 
 // Every effect, sorted by name. The one place that knows them all.
@@ -58,6 +66,14 @@ const std::vector<EffectInfo>& EffectRegistry();
 // Throws InputError listing the valid names when `name` is unknown.
 const EffectInfo& FindEffect(const std::string& name);
 bool IsEffectParameter(const std::string& parameter, std::string* effect_name = nullptr);
+// The torque (N·m) that holds a shaft at rest under the `enabled` effects at `values`: the
+// largest amplitude of the effects that hold it by friction plus the amplitude of each that
+// loads it (EffectInfo::at_rest). `friction`, when given, says whether any enabled effect
+// holds it by friction.
+double TorqueAtRest(const ParameterSet& values, const std::vector<std::string>& enabled,
+                    bool* friction = nullptr);
+// The names of the effects that hold a shaft at rest by friction, sorted.
+std::vector<std::string> FrictionAtRestEffects();
 // True when `parameter` (a flat name) is an effect's angle that wraps (ParamInfo::periodic).
 bool IsPeriodicParameter(const std::string& parameter);
 

@@ -102,6 +102,11 @@ class Model {
   // without its effects, idealised where the page of the model says so.
   virtual LinearModel Linearise(const ParameterSet& values) const = 0;
 
+  // The drive torque per unit of u with the shaft at rest (no back-EMF), N·m per unit of u:
+  // what a designed input must reach to break the shaft away from its friction
+  // (docs/design.md §7). 0 where it is not a constant of the parameters (the blmd's current
+  // loops and PWM).
+  virtual double StallTorquePerInput(const ParameterSet& /*values*/) const { return 0.0; }
   // The -3 dB bandwidth (Hz) of the drive's own current loop at `values` (own_current_loop),
   // as a first-order lag for the design of the loops around it; 0 for a model without one.
   virtual double CurrentLoopBandwidthHz(const ParameterSet& /*values*/) const { return 0.0; }

@@ -6,7 +6,7 @@
 #include <optional>
 
 #include "blmd/format.h"
-#include "blmd/ident/discovery/evidence.h"
+#include "blmd/ident/residual/evidence.h"
 #include "blmd/sim/effects.h"
 #include "ident/discovery/effect_search.h"
 #include "ident/discovery/round.h"

@@ -6,7 +6,7 @@
 #include <functional>
 
 #include "blmd/constants.h"
-#include "blmd/ident/fit/noise_model.h"
+#include "blmd/ident/optimizers/noise_model.h"
 #include "blmd/io/csv.h"
 #include "blmd/sim/effects.h"
 #include "blmd/sim/trace.h"

@@ -90,9 +90,7 @@ std::string HeldAtStandstill(const std::vector<StillRun>& runs, const ParameterS
   const ShaftEffects shaft = ShaftEffects::From(values, all, 0.0);
   const ShaftEffects alone = ShaftEffects::From(values, {candidate}, 0.0);
   const double Kt = values.Get("Kt");
-  const double i0 = std::find(effects.begin(), effects.end(), "current_offset") != effects.end()
-                        ? values.Get("i0")
-                        : 0.0;
+  const double i0 = DriveEffects::From(values, effects).i0;
   const double holding = shaft.Tc + shaft.Ts;
   double with = 0.0, without = 0.0, largest = 0.0, largest_theta = 0.0;
   for (const StillRun& run : runs) {

@@ -7,6 +7,7 @@
 #include "blmd/sim/effects.h"
 #include "ident/fit/counting_cost.h"
 #include "ident/fit/jacobian.h"
+#include "ident/optimizers/nlopt_local.h"
 
 namespace blmd::internal {
 namespace {

@@ -7,7 +7,7 @@
 #include <numeric>
 
 #include "blmd/format.h"
-#include "blmd/ident/residual/adequacy.h"
+#include "blmd/ident/fit/noise_floor.h"
 
 namespace blmd {
 namespace {

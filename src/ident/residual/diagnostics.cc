@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "blmd/ident/discovery/evidence.h"
+#include "blmd/ident/residual/evidence.h"
 #include "blmd/ident/residual/stats.h"
 #include "saturating_cast.h"
 

@@ -180,6 +180,11 @@ double DcServoModel::DriveTorqueScale(const ParameterSet& values, double i_max, 
   return values.Get("Kt") * i_max;
 }
 
+// At rest the armature current is u / R (no back-EMF): Kt / R per volt.
+double DcServoModel::StallTorquePerInput(const ParameterSet& values) const {
+  return std::abs(values.Get("Kt")) / values.Get("R");
+}
+
 // The armature and the shaft without effects (docs/model-dc-servo.md, "Linear part"):
 // L di/dt = u - R i - Kb w, J dw/dt = Kt i - B w, dtheta/dt = w.
 LinearModel DcServoModel::Linearise(const ParameterSet& values) const {

@@ -215,6 +215,10 @@ double RigidLoadModel::DriveTorqueScale(const ParameterSet& values, double /*i_m
   return std::max(values.Get("Kt") * u_max, values.Get("B") * w_max);
 }
 
+double RigidLoadModel::StallTorquePerInput(const ParameterSet& values) const {
+  return std::abs(values.Get("Kt"));
+}
+
 // The shaft without effects (docs/model-rigid-load.md, "Linear part"):
 // J dw/dt = Kt u - B w, dtheta/dt = w.
 LinearModel RigidLoadModel::Linearise(const ParameterSet& values) const {

@@ -53,7 +53,7 @@ struct DiscoveryOptions {
   // The stopping rule (docs/discovery.md §3b). Materiality: a candidate must explain at
   // least this share of what the current model leaves above the noise floor,
   //   (NRMSE_before^2 - NRMSE_after^2) / (NRMSE_before^2 - floor^2),
-  // the floor from the measured columns' second differences (NoiseFloor, adequacy.h).
+  // the floor from the measured columns' second differences (NoiseFloorNrmse, fit/noise_floor.h).
   double min_explained_share = 0.10;
   // A deterministic residual that the prewhitened evidence's noise model absorbs (a
   // square-wave-like friction residual is what an AR(2) model predicts best): a candidate

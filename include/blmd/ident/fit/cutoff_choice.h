@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "blmd/ident/optimizers/optimizer.h"
+#include "blmd/ident/fit/fit_result.h"
 
 namespace blmd {
 

@@ -27,7 +27,7 @@ struct StartScanRecord {
 
 // Why `fit` of `problem` may have stopped in a side valley, or "" when it looks settled: its
 // cost is not finite, a free parameter sits on a bound, or its NRMSE exceeds both 0.1 and 3x
-// the data's noise floor (NoiseFloorNrmse, residual/adequacy.h).
+// the data's noise floor (NoiseFloorNrmse, fit/noise_floor.h).
 std::string SideValleyReason(const FitProblem& problem, const FitResult& fit);
 
 // `optimizer` on `problem`, then, when SideValleyReason says so, the scan and the restarts.

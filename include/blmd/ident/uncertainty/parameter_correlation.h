@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
+#include "blmd/ident/fit/fit_result.h"
 #include "blmd/ident/fit/problem.h"
-#include "blmd/ident/optimizers/optimizer.h"
 
 namespace blmd {
 

@@ -36,6 +36,8 @@ class DcServoModel final : public Model {
   // Kt i_max: the motor torque at the largest current.
   double DriveTorqueScale(const ParameterSet& values, double i_max, double u_max,
                           double w_max) const override;
+  // At rest, u is the armature voltage: Kt / R.
+  double StallTorquePerInput(const ParameterSet& values) const override;
   // The reference path (src/sim/dc_servo/dc_servo.cc): the straightforward step loop with Eigen's
   // matrices, kept as the truth the fast path is tested against (tests/unit/fast_path_test.cc).
   SimStatus SimulateReference(const SimulationRequest& request, Trace* out) const;

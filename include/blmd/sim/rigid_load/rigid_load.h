@@ -33,6 +33,8 @@ class RigidLoadModel final : public Model {
   // the shaft moves without a drive (a coast-down, u = 0).
   double DriveTorqueScale(const ParameterSet& values, double i_max, double u_max,
                           double w_max) const override;
+  // At rest, u is the torque command: Kt.
+  double StallTorquePerInput(const ParameterSet& values) const override;
 
  private:
   // experiment.pid: the drive's digital PI speed loop or P-over-PI cascade (PidSettings).

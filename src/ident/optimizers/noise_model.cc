@@ -1,4 +1,4 @@
-#include "blmd/ident/fit/noise_model.h"
+#include "blmd/ident/optimizers/noise_model.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "blmd/ident/discovery/evidence.h"
+#include "blmd/ident/residual/evidence.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "blmd/ident/uncertainty/trace_jackknife.h"
+#include "blmd/ident/optimizers/trace_jackknife.h"
 
 #include <boost/math/distributions/students_t.hpp>
 #include <cmath>
