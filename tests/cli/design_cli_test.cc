@@ -143,6 +143,28 @@ TEST(DesignCli, FromReportDesignsForTheIdentifiedFrictionAndMovesTheShaft) {
             "its peak |u| stays below the breakaway (the shaft would not move)");
 }
 
+// The breakaway counts every torque that holds or loads a shaft at rest, as each effect's
+// registry entry says (docs/design.md §7): friction's static level and a gravity torque's
+// amplitude (an unbalanced arm can rest anywhere). Before, gravity was left out and the
+// design's input could stay below what the arm's weight needs.
+TEST(DesignCli, BreakawayCountsGravity) {
+  TempDir dir;
+  nlohmann::json config = nlohmann::json::parse(Slurp(SourcePath("configs/real/hsm150.json")));
+  const double Tc = 0.02, Tg = 0.03;
+  config["effects"] = {{"coulomb_friction", {{"Tc", Tc}}},
+                       {"gravity", {{"Tg", Tg}, {"phase", 0.0}}}};
+  const std::string path = dir.Write("arm.json", config.dump());
+  const CommandResult run =
+      testing::Run(BinPath("blmd-design") + " --config " + path +
+                   " --duration 20 --limit w=300 --limit u=0.2 --noise w=0.63 --threads 2 --json");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json r = nlohmann::json::parse(run.out);
+  const double Kt = config["parameters"]["Kt"].get<double>();
+  EXPECT_NEAR(r["breakaway"]["torque"].get<double>(), Tc + Tg, 1e-12);
+  EXPECT_NEAR(r["breakaway"]["u"].get<double>(), 1.2 * (Tc + Tg) / Kt, 1e-12);
+  EXPECT_GE(r["design"]["peaks"]["u"].get<double>(), r["breakaway"]["u"].get<double>());
+}
+
 // Design from what was achieved (docs/design.md §7a): a record with AR(1) noise (rho = 0.95,
 // 0.5 % of each column's peak) identified, then the same record replayed with --from-report.
 // The prediction takes the report's variance ratios (the colour's cost), so its half-widths
