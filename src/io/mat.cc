@@ -21,10 +21,14 @@
 
 #include "blmd/error.h"
 #include "blmd/io/files.h"
+#include "io/matio_library.h"
 #include "io/readable_file.h"
 
 namespace blmd {
 namespace {
+
+using internal::Matio;
+using internal::MatioLibrary;
 
 // What the first 128 bytes of a file say: a MAT v5/v7 or v7.3 header, or neither.
 enum class MatHeader { kNone, kV5, kV73 };
@@ -117,10 +121,12 @@ void MatioLog(int level, char* message) {
 }
 
 struct MatCloser {
-  void operator()(mat_t* mat) const { Mat_Close(mat); }
+  decltype(&Mat_Close) close;
+  void operator()(mat_t* mat) const { close(mat); }
 };
 struct VarFreer {
-  void operator()(matvar_t* var) const { Mat_VarFree(var); }
+  decltype(&Mat_VarFree) free;
+  void operator()(matvar_t* var) const { free(var); }
 };
 using MatFile = std::unique_ptr<mat_t, MatCloser>;
 using MatVar = std::unique_ptr<matvar_t, VarFreer>;
@@ -253,6 +259,7 @@ std::vector<double> Values(const matvar_t& var, std::size_t first, std::size_t c
 // columns, or what it is when it is none. A 1x1 struct's fields are added in turn.
 void Collect(const matvar_t& var, const std::string& name, const std::string& path,
              MatContents* contents) {
+  const MatioLibrary& matio = Matio(path);
   auto other = [&](const std::string& what) { contents->other[name] = what; };
   // (MATLAB names are identifiers; another writer's name with a line break in it could not
   // be a column name.)
@@ -264,11 +271,11 @@ void Collect(const matvar_t& var, const std::string& name, const std::string& pa
                    " array: the fields of a 1x1 struct are columns, not those of a struct array");
     }
     std::string fields;
-    const unsigned count = Mat_VarGetNumberOfFields(const_cast<matvar_t*>(&var));
-    char* const* names = Mat_VarGetStructFieldnames(&var);
+    const unsigned count = matio.VarGetNumberOfFields(const_cast<matvar_t*>(&var));
+    char* const* names = matio.VarGetStructFieldnames(&var);
     for (unsigned k = 0; k < count && names; ++k) {
-      matvar_t* field =
-          Mat_VarGetStructFieldByIndex(const_cast<matvar_t*>(&var), static_cast<std::size_t>(k), 0);
+      matvar_t* field = matio.VarGetStructFieldByIndex(const_cast<matvar_t*>(&var),
+                                                       static_cast<std::size_t>(k), 0);
       const std::string field_name = name + "." + names[k];
       if (field) Collect(*field, field_name, path, contents);
       if (fields.size() < 60) fields += (fields.empty() ? "" : ", ") + field_name;
@@ -296,7 +303,7 @@ void Collect(const matvar_t& var, const std::string& name, const std::string& pa
     return other("a scalar (" + SizeAndClass(var) +
                  "), not a column: a column is a vector, or a column of a matrix");
   }
-  if (!var.data || var.data_size != static_cast<int>(Mat_SizeOfClass(var.class_type)) ||
+  if (!var.data || var.data_size != static_cast<int>(matio.SizeOfClass(var.class_type)) ||
       var.nbytes < n * static_cast<std::size_t>(var.data_size)) {
     throw InputError(path + ": variable '" + name + "' (" + SizeAndClass(var) +
                      ") could not be read: the file is damaged or of a layout libmatio "
@@ -317,14 +324,15 @@ void Collect(const matvar_t& var, const std::string& name, const std::string& pa
 
 // The variables of the file, read with libmatio (under its lock).
 MatContents ReadContents(const std::string& path, MatHeader header) {
+  const MatioLibrary& matio = Matio(path);
   std::lock_guard<std::mutex> lock(MatioMutex());
-  static const bool logging = [] { return Mat_LogInitFunc("blmd-ident", MatioLog) == 0; }();
+  static const bool logging = [&matio] { return matio.LogInitFunc("blmd-ident", MatioLog) == 0; }();
   (void)logging;
   MatioMessage().clear();
   auto matio_says = [] {
     return MatioMessage().empty() ? std::string() : " (libmatio: " + MatioMessage() + ")";
   };
-  const MatFile mat(Mat_Open(path.c_str(), MAT_ACC_RDONLY));
+  const MatFile mat(matio.Open(path.c_str(), MAT_ACC_RDONLY), MatCloser{matio.Close});
   if (!mat) {
     if (header == MatHeader::kV73) {
       // ("No HDF5 support which is required to read the v7.3 MAT file": libmatio's words.)
@@ -339,7 +347,7 @@ MatContents ReadContents(const std::string& path, MatHeader header) {
                      ": not a MATLAB .mat file (no MAT v5/v7/v7.3 header, and not a v4 file)");
   }
   std::size_t count = 0;
-  char* const* names = Mat_GetDir(mat.get(), &count);
+  char* const* names = matio.GetDir(mat.get(), &count);
   if (!MatioMessage().empty()) {
     throw InputError(path + (header == MatHeader::kV73 ? ": MATLAB v7.3 (HDF5) file" : "") +
                      ": unreadable MAT file" + matio_says());
@@ -352,11 +360,12 @@ MatContents ReadContents(const std::string& path, MatHeader header) {
     throw InputError(path + ": the MAT file holds no variables");
   }
   for (const std::string& name : contents.variables) {
-    const MatVar info(Mat_VarReadInfo(mat.get(), name.c_str()));
+    const MatVar info(matio.VarReadInfo(mat.get(), name.c_str()), VarFreer{matio.VarFree});
     const bool wanted =
         info && (info->class_type == MAT_C_STRUCT ||
                  (IsNumericClass(info->class_type) && !info->isComplex && Elements(*info) > 1));
-    const MatVar var(wanted ? Mat_VarRead(mat.get(), name.c_str()) : nullptr);
+    const MatVar var(wanted ? matio.VarRead(mat.get(), name.c_str()) : nullptr,
+                     VarFreer{matio.VarFree});
     if (!info || (wanted && !var)) {
       throw InputError(path + ": variable '" + name + "' could not be read" + matio_says());
     }
