@@ -126,10 +126,11 @@ inline nlohmann::json RunFleetRow(const FleetRow& row, const std::vector<std::st
     IdentRequest request =
         MakeIdentRequest(LoadConfig(flags.config_path), flags.config_path, Settings(app, flags));
     const IdentOutcome outcome = Identify(std::move(request));
-    const nlohmann::json report = outcome.report;
     const std::string report_file = row.id + ".json";
-    WriteFileAtomically(FleetReportPath(options.out_dir, row.id), report.dump(2) + "\n");
-    line = FleetResultFromReport(row, report, report_file, options.rule, seconds());
+    WriteFileAtomically(FleetReportPath(options.out_dir, row.id),
+                        nlohmann::json(outcome.report).dump(2) + "\n");
+    // The table's line from the typed report, not from the JSON just written.
+    line = FleetResultFromReport(row, outcome.report, report_file, options.rule, seconds());
     // A failed fit or gate is the row's error; drift is judged by the batch's rule (the
     // --baseline's own per-parameter verdict stays in the report).
     const IdentVerdict verdict = Judge(flags, outcome, /*with_baseline=*/false);

@@ -96,16 +96,6 @@ void HashFile(Sha256* hash, const std::string& path) {
   hash->Update(path + std::string(1, '\0') + digest + std::string(1, '\0'));
 }
 
-// A number of a JSON object, NaN when absent or null (a report writes NaN as null).
-double NumberAt(const json& object, const std::string& key) {
-  const auto it = object.find(key);
-  return it != object.end() && it->is_number() ? it->get<double>() : NAN;
-}
-
-json NumberOrNull(const json& value) {
-  return value.is_number() && std::isfinite(value.get<double>()) ? value : json(nullptr);
-}
-
 const std::vector<std::string> kFixedColumns = {"id",
                                                 "drive",
                                                 "date",
@@ -447,56 +437,58 @@ double DriftRule::Threshold(std::size_t compared) const {
   return boost::math::quantile(normal, 1.0 - alpha / (2.0 * static_cast<double>(compared)));
 }
 
-json FleetResultFromReport(const FleetRow& row, const json& report, const std::string& report_file,
-                           const DriftRule& rule, double wall_time_s) {
+json FleetResultFromReport(const FleetRow& row, const IdentReport& report,
+                           const std::string& report_file, const DriftRule& rule,
+                           double wall_time_s) {
   json line = FleetErrorResult(row, "", wall_time_s);
   line["status"] = "ok";
   line["report"] = report_file;
-  if (report.contains("parameters")) {
-    for (const auto& [name, p] : report["parameters"].items()) {
-      if (!p.value("free", false)) continue;
-      line[name] = NumberOrNull(p.value("value", json()));
-      const json ci = p.value("ci95", json());
-      const bool pair = ci.is_array() && ci.size() == 2;
-      line[name + "_ci95_low"] = pair ? NumberOrNull(ci[0]) : json(nullptr);
-      line[name + "_ci95_high"] = pair ? NumberOrNull(ci[1]) : json(nullptr);
-    }
+  // The table's numbers as the report states them: a value that is not finite is null.
+  const auto number = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
+  for (const auto& [name, p] : report.final_model.parameters) {
+    if (!p.free) continue;
+    const ParameterEstimate& e = p.estimate;
+    line[name] = number(e.value);
+    line[name + "_ci95_low"] = e.has_interval ? number(e.ci95_low) : json(nullptr);
+    line[name + "_ci95_high"] = e.has_interval ? number(e.ci95_high) : json(nullptr);
   }
-  if (report.contains("fit")) line["nrmse"] = NumberOrNull(report["fit"].value("nrmse", json()));
+  const ErrorFigures& errors = report.final_model.fit.errors;
+  line["nrmse"] = errors.ok ? number(errors.nrmse) : json(nullptr);
   std::vector<std::string> codes, effects;
-  const json warnings = report.value("warnings", json::array());
-  for (const json& w : warnings) codes.push_back(w.value("code", ""));
-  if (report.contains("discovery")) {
-    const json added = report["discovery"].value("added", json::array());
-    for (const json& e : added) {
-      effects.push_back(e.get<std::string>());
-    }
-  }
+  for (const Warning& w : report.warnings) codes.push_back(w.code);
+  if (report.discovery) effects = report.discovery->added;
   line["warnings"] = Join(codes, ";");
   line["effects"] = Join(effects, ";");
-  if (report.contains("baseline")) {
-    const json& baseline = report["baseline"];
+  if (report.baseline) {
+    // By name, as the report's JSON lists them (the worst shift's name breaks ties alike).
+    std::vector<BaselineParameter> parameters = report.baseline->parameters;
+    std::sort(
+        parameters.begin(), parameters.end(),
+        [](const BaselineParameter& a, const BaselineParameter& b) { return a.name < b.name; });
     // Each compared parameter's shift in standard errors of the difference.
     std::vector<std::pair<std::string, double>> z_of;
-    const json parameters = baseline.value("parameters", json::object());
-    for (const auto& [name, p] : parameters.items()) {
-      if (name == "J" || name == "B") {
-        line[name + "_baseline"] = NumberOrNull(p.value("baseline", json()));
-        const json ci = p.value("baseline_ci95", json());
-        const bool pair = ci.is_array() && ci.size() == 2;
-        line[name + "_baseline_ci95_low"] = pair ? NumberOrNull(ci[0]) : json(nullptr);
-        line[name + "_baseline_ci95_high"] = pair ? NumberOrNull(ci[1]) : json(nullptr);
+    const BaselineParameter* worst_parameter = nullptr;
+    for (const BaselineParameter& p : parameters) {
+      const bool compared = p.verdict != "not_compared";
+      if (p.name == "J" || p.name == "B") {
+        line[p.name + "_baseline"] = number(p.baseline);
+        line[p.name + "_baseline_ci95_low"] =
+            compared ? number(p.baseline_ci95_low) : json(nullptr);
+        line[p.name + "_baseline_ci95_high"] =
+            compared ? number(p.baseline_ci95_high) : json(nullptr);
       }
-      if (p.value("verdict", "") == "not_compared") continue;
-      const double shift = NumberAt(p, "shift"), limit = NumberAt(p, "combined_limit");
-      if (std::isfinite(shift) && limit > 0.0)
-        z_of.emplace_back(name, std::abs(shift) / (limit / kZ95));
+      if (!compared) continue;
+      if (std::isfinite(p.shift) && p.combined_limit > 0.0)
+        z_of.emplace_back(p.name, std::abs(p.shift) / (p.combined_limit / kZ95));
     }
     const std::size_t compared = z_of.size();
     double z_max = NAN;
     std::string worst;
     for (const auto& [name, z] : z_of) {
       if (!(z <= z_max)) z_max = z, worst = name;
+    }
+    for (const BaselineParameter& p : parameters) {
+      if (p.name == worst) worst_parameter = &p;
     }
     const double threshold = rule.Threshold(compared);
     line["drift_z"] = compared ? json(z_max) : json(nullptr);
@@ -509,10 +501,10 @@ json FleetResultFromReport(const FleetRow& row, const json& report, const std::s
         if (z > threshold) moved.push_back(name);
       }
       line["moved"] = Join(moved, ";");
-      if (z_max > threshold) {
+      if (z_max > threshold && worst_parameter) {
         line["status"] = "drift";
-        const json& p = parameters[worst];
-        const double relative = NumberAt(p, "relative_shift");
+        const BaselineParameter& p = *worst_parameter;
+        const double relative = p.baseline != 0.0 ? p.shift / p.baseline : NAN;
         std::ostringstream message;
         message << "drifted from the baseline: " << worst << " "
                 << (std::isfinite(relative)

@@ -235,6 +235,24 @@ TEST(Batch, DriftAgainstEachDrivesOwnBaseline) {
             std::string::npos)
       << lines[1]["message"];
   EXPECT_NEAR(lines[1]["J_baseline"].get<double>(), 2.4e-5, 2.4e-5 * 0.01);
+  // Each line is made from the typed report; it says what the row's JSON report says.
+  for (const json& line : lines) {
+    const json report = json::parse(Slurp(dir.File("out2/" + line["report"].get<std::string>())));
+    for (const char* name : {"J", "B"}) {
+      const json& p = report["parameters"][name];
+      EXPECT_EQ(line[name], p["value"]) << name;
+      EXPECT_EQ(line[std::string(name) + "_ci95_low"], p["ci95"][0]) << name;
+      EXPECT_EQ(line[std::string(name) + "_ci95_high"], p["ci95"][1]) << name;
+      const json& b = report["baseline"]["parameters"][name];
+      EXPECT_EQ(line[std::string(name) + "_baseline"], b["baseline"]) << name;
+      EXPECT_EQ(line[std::string(name) + "_baseline_ci95_low"], b["baseline_ci95"][0]) << name;
+    }
+    EXPECT_EQ(line["nrmse"], report["fit"]["nrmse"]);
+    std::string codes;
+    for (const json& w : report["warnings"])
+      codes += (codes.empty() ? "" : ";") + w["code"].get<std::string>();
+    EXPECT_EQ(line["warnings"], codes);
+  }
   // The fleet page lists the drifted drive first.
   const std::string html = Slurp(dir.File("out2/fleet.html"));
   EXPECT_LT(html.find("data-status=\"drift\""), html.find("data-status=\"ok\""));

@@ -19,6 +19,8 @@
 #include <string>
 #include <vector>
 
+#include "blmd/report/report.h"
+
 namespace blmd {
 
 // One row of the manifest (header `id,trace,config,baseline`, and optionally `drive`, `date`
@@ -63,11 +65,11 @@ struct DriftRule {
   double Threshold(std::size_t compared) const;
 };
 
-// A row's line of the table from its blmd-ident report (JSON, as --report writes it): the
-// status (`ok` or `drift`), the free parameters with their 95 % intervals, the NRMSE, drift_z
-// and its threshold, the effects discovery added, the warnings' codes. `report_file` is the
-// report's path relative to the output folder.
-nlohmann::json FleetResultFromReport(const FleetRow& row, const nlohmann::json& report,
+// A row's line of the table from its typed blmd-ident report (what --report writes is its
+// rendering): the status (`ok` or `drift`), the free parameters with their 95 % intervals, the
+// NRMSE, drift_z and its threshold, the effects discovery added, the warnings' codes.
+// `report_file` is the report's path relative to the output folder.
+nlohmann::json FleetResultFromReport(const FleetRow& row, const IdentReport& report,
                                      const std::string& report_file, const DriftRule& rule,
                                      double wall_time_s);
 // An error row: status `error` and the message.
