@@ -42,6 +42,7 @@
 #include "blmd/random.h"
 #include "blmd/report/design_report.h"
 #include "blmd/report/export.h"
+#include "blmd/report/html/fleet_page.h"
 #include "blmd/report/html/html_report.h"
 #include "blmd/report/linear_views.h"
 #include "blmd/report/progress.h"
