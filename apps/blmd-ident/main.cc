@@ -18,6 +18,7 @@
 #include "batch.h"
 #include "blmd/app/fleet.h"
 #include "blmd/app/identify.h"
+#include "blmd/app/page_analysis.h"
 #include "blmd/io/config.h"
 #include "blmd/io/files.h"
 #include "blmd/report/export.h"
@@ -56,9 +57,10 @@ void WriteFiles(const IdentFlags& f, const blmd::IdentOutcome& outcome,
     if (progress) progress->BeginStage("html report");
     blmd::HtmlReportOptions html_options;
     html_options.threads = f.threads;
-    blmd::WriteHtmlReport(
-        f.html_path, {&report, outcome.problem.get(), &outcome.first_fit, outcome.discovery.get()},
-        html_options);
+    // The page's simulations and cost slices first (the analysis); the renderer runs nothing.
+    const blmd::PageViews views = blmd::AnalysePage(*outcome.problem, outcome.first_fit,
+                                                    outcome.discovery.get(), html_options);
+    blmd::WriteHtmlReport(f.html_path, {&report, outcome.problem.get(), &views}, html_options);
   }
 }
 

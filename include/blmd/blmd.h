@@ -8,6 +8,7 @@
 #include "blmd/app/baseline.h"
 #include "blmd/app/fleet.h"
 #include "blmd/app/identify.h"
+#include "blmd/app/page_analysis.h"
 #include "blmd/app/sweep.h"
 #include "blmd/constants.h"
 #include "blmd/error.h"

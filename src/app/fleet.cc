@@ -347,7 +347,7 @@ json FleetResultFromReport(const FleetRow& row, const IdentReport& report,
             compared ? number(p.baseline_ci95_high) : json(nullptr);
       }
       if (!compared) continue;
-      if (std::isfinite(p.shift) && p.combined_limit > 0.0)
+      if (std::isfinite(p.shift) && std::isfinite(p.combined_limit) && p.combined_limit > 0.0)
         z_of.emplace_back(p.name, std::abs(p.shift) / (p.combined_limit / kZ95));
     }
     const std::size_t compared = z_of.size();

@@ -170,9 +170,12 @@ IdentOutcome Identify(IdentRequest request) {
       // stops on its own tolerances, where the user's method would still move, and a refit
       // from --write-config's file would then not reproduce this report.
       Stage(progress, "final model: fitted as a plain fit (" + request.method + ")");
+      // Kept only where it converged and lowered the cost (or discovery's own fit failed): a
+      // fit stopped by the user's budget is no better an answer than discovery's.
       FitResult polished = optimizer.Minimize(*final_problem, options);
-      if (polished.evaluation.ok &&
-          polished.evaluation.cost <= outcome.discovery->final_fit.evaluation.cost) {
+      const FitResult& before = outcome.discovery->final_fit;
+      if (polished.evaluation.ok && polished.summary.converged &&
+          (!before.evaluation.ok || polished.evaluation.cost <= before.evaluation.cost)) {
         outcome.discovery->final_fit = std::move(polished);
       }
     }

@@ -4,10 +4,11 @@
 
 #include "blmd/error.h"
 
-// The shared library's name (its SONAME), found when the build was configured
-// (CMakeLists.txt); the Debian package that holds it is libmatio<N>.
-#ifndef BLMD_MATIO_SONAME
-#error "BLMD_MATIO_SONAME: the build defines it from the libmatio it found"
+// The shared library's name (its SONAME) and where the build found it (CMakeLists.txt): the
+// name is looked up in the loader's path first, as a linked library would be, then at that
+// place (a libmatio installed outside the loader's path, found through pkg-config).
+#if !defined(BLMD_MATIO_SONAME) || !defined(BLMD_MATIO_PATH)
+#error "BLMD_MATIO_SONAME, BLMD_MATIO_PATH: the build defines them from the libmatio it found"
 #endif
 
 namespace blmd::internal {
@@ -32,7 +33,9 @@ Loaded Load() {
   if (!handle) {
     const char* why = dlerror();
     loaded.error = why ? why : "dlopen failed";
-    return loaded;
+    handle = dlopen(BLMD_MATIO_PATH, RTLD_NOW | RTLD_LOCAL);
+    if (!handle) return loaded;
+    loaded.error.clear();
   }
   MatioLibrary& m = loaded.library;
   std::string& e = loaded.error;
@@ -50,6 +53,16 @@ Loaded Load() {
   return loaded;
 }
 
+// Debian's package of a shared library: its name without ".so", with the version appended
+// ("libmatio.so.11": libmatio11).
+std::string PackageOf(const std::string& soname) {
+  const std::size_t so = soname.find(".so");
+  if (so == std::string::npos) return soname;
+  std::string version = soname.substr(so + 3);
+  if (!version.empty() && version.front() == '.') version.erase(0, 1);
+  return soname.substr(0, so) + version;
+}
+
 }  // namespace
 
 const MatioLibrary& Matio(const std::string& path) {
@@ -58,7 +71,8 @@ const MatioLibrary& Matio(const std::string& path) {
     throw InputError(path +
                      ": reading a .mat file needs libmatio (" BLMD_MATIO_SONAME
                      "), which could not be loaded: " +
-                     loaded.error + "; install it (Debian: libmatio11) or export the trace as CSV");
+                     loaded.error + "; install it (Debian: " + PackageOf(BLMD_MATIO_SONAME) +
+                     ") or export the trace as CSV");
   }
   return loaded.library;
 }

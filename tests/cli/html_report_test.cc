@@ -17,6 +17,7 @@
 #include <set>
 #include <sstream>
 
+#include "blmd/app/page_analysis.h"
 #include "blmd/ident/fit/trace_input.h"
 #include "blmd/io/config.h"
 #include "blmd/report/report.h"
@@ -26,6 +27,13 @@
 
 namespace blmd::testing {
 namespace {
+
+// The page as blmd-ident makes it: the analysis (simulations, cost slices), then the renderer.
+std::string Page(const IdentReport& report, const FitProblem& problem, const FitResult& result,
+                 const DiscoveryResult* discovery, const HtmlReportOptions& options) {
+  const PageViews views = AnalysePage(problem, result, discovery, options);
+  return MakeHtmlReport({&report, &problem, &views}, options);
+}
 
 std::size_t Count(const std::string& text, const std::string& what) {
   std::size_t n = 0;
@@ -251,8 +259,7 @@ TEST(HtmlReport, HasEveryPartOfAFitWithoutDiscovery) {
   HtmlReportOptions options;
   options.date = "2001-02-03 04:05 UTC";
   options.threads = 2;
-  const std::string html =
-      MakeHtmlReport({&f.report, f.problem.get(), &f.result, nullptr}, options);
+  const std::string html = Page(f.report, *f.problem, f.result, nullptr, options);
   ExpectSelfContained(html);
   // Header.
   EXPECT_EQ(Count(html, "<h1>blmd-ident report: ganesh-noload</h1>"), 1u);
@@ -340,8 +347,7 @@ TEST(HtmlReport, ShowsTheModelBeforeAndAfterDiscovery) {
   AddWarnings(&report);
   HtmlReportOptions html_options;
   html_options.threads = 2;
-  const std::string html =
-      MakeHtmlReport({&report, f.problem.get(), &f.result, &discovery}, html_options);
+  const std::string html = Page(report, *f.problem, f.result, &discovery, html_options);
   ExpectSelfContained(html);
   // Parameters: J, B and the added Tc of the final model, the first fit's beside them.
   EXPECT_EQ(Count(html, "<tr class=\"parameter\""), 3u);
@@ -397,8 +403,7 @@ TEST(HtmlReport, ShowsTheModelBeforeAndAfterDiscovery) {
   report.discovery->adequacy = CheckResidualStructure(*f.problem, f.result.values);
   ASSERT_FALSE(report.discovery->adequacy.flagged.empty());
   AddWarnings(&report);
-  const std::string flagged =
-      MakeHtmlReport({&report, f.problem.get(), &f.result, &discovery}, html_options);
+  const std::string flagged = Page(report, *f.problem, f.result, &discovery, html_options);
   ExpectSelfContained(flagged);
   EXPECT_EQ(Count(flagged, "data-adequate=\"false\""), 1u);
   std::size_t adequacy_plots = 0;
@@ -422,7 +427,7 @@ TEST(HtmlReport, ShowsTheFrequencyResponseStepResponseAndCorrelation) {
   ASSERT_TRUE(report.step_response && report.step_response->available);
   HtmlReportOptions options;
   options.threads = 2;
-  const std::string html = MakeHtmlReport({&report, f.problem.get(), &f.result, nullptr}, options);
+  const std::string html = Page(report, *f.problem, f.result, nullptr, options);
   ExpectSelfContained(html);
   EXPECT_EQ(Count(html, "<section id=\"frequency-response\">"), 1u);
   EXPECT_EQ(Count(html, "<section id=\"step-response\">"), 1u);

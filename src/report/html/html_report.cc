@@ -126,28 +126,6 @@ std::string Card(const std::string& label, const std::string& value, const std::
 
 // ---- data ------------------------------------------------------------------------------
 
-// The simulated traces of one model: one per trace of the problem, or a failure reason.
-struct Simulation {
-  bool ok = false;
-  std::string reason;
-  std::vector<Trace> traces;
-};
-
-Simulation SimulateAll(const FitProblem& problem, const std::vector<double>& values) {
-  Simulation simulation;
-  simulation.traces.resize(problem.traces().size());
-  for (std::size_t k = 0; k < problem.traces().size(); ++k) {
-    const SimStatus status = problem.Simulate(k, values, &simulation.traces[k]);
-    if (!status.ok()) {
-      simulation.reason = status.message;
-      simulation.traces.clear();
-      return simulation;
-    }
-  }
-  simulation.ok = true;
-  return simulation;
-}
-
 std::vector<double> Slice(const std::vector<double>& v, std::size_t begin, std::size_t end) {
   begin = std::min(begin, v.size());
   end = std::min(std::max(begin, end), v.size());
@@ -363,14 +341,8 @@ void WriteParameters(Page& page, const IdentReport& report, const FitProblem& pr
   page.EndSection();
 }
 
-std::string AfterLabel(const DiscoveryResult& discovery) {
-  std::string names;
-  for (const auto& n : discovery.added) names += (names.empty() ? "" : ", ") + n;
-  return "after discovery (+" + names + ")";
-}
-
 void WriteTraces(Page& page, const IdentReport& report, const FitProblem& problem,
-                 const Simulation& fit, const Simulation* after, const std::string& after_label) {
+                 const ModelViews& fit, const ModelViews* after, const std::string& after_label) {
   const HtmlReportOptions& o = page.options();
   const std::string& model = report.model;
   const std::size_t traces = problem.traces().size();
@@ -392,7 +364,7 @@ void WriteTraces(Page& page, const IdentReport& report, const FitProblem& proble
          "measured "
          "motion, at the kept samples; no motion is simulated here.</p>\n";
   }
-  if (!fit.ok)
+  if (!fit.simulated)
     h += "<p class=\"note warn\">The fit's simulation failed: " + Escape(fit.reason) + "</p>\n";
   for (std::size_t k = 0; k < traces; ++k) {
     const FitTrace& ft = problem.traces()[k];
@@ -402,7 +374,7 @@ void WriteTraces(Page& page, const IdentReport& report, const FitProblem& proble
     if (traces > 1)
       h += "<h3>Trace " + std::to_string(k + 1) + ": <code>" + Escape(ft.path) + "</code></h3>\n";
     const std::optional<std::pair<double, double>> transient =
-        FirstTransientWindow(problem, k, fit.ok ? fit.traces[k] : measured);
+        FirstTransientWindow(problem, k, fit.simulated ? fit.traces[k] : measured);
     const std::pair<double, double> window = transient.value_or(std::make_pair(0.0, 0.0));
     std::size_t begin = 0, end = t.size();
     while (begin < t.size() && t[begin] < window.first) ++begin;
@@ -416,11 +388,11 @@ void WriteTraces(Page& page, const IdentReport& report, const FitProblem& proble
         std::vector<Series> series;
         series.push_back(Line("measured", Slice(t, b, e), Slice(measured.Column(column), b, e),
                               kMeasuredColour, "", 1.0));
-        if (fit.ok) {
+        if (fit.simulated) {
           series.push_back(Line("simulated, fit", Slice(t, b, e),
                                 Slice(fit.traces[k].Column(column), b, e), kFitColour, "", 1.6));
         }
-        if (after && after->ok) {
+        if (after && after->simulated) {
           series.push_back(Line("simulated, " + after_label, Slice(t, b, e),
                                 Slice(after->traces[k].Column(column), b, e), kAfterColour,
                                 kAfterDash, 1.6));
@@ -491,11 +463,11 @@ const ColumnDiagnostics* FindColumn(const ResidualAnalysis* analysis, const std:
 }
 
 void WriteResidual(Page& page, const IdentReport& report, const FitProblem& problem,
-                   const Simulation& fit, const Simulation* after, const std::string& after_label) {
+                   const ModelViews& fit, const ModelViews* after, const std::string& after_label) {
   const HtmlReportOptions& o = page.options();
   const std::string& model = report.model;
   const std::size_t traces = problem.traces().size();
-  const bool show_after = after && after->ok;
+  const bool show_after = after && after->simulated;
   page.Section("residual", "Residual");
   std::string& h = page.html();
   h += "<p class=\"note\">Residual = measured − simulated, in the column's unit. A model that "
@@ -503,7 +475,7 @@ void WriteResidual(Page& page, const IdentReport& report, const FitProblem& prob
        "inside the grey band (95 % of the lags of white noise fall in ±1.96/√n).";
   if (show_after) h += " The residual after discovery is drawn on the same scale as the fit's.";
   h += "</p>\n";
-  if (fit.ok) {
+  if (fit.simulated) {
     for (std::size_t k = 0; k < traces; ++k) {
       const Trace& measured = problem.measured(k);
       const std::vector<double>& t = measured.Column("t");
@@ -600,18 +572,16 @@ void WriteResidual(Page& page, const IdentReport& report, const FitProblem& prob
   page.EndSection();
 }
 
-void WriteSlices(Page& page, const FitProblem& problem, const std::vector<double>& values,
+void WriteSlices(Page& page, const ModelViews& views,
                  const std::map<std::string, std::pair<double, double>>& intervals,
                  const std::string& model_tag, const std::string& model_label, const char* colour) {
   const HtmlReportOptions& o = page.options();
-  if (o.slice_points <= 0 || problem.num_free() == 0) return;
-  const std::vector<CostSlice> slices =
-      ComputeCostSlices(problem, values, o.slice_points, o.slice_span, o.threads);
+  if (!views.sliced) return;
+  const std::vector<CostSlice>& slices = views.slices;
   std::string& h = page.html();
   h += "<h3>" + Escape(model_label) + "</h3>\n<div class=\"grid\">\n";
   for (const auto& slice : slices) {
-    const FreeParameter& fp = problem.free()[slice.index];
-    const std::string unit = ParameterUnit(problem.config(), slice.parameter);
+    const std::string& unit = slice.unit;
     std::vector<Series> series;
     Series curve = Line("cost", slice.x, slice.cost, colour, "", 1.6);
     curve.marker_radius = 2.2;
@@ -622,7 +592,7 @@ void WriteSlices(Page& page, const FitProblem& problem, const std::vector<double
     plot.x_unit = unit;
     plot.y_label = "cost";
     plot.y_unit = "normalised MSE";
-    plot.x_log = fp.log_scale;
+    plot.x_log = slice.log_scale;
     plot.y_log = true;
     plot.width = o.plot_width;
     plot.height = o.plot_height;
@@ -838,24 +808,16 @@ void WriteValidation(Page& page, const ValidationReport& validation) {
 }  // namespace
 
 std::string MakeHtmlReport(const HtmlReportInputs& inputs, const HtmlReportOptions& options) {
-  if (!inputs.report || !inputs.problem || !inputs.result) {
-    throw std::invalid_argument("MakeHtmlReport: report, problem and result are required");
+  if (!inputs.report || !inputs.problem || !inputs.views) {
+    throw std::invalid_argument("MakeHtmlReport: report, problem and views are required");
   }
   const IdentReport& report = *inputs.report;
   const FitProblem& problem = *inputs.problem;
-  const FitResult& result = *inputs.result;
+  const PageViews& views = *inputs.views;
   const std::string date = options.date.empty() ? NowUtc() : options.date;
-
-  const Simulation fit = SimulateAll(problem, result.values);
-  const std::unique_ptr<FitProblem> after_problem =
-      (inputs.discovery ? FinalProblem(problem, *inputs.discovery) : nullptr);
-  Simulation after;
-  std::string after_label;
-  if (after_problem) {
-    after = SimulateAll(*after_problem, inputs.discovery->final_fit.values);
-    after_label = AfterLabel(*inputs.discovery);
-  }
-  const Simulation* after_ptr = after_problem ? &after : nullptr;
+  const ModelViews& fit = views.fit;
+  const ModelViews* after_ptr = views.after ? &*views.after : nullptr;
+  const std::string& after_label = views.after_label;
 
   Page page(options);
   std::string& h = page.html();
@@ -888,11 +850,10 @@ std::string MakeHtmlReport(const HtmlReportInputs& inputs, const HtmlReportOptio
       if (e.has_interval) after_intervals[e.name] = {e.ci95_low, e.ci95_high};
     }
   }
-  WriteSlices(page, problem, result.values, fit_intervals, "fit",
-              after_problem ? "Fit (the config's model)" : "Fit", kFitColour);
-  if (after_problem) {
-    WriteSlices(page, *after_problem, inputs.discovery->final_fit.values, after_intervals, "after",
-                "Model " + after_label, kAfterColour);
+  WriteSlices(page, fit, fit_intervals, "fit", after_ptr ? "Fit (the config's model)" : "Fit",
+              kFitColour);
+  if (after_ptr) {
+    WriteSlices(page, *after_ptr, after_intervals, "after", "Model " + after_label, kAfterColour);
   }
   page.EndSection();
 

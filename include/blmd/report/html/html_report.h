@@ -39,9 +39,7 @@
 #include <utility>
 #include <vector>
 
-#include "blmd/ident/discovery/discovery.h"
 #include "blmd/ident/fit/problem.h"
-#include "blmd/ident/optimizers/optimizer.h"
 #include "blmd/report/report.h"
 
 namespace blmd {
@@ -61,16 +59,6 @@ struct HtmlReportOptions {
   int plot_width = 600, plot_height = 340;
 };
 
-// What the page is built from. `report` is the typed report (with its discovery block when
-// discovery ran); `problem` and `result` are the first fit it describes; `discovery` is
-// optional (null: no discovery, or not to be shown).
-struct HtmlReportInputs {
-  const IdentReport* report = nullptr;
-  const FitProblem* problem = nullptr;
-  const FitResult* result = nullptr;
-  const DiscoveryResult* discovery = nullptr;
-};
-
 // The cost along one free parameter with the others held at `values`.
 struct CostSlice {
   std::string parameter;
@@ -80,14 +68,35 @@ struct CostSlice {
   std::vector<double> cost;  // problem.Evaluate's cost; +inf where the simulation failed
   std::size_t centre = 0;    // index of the estimate in x (when it lies in the bounds)
   std::size_t argmin = 0;    // index of the lowest finite cost
+  bool log_scale = false;    // the parameter is searched on a log scale (its axis is)
+  std::string unit;          // the parameter's unit in the config's model ("" when none)
 };
 
-// One slice per free parameter of `problem` through `values` (see HtmlReportOptions for the
-// spacing). Evaluations run on `threads` threads (0: all cores); the result does not depend
-// on the thread count.
-std::vector<CostSlice> ComputeCostSlices(const FitProblem& problem,
-                                         const std::vector<double>& values, int points, double span,
-                                         int threads);
+// What the page shows of one model that the report does not hold, computed before the page is
+// rendered (AnalysePage, app/page_analysis.h): the renderer simulates and evaluates nothing.
+struct ModelViews {
+  bool simulated = false;     // every trace simulated
+  std::string reason;         // why not
+  std::vector<Trace> traces;  // the model's simulation of each trace of the problem
+  // Its cost along each free parameter (HtmlReportOptions); `sliced` false when none was asked
+  // for (no slice points, or no free parameter).
+  bool sliced = false;
+  std::vector<CostSlice> slices;
+};
+struct PageViews {
+  ModelViews fit;                   // the first fit
+  std::optional<ModelViews> after;  // discovery's final model, when it added effects
+  std::string after_label;          // "after discovery (+coulomb_friction)"
+};
+
+// What the page is built from: the typed report (with its discovery block when discovery
+// ran), the problem of its first fit (the measured traces, observed columns and free
+// parameters), and the views computed for it.
+struct HtmlReportInputs {
+  const IdentReport* report = nullptr;
+  const FitProblem* problem = nullptr;
+  const PageViews* views = nullptr;
+};
 
 // The time window [t_begin, t_end] of the first transient of trace k of `problem`, judged on
 // `simulated` (its simulated trace). It starts where the input u first moves by more than
@@ -102,7 +111,7 @@ std::optional<std::pair<double, double>> FirstTransientWindow(const FitProblem& 
                                                               std::size_t k,
                                                               const Trace& simulated);
 
-// The HTML text. Throws std::invalid_argument when a required input is null.
+// The HTML text. Throws std::invalid_argument when an input is null.
 std::string MakeHtmlReport(const HtmlReportInputs& inputs, const HtmlReportOptions& options = {});
 
 // MakeHtmlReport written atomically (WriteFileAtomically: complete or absent).
