@@ -1,6 +1,7 @@
 // _blmd: the C++ side of the Python package `blmd` (docs/python.md). It builds the requests
-// through the library's request layer (app/request.h, as the commands do; blmd-tune's and
-// blmd-design's own flag sets for tune and design), runs Identify, Sweep, a simulation,
+// from the commands' settings (IdentSettings, SweepSettings, TuneSettings, DesignSettings:
+// app/request.h, app/tune_run.h, app/experiment_design_run.h, as the commands do), with configs,
+// reports and traces given as files or in memory, runs Identify, Sweep, a simulation,
 // RunTune or RunDesign with the GIL released, and hands back plain values: reports and configs
 // as JSON text, traces, surfaces and the identified model's covariance and fit as NumPy
 // arrays. python/blmd/__init__.py turns Python arguments into the settings' text forms and the
@@ -24,9 +25,7 @@
 #include <utility>
 #include <vector>
 
-#include "../apps/blmd-design/design_flags.h"
 #include "../apps/blmd-ident/batch.h"
-#include "../apps/blmd-tune/tune_flags.h"
 #include "app/experiment_design_run.h"
 #include "app/request.h"
 #include "app/tune_run.h"
@@ -309,30 +308,23 @@ std::string ModelConfig(const py::tuple& config_arg,
   return doc.dump();
 }
 
-// Flags in their text forms parsed by the command's own flag set (apps/*/..._flags.h), so
-// that the package takes every option the command takes, checked by the same code.
-template <typename Flags>
-void ParseFlags(CLI::App& app, Flags& flags, std::vector<std::string> args) {
-  flags.Add(app);
-  std::reverse(args.begin(), args.end());  // CLI11 takes a vector last argument first
-  try {
-    app.parse(args);
-  } catch (const CLI::ParseError& error) {
-    throw blmd::InputError(error.what());
-  }
-}
-
-// tune(flags) -> (report JSON text, refused, refusal, closed-loop config JSON text)
-py::tuple Tune(const std::vector<std::string>& args) {
+// tune(config, report, settings) -> (report JSON text, refused, refusal, closed-loop config
+// JSON text); `config` and `report` (None: none) are (path or label, text or None) pairs.
+py::tuple Tune(const py::tuple& config_arg, const py::object& report_arg,
+               const blmd::TuneSettings& settings) {
   std::string report, refusal, config;
   bool refused = false;
+  const ConfigSource config_source = ToConfigSource(config_arg);
+  const blmd::JsonSource config_json{config_source.path_or_label, config_source.text};
+  std::optional<blmd::JsonSource> report_json;
+  if (!report_arg.is_none()) {
+    const ConfigSource report_source = ToConfigSource(report_arg.cast<py::tuple>());
+    report_json = blmd::JsonSource{report_source.path_or_label, report_source.text};
+  }
   {
     py::gil_scoped_release release;
-    CLI::App app;
-    blmd::app::TuneFlags flags;
-    ParseFlags(app, flags, args);
-    const blmd::TuneReport tuned = blmd::RunTune(flags.config_path, flags.report_in_path,
-                                                 blmd::app::TuneSettingsOf(app, flags));
+    const blmd::TuneReport tuned =
+        blmd::RunTune(config_json, report_json ? &*report_json : nullptr, settings);
     refused = tuned.result.refused;
     refusal = tuned.result.refusal;
     if (!refused) {
@@ -343,18 +335,29 @@ py::tuple Tune(const std::vector<std::string>& args) {
   return py::make_tuple(report, refused, refusal, config);
 }
 
-// design(flags) -> (report JSON text, ok, reason, config JSON text ("" without a design))
-py::tuple Design(const std::vector<std::string>& args) {
+// design(config, settings, report, trace) -> (report JSON text, ok, reason, config JSON text
+// ("" without a design)); `report` None or a (path or label, text or None) pair, `trace` None
+// or a path or (label, columns).
+py::tuple Design(const py::tuple& config_arg, blmd::DesignSettings settings,
+                 const py::object& report_arg, const py::object& trace_arg) {
   std::string report, reason, config_text;
   bool ok = false;
+  const ConfigSource config_source = ToConfigSource(config_arg);
+  if (!report_arg.is_none()) {
+    const ConfigSource report_source = ToConfigSource(report_arg.cast<py::tuple>());
+    settings.from_report = report_source.path_or_label;
+    settings.from_report_text = report_source.text;
+  }
+  if (!trace_arg.is_none()) {
+    blmd::TraceSource trace = ToTraceSource(trace_arg);
+    settings.trace_path = trace.path;
+    settings.trace_data = std::move(trace.data);
+  }
   {
     py::gil_scoped_release release;
-    CLI::App app;
-    blmd::app::DesignFlags flags;
-    ParseFlags(app, flags, args);
-    const blmd::Config config = blmd::LoadConfig(flags.config_path);
-    const blmd::DesignRequest request =
-        blmd::MakeDesignRequest(config, flags.config_path, blmd::app::DesignSettingsOf(app, flags));
+    const blmd::Config config = config_source.Load();
+    const blmd::DesignRequest request = blmd::MakeDesignRequest(
+        config, blmd::JsonSource{config_source.path_or_label, config_source.text}, settings);
     const blmd::DesignReport designed = blmd::RunDesign(request);
     report = blmd::DesignReportJson(designed).dump();
     ok = designed.ok;
@@ -709,8 +712,33 @@ PYBIND11_MODULE(_blmd, m) {
   m.def(
       "starting_config", [](const std::string& model) { return blmd::StartingConfigText(model); },
       py::arg("model"));
-  m.def("tune", &Tune, py::arg("args"));
-  m.def("design", &Design, py::arg("args"));
+  py::class_<blmd::TuneSettings>(m, "TuneSettings")
+      .def(py::init<>())
+      .def_readwrite("loop", &blmd::TuneSettings::loop)
+      .def_readwrite("crossover_hz", &blmd::TuneSettings::crossover_hz)
+      .def_readwrite("phase_margin_deg", &blmd::TuneSettings::phase_margin_deg)
+      .def_readwrite("limits", &blmd::TuneSettings::limits)
+      .def_readwrite("step", &blmd::TuneSettings::step)
+      .def_readwrite("duration", &blmd::TuneSettings::duration)
+      .def_readwrite("integral_ratio", &blmd::TuneSettings::integral_ratio)
+      .def_readwrite("filter_ratio", &blmd::TuneSettings::filter_ratio)
+      .def_readwrite("threads", &blmd::TuneSettings::threads)
+      .def_readwrite("sample_rate_hz", &blmd::TuneSettings::sample_rate_hz)
+      .def_readwrite("current_bandwidth_hz", &blmd::TuneSettings::current_bandwidth_hz)
+      .def_readwrite("position_crossover_hz", &blmd::TuneSettings::position_crossover_hz)
+      .def_readwrite("delay_samples", &blmd::TuneSettings::delay_samples);
+  m.def("tune", &Tune, py::arg("config"), py::arg("report"), py::arg("settings"));
+  py::class_<blmd::DesignSettings>(m, "DesignSettings")
+      .def(py::init<>())
+      .def_readwrite("duration", &blmd::DesignSettings::duration)
+      .def_readwrite("limits", &blmd::DesignSettings::limits)
+      .def_readwrite("noises", &blmd::DesignSettings::noises)
+      .def_readwrite("family", &blmd::DesignSettings::family)
+      .def_readwrite("target", &blmd::DesignSettings::target)
+      .def_readwrite("trace", &blmd::DesignSettings::trace)
+      .def_readwrite("threads", &blmd::DesignSettings::threads);
+  m.def("design", &Design, py::arg("config"), py::arg("settings"), py::arg("report"),
+        py::arg("trace"));
   m.def("surface", &Surface, py::arg("config"), py::arg("settings"), py::arg("trace"));
   m.def("simulate", &Simulate, py::arg("config"), py::arg("effects"), py::arg("noise"),
         py::arg("seed"), py::arg("input"), py::arg("dialect"));

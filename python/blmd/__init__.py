@@ -125,17 +125,6 @@ def _in_python_terms(function=None, renames=None):
     return decorate(function) if function is not None else decorate
 
 
-def _unknown_flags(error, command):
-    """CLI11's "The following arguments were not expected: 2 --bogus" as the TypeError a
-    Python function gives for an unknown keyword."""
-    text = str(error)
-    if not text.startswith("The following argument"):
-        return error
-    names = [word[2:].replace("-", "_") for word in text.split() if word.startswith("--")]
-    return TypeError(f"{command}: unknown option(s) {', '.join(names) or text} "
-                     f"(not a flag of blmd-{command}; see blmd-{command} --help)")
-
-
 # The most worker threads the library uses (--threads caps at it, with a note).
 _MAX_THREADS = 256
 
@@ -679,84 +668,12 @@ def init_config(model="dc_servo", path=None):
     return json.loads(text)
 
 
-# ---- tune and design: the commands' own flag sets ----
+# ---- tune and design: their settings from the keyword arguments ----
 
 def _flag_value(value):
     if isinstance(value, str):
         return value
     return _number_text(value)
-
-
-def _flags(options, refused=()):
-    """Keyword arguments as a command's flags: name -> --name (with '-' for '_'), True -> the
-    flag alone, False/None -> left out, a list -> the flag repeated, a dict {K: V} -> the
-    flag repeated as K=V."""
-    args = []
-    for key, value in options.items():
-        if key == "threads" and value is not None:
-            value = _threads(value)  # capped with a warning, as the commands cap it
-        if key in refused:
-            raise TypeError(f"{key}: not an option here (the result holds it; write it yourself)")
-        flag = "--" + key.replace("_", "-")
-        if value is None or value is False:
-            continue
-        if value is True:
-            args.append(flag)
-        elif _is_mapping(value):
-            for name, item in value.items():
-                args += [flag, f"{name}={_flag_value(item)}"]
-        elif isinstance(value, (list, tuple)):
-            for item in value:
-                args += [flag, _flag_value(item)]
-        else:
-            args += [flag, _flag_value(value)]
-    return args
-
-
-class _FileArgs:
-    """Paths for the commands' file arguments: a path as it is, a dict (a config, a report)
-    written to a temporary JSON file, a mapping of columns to a temporary CSV; removed on
-    exit."""
-
-    def __init__(self):
-        self.directory = None
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        if self.directory is not None:
-            self.directory.cleanup()
-
-    def _path(self, name):
-        if self.directory is None:
-            self.directory = tempfile.TemporaryDirectory(prefix="blmd-")
-        return os.path.join(self.directory.name, name)
-
-    def json(self, value, name):
-        if value is None or isinstance(value, (str, os.PathLike)):
-            return None if value is None else os.fspath(value)
-        if not _is_mapping(value):
-            raise TypeError(f"{name}: expected a path or a dict, not {type(value).__name__}")
-        path = self._path(name + ".json")
-        with open(path, "w", encoding="utf-8") as file:
-            json.dump(dict(value), file, default=_json_default)
-        return path
-
-    def csv(self, value, name, array_names=None):
-        if value is None or isinstance(value, (str, os.PathLike)):
-            return None if value is None else os.fspath(value)
-        if isinstance(value, np.ndarray):
-            value = _array_columns(value, name, array_names)
-        columns = _columns(value)
-        path = self._path(name + ".csv")
-        names = list(columns)
-        with open(path, "w", encoding="utf-8") as file:
-            file.write(",".join(names) + "\n")
-            # repr: every float round-trips exactly through the library's reader.
-            for row in zip(*(columns[n] for n in names)):
-                file.write(",".join(repr(float(v)) for v in row) + "\n")
-        return path
 
 
 class TuneResult(dict):
@@ -786,61 +703,144 @@ class DesignResult(dict):
 _OUTPUT_FLAGS = ("report_path", "write_config", "write_input", "json", "quiet", "config_path")
 
 
+# blmd-tune's options beyond the named arguments: keyword -> (TuneSettings field, check); the
+# checks are the command's flags' (positive numbers, whole numbers).
+_TUNE_OPTIONS = {
+    "step": ("step", "--step"),
+    "duration": ("duration", "--duration"),
+    "integral_ratio": ("integral_ratio", "--integral-ratio"),
+    "filter_ratio": ("filter_ratio", "--filter-ratio"),
+    "sample_rate": ("sample_rate_hz", "--sample-rate"),
+    "current_bandwidth": ("current_bandwidth_hz", "--current-bandwidth"),
+    "position_crossover": ("position_crossover_hz", "--position-crossover"),
+    "delay": ("delay_samples", "--delay"),
+    "threads": ("threads", "--threads"),
+}
+
+
+def _json_source(value, name):
+    """A path as (path, None), a dict (a config, a report) as ("<name>", its JSON text)."""
+    if value is None:
+        return None
+    if isinstance(value, (str, os.PathLike)):
+        return (os.fspath(value), None)
+    if _is_mapping(value):
+        return (f"<{name}>", json.dumps(dict(value), indent=2, default=_json_default))
+    raise TypeError(f"{name}: expected a path or a dict, not {type(value).__name__}")
+
+
+def _limit_texts(limits):
+    """{'u': 24, 'i': 4} (or ['u=24'], or 'u=24') as the --limit texts the request reads."""
+    if limits is None:
+        return []
+    if isinstance(limits, str):
+        return [limits]
+    if _is_mapping(limits):
+        return [f"{name}={_flag_value(value)}" for name, value in limits.items()]
+    return [_flag_value(item) for item in limits]
+
+
 @_in_python_terms
 def tune(config, report=None, loop="speed", crossover=None, phase_margin=None, limits=None,
          **options):
     """PI (loop='speed') or PID (loop='position') gains for a crossover (Hz) and a phase
     margin (degrees), as blmd-tune (docs/tuning.md). Every argument is the flag of that name
-    (report: --from-report; limits: {'u': volts, 'i': amps} or ['u=24'] as --limit), and any
-    other keyword is blmd-tune's flag of the same name (step=, duration=, integral_ratio=,
-    threads=, ...), parsed by the command's own flag set.
+    (report: --from-report; limits: {'u': volts, 'i': amps} or ['u=24'] as --limit), and the
+    other keywords are blmd-tune's options of the same name (step=, duration=,
+    integral_ratio=, filter_ratio=, sample_rate=, delay=, current_bandwidth=,
+    position_crossover=, threads=).
 
     config, report: paths or dicts (an IdentifyResult is a report). Returns a TuneResult: the
     command's JSON report as a dict, and .config, the closed-loop config. A request the plant
     cannot meet raises FitError('cannot tune: ...'), the command's exit 1 and message.
     """
-    with _FileArgs() as files:
-        args = ["--config", files.json(config, "config"), "--loop", _flag_value(loop)]
-        report_path = files.json(report, "report")
-        if report_path is not None:
-            args += ["--from-report", report_path]
-        args += _flags({"crossover": crossover, "phase_margin": phase_margin, "limit": limits})
-        args += _flags(options, _OUTPUT_FLAGS + ("from_report", "loop"))
-        try:
-            text, refused, refusal, closed_loop = _blmd.tune(args)
-        except InputError as error:
-            raise _unknown_flags(error, "tune") from None
+    unknown = [key for key in options if key not in _TUNE_OPTIONS]
+    refused = [key for key in unknown if key in _OUTPUT_FLAGS + ("from_report", "loop")]
     if refused:
+        raise TypeError(f"{refused[0]}: not an option here (the result holds it; write it "
+                        "yourself)")
+    if unknown:
+        raise TypeError(f"tune: unknown option(s) {', '.join(unknown)} "
+                        "(not a flag of blmd-tune; see blmd-tune --help)")
+    settings = _blmd.TuneSettings()
+    settings.loop = _choice(loop, "--loop", ["speed", "position"]) or "speed"
+    if crossover is None:
+        raise InputError("--crossover is required")
+    if phase_margin is None:
+        raise InputError("--phase-margin is required")
+    settings.crossover_hz = _positive(crossover, "--crossover")
+    settings.phase_margin_deg = _positive(phase_margin, "--phase-margin")
+    settings.limits = _limit_texts(limits)
+    for key, value in options.items():
+        field, flag = _TUNE_OPTIONS[key]
+        if value is None:
+            continue
+        if key == "threads":
+            value = _threads(value)
+        elif key == "delay":
+            value = _whole(value, flag)
+        else:
+            value = _positive(value, flag)
+        setattr(settings, field, value)
+    text, refused_request, refusal, closed_loop = _blmd.tune(
+        _json_source(config, "config"), _json_source(report, "report"), settings)
+    if refused_request:
         raise FitError("cannot tune: " + refusal)
     return TuneResult(json.loads(text), json.loads(closed_loop))
 
 
+# blmd-design's reading of a recorded trace (trace=): blmd-ident's trace flags, by keyword.
+_DESIGN_TRACE_OPTIONS = ("columns", "scales", "derive", "select", "split", "initial_state",
+                         "delimiter", "duplicate_time", "resample")
+
+
 @_in_python_terms(renames={"trace": "trace"})
 def design(config, duration=None, limits=None, noise=None, *, family=None, target=None,
-           trace=None, **options):
+           trace=None, report=None, threads=0, **options):
     """The experiment that best determines the free parameters within the drive's limits, as
     blmd-design (docs/design.md): duration (s), limits ({'u': volts, 'i': amps} or
     ['u=12'], --limit), noise ({'i': 0.014, 'w': '1%'}, --noise), family
     ('square'|'steps'|'prbs'|'chirp'|'all'), target (names: A-optimal for them), trace (a
-    recorded input to evaluate instead of searching: a CSV path or a mapping of columns);
-    any other keyword is blmd-design's flag of that name (threads=, delimiter=, ...).
+    recorded input to evaluate instead of searching: a CSV path or a mapping of columns),
+    report (--from-report: a path, a report dict or an IdentifyResult), threads; the
+    keywords columns=, scales=, derive=, select=, split=, initial_state=, delimiter=,
+    duplicate_time= and resample= read the trace as for identify.
 
     Returns a DesignResult: the command's JSON report as a dict, and .config. When no design
     meets the limits, FitError('no design: ...') with the report in its `report` attribute.
     """
-    with _FileArgs() as files:
-        args = ["--config", files.json(config, "config")]
-        args += _flags({"duration": duration, "limit": limits, "noise": noise,
-                        "family": family, "target": _names_text(target)})
-        trace_path = files.csv(trace, "trace")
-        if trace_path is not None:
-            args += ["--trace", trace_path]
-        args += _flags(options, _OUTPUT_FLAGS)
-        try:
-            text, ok, reason, chosen = _blmd.design(args)
-        except InputError as error:
-            raise _unknown_flags(error, "design") from None
-    report = json.loads(text)
+    if "from_report" in options:  # the flag's own name, as the command has it
+        if report is not None:
+            raise TypeError("design: report and from_report name the same report; give one")
+        report = options.pop("from_report")
+    unknown = [key for key in options if key not in _DESIGN_TRACE_OPTIONS]
+    refused = [key for key in unknown if key in _OUTPUT_FLAGS]
+    if refused:
+        raise TypeError(f"{refused[0]}: not an option here (the result holds it; write it "
+                        "yourself)")
+    if unknown:
+        raise TypeError(f"design: unknown option(s) {', '.join(unknown)} "
+                        "(not a flag of blmd-design; see blmd-design --help)")
+    settings = _blmd.DesignSettings()
+    if duration is not None:
+        settings.duration = _positive(duration, "--duration")
+    settings.limits = _limit_texts(limits)
+    settings.noises = _limit_texts(noise)
+    settings.family = _choice(family, "--family", ["square", "steps", "prbs", "chirp", "all"]) or \
+        "all"
+    settings.target = _names_text(target) or ""
+    settings.threads = _threads(threads)
+    columns, array_names = _split_columns(options.get("columns"))
+    preparation = settings.trace
+    _trace_settings(preparation, columns, options.get("scales"), options.get("derive"),
+                    options.get("select"), options.get("split"),
+                    options.get("initial_state") or "config", options.get("delimiter"),
+                    options.get("duplicate_time"), options.get("resample"))
+    settings.trace = preparation
+    trace_arg = None if trace is None else _trace_arg(trace, "trace", array_names)
+    text, ok, reason, chosen = _blmd.design(_json_source(config, "config"), settings,
+                                            _json_source(report, "report"), trace_arg)
+    report_dict = json.loads(text)
     if not ok:
-        raise FitError("no design: " + reason, report)
-    return DesignResult(report, json.loads(chosen) if chosen else None)
+        raise FitError("no design: " + reason, report_dict)
+    return DesignResult(report_dict, json.loads(chosen) if chosen else None)

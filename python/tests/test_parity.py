@@ -258,3 +258,26 @@ def test_errors_are_in_python_terms():
         blmd.identify(NOLOAD, NOLOAD_STEP, select="t=2:3")
     with pytest.raises(blmd.InputError, match=r": columns=\{'w': 'speed'\}: no column 'speed'"):
         blmd.identify(NOLOAD, NOLOAD_STEP, columns={"w": "speed"})
+
+
+def test_tune_and_design_write_no_file_for_dicts(monkeypatch):
+    # A config, a report and a recorded input given in memory reach the library as they are:
+    # no temporary file is made (every way the package could make one fails the test).
+    import tempfile
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("a temporary file was made")
+
+    for name in ("mkstemp", "mkdtemp", "NamedTemporaryFile", "TemporaryDirectory"):
+        monkeypatch.setattr(tempfile, name, refuse)
+    config = load_json(SQUARE)
+    fit = blmd.identify(config, SQUARE_TRACE)
+    tuned = blmd.tune(config, report=dict(fit), loop="speed", crossover=3, phase_margin=60,
+                      limits={"u": 24})
+    assert tuned.success and tuned["from_report"]["path"] == "<report>"
+    trace = read_csv(SQUARE_TRACE)
+    designed = blmd.design(config, report=fit, trace={"t": trace["t"], "u": trace["u"],
+                                                      "i": trace["i"], "w": trace["w"]},
+                           noise={"i": 0.014, "w": 2.5})
+    assert designed.success and designed.config is None
+    assert designed["from_report"]["path"] == "<report>"

@@ -124,7 +124,7 @@ void SetNoise(const Config& config, const std::string& config_path, const Design
 // prepared by blmd-ident's own trace flags (--column, --scale, --derive, --select, ...).
 void ReadTrace(const Config& config, const DesignSettings& s, DesignRequest* request) {
   const std::vector<FitTrace> traces = LoadTraceSource(
-      {s.trace_path, std::nullopt}, s.trace.Options({}, false), config.experiment.initial);
+      {s.trace_path, s.trace_data}, s.trace.Options({}, false), config.experiment.initial);
   if (traces.size() != 1) {
     throw InputError(
         s.trace_path + ": " +
@@ -148,8 +148,11 @@ void ReadTrace(const Config& config, const DesignSettings& s, DesignRequest* req
 // --from-report: the report's final model on the config; the effects' parameters the report
 // fitted become free, so that the design predicts their precision too. A report whose model
 // is not to be trusted is a warning (the design rests on that model).
-void ApplyDesignReport(const std::string& path, Config* config, DesignRequest* request) {
-  const StoredReport report = StoredReport::Load(path, "identification report");
+void ApplyDesignReport(const DesignSettings& s, Config* config, DesignRequest* request) {
+  const std::string& path = s.from_report;
+  const StoredReport report =
+      s.from_report_text ? StoredReport::Parse(*s.from_report_text, path, "identification report")
+                         : StoredReport::Load(path, "identification report");
   ApplyFinalModel(report, config);
   std::vector<std::string>& free = config->identification.free;
   for (const StoredParameter& p : report.parameters()) {
@@ -257,11 +260,17 @@ void SetTraceRun(const Config& config, const DesignSettings& s, DesignRequest* r
 
 DesignRequest MakeDesignRequest(Config config, const std::string& config_path,
                                 const DesignSettings& s) {
+  return MakeDesignRequest(std::move(config), JsonSource{config_path, std::nullopt}, s);
+}
+
+DesignRequest MakeDesignRequest(Config config, const JsonSource& config_source,
+                                const DesignSettings& s) {
+  const std::string& config_path = config_source.path;
   DesignRequest request;
-  if (!s.from_report.empty()) ApplyDesignReport(s.from_report, &config, &request);
+  if (!s.from_report.empty()) ApplyDesignReport(s, &config, &request);
   SetBreakaway(config, &request);
   request.config_path = config_path;
-  request.config_sha256 = Sha256Hex(ReadFileText(config_path, kMaxConfigBytes, "config"));
+  request.config_sha256 = Sha256Hex(config_source.Text(kMaxConfigBytes, "config"));
   request.problem = MakeDesignProblem(config);
   if (!s.from_report.empty()) {
     // What the report's record achieved beyond white noise (its residual's colour and the

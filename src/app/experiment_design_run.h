@@ -23,8 +23,10 @@ struct DesignSettings {
   std::string family = "all";       // --family square|steps|prbs|chirp|all
   std::string target;               // --target NAME[,NAME] ("": D-optimal)
   std::string trace_path;           // --trace: evaluate its u column instead of searching
+  std::optional<Trace> trace_data;  // set: --trace's columns in memory, trace_path labels them
   TraceSettings trace;              // how to read and prepare --trace (blmd-ident's flags)
   std::string from_report;          // --from-report: a blmd-ident report of the config's model
+  std::optional<std::string> from_report_text;  // set: that report's JSON text in memory
   int threads = 0;
 };
 
@@ -53,6 +55,9 @@ struct DesignRequest {
 // With --from-report, the report's final model (values and effects; the effects' parameters
 // that the report fitted become free) replaces the config's first.
 DesignRequest MakeDesignRequest(Config config, const std::string& config_path,
+                                const DesignSettings& settings);
+// The same for a config that may be a text in memory (config_source.path labels it).
+DesignRequest MakeDesignRequest(Config config, const JsonSource& config_source,
                                 const DesignSettings& settings);
 
 // Runs the request: SearchDesign, or the recorded input's prediction; and the config's own

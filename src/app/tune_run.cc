@@ -113,6 +113,10 @@ void ReadDrive(const TuneSettings& settings, const Config& config, TuneRequest* 
 
 TuneRequest MakeTuneRequest(const TuneSettings& settings, const Config& config) {
   TuneRequest request;
+  if (settings.loop != "speed" && settings.loop != "position") {
+    throw InputError("--loop: '" + InputError::Excerpt(settings.loop) +
+                     "' is not a loop (valid: speed, position)");
+  }
   const bool speed = settings.loop == "speed";
   if (speed) {
     if (settings.integral_ratio) {
@@ -142,7 +146,14 @@ TuneRequest MakeTuneRequest(const TuneSettings& settings, const Config& config) 
 
 TuneReport RunTune(const std::string& config_path, const std::string& report_path,
                    const TuneSettings& settings) {
-  TuneInput input = LoadTuneInput(config_path, report_path);
+  JsonSource report{report_path, std::nullopt};
+  return RunTune(JsonSource{config_path, std::nullopt}, report_path.empty() ? nullptr : &report,
+                 settings);
+}
+
+TuneReport RunTune(const JsonSource& config, const JsonSource* report,
+                   const TuneSettings& settings) {
+  TuneInput input = LoadTuneInput(config, report);
   TuneRequest request = MakeTuneRequest(settings, input.config);
   TuneResult result = Tune(input, request);
   if (!result.refused && !input.report_inadequacy.empty()) {

@@ -40,5 +40,8 @@ TuneRequest MakeTuneRequest(const TuneSettings& settings, const Config& config);
 // cannot meet the request.
 TuneReport RunTune(const std::string& config_path, const std::string& report_path,
                    const TuneSettings& settings);
+// The same from a config and a report (null: none) that may be texts in memory.
+TuneReport RunTune(const JsonSource& config, const JsonSource* report,
+                   const TuneSettings& settings);
 
 }  // namespace blmd

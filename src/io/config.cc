@@ -820,11 +820,18 @@ Config ParseConfig(const std::string& text, const std::string& path) {
   return config;
 }
 
+std::string JsonSource::Text(std::size_t max_bytes, const std::string& what) const {
+  return text ? *text : ReadFileText(path, max_bytes, what);
+}
+
 JsonDocument JsonDocument::Load(const std::string& path, std::size_t max_bytes,
                                 const std::string& what) {
+  return Parse(ReadFileText(path, max_bytes, what), path);
+}
+
+JsonDocument JsonDocument::Parse(const std::string& text, const std::string& path) {
   JsonDocument document;
   document.path_ = path;
-  const std::string text = ReadFileText(path, max_bytes, what);
   document.root_ = ParseJsonText(text, path);
   const PositionIndex index(text);
   document.positions_ = std::make_shared<std::map<std::string, std::pair<long, long>>>();

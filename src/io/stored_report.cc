@@ -22,8 +22,13 @@ bool IsPair(const json& value) {
 }  // namespace
 
 StoredReport StoredReport::Load(const std::string& path, const std::string& role) {
-  StoredReport report(
-      JsonDocument::Load(path, kMaxReportBytes, role + " (a blmd-ident --report JSON)"));
+  return Parse(ReadFileText(path, kMaxReportBytes, role + " (a blmd-ident --report JSON)"), path,
+               role);
+}
+
+StoredReport StoredReport::Parse(const std::string& text, const std::string& path,
+                                 const std::string& role) {
+  StoredReport report(JsonDocument::Parse(text, path));
   const JsonDocument& document = report.document_;
   const json& root = document.root();
   if (!root.is_object() || root.value("tool", std::string()) != "blmd-ident") {
@@ -115,7 +120,7 @@ StoredReport StoredReport::Load(const std::string& path, const std::string& role
       report.warnings_.emplace_back(w["code"].get<std::string>(), message);
     }
   }
-  report.sha256_ = Sha256Hex(ReadFileText(path, kMaxReportBytes, role));
+  report.sha256_ = Sha256Hex(text);
   return report;
 }
 

@@ -53,8 +53,11 @@ ParameterInterval Interval(const Config& config, const std::string& name, double
 }
 
 // The report's final values replace the config's; its free parameters' ci95 are the box.
-void ApplyReport(const std::string& path, TuneInput* input) {
-  const StoredReport report = StoredReport::Load(path, "identification report");
+void ApplyReport(const JsonSource& source, TuneInput* input) {
+  const std::string path = source.path;
+  const StoredReport report = source.text
+                                  ? StoredReport::Parse(*source.text, path, "identification report")
+                                  : StoredReport::Load(path, "identification report");
   Config& config = input->config;
   ApplyFinalModel(report, &config);
   input->report_inadequacy = ReportInadequacy(report);
@@ -86,9 +89,12 @@ void ApplyConfigNotes(TuneInput* input) {
 }
 
 // A blmd-ident report given as the config: say which flag takes it.
-[[noreturn]] void RethrowForReport(const std::string& config_path, const InputError& error) {
+[[noreturn]] void RethrowForReport(const JsonSource& config, const InputError& error) {
+  const std::string& config_path = config.path;
   try {
-    const JsonDocument document = JsonDocument::Load(config_path, kMaxConfigBytes, "config");
+    const JsonDocument document = config.text
+                                      ? JsonDocument::Parse(*config.text, config_path)
+                                      : JsonDocument::Load(config_path, kMaxConfigBytes, "config");
     if (document.root().is_object() && document.root().value("tool", "") == "blmd-ident") {
       throw InputError(config_path +
                        ": a blmd-ident report, not a config: give it with --from-report and "
@@ -104,21 +110,27 @@ void ApplyConfigNotes(TuneInput* input) {
 }  // namespace
 
 TuneInput LoadTuneInput(const std::string& config_path, const std::string& report_path) {
+  JsonSource report{report_path, std::nullopt};
+  return LoadTuneInput(JsonSource{config_path, std::nullopt},
+                       report_path.empty() ? nullptr : &report);
+}
+
+TuneInput LoadTuneInput(const JsonSource& config, const JsonSource* report) {
   TuneInput input;
   try {
-    input.config = LoadConfig(config_path);
+    input.config = config.text ? ParseConfig(*config.text, config.path) : LoadConfig(config.path);
   } catch (const InputError& error) {
-    RethrowForReport(config_path, error);
+    RethrowForReport(config, error);
   }
-  input.config_sha256 = Sha256Hex(ReadFileText(config_path, kMaxConfigBytes, "config"));
+  input.config_sha256 = Sha256Hex(config.Text(kMaxConfigBytes, "config"));
   if (!input.config.model->traits().coast_down_and_pid &&
       !input.config.model->traits().sampled_pid) {
     CheckModel(input.config);
   }
-  if (report_path.empty()) {
+  if (!report) {
     ApplyConfigNotes(&input);
   } else {
-    ApplyReport(report_path, &input);
+    ApplyReport(*report, &input);
   }
   CheckModel(input.config);
   return input;

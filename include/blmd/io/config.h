@@ -7,6 +7,7 @@
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -81,6 +82,8 @@ Config LoadConfig(const std::string& path);
 class JsonDocument {
  public:
   static JsonDocument Load(const std::string& path, std::size_t max_bytes, const std::string& what);
+  // The same on JSON text in memory; `path` labels it in messages.
+  static JsonDocument Parse(const std::string& text, const std::string& path);
   const nlohmann::json& root() const { return root_; }
   const std::string& path() const { return path_; }
   [[noreturn]] void Fail(const std::string& pointer, const std::string& message) const;
@@ -91,6 +94,14 @@ class JsonDocument {
   std::shared_ptr<std::map<std::string, std::pair<long, long>>> positions_;
 };
 Config ParseConfig(const std::string& text, const std::string& path);
+
+// A JSON input (a config, a stored report): the file `path`, or, when `text` is set, that
+// text in memory, which `path` labels in messages and in reports (the Python package's dicts).
+struct JsonSource {
+  std::string path;
+  std::optional<std::string> text;
+  std::string Text(std::size_t max_bytes, const std::string& what) const;  // read when a file
+};
 
 // Why a run of `span` seconds at step `dt` writing `samples` samples is refused (more
 // than 1e10 steps or 1e8 samples: hours of computing or gigabytes), "" when it is fine.

@@ -34,6 +34,10 @@ class StoredReport {
   // "effects" (when present) is a list of names. `role` names the file in messages
   // ("baseline report", "identification report"). InputError "PATH:LINE:COL: why" otherwise.
   static StoredReport Load(const std::string& path, const std::string& role);
+  // The same on a report's JSON text in memory (the Python package's dicts); `path` labels it
+  // in messages and is its path().
+  static StoredReport Parse(const std::string& text, const std::string& path,
+                            const std::string& role);
 
   const std::string& path() const { return document_.path(); }
   const std::string& sha256() const { return sha256_; }

@@ -51,6 +51,9 @@ struct TuneInput {
 // (file, line, column) for a bad file, a report of another model, a model without the
 // closed-loop (pid) experiment or without a linear part.
 TuneInput LoadTuneInput(const std::string& config_path, const std::string& report_path);
+// The same from a config and an identification report (null: none) that may be texts in
+// memory (JsonSource, io/config.h).
+TuneInput LoadTuneInput(const JsonSource& config, const JsonSource* report);
 
 struct TuneRequest {
   ControllerDesignOptions design;
