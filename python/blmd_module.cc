@@ -662,7 +662,9 @@ PYBIND11_MODULE(_blmd, m) {
   py::class_<blmd::DialectSettings>(m, "DialectSettings")
       .def(py::init<>())
       .def_readwrite("delimiter", &blmd::DialectSettings::delimiter)
-      .def_readwrite("duplicate_time", &blmd::DialectSettings::duplicate_time);
+      .def_readwrite("duplicate_time", &blmd::DialectSettings::duplicate_time)
+      .def_readwrite("no_header", &blmd::DialectSettings::no_header)
+      .def_readwrite("sample_rate", &blmd::DialectSettings::sample_rate);
   py::class_<blmd::TraceSettings, blmd::DialectSettings>(m, "TraceSettings")
       .def(py::init<>())
       .def_readwrite("columns", &blmd::TraceSettings::columns)

@@ -1,6 +1,6 @@
-// blmd-design's flags (docs/cli.md §5) and their settings: shared by the command and the Python
-// package (blmd.design parses its keyword arguments as these flags), so that an option added
-// here is an option of both, checked by the same code.
+// blmd-design's flags (docs/cli.md §5), which fill its settings (DesignSettings,
+// app/experiment_design_run.h); the Python package fills the same settings from its keyword
+// arguments (python/blmd).
 #pragma once
 
 #include <string>

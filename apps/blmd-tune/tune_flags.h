@@ -1,6 +1,5 @@
-// blmd-tune's flags (docs/cli.md §4) and their settings: shared by the command and the Python
-// package (blmd.tune parses its keyword arguments as these flags), so that an option added
-// here is an option of both, checked by the same code.
+// blmd-tune's flags (docs/cli.md §4), which fill its settings (TuneSettings, app/tune_run.h);
+// the Python package fills the same settings from its keyword arguments (python/blmd).
 #pragma once
 
 #include <string>

@@ -277,9 +277,14 @@ def _integer(value, flag):
 
 
 def _positive(value, flag):
+    if isinstance(value, str):  # a number's text, as the command's flag takes it
+        try:
+            value = float(value)
+        except ValueError:
+            raise InputError(f"{flag}: must be a number > 0, not {value!r}") from None
     ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
     if not ok or not (float(value) > 0.0) or not np.isfinite(float(value)):
-        raise InputError(f"{flag}: must be a number > 0, not {value}")
+        raise InputError(f"{flag}: must be a number > 0, not {value!r}")
     return float(value)
 
 
@@ -718,9 +723,9 @@ _TUNE_OPTIONS = {
 }
 
 
-def _json_source(value, name):
+def _json_source(value, name, required=False):
     """A path as (path, None), a dict (a config, a report) as ("<name>", its JSON text)."""
-    if value is None:
+    if value is None and not required:
         return None
     if isinstance(value, (str, os.PathLike)):
         return (os.fspath(value), None)
@@ -729,15 +734,29 @@ def _json_source(value, name):
     raise TypeError(f"{name}: expected a path or a dict, not {type(value).__name__}")
 
 
-def _limit_texts(limits):
-    """{'u': 24, 'i': 4} (or ['u=24'], or 'u=24') as the --limit texts the request reads."""
+def _limit_texts(limits, flag="--limit"):
+    """{'u': 24, 'i': 4} (or ['u=24'], or 'u=24') as the texts of a NAME=VALUE flag."""
     if limits is None:
         return []
     if isinstance(limits, str):
         return [limits]
     if _is_mapping(limits):
         return [f"{name}={_flag_value(value)}" for name, value in limits.items()]
-    return [_flag_value(item) for item in limits]
+    if isinstance(limits, (list, tuple)):
+        return [_flag_value(item) for item in limits]
+    raise InputError(f"{flag}: expected a dict NAME -> VALUE or NAME=VALUE texts, not "
+                     f"{limits!r}")
+
+
+def _aliases(options, names, given):
+    """The flags' own names (limit=, column=, scale=) for the keywords the functions name in
+    the plural: moved into `given` ({keyword: value}); both at once is an error."""
+    for flag_name, keyword in names.items():
+        if flag_name in options:
+            if given.get(keyword) is not None:
+                raise TypeError(f"{keyword} and {flag_name} name the same option; give one")
+            given[keyword] = options.pop(flag_name)
+    return given
 
 
 @_in_python_terms
@@ -754,6 +773,8 @@ def tune(config, report=None, loop="speed", crossover=None, phase_margin=None, l
     command's JSON report as a dict, and .config, the closed-loop config. A request the plant
     cannot meet raises FitError('cannot tune: ...'), the command's exit 1 and message.
     """
+    limits = _aliases(options, {"limit": "limits"}, {"limits": limits})["limits"]
+    options.pop("fail_on_warning", None)  # the command's exit code: a call has none
     unknown = [key for key in options if key not in _TUNE_OPTIONS]
     refused = [key for key in unknown if key in _OUTPUT_FLAGS + ("from_report", "loop")]
     if refused:
@@ -763,7 +784,9 @@ def tune(config, report=None, loop="speed", crossover=None, phase_margin=None, l
         raise TypeError(f"tune: unknown option(s) {', '.join(unknown)} "
                         "(not a flag of blmd-tune; see blmd-tune --help)")
     settings = _blmd.TuneSettings()
-    settings.loop = _choice(loop, "--loop", ["speed", "position"]) or "speed"
+    if loop is None:
+        raise InputError("--loop is required")
+    settings.loop = _choice(loop, "--loop", ["speed", "position"])
     if crossover is None:
         raise InputError("--crossover is required")
     if phase_margin is None:
@@ -778,12 +801,13 @@ def tune(config, report=None, loop="speed", crossover=None, phase_margin=None, l
         if key == "threads":
             value = _threads(value)
         elif key == "delay":
-            value = _whole(value, flag)
+            value = _whole(int(value) if isinstance(value, str) and value.isdigit() else value,
+                           flag)
         else:
             value = _positive(value, flag)
         setattr(settings, field, value)
     text, refused_request, refusal, closed_loop = _blmd.tune(
-        _json_source(config, "config"), _json_source(report, "report"), settings)
+        _json_source(config, "config", required=True), _json_source(report, "report"), settings)
     if refused_request:
         raise FitError("cannot tune: " + refusal)
     return TuneResult(json.loads(text), json.loads(closed_loop))
@@ -791,7 +815,7 @@ def tune(config, report=None, loop="speed", crossover=None, phase_margin=None, l
 
 # blmd-design's reading of a recorded trace (trace=): blmd-ident's trace flags, by keyword.
 _DESIGN_TRACE_OPTIONS = ("columns", "scales", "derive", "select", "split", "initial_state",
-                         "delimiter", "duplicate_time", "resample")
+                         "delimiter", "duplicate_time", "resample", "no_header", "sample_rate")
 
 
 @_in_python_terms(renames={"trace": "trace"})
@@ -804,7 +828,8 @@ def design(config, duration=None, limits=None, noise=None, *, family=None, targe
     recorded input to evaluate instead of searching: a CSV path or a mapping of columns),
     report (--from-report: a path, a report dict or an IdentifyResult), threads; the
     keywords columns=, scales=, derive=, select=, split=, initial_state=, delimiter=,
-    duplicate_time= and resample= read the trace as for identify.
+    duplicate_time=, resample=, no_header= and sample_rate= read the trace (as blmd-ident's
+    flags of those names).
 
     Returns a DesignResult: the command's JSON report as a dict, and .config. When no design
     meets the limits, FitError('no design: ...') with the report in its `report` attribute.
@@ -813,6 +838,12 @@ def design(config, duration=None, limits=None, noise=None, *, family=None, targe
         if report is not None:
             raise TypeError("design: report and from_report name the same report; give one")
         report = options.pop("from_report")
+    given = _aliases(options, {"limit": "limits", "column": "columns", "scale": "scales"},
+                     {"limits": limits, "columns": options.pop("columns", None),
+                      "scales": options.pop("scales", None)})
+    limits = given["limits"]
+    options["columns"], options["scales"] = given["columns"], given["scales"]
+    options.pop("fail_on_warning", None)  # the command's exit code: a call has none
     unknown = [key for key in options if key not in _DESIGN_TRACE_OPTIONS]
     refused = [key for key in unknown if key in _OUTPUT_FLAGS]
     if refused:
@@ -825,20 +856,24 @@ def design(config, duration=None, limits=None, noise=None, *, family=None, targe
     if duration is not None:
         settings.duration = _positive(duration, "--duration")
     settings.limits = _limit_texts(limits)
-    settings.noises = _limit_texts(noise)
+    settings.noises = _limit_texts(noise, "--noise")
     settings.family = _choice(family, "--family", ["square", "steps", "prbs", "chirp", "all"]) or \
         "all"
     settings.target = _names_text(target) or ""
-    settings.threads = _threads(threads)
+    settings.threads = _threads(0 if threads is None else threads)
     columns, array_names = _split_columns(options.get("columns"))
     preparation = settings.trace
     _trace_settings(preparation, columns, options.get("scales"), options.get("derive"),
                     options.get("select"), options.get("split"),
                     options.get("initial_state") or "config", options.get("delimiter"),
                     options.get("duplicate_time"), options.get("resample"))
+    if options.get("no_header") is not None:
+        preparation.no_header = _names_text(options["no_header"])
+    if options.get("sample_rate") is not None:
+        preparation.sample_rate = _positive(options["sample_rate"], "--sample-rate")
     settings.trace = preparation
     trace_arg = None if trace is None else _trace_arg(trace, "trace", array_names)
-    text, ok, reason, chosen = _blmd.design(_json_source(config, "config"), settings,
+    text, ok, reason, chosen = _blmd.design(_json_source(config, "config", required=True), settings,
                                             _json_source(report, "report"), trace_arg)
     report_dict = json.loads(text)
     if not ok:

@@ -281,3 +281,19 @@ def test_tune_and_design_write_no_file_for_dicts(monkeypatch):
                            noise={"i": 0.014, "w": 2.5})
     assert designed.success and designed.config is None
     assert designed["from_report"]["path"] == "<report>"
+
+
+def test_tune_takes_the_flags_own_names_and_number_texts():
+    # The command's flag names (limit=) and numbers as text (as the flags take them) give the
+    # same gains; a keyword that is no option of the command is a TypeError naming it.
+    plain = blmd.tune(SQUARE, loop="speed", crossover=3, phase_margin=60, limits={"u": 24})
+    aliased = blmd.tune(SQUARE, loop="speed", crossover="3", phase_margin="60", limit=["u=24"],
+                        fail_on_warning=True)
+    assert aliased["controller"]["kp"] == plain["controller"]["kp"]
+    with pytest.raises(TypeError, match=r"limits and limit name the same option"):
+        blmd.tune(SQUARE, loop="speed", crossover=3, phase_margin=60, limits={"u": 24},
+                  limit=["u=24"])
+    with pytest.raises(blmd.InputError, match=r"^crossover: must be a number > 0, not 'x'"):
+        blmd.tune(SQUARE, loop="speed", crossover="x", phase_margin=60, limits={"u": 24})
+    with pytest.raises(blmd.InputError, match=r"^limits: expected a dict"):
+        blmd.tune(SQUARE, loop="speed", crossover=3, phase_margin=60, limits=24)

@@ -126,6 +126,7 @@ std::vector<CostSlice> ComputeCostSlices(const FitProblem& problem,
 PageViews AnalysePage(const FitProblem& problem, const FitResult& result,
                       const DiscoveryResult* discovery, const HtmlReportOptions& options) {
   PageViews views;
+  views.slice_span = options.slice_span;
   views.fit = ViewsOf(problem, result.values, options);
   const std::unique_ptr<FitProblem> after = discovery ? FinalProblem(problem, *discovery) : nullptr;
   if (after) {

@@ -23,6 +23,6 @@ std::vector<CostSlice> ComputeCostSlices(const FitProblem& problem,
 // The views of the first fit (`result` on `problem`) and, when `discovery` added effects, of
 // its final model (FinalProblem): their simulations and cost slices, as `options` asks.
 PageViews AnalysePage(const FitProblem& problem, const FitResult& result,
-                      const DiscoveryResult* discovery, const HtmlReportOptions& options = {});
+                      const DiscoveryResult* discovery, const HtmlReportOptions& options);
 
 }  // namespace blmd

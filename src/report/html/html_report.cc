@@ -836,7 +836,7 @@ std::string MakeHtmlReport(const HtmlReportInputs& inputs, const HtmlReportOptio
   page.Section("slices", "Cost along each parameter");
   h += "<p class=\"note\">The cost (normalised MSE, the quantity the fit minimises) along one free "
        "parameter at a time, the others held at their estimates, over ±" +
-       G(100 * options.slice_span, 3) +
+       G(100 * views.slice_span, 3) +
        " % around the estimate (dashed line). A sharp, centred "
        "valley means a well-determined parameter; a flat one, a poorly determined one. The shaded "
        "band is the 95 % interval.</p>\n";

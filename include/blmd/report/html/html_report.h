@@ -51,6 +51,8 @@ struct HtmlReportOptions {
   // estimate), spread over +-slice_span around it: from x/(1+span) to x*(1+span) evenly in
   // log x for a log-scale parameter, x +- span*|x| for a linear one (+-span/10 of the
   // bounded range when x = 0); clipped to the bounds. 0 points: no slices.
+  // (The points, the span and the threads are the analysis's, AnalysePage: the renderer
+  // draws the slices it was given.)
   int slice_points = 41;
   double slice_span = 0.2;
   int threads = 0;  // slice evaluations run in parallel; 0: all cores
@@ -87,6 +89,7 @@ struct PageViews {
   ModelViews fit;                   // the first fit
   std::optional<ModelViews> after;  // discovery's final model, when it added effects
   std::string after_label;          // "after discovery (+coulomb_friction)"
+  double slice_span = 0.0;          // the slices' span around the estimate (their caption)
 };
 
 // What the page is built from: the typed report (with its discovery block when discovery
