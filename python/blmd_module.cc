@@ -49,23 +49,11 @@ namespace py = pybind11;
 
 namespace {
 
-// A config given as a file path, or as JSON text (a Python dict dumped) labelled `label`.
-struct ConfigSource {
-  std::string path_or_label;
-  std::optional<std::string> text;
-
-  blmd::Config Load() const {
-    return text ? blmd::ParseConfig(*text, path_or_label) : blmd::LoadConfig(path_or_label);
-  }
-  // Recorded in a surface CSV: the SHA-256 of the file, or of the text.
-  std::string Sha256() const {
-    return blmd::Sha256Hex(text ? *text : blmd::ReadFileText(path_or_label));
-  }
-};
-
-ConfigSource ToConfigSource(const py::tuple& config) {
-  ConfigSource source;
-  source.path_or_label = config[0].cast<std::string>();
+// A config or a report given as a file path, or as JSON text (a Python dict dumped) that the
+// path labels.
+blmd::JsonSource ToJsonSource(const py::tuple& config) {
+  blmd::JsonSource source;
+  source.path = config[0].cast<std::string>();
   if (!config[1].is_none()) source.text = config[1].cast<std::string>();
   return source;
 }
@@ -257,7 +245,7 @@ py::dict FinalModelDict(const FinalModel& final_model) {
 // identify(config, settings) -> (report JSON text, converged, termination, final model dict)
 py::tuple Identify(const py::tuple& config_arg, blmd::IdentSettings settings,
                    const py::list& traces, const py::list& validation) {
-  const ConfigSource config = ToConfigSource(config_arg);
+  const blmd::JsonSource config = ToJsonSource(config_arg);
   settings.traces = ToTraceSources(traces);
   settings.validation = ToTraceSources(validation);
   std::string report;
@@ -267,7 +255,7 @@ py::tuple Identify(const py::tuple& config_arg, blmd::IdentSettings settings,
   {
     py::gil_scoped_release release;
     blmd::IdentRequest request =
-        blmd::MakeIdentRequest(config.Load(), config.path_or_label, settings);
+        blmd::MakeIdentRequest(blmd::LoadConfig(config), config.path, settings);
     const blmd::IdentOutcome outcome = blmd::Identify(std::move(request));
     report = ReportJsonText(outcome);
     converged = outcome.converged();
@@ -284,9 +272,9 @@ py::tuple Identify(const py::tuple& config_arg, blmd::IdentSettings settings,
 std::string ModelConfig(const py::tuple& config_arg,
                         const std::map<std::string, std::map<std::string, double>>& effects,
                         const std::map<std::string, double>& values) {
-  const ConfigSource source = ToConfigSource(config_arg);
+  const blmd::JsonSource source = ToJsonSource(config_arg);
   py::gil_scoped_release release;
-  blmd::Config config = source.Load();
+  blmd::Config config = blmd::LoadConfig(source);
   for (const auto& [name, parameters] : effects) {
     if (std::find(config.effects.begin(), config.effects.end(), name) != config.effects.end())
       continue;
@@ -314,13 +302,9 @@ py::tuple Tune(const py::tuple& config_arg, const py::object& report_arg,
                const blmd::TuneSettings& settings) {
   std::string report, refusal, config;
   bool refused = false;
-  const ConfigSource config_source = ToConfigSource(config_arg);
-  const blmd::JsonSource config_json{config_source.path_or_label, config_source.text};
+  const blmd::JsonSource config_json = ToJsonSource(config_arg);
   std::optional<blmd::JsonSource> report_json;
-  if (!report_arg.is_none()) {
-    const ConfigSource report_source = ToConfigSource(report_arg.cast<py::tuple>());
-    report_json = blmd::JsonSource{report_source.path_or_label, report_source.text};
-  }
+  if (!report_arg.is_none()) report_json = ToJsonSource(report_arg.cast<py::tuple>());
   {
     py::gil_scoped_release release;
     const blmd::TuneReport tuned =
@@ -342,10 +326,10 @@ py::tuple Design(const py::tuple& config_arg, blmd::DesignSettings settings,
                  const py::object& report_arg, const py::object& trace_arg) {
   std::string report, reason, config_text;
   bool ok = false;
-  const ConfigSource config_source = ToConfigSource(config_arg);
+  const blmd::JsonSource config_source = ToJsonSource(config_arg);
   if (!report_arg.is_none()) {
-    const ConfigSource report_source = ToConfigSource(report_arg.cast<py::tuple>());
-    settings.from_report = report_source.path_or_label;
+    const blmd::JsonSource report_source = ToJsonSource(report_arg.cast<py::tuple>());
+    settings.from_report = report_source.path;
     settings.from_report_text = report_source.text;
   }
   if (!trace_arg.is_none()) {
@@ -355,9 +339,8 @@ py::tuple Design(const py::tuple& config_arg, blmd::DesignSettings settings,
   }
   {
     py::gil_scoped_release release;
-    const blmd::Config config = config_source.Load();
-    const blmd::DesignRequest request = blmd::MakeDesignRequest(
-        config, blmd::JsonSource{config_source.path_or_label, config_source.text}, settings);
+    const blmd::Config config = blmd::LoadConfig(config_source);
+    const blmd::DesignRequest request = blmd::MakeDesignRequest(config, config_source, settings);
     const blmd::DesignReport designed = blmd::RunDesign(request);
     report = blmd::DesignReportJson(designed).dump();
     ok = designed.ok;
@@ -415,7 +398,7 @@ class SignalCheck {
 // surface(config, settings) -> dict of the sweep's results (assembled by blmd.surface).
 py::dict Surface(const py::tuple& config_arg, blmd::SweepSettings settings,
                  const py::handle& trace) {
-  const ConfigSource config = ToConfigSource(config_arg);
+  const blmd::JsonSource config = ToJsonSource(config_arg);
   settings.trace = ToTraceSource(trace);
   auto signals = std::make_shared<SignalCheck>();
   blmd::SweepRequest request;
@@ -423,8 +406,8 @@ py::dict Surface(const py::tuple& config_arg, blmd::SweepSettings settings,
   bool interrupted = false;
   {
     py::gil_scoped_release release;
-    request = blmd::MakeSweepRequest(config.Load(), settings);
-    request.config_sha256 = config.Sha256();
+    request = blmd::MakeSweepRequest(blmd::LoadConfig(config), settings);
+    request.config_sha256 = blmd::Sha256Hex(config.Text());
     request.progress = [signals](std::size_t, std::size_t) { (*signals)(); };
     try {
       outcome = blmd::Sweep(request);
@@ -482,7 +465,7 @@ py::dict Surface(const py::tuple& config_arg, blmd::SweepSettings settings,
 py::tuple Simulate(const py::tuple& config_arg, const std::vector<std::string>& effects,
                    const std::vector<std::string>& noise_specs, std::uint64_t seed,
                    const py::handle& input, const blmd::DialectSettings& dialect) {
-  const ConfigSource config_source = ToConfigSource(config_arg);
+  const blmd::JsonSource config_source = ToJsonSource(config_arg);
   std::optional<blmd::TraceSource> input_source;
   if (!input.is_none()) input_source = ToTraceSource(input);
   blmd::Trace trace;
@@ -490,7 +473,7 @@ py::tuple Simulate(const py::tuple& config_arg, const std::vector<std::string>& 
   {
     py::gil_scoped_release release;
     // blmd-sim's order (apps/blmd-sim/main.cc).
-    blmd::Config config = config_source.Load();
+    blmd::Config config = blmd::LoadConfig(config_source);
     for (const auto& spec : effects) {
       const auto [name, values] = blmd::ParseEffectSpec(spec);
       config.AddEffect(name, values);
@@ -535,7 +518,7 @@ py::tuple Simulate(const py::tuple& config_arg, const std::vector<std::string>& 
     const blmd::SimStatus status = input_source ? blmd::RunRecordedInput(config, recorded, &trace)
                                                 : blmd::RunExperiment(config, &trace);
     if (!status.ok()) {
-      failure = blmd::SimulationFailureMessage(config_source.path_or_label, config, status);
+      failure = blmd::SimulationFailureMessage(config_source.path, config, status);
     } else {
       blmd::AddNoise(&noise, seed, &trace);
     }

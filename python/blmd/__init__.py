@@ -748,6 +748,21 @@ def _limit_texts(limits, flag="--limit"):
                      f"{limits!r}")
 
 
+def _check_options(command, options, known, refused):
+    """The keywords a function passes on to its command's settings: `fail_on_warning` (the
+    command's exit code: a call has none) dropped; an output of the command (`refused`) or a
+    name the command does not know is a TypeError naming it."""
+    options.pop("fail_on_warning", None)
+    unknown = [key for key in options if key not in known]
+    outputs = [key for key in unknown if key in refused]
+    if outputs:
+        raise TypeError(f"{outputs[0]}: not an option here (the result holds it; write it "
+                        "yourself)")
+    if unknown:
+        raise TypeError(f"{command}: unknown option(s) {', '.join(unknown)} "
+                        f"(not a flag of blmd-{command}; see blmd-{command} --help)")
+
+
 def _aliases(options, names, given):
     """The flags' own names (limit=, column=, scale=) for the keywords the functions name in
     the plural: moved into `given` ({keyword: value}); both at once is an error."""
@@ -774,15 +789,7 @@ def tune(config, report=None, loop="speed", crossover=None, phase_margin=None, l
     cannot meet raises FitError('cannot tune: ...'), the command's exit 1 and message.
     """
     limits = _aliases(options, {"limit": "limits"}, {"limits": limits})["limits"]
-    options.pop("fail_on_warning", None)  # the command's exit code: a call has none
-    unknown = [key for key in options if key not in _TUNE_OPTIONS]
-    refused = [key for key in unknown if key in _OUTPUT_FLAGS + ("from_report", "loop")]
-    if refused:
-        raise TypeError(f"{refused[0]}: not an option here (the result holds it; write it "
-                        "yourself)")
-    if unknown:
-        raise TypeError(f"tune: unknown option(s) {', '.join(unknown)} "
-                        "(not a flag of blmd-tune; see blmd-tune --help)")
+    _check_options("tune", options, _TUNE_OPTIONS, _OUTPUT_FLAGS + ("from_report", "loop"))
     settings = _blmd.TuneSettings()
     if loop is None:
         raise InputError("--loop is required")
@@ -838,20 +845,9 @@ def design(config, duration=None, limits=None, noise=None, *, family=None, targe
         if report is not None:
             raise TypeError("design: report and from_report name the same report; give one")
         report = options.pop("from_report")
-    given = _aliases(options, {"limit": "limits", "column": "columns", "scale": "scales"},
-                     {"limits": limits, "columns": options.pop("columns", None),
-                      "scales": options.pop("scales", None)})
-    limits = given["limits"]
-    options["columns"], options["scales"] = given["columns"], given["scales"]
-    options.pop("fail_on_warning", None)  # the command's exit code: a call has none
-    unknown = [key for key in options if key not in _DESIGN_TRACE_OPTIONS]
-    refused = [key for key in unknown if key in _OUTPUT_FLAGS]
-    if refused:
-        raise TypeError(f"{refused[0]}: not an option here (the result holds it; write it "
-                        "yourself)")
-    if unknown:
-        raise TypeError(f"design: unknown option(s) {', '.join(unknown)} "
-                        "(not a flag of blmd-design; see blmd-design --help)")
+    limits = _aliases(options, {"limit": "limits"}, {"limits": limits})["limits"]
+    _aliases(options, {"column": "columns", "scale": "scales"}, options)
+    _check_options("design", options, _DESIGN_TRACE_OPTIONS, _OUTPUT_FLAGS)
     settings = _blmd.DesignSettings()
     if duration is not None:
         settings.duration = _positive(duration, "--duration")

@@ -335,8 +335,7 @@ json FleetResultFromReport(const FleetRow& row, const IdentReport& report,
         parameters.begin(), parameters.end(),
         [](const BaselineParameter& a, const BaselineParameter& b) { return a.name < b.name; });
     // Each compared parameter's shift in standard errors of the difference.
-    std::vector<std::pair<std::string, double>> z_of;
-    const BaselineParameter* worst_parameter = nullptr;
+    std::vector<std::pair<const BaselineParameter*, double>> z_of;
     for (const BaselineParameter& p : parameters) {
       const bool compared = p.verdict != "not_compared";
       if (p.name == "J" || p.name == "B") {
@@ -348,16 +347,13 @@ json FleetResultFromReport(const FleetRow& row, const IdentReport& report,
       }
       if (!compared) continue;
       if (std::isfinite(p.shift) && std::isfinite(p.combined_limit) && p.combined_limit > 0.0)
-        z_of.emplace_back(p.name, std::abs(p.shift) / (p.combined_limit / kZ95));
+        z_of.emplace_back(&p, std::abs(p.shift) / (p.combined_limit / kZ95));
     }
     const std::size_t compared = z_of.size();
     double z_max = NAN;
-    std::string worst;
-    for (const auto& [name, z] : z_of) {
-      if (!(z <= z_max)) z_max = z, worst = name;
-    }
-    for (const BaselineParameter& p : parameters) {
-      if (p.name == worst) worst_parameter = &p;
+    const BaselineParameter* worst = nullptr;
+    for (const auto& [p, z] : z_of) {
+      if (!(z <= z_max)) z_max = z, worst = p;
     }
     const double threshold = rule.Threshold(compared);
     line["drift_z"] = compared ? json(z_max) : json(nullptr);
@@ -366,16 +362,16 @@ json FleetResultFromReport(const FleetRow& row, const IdentReport& report,
       line["message"] = "nothing compared with the baseline (no 95 % intervals in common)";
     } else {
       std::vector<std::string> moved;
-      for (const auto& [name, z] : z_of) {
-        if (z > threshold) moved.push_back(name);
+      for (const auto& [p, z] : z_of) {
+        if (z > threshold) moved.push_back(p->name);
       }
       line["moved"] = Join(moved, ";");
-      if (z_max > threshold && worst_parameter) {
+      if (z_max > threshold) {
         line["status"] = "drift";
-        const BaselineParameter& p = *worst_parameter;
+        const BaselineParameter& p = *worst;
         const double relative = p.baseline != 0.0 ? p.shift / p.baseline : NAN;
         std::ostringstream message;
-        message << "drifted from the baseline: " << worst << " "
+        message << "drifted from the baseline: " << p.name << " "
                 << (std::isfinite(relative)
                         ? (relative >= 0 ? "+" : "") + DisplayNumber(100.0 * relative) + " %"
                         : std::string("moved"))

@@ -131,9 +131,7 @@ PageViews AnalysePage(const FitProblem& problem, const FitResult& result,
   const std::unique_ptr<FitProblem> after = discovery ? FinalProblem(problem, *discovery) : nullptr;
   if (after) {
     views.after = ViewsOf(*after, discovery->final_fit.values, options);
-    std::string names;
-    for (const auto& n : discovery->added) names += (names.empty() ? "" : ", ") + n;
-    views.after_label = "after discovery (+" + names + ")";
+    views.after_label = "after discovery (+" + Join(discovery->added) + ")";
   }
   return views;
 }

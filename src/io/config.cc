@@ -824,6 +824,10 @@ std::string JsonSource::Text(std::size_t max_bytes, const std::string& what) con
   return text ? *text : ReadFileText(path, max_bytes, what);
 }
 
+Config LoadConfig(const JsonSource& source) {
+  return source.text ? ParseConfig(*source.text, source.path) : LoadConfig(source.path);
+}
+
 JsonDocument JsonDocument::Load(const std::string& path, std::size_t max_bytes,
                                 const std::string& what) {
   return Parse(ReadFileText(path, max_bytes, what), path);

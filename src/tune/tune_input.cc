@@ -118,7 +118,7 @@ TuneInput LoadTuneInput(const std::string& config_path, const std::string& repor
 TuneInput LoadTuneInput(const JsonSource& config, const JsonSource* report) {
   TuneInput input;
   try {
-    input.config = config.text ? ParseConfig(*config.text, config.path) : LoadConfig(config.path);
+    input.config = LoadConfig(config);
   } catch (const InputError& error) {
     RethrowForReport(config, error);
   }

@@ -4,6 +4,7 @@
 // (and the nearest valid key for a misspelling).
 #pragma once
 
+#include <limits>
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -100,8 +101,12 @@ Config ParseConfig(const std::string& text, const std::string& path);
 struct JsonSource {
   std::string path;
   std::optional<std::string> text;
-  std::string Text(std::size_t max_bytes, const std::string& what) const;  // read when a file
+  // The text, read when a file (ReadFileText's limit and label).
+  std::string Text(std::size_t max_bytes = std::numeric_limits<std::size_t>::max(),
+                   const std::string& what = "text file") const;
 };
+// The config of a source: ParseConfig of its text, else LoadConfig of its file.
+Config LoadConfig(const JsonSource& source);
 
 // Why a run of `span` seconds at step `dt` writing `samples` samples is refused (more
 // than 1e10 steps or 1e8 samples: hours of computing or gigabytes), "" when it is fine.
