@@ -350,6 +350,25 @@ std::string ClosedLoopAdvice(const IdentReport& report) {
          "applies as given)";
 }
 
+// What a residual that follows the input's past means (the input-residual test, docs/
+// discovery.md §7b), when one of `adequacy`'s flagged tests is that test: "" otherwise. The
+// vocabulary's effects are static torques of the state; none makes a response to the input's
+// history, so the warning names the kinds of dynamics that do and what the values still mean.
+std::string DynamicsMeaning(const AdequacyReport& adequacy) {
+  const auto past = std::find_if(adequacy.flagged.begin(), adequacy.flagged.end(),
+                                 [](const StructureTest& t) { return t.state == "u (past)"; });
+  if (past == adequacy.flagged.end()) return "";
+  const std::string where =
+      past->frequency_hz > 0.0 ? " near " + Figure(past->frequency_hz, 3) + " Hz" : "";
+  return "; the residual follows the input's past: dynamics the model lacks (a flexible "
+         "coupling's resonance" +
+         where +
+         ", a lag in the sensor, the logger or the current loop, a filter), which no effect "
+         "of the vocabulary makes; J is then the rigid part's (the total inertia below that "
+         "frequency), and a loop tuned on it must keep its crossover well below" +
+         where;
+}
+
 void AddWarnings(IdentReport* report) {
   std::vector<Warning>& warnings = report->warnings;
   warnings.clear();
@@ -385,7 +404,8 @@ void AddWarnings(IdentReport* report) {
   if (report->adequacy && report->adequacy->ok && !report->adequacy->flagged.empty()) {
     add("model_inadequate",
         report->adequacy->StructureMessage() +
-            ": the model misses something that biases its values; next: " +
+            ": the model misses something that biases its values" +
+            DynamicsMeaning(*report->adequacy) + "; next: " +
             (ClosedLoopAdvice(*report).empty() ? "run --discover to find the effect"
                                                : ClosedLoopAdvice(*report)) +
             (one_direction
@@ -528,6 +548,7 @@ void AddWarnings(IdentReport* report) {
         discovery.adequacy.StructureMessage() +
             ": the final model misses something that no effect of the vocabulary explains; the "
             "values may be biased by it (discovery.adequacy)" +
+            DynamicsMeaning(discovery.adequacy) +
             (ClosedLoopAdvice(*report).empty() ? std::string()
                                                : "; next: " + ClosedLoopAdvice(*report)));
   }

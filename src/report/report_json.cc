@@ -516,6 +516,10 @@ json AdequacyJson(const AdequacyReport& a) {
       if (t.input_harmonic > 0) j["input_harmonic"] = t.input_harmonic;
     }
     if (t.state == "theta (periodic)") j["order_per_rev"] = t.order;
+    if (t.state == "u (past)") {
+      j["lags"] = t.lags;
+      if (t.frequency_hz > 0.0) j["frequency_hz"] = Number(t.frequency_hz);
+    }
     return j;
   };
   json tests = json::array();

@@ -185,7 +185,7 @@ TEST(ResidualStructure, NothingFlaggedOnWhiteNoise) {
     for (const StructureTest& test : report.tests) {
       EXPECT_LT(test.share, 0.02) << test.column << " " << test.Describe();
     }
-    EXPECT_EQ(report.tests.size(), 16u);  // 8 bases (the mean among them) x 2 columns
+    EXPECT_EQ(report.tests.size(), 18u);  // 9 bases (the mean, u (past) among them) x 2 columns
   }
 }
 

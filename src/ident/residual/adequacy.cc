@@ -12,6 +12,7 @@
 
 #include "blmd/constants.h"
 #include "blmd/ident/residual/evidence.h"
+#include "blmd/ident/residual/input_residual.h"
 #include "blmd/io/csv.h"
 #include "blmd/sim/effects.h"
 #include "ident/residual/record_parts.h"
@@ -29,6 +30,9 @@ struct Pooled {
   bool has_w = false, has_theta = false;
   std::vector<std::vector<double>> residual;  // per observed column
   std::vector<double> dt;                     // per trace, mean sample interval, s
+  bool input_past = false;  // make the u (past) test (an output-error fit with an input)
+  // u (past) results per column, kept for the flagged test's plot.
+  std::vector<InputPastTest> past;
 };
 
 bool Gather(const FitProblem& problem, const std::vector<double>& values, Pooled* pooled,
@@ -223,6 +227,18 @@ double SinCosReduction(const std::vector<double>& y, std::size_t begin, std::siz
 
 // The residual of column c in 20 bins of the test's state (periodic: of the phase).
 void BinResidual(const Pooled& pooled, std::size_t c, StructureTest* test) {
+  if (test->state == "u (past)") {  // the correlation at each lag, as resid draws it
+    const InputPastTest& past = pooled.past[c];
+    const double dt_ms = 1e3 * pooled.dt.front();
+    for (std::size_t j = 0; j < past.ccf.size(); ++j) {
+      test->bin_x.push_back(static_cast<double>(j + 1) * dt_ms);
+      test->bin_mean.push_back(past.ccf[j]);
+    }
+    test->x_label = "lag of u";
+    test->x_unit = "ms";
+    test->band95 = past.band95;
+    return;
+  }
   const std::size_t n = pooled.t.size();
   std::vector<double> x(n);
   if (test->state == "theta") {
@@ -384,14 +400,19 @@ std::string StructureTest::Describe() const {
            ")";
   }
   if (state == "theta (periodic)") return "theta (periodic, " + std::to_string(order) + "/rev)";
+  if (state == "u (past)" && frequency_hz > 0.0)
+    return "u (past, largest at " + G(frequency_hz) + " Hz)";
   return state;
 }
 
 std::string AdequacyReport::StructureMessage() const {
   if (flagged.empty()) return "";
   const StructureTest& top = flagged.front();
-  std::string text = "residual depends on " + top.Describe() + " (" + top.column + ": " +
-                     G(100.0 * top.share, 2) + " % of its variance, p = " + G(top.p_value, 2) + ")";
+  // Two significant digits, without an exponent at 100 %.
+  const double percent = 100.0 * top.share;
+  const std::string share = percent >= 99.5 ? "100" : G(percent, 2);
+  std::string text = "residual depends on " + top.Describe() + " (" + top.column + ": " + share +
+                     " % of its variance, p = " + G(top.p_value, 2) + ")";
   std::vector<std::string> others;
   for (std::size_t k = 1; k < flagged.size(); ++k) {
     const std::string name = flagged[k].Describe();
@@ -645,6 +666,20 @@ void TestColumn(const Pooled& pooled, std::size_t c, const std::string& column,
     out.input_harmonic = basis.input_harmonic;
     report->tests.push_back(out);
   }
+  if (pooled.input_past && c < pooled.past.size() && pooled.past[c].ok) {
+    const InputPastTest& past = pooled.past[c];
+    StructureTest out;
+    out.state = "u (past)";
+    out.column = column;
+    out.regressors = past.lags;
+    out.f = past.statistic / past.lags;
+    out.p_value = past.p_value;
+    out.share = past.share;
+    out.ar_order = past.ar_order;
+    out.frequency_hz = past.frequency_hz;
+    out.lags = past.lags;
+    report->tests.push_back(out);
+  }
 }
 
 // The family's verdict: every test's p-value times the number of tests run, flagged when
@@ -687,6 +722,16 @@ AdequacyReport CheckResidualStructure(const FitProblem& problem, const std::vect
   report.min_share = options.min_share;
   Pooled pooled;
   if (!Gather(problem, values, &pooled, &report.reason)) return report;
+  pooled.input_past =
+      options.input_lags > 0 && !problem.equation_error() && problem.measured(0).Has("u");
+  if (pooled.input_past) {
+    // One rate for the coherence's frequency axis: the traces' own, when they agree to 1 %.
+    const auto [dt_lo, dt_hi] = std::minmax_element(pooled.dt.begin(), pooled.dt.end());
+    const double rate = *dt_lo > 0.0 && *dt_hi <= 1.01 * *dt_lo ? 1.0 / *dt_hi : 0.0;
+    for (const auto& residual : pooled.residual)
+      pooled.past.push_back(
+          TestInputPast(residual, pooled.u, pooled.segments, rate, options.input_lags));
+  }
   const std::vector<Basis> bases = StateBases(pooled, options);
   const FrequencyGrid grid = TimeFrequencyGrid(pooled, options);
   for (std::size_t c = 0; c < problem.observe().size(); ++c)

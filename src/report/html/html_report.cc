@@ -653,22 +653,33 @@ void WriteAdequacy(Page& page, const DiscoveryReport& discovery, const std::stri
       plot.title = info.quantity + ": residual against " + test.Describe();
       plot.x_label = test.x_label;
       plot.x_unit = test.x_unit;
-      plot.y_label = "mean of " + test.column + " measured − simulated";
-      plot.y_unit = info.unit;
+      const bool past = test.state == "u (past)";
+      plot.y_label = past ? "correlation of the whitened residual and input"
+                          : "mean of " + test.column + " measured − simulated";
+      plot.y_unit = past ? "" : info.unit;
       plot.width = page.options().plot_width;
       plot.height = page.options().plot_height;
       plot.id_prefix = page.NextPrefix();
       plot.bands.push_back({"", false, 0.0, 0.0, "#444444", 1.0, ""});
-      Series means =
-          Line("residual mean per bin", test.bin_x, test.bin_mean, kAfterColour, "", 1.5);
+      if (past) {  // the 95 % band of a correlation with no dependence
+        plot.bands.push_back({"95 % band", false, -test.band95, test.band95, "#999999", 0.25, ""});
+      }
+      Series means = Line(past ? "correlation per lag" : "residual mean per bin", test.bin_x,
+                          test.bin_mean, kAfterColour, "", 1.5);
       means.marker_radius = 3.0;
       page.Figure(
           "adequacy",
           " data-column=\"" + Escape(test.column) + "\" data-state=\"" + Escape(test.state) + "\"",
           LinePlotSvg(plot, {means}),
-          "Mean residual of " + Escape(info.quantity) + " in bins of " + Escape(test.x_label) +
-              ": it explains " + G(100.0 * test.share, 3) +
-              " % of the residual's variance (p = " + G(test.p_value, 2) + ").");
+          (past ? "Correlation of the whitened residual of " + Escape(info.quantity) +
+                      " with the whitened input " + Escape(test.x_label.substr(7)) +
+                      " earlier (grey: the 95 % band with no dependence): the input's past "
+                      "explains " +
+                      G(100.0 * test.share, 3) +
+                      " % of the residual's whitened variance (p = " + G(test.p_value, 2) + ")."
+                : "Mean residual of " + Escape(info.quantity) + " in bins of " +
+                      Escape(test.x_label) + ": it explains " + G(100.0 * test.share, 3) +
+                      " % of the residual's variance (p = " + G(test.p_value, 2) + ")."));
     }
     h += "</div>\n";
   }

@@ -20,6 +20,8 @@
 //   t (periodic)     sin 2 pi f t, cos 2 pi f t per trace at the periodogram's peak f
 //                    (named a harmonic of the input when it is one: a dynamic misfit
 //                    repeats with the input, a disturbance need not)
+//   u (past)         the whitened input at the L previous samples (input_residual.h: the
+//                    input-residual test, dynamics the model lacks; output error only)
 // each with an intercept (per trace). The test is a feasible generalised least-squares F
 // test: an AR(p <= 2) noise model is fitted to the regression's own residual (Yule-Walker,
 // evidence.h FitAutoregression), the response and every regressor are filtered with it
@@ -62,28 +64,38 @@ struct AdequacyOptions {
   // mean: also test each trace's residual mean against zero (FglsMeanTest): an offset or a
   // constant torque the model lacks, which every other basis takes into its null model.
   bool test_mean = true;
+  // u (past): the lags L of the input-residual test (input_residual.h); 0: not made. Made on
+  // output-error fits only: the equation error's residual is made from the input itself.
+  int input_lags = 25;
 };
 
 // One basis against one observed column.
 struct StructureTest {
-  std::string state;     // "theta", "theta (periodic)", "w", "sign(w)", "u", "t", "t (periodic)"
+  // "theta", "theta (periodic)", "w", "sign(w)", "u", "t", "t (periodic)", "mean", "u (past)"
+  std::string state;
   std::string column;    // the observed column whose residual is tested
   int regressors = 0;    // q, the basis's columns (without the intercepts)
   double f = 0.0;        // the F statistic
   double p_value = 1.0;  // with the Bonferroni factors (searched alternatives, tests)
   double share = 0.0;    // fraction of the residual's variance the basis explains (OLS R^2)
   int ar_order = 0;      // of the FGLS noise model
-  double frequency_hz = 0.0;  // t (periodic): the frequency tested
-  int input_harmonic = 0;     // t (periodic): k when it is the input's k-th harmonic, else 0
-  int order = 0;              // theta (periodic): the order tested, periods per revolution
-  bool significant = false;   // p_value < family_level
-  bool flagged = false;       // significant and share >= min_share
+  double frequency_hz =
+      0.0;  // t (periodic): the frequency tested; u (past): the residual's largest response to u
+  int lags = 0;              // u (past): the lags tested, 1..lags samples
+  int input_harmonic = 0;    // t (periodic): k when it is the input's k-th harmonic, else 0
+  int order = 0;             // theta (periodic): the order tested, periods per revolution
+  bool significant = false;  // p_value < family_level
+  bool flagged = false;      // significant and share >= min_share
   // Flagged tests: the residual's mean in bins of the state (what the HTML plots), x the bin
-  // centres in the state's unit (periodic states: the phase within one period, 0..1).
+  // centres in the state's unit (periodic states: the phase within one period, 0..1); for
+  // u (past) the whitened residual's correlation with the whitened input at each lag (x in
+  // ms), and `band95` the 95 % band of a correlation under no dependence.
   std::vector<double> bin_x, bin_mean;
   std::vector<int> bin_count;
   std::string x_label, x_unit;
-  std::string Describe() const;  // "t (periodic, 4.5 Hz)", "theta (periodic, 7/rev)", "w"
+  double band95 = 0.0;
+  // "t (periodic, 4.5 Hz)", "theta (periodic, 7/rev)", "w", "u (past, largest at 63 Hz)"
+  std::string Describe() const;
 };
 
 struct EffectStability {
