@@ -358,15 +358,23 @@ std::string DynamicsMeaning(const AdequacyReport& adequacy) {
   const auto past = std::find_if(adequacy.flagged.begin(), adequacy.flagged.end(),
                                  [](const StructureTest& t) { return t.state == "u (past)"; });
   if (past == adequacy.flagged.end()) return "";
-  const std::string where =
-      past->frequency_hz > 0.0 ? " near " + Figure(past->frequency_hz, 3) + " Hz" : "";
-  return "; the residual follows the input's past: dynamics the model lacks (a flexible "
-         "coupling's resonance" +
-         where +
-         ", a lag in the sensor, the logger or the current loop, a filter), which no effect "
-         "of the vocabulary makes; J is then the rigid part's (the total inertia below that "
-         "frequency), and a loop tuned on it must keep its crossover well below" +
-         where;
+  if (past->lag_s > 0.0) {
+    return "; the measured " + past->column + " lags the model by about " +
+           Figure(1e3 * past->lag_s, 2) +
+           " ms, as a sensor, a filter or a logger makes (the model has no measurement delay); "
+           "where the speed column has a sensor or estimator of its own (a tachometer, a "
+           "filtered estimate) and the trace has the angle, fit the speed derived from the "
+           "angle (--derive w=theta)";
+  }
+  const bool where = past->frequency_hz > 0.0;
+  return "; the residual follows the input's past" +
+         (where ? " (most near " + Figure(past->frequency_hz, 3) + " Hz)" : std::string()) +
+         ": dynamics the model lacks, such as a flexible coupling's resonance, a lag in the "
+         "current loop, or a filter, which no effect of the vocabulary makes. J is then the "
+         "rigid part's (the total inertia below " +
+         (where ? "that frequency" : std::string("those dynamics")) +
+         "), and a loop tuned on it must keep its crossover well below " +
+         (where ? "it" : std::string("them"));
 }
 
 void AddWarnings(IdentReport* report) {

@@ -519,6 +519,7 @@ json AdequacyJson(const AdequacyReport& a) {
     if (t.state == "u (past)") {
       j["lags"] = t.lags;
       if (t.frequency_hz > 0.0) j["frequency_hz"] = Number(t.frequency_hz);
+      if (t.lag_s > 0.0) j["measurement_lag_s"] = Number(t.lag_s);
     }
     return j;
   };

@@ -3,7 +3,8 @@
 "Records found for this release"): the starting config of `blmd-ident --init-config
 rigid_load` (configs/real/delta-a3.json: only its name and description changed), the
 columns as the files name them, `--discover`, no selection and no cut-off. Where that run
-warns, the next step its warning names is followed, once, and the run repeated. Prints one
+warns, the next step its warning names is followed and the run repeated; a next step
+the repeated run's warnings name is followed in turn (at most two steps). Prints one
 line per record and step: J with its 95 % interval, the independent estimate and whether the
 interval covers it, the effects added and the warnings.
 
@@ -49,12 +50,14 @@ def run(args):
 
 
 def next_flags(report):
-    """The flags the report's warnings name as the next step (--error, --initial)."""
+    """The flags the report's warnings name as the next step (--error, --derive, --initial)."""
     flags = []
     for w in report.get("warnings", []):
         text = w["message"]
         if "--error equation" in text and "--error" not in flags:
             flags += ["--error", "equation"]
+        if "(--derive w=theta)" in text and "--derive" not in flags:
+            flags += ["--derive", "w=theta"]
         for m in re.finditer(r"--initial ([A-Za-z_]+)=([-0-9.e+]+)", text):
             flags += ["--initial", m.group(1) + "=" + m.group(2)]
     return flags
@@ -83,12 +86,20 @@ def main():
             print(f"| {record} | new user | no report ({err}) | | | | | | |")
             continue
         line(record, "new user", report, truth)
-        flags = next_flags(report)
-        if flags:
+        flags = []
+        for _ in range(2):  # the next step of each run's warnings, in turn, at most twice
+            used = list(zip(flags[::2], flags[1::2]))
+            named = next_flags(report)
+            step = [p for p in zip(named[::2], named[1::2]) if p not in used and
+                    not (p[0] == "--initial" and p[1].split("=")[0] in
+                         [v.split("=")[0] for f, v in used if f == "--initial"])]
+            if not step:
+                break
+            flags += [x for p in step for x in p]
             report, err = run(args + flags)
             if report is None:
                 print(f"| {record} | {' '.join(flags)} | no report ({err}) | | | | | | |")
-                continue
+                break
             line(record, " ".join(flags), report, truth)
 
 

@@ -622,6 +622,41 @@ Basis TimeHarmonicBasis(const Pooled& pooled, const std::vector<double>& y,
   return periodic;
 }
 
+// The delay by which the measured `column` lags the simulated one, when a delay explains the
+// residual that follows the input: measured(t) = simulated(t - tau) ~ simulated(t) - tau
+// simulated'(t), so the residual is regressed on the simulated derivative (central
+// differences, per trace, with an intercept per trace); tau = -slope. A delay is named when
+// tau > 0 and the regression explains at least half of what the input's past explains
+// (`past_share`); 0 otherwise, and for columns other than w and theta.
+double MeasurementLag(const Pooled& pooled, const std::string& column,
+                      const std::vector<double>& residual, double past_share) {
+  const std::vector<double>* state = column == "w" && pooled.has_w           ? &pooled.w
+                                     : column == "theta" && pooled.has_theta ? &pooled.theta
+                                                                             : nullptr;
+  if (!state || !(past_share > 0.0)) return 0.0;
+  const std::size_t n = residual.size();
+  std::vector<double> derivative(n, 0.0);
+  for (std::size_t s = 0; s < pooled.segments.size(); ++s) {
+    const std::size_t first = pooled.segments[s], last = SegmentEnd(pooled, s);
+    const double dt = pooled.dt[s];
+    for (std::size_t k = first + 1; k + 1 < last && dt > 0.0; ++k)
+      derivative[k] = ((*state)[k + 1] - (*state)[k - 1]) / (2.0 * dt);
+  }
+  const Eigen::Index rows = static_cast<Eigen::Index>(n);
+  Eigen::MatrixXd X = SegmentIntercepts(rows, pooled.segments, 1);
+  const Eigen::Index slope = X.cols() - 1;
+  for (Eigen::Index r = 0; r < rows; ++r) X(r, slope) = derivative[static_cast<std::size_t>(r)];
+  const Eigen::VectorXd y = Eigen::Map<const Eigen::VectorXd>(residual.data(), rows);
+  const Eigen::VectorXd beta = X.colPivHouseholderQr().solve(y);
+  const Eigen::VectorXd means =
+      X.leftCols(slope) * X.leftCols(slope).colPivHouseholderQr().solve(y);
+  const double sse0 = (y - means).squaredNorm(), sse1 = (y - X * beta).squaredNorm();
+  if (!(sse0 > 0.0) || !std::isfinite(beta(slope))) return 0.0;
+  const double share = 1.0 - sse1 / sse0;
+  const double tau = -beta(slope);
+  return tau > 0.0 && share >= 0.5 * past_share ? tau : 0.0;
+}
+
 // Every test of column `c` appended to report->tests: the mean, then each basis.
 void TestColumn(const Pooled& pooled, std::size_t c, const std::string& column,
                 const std::vector<Basis>& bases, const FrequencyGrid& grid,
@@ -678,6 +713,7 @@ void TestColumn(const Pooled& pooled, std::size_t c, const std::string& column,
     out.ar_order = past.ar_order;
     out.frequency_hz = past.frequency_hz;
     out.lags = past.lags;
+    out.lag_s = MeasurementLag(pooled, column, y, past.share);
     report->tests.push_back(out);
   }
 }

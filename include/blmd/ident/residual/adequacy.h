@@ -81,7 +81,11 @@ struct StructureTest {
   int ar_order = 0;      // of the FGLS noise model
   double frequency_hz =
       0.0;  // t (periodic): the frequency tested; u (past): the residual's largest response to u
-  int lags = 0;              // u (past): the lags tested, 1..lags samples
+  int lags = 0;  // u (past): the lags tested, 1..lags samples
+  // u (past) on w or theta: the delay (s) by which the measured column lags the simulated one
+  // when a delay explains at least half of what the input's past does (a sensor, filter or
+  // logger lag: residual ~ -lag d(simulated)/dt); 0 when it does not.
+  double lag_s = 0.0;
   int input_harmonic = 0;    // t (periodic): k when it is the input's k-th harmonic, else 0
   int order = 0;             // theta (periodic): the order tested, periods per revolution
   bool significant = false;  // p_value < family_level
