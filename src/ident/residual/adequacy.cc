@@ -761,7 +761,7 @@ AdequacyReport CheckResidualStructure(const FitProblem& problem, const std::vect
   pooled.input_past =
       options.input_lags > 0 && !problem.equation_error() && problem.measured(0).Has("u");
   if (pooled.input_past) {
-    // One rate for the coherence's frequency axis: the traces' own, when they agree to 1 %.
+    // One rate for the response's frequency axis: the traces' own, when they agree to 1 %.
     const auto [dt_lo, dt_hi] = std::minmax_element(pooled.dt.begin(), pooled.dt.end());
     const double rate = *dt_lo > 0.0 && *dt_hi <= 1.01 * *dt_lo ? 1.0 / *dt_hi : 0.0;
     for (const auto& residual : pooled.residual)

@@ -672,11 +672,10 @@ void WriteAdequacy(Page& page, const DiscoveryReport& discovery, const std::stri
           " data-column=\"" + Escape(test.column) + "\" data-state=\"" + Escape(test.state) + "\"",
           LinePlotSvg(plot, {means}),
           (past ? "Correlation of the whitened residual of " + Escape(info.quantity) +
-                      " with the whitened input " + Escape(test.x_label.substr(7)) +
-                      " earlier (grey: the 95 % band with no dependence): the input's past "
-                      "explains " +
+                      " with the whitened input at each lag (grey: the 95 % band with no "
+                      "dependence): the response to the input's past makes up " +
                       G(100.0 * test.share, 3) +
-                      " % of the residual's whitened variance (p = " + G(test.p_value, 2) + ")."
+                      " % of the residual's variance (p = " + G(test.p_value, 2) + ")."
                 : "Mean residual of " + Escape(info.quantity) + " in bins of " +
                       Escape(test.x_label) + ": it explains " + G(100.0 * test.share, 3) +
                       " % of the residual's variance (p = " + G(test.p_value, 2) + ")."));
