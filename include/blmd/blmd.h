@@ -30,6 +30,7 @@
 #include "blmd/ident/residual/adequacy.h"
 #include "blmd/ident/residual/diagnostics.h"
 #include "blmd/ident/residual/evidence.h"
+#include "blmd/ident/residual/input_residual.h"
 #include "blmd/ident/residual/spectral.h"
 #include "blmd/ident/residual/stats.h"
 #include "blmd/ident/uncertainty/parameter_correlation.h"
