@@ -17,7 +17,7 @@
 
 _blmd_models="blmd dc_servo rigid_load"
 _blmd_methods="ceres classic fsd powell"
-_blmd_effects="asymmetric_viscous cogging coulomb_friction current_offset dead_time gravity load_torque quadratic_drag spring stribeck"
+_blmd_effects="asymmetric_viscous cogging coulomb_friction current_offset dead_time gravity load_torque quadratic_drag spring stribeck two_mass"
 _blmd_columns="i ib ic theta u w"
 
 _blmd_ident_flags="--baseline --baseline-dir --batch --bic-margin --candidates --column --config --decimate --delimiter --derive --discover --drift-alpha --duplicate-time --error --export-matlab --fail-above-nrmse --fail-on-warning --filter-hz --free --help --html --init-config --initial --initial-state --json --max-effects --max-evaluations --method --min-share --new-baselines --no-header --no-progress --noise-std --observe --option --out --progress --quiet --report --resample --sample-rate --scale --seed --select --split --threads --trace --validate --verbose --version --weighting --write-config"

@@ -338,6 +338,11 @@ void ReadEffects(const Reader& reader, const json& root, Config* out) {
           reader.Fail(pointer + "/" + key,
                       "effect parameter '" + key + "' must be " + (p.positive ? "> 0" : ">= 0"));
         }
+        if (p.share && v > 1.0) {
+          reader.Fail(pointer + "/" + key, "effect parameter '" + key +
+                                               "' is a share: it must be in [0, 1] (got " +
+                                               FormatNumber(v) + ")");
+        }
         config.parameters.Set(p.name, v);
       }
       config.effects.push_back(effect_name);
@@ -932,6 +937,10 @@ void Config::AddEffect(const std::string& effect, const ParameterSet& values) {
     const double v = values.Has(p.name) ? values.Get(p.name) : values.Get(key);
     if ((p.positive && !(v > 0.0)) || (p.non_negative && v < 0.0) || !std::isfinite(v)) {
       throw InputError("effect parameter '" + key + "' must be " + (p.positive ? "> 0" : ">= 0"));
+    }
+    if (p.share && v > 1.0) {
+      throw InputError("effect parameter '" + key + "' is a share: it must be in [0, 1] (got " +
+                       FormatNumber(v) + ")");
     }
     parameters.Set(p.name, v);
   }

@@ -43,7 +43,11 @@ std::map<std::string, ParameterReport> Parameters(const FitProblem& problem,
       p.has_bounds = true;
       p.lower = fp.lower;
       p.upper = fp.upper;
-      p.at_bound = AtBound(fp, e);
+      // A share's ends are its physical domain's (all of the damping on one side): a finding,
+      // not the search box deciding (ParamInfo::share).
+      const bool domain_end =
+          IsShareParameter(e.name) && (e.value <= 1e-6 || e.value >= 1.0 - 1e-6);
+      p.at_bound = AtBound(fp, e) && !domain_end;
     }
     parameters[e.name] = p;
   }
@@ -113,6 +117,7 @@ ModelReport MakeModelReport(const ReportInputs& inputs) {
 
   if (fit.errors.ok) model.residual.analysis = AnalyseResidual(problem, result.values);
   model.correlation = EstimateParameterCorrelation(problem, result);
+  model.derived = EstimateDerived(problem, result, model.correlation);
   // Intervals that take the residuals as white are optimistic when they are not; the HAC
   // sandwich's account for the correlation (docs/uncertainty.md).
   bool any_white_interval = false;
@@ -456,12 +461,16 @@ void AddWarnings(IdentReport* report) {
       no_interval += (no_interval.empty() ? "" : ", ") + name;
     } else if (std::isfinite(e.value) && std::isfinite(e.ci95_low) && std::isfinite(e.ci95_high) &&
                !IsPeriodicParameter(name)) {  // a phase has no scale to be ±50 % of
+      // A share in [0, 1] is judged against its domain: poorly determined when its interval
+      // is wider than the whole of it (more than ±0.5), whatever its value.
+      const bool share = IsShareParameter(name);
       const double half = 0.5 * (e.ci95_high - e.ci95_low);
-      if (!(half <= 0.5 * std::abs(e.value))) {
+      if (!(half <= 0.5 * (share ? 1.0 : std::abs(e.value)))) {
         add("parameter_poorly_determined",
             name + " = " + Figure(e.value, 4) + " with a 95 % interval of [" +
                 Figure(e.ci95_low, 4) + ", " + Figure(e.ci95_high, 4) +
-                "] (more than ±50 %): these traces hardly determine it");
+                (share ? "] (wider than its range [0, 1])" : "] (more than ±50 %)") +
+                ": these traces hardly determine it");
       }
     }
   }

@@ -263,6 +263,26 @@ void ModelJson(const ModelReport& model, json* out) {
   (*out)["intervals_optimistic"] = model.intervals_optimistic;
   if (model.validation) (*out)["validation"] = ToJson(*model.validation);
   (*out)["correlation"] = CorrelationJson(model.correlation);
+  if (!model.derived.empty()) {
+    json derived = json::object();
+    for (const auto& d : model.derived) {
+      json entry = {{"effect", d.effect},
+                    {"unit", d.unit},
+                    {"meaning", d.meaning},
+                    {"value", Number(d.value)}};
+      if (d.has_interval) {
+        entry["std"] = Number(d.std);
+        entry["ci95"] = {Number(d.ci95_low), Number(d.ci95_high)};
+        entry["interval_method"] = d.interval_method;
+      } else {
+        entry["std"] = nullptr;
+        entry["ci95"] = nullptr;
+        entry["reason"] = d.reason;
+      }
+      derived[d.name] = entry;
+    }
+    (*out)["derived"] = derived;
+  }
 }
 
 json CandidatesJson(const std::vector<CandidateOutcome>& outcomes) {
@@ -549,7 +569,8 @@ json AdequacyJson(const AdequacyReport& a) {
                             {"second_std", Number(s.second_std)},
                             {"z", Number(s.z)},
                             {"limit", Number(s.limit)},
-                            {"unstable", s.unstable}});
+                            {"unstable", s.unstable},
+                            {"near_bound", s.near_bound}});
     }
     stability["parameters"] = parameters;
     stability["unstable"] = a.unstable;

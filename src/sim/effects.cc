@@ -35,6 +35,13 @@ ParamInfo Phase(std::string name, std::string meaning, std::string key = "") {
   return info;
 }
 
+// A share in [0, 1] (ParamInfo::share).
+ParamInfo Share(std::string name, std::string meaning) {
+  ParamInfo info = P(std::move(name), "1", std::move(meaning), Sign::kNonNegative, 0.0, 1.0);
+  info.share = true;
+  return info;
+}
+
 std::vector<EffectInfo> MakeRegistry() {
   const std::vector<std::string> all = {"blmd", "dc_servo", "rigid_load"};
   std::vector<EffectInfo> effects = {
@@ -106,6 +113,44 @@ std::vector<EffectInfo> MakeRegistry() {
        /*position_dependent=*/false,
        EffectInfo::AtRest::kHoldsByFriction,
        "Ts"},
+      // A flexible coupling between the motor and its load (docs/effects.md, "two_mass"): J and
+      // B stay the totals a rigid fit gives (below the resonance the shaft is rigid), split
+      // between the two sides; the measured speed and angle are the motor's. Simulated by
+      // rigid_load (its exact four-state step).
+      {"two_mass",
+       {P("inertia_ratio", "1", "load inertia over motor inertia, Jl/Jm", Sign::kPositive, 1e-3,
+          1e3),
+        P("anti_resonance_hz", "Hz", "anti-resonance frequency sqrt(K/Jl)/(2 pi)", Sign::kPositive,
+          0.1, 1e5),
+        P("shaft_damping_ratio", "1",
+          "the shaft's damping ratio at the anti-resonance, c/(2 sqrt(K Jl))", Sign::kNonNegative,
+          0.0, 2.0),
+        Share("load_damping_share",
+              "the share s of B that acts on the load: Bl = s B, Bm = (1-s) B")},
+       "Jm dwm/dt = T - Bm wm - K (thm - thl) - c (wm - wl), Jl dwl/dt = K (thm - thl) + c (wm - "
+       "wl) - Bl wl; Jm = J/(1+r), Jl = J r/(1+r), K = Jl (2 pi fa)^2, c = 2 zeta Jl 2 pi fa, "
+       "Bm = (1-s) B, Bl = s B",
+       {"rigid_load"},
+       /*position_dependent=*/false,
+       EffectInfo::AtRest::kNothing,
+       "",
+       {{"resonance_hz", "Hz", "resonance f_r = f_a sqrt(1 + r), where the motor's speed peaks",
+         [](const ParameterSet& p) {
+           return p.Get("anti_resonance_hz") * std::sqrt(1.0 + p.Get("inertia_ratio"));
+         }},
+        {"motor_inertia", "kg·m²", "the motor side's inertia Jm = J/(1 + r)",
+         [](const ParameterSet& p) { return p.Get("J") / (1.0 + p.Get("inertia_ratio")); }},
+        {"load_inertia", "kg·m²", "the load side's inertia Jl = J r/(1 + r)",
+         [](const ParameterSet& p) {
+           const double r = p.Get("inertia_ratio");
+           return p.Get("J") * r / (1.0 + r);
+         }},
+        {"shaft_stiffness", "N·m/rad", "the coupling's stiffness K = Jl (2 pi f_a)^2",
+         [](const ParameterSet& p) {
+           const double r = p.Get("inertia_ratio"), wa = 2.0 * kPi * p.Get("anti_resonance_hz");
+           return p.Get("J") * r / (1.0 + r) * wa * wa;
+         }}},
+       /*hidden_states=*/true},
   };
   return effects;
 }
@@ -130,6 +175,15 @@ bool IsPeriodicParameter(const std::string& parameter) {
   for (const auto& effect : EffectRegistry()) {
     for (const auto& info : effect.parameters) {
       if (info.name == parameter) return info.periodic;
+    }
+  }
+  return false;
+}
+
+bool IsShareParameter(const std::string& parameter) {
+  for (const auto& effect : EffectRegistry()) {
+    for (const auto& info : effect.parameters) {
+      if (info.name == parameter) return info.share;
     }
   }
   return false;
@@ -202,6 +256,12 @@ ShaftEffects ShaftEffects::From(const ParameterSet& values, const std::vector<st
   if (on("gravity")) {
     shaft.Tg = values.Get("Tg");
     shaft.gravity_phase = values.Get("gravity_phase");
+  }
+  if (on("two_mass")) {
+    shaft.inertia_ratio = values.Get("inertia_ratio");
+    shaft.anti_resonance_hz = values.Get("anti_resonance_hz");
+    shaft.shaft_damping_ratio = values.Get("shaft_damping_ratio");
+    shaft.load_damping_share = values.Get("load_damping_share");
   }
   return shaft;
 }

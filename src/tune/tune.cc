@@ -246,6 +246,10 @@ void EvaluateBox(const TuneInput& input, const TuneRequest& request, TuneResult*
 // torque demand, its current loops ideal; their lag is the drive's current bandwidth).
 RigidPlant RigidAt(const Model& model, const ParameterSet& values) {
   const LinearModel linear = model.Linearise(values);
+  if (linear.has_rigid_part) {
+    const LinearModel::RigidPart& rigid = linear.rigid_part;
+    return {rigid.J, rigid.B, rigid.K};
+  }
   const double J = values.Get("J");
   return {J, -linear.A(0, 0) * J, linear.B(0, 0) * J};
 }

@@ -165,7 +165,8 @@ TEST(BlmdSimCli, BadInputExitsTwoWithOneLineAndWritesNothing) {
   ExpectBadInput(
       Sim("--config " + good + " --out " + out + " --effect friction:Tc=0.01"), out,
       "error: unknown effect 'friction' (valid: asymmetric_viscous, cogging, coulomb_friction, "
-      "current_offset, dead_time, gravity, load_torque, quadratic_drag, spring, stribeck)");
+      "current_offset, dead_time, gravity, load_torque, quadratic_drag, spring, stribeck, "
+      "two_mass)");
   ExpectBadInput(Sim("--config " + good + " --out " + out + " --effect coulomb_friction:Tc=abc"),
                  out, "error: --effect coulomb_friction Tc: 'abc' is not a finite number");
   ExpectBadInput(Sim("--config " + good + " --out " + out + " --effect coulomb_friction:tc=0.01"),

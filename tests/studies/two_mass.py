@@ -16,8 +16,10 @@ of `blmd-ident --init-config rigid_load`, configs/real/delta-a3.json), without -
 default; with --discover as the first argument, with discovery.
 
 Prints one line per record and the counts: records with a model warning (model_inadequate or
-unexplained_structure), records where the input-residual test (u (past)) is flagged, and J's
-error against the total inertia.
+unexplained_structure), records where the input-residual test (u (past)) is flagged, J's
+error against the total inertia, and, where discovery added two_mass, the errors of the
+resonance f_r (the report's derived resonance_hz), J and the inertia ratio, and how often the
+95 % intervals of J, the ratio, f_a and f_r cover the truth.
 
     tests/studies/two_mass.py [--discover] [CASES] [BUILD_DIR]   # default 30 cases, build/
 """
@@ -145,15 +147,40 @@ def adequacy_of(report):
     return (report.get("residual") or {}).get("adequacy") or report.get("adequacy") or {}
 
 
+def covers(interval, truth):
+    return bool(interval) and interval[0] is not None and interval[1] is not None and \
+        interval[0] <= truth <= interval[1]
+
+
+def two_mass_figures(report, truth):
+    """With two_mass added: the errors of the resonance, the total inertia and the ratio, and
+    whether the 95 % intervals of J, the ratio, f_a and f_r cover the truth."""
+    if "two_mass" not in report.get("effects", []):
+        return None
+    p, d = report["parameters"], report.get("derived", {})
+    fr = d.get("resonance_hz", {})
+    return {
+        "fr": fr.get("value", float("nan")) / truth["fr"] - 1,
+        "J": p["J"]["value"] / truth["J"] - 1,
+        "ratio": p["inertia_ratio"]["value"] / truth["ratio"] - 1,
+        "covered": {"J": covers(p["J"].get("ci95"), truth["J"]),
+                    "ratio": covers(p["inertia_ratio"].get("ci95"), truth["ratio"]),
+                    "fa": covers(p["anti_resonance_hz"].get("ci95"), truth["fa"]),
+                    "fr": covers(fr.get("ci95"), truth["fr"])},
+    }
+
+
 def main():
     groups = [("two-mass", False, False), ("rigid, white", True, False),
               ("rigid, AR(1) 0.95", True, True)]
     print("| group | seed | input | ratio | f_a Hz | f_r Hz | J error | u (past) share | p | "
-          "at Hz | warnings |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+          "at Hz | effects | f_r error | ratio error | warnings |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as scratch:
         for name, rigid, ar in groups:
-            warned = past_flagged = total = 0
+            warned = past_flagged = total = added = 0
+            within = {"fr 5 %": 0, "J 2 %": 0, "ratio 20 %": 0}
+            covered = {"J": 0, "ratio": 0, "fa": 0, "fr": 0}
             for seed in range(CASES):
                 data, truth = record(1000 + seed, rigid, ar)
                 report = fit(data, scratch)
@@ -172,11 +199,29 @@ def main():
                 p = min((t["p"] for t in past), default=float("nan"))
                 at = max((t.get("frequency_hz", 0) for t in past), default=0)
                 j = report["parameters"]["J"]["value"]
+                figures = two_mass_figures(report, truth)
+                fr_text = ratio_text = "-"
+                if figures:
+                    added += 1
+                    within["fr 5 %"] += abs(figures["fr"]) <= 0.05
+                    within["J 2 %"] += abs(figures["J"]) <= 0.02
+                    within["ratio 20 %"] += abs(figures["ratio"]) <= 0.20
+                    for k, v in figures["covered"].items():
+                        covered[k] += v
+                    fr_text = f"{100 * figures['fr']:+.2f} %"
+                    ratio_text = f"{100 * figures['ratio']:+.1f} %"
+                effects = ", ".join(report.get("effects", [])) or "-"
                 print(f"| {name} | {seed} | {truth['kind']} | {truth['ratio']:.2f} | "
                       f"{truth['fa']:.1f} | {truth['fr']:.1f} | {100 * (j / truth['J'] - 1):+.1f} % | "
-                      f"{share:.3f} | {p:.2g} | {at:.3g} | {', '.join(codes) or '-'} |", flush=True)
+                      f"{share:.3f} | {p:.2g} | {at:.3g} | {effects} | {fr_text} | {ratio_text} | "
+                      f"{', '.join(codes) or '-'} |", flush=True)
             print(f"{name}: model warning on {warned}/{total}, u (past) flagged on "
-                  f"{past_flagged}/{total}", flush=True)
+                  f"{past_flagged}/{total}, two_mass added on {added}/{total}", flush=True)
+            if added:
+                print(f"{name}: of the {added} with two_mass: within " +
+                      ", ".join(f"{k} {v}/{added}" for k, v in within.items()) +
+                      "; 95 % intervals cover " +
+                      ", ".join(f"{k} {v}/{added}" for k, v in covered.items()), flush=True)
 
 
 if __name__ == "__main__":

@@ -624,11 +624,11 @@ TEST(ConfigErrors, Effects) {
       ConfigError(with_effects("{ \"coulomb_fricton\": { \"Tc\": 0.01 } }")),
       "config.json:11:16: unknown effect 'coulomb_fricton' (valid: asymmetric_viscous, cogging, "
       "coulomb_friction, current_offset, dead_time, gravity, load_torque, quadratic_drag, spring, "
-      "stribeck) (did you mean 'coulomb_friction'?)");
+      "stribeck, two_mass) (did you mean 'coulomb_friction'?)");
   EXPECT_EQ(ConfigError(with_effects("{ \"friction\": { \"Tc\": 0.01 } }")),
             "config.json:11:16: unknown effect 'friction' (valid: asymmetric_viscous, cogging, "
             "coulomb_friction, current_offset, dead_time, gravity, load_torque, quadratic_drag, "
-            "spring, stribeck)");
+            "spring, stribeck, two_mass)");
   EXPECT_EQ(ConfigError(with_effects("{ \"coulomb_friction\": { \"tc\": 0.01 } }")),
             "config.json:11:38: unknown key 'tc' in 'effects.coulomb_friction' (did you mean "
             "'Tc'?); valid keys: Tc");

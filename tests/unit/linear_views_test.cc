@@ -22,6 +22,7 @@
 #include "blmd/io/config.h"
 #include "blmd/report/report.h"
 #include "blmd/run.h"
+#include "blmd/sim/linear_model.h"
 #include "blmd/sim/linear_response.h"
 #include "support/test_support.h"
 
@@ -79,6 +80,55 @@ TEST(LinearResponse, ContinuousBodeIsTheClosedForm) {
   const BodeCurve corner = Bode(model, 0, {B / J / (2 * kPi)});
   EXPECT_NEAR(corner.phase_deg[0], -45.0, 1e-9);
   EXPECT_NEAR(corner.magnitude_db[0], 20 * std::log10(Kt / B / std::sqrt(2.0)), 1e-9);
+}
+
+// rigid_load with two_mass keeps the coupling in its linear part: the motor speed's response is
+// the two-mass transfer function (docs/effects.md), Wm/U = Kt (Jl s + Bl + Z) / ((Jm s + Bm +
+// Z)(Jl s + Bl + Z) - Z^2), Z = K/s + c: a notch at the anti-resonance and a peak at the
+// resonance; its transfer function, from the Faddeev-LeVerrier recursion, is the same; the
+// rigid part handed to the tuner is J, B, Kt.
+TEST(LinearResponse, TwoMassShaftShowsItsResonance) {
+  TempDir dir;
+  const Config config = LoadConfig(dir.Write("two-mass.json", R"({
+    "name": "two-mass", "model": "rigid_load",
+    "parameters": { "J": 2e-3, "B": 0.04, "Kt": 0.5 },
+    "effects": { "two_mass": { "inertia_ratio": 1.5, "anti_resonance_hz": 40,
+                               "shaft_damping_ratio": 0.05, "load_damping_share": 0.3 } },
+    "experiment": {"input": {"type": "step", "amplitude": 1}, "duration": 1},
+    "identification": { "free": ["J", "B"], "observe": ["w"] } })"));
+  const LinearModel model = config.model->Linearise(config.parameters);
+  ASSERT_TRUE(model.available);
+  ASSERT_EQ(model.outputs, (std::vector<std::string>{"w", "theta"}));
+  ASSERT_TRUE(model.has_rigid_part);
+  EXPECT_EQ(model.rigid_part.J, 2e-3);
+  EXPECT_EQ(model.rigid_part.B, 0.04);
+  EXPECT_EQ(model.rigid_part.K, 0.5);
+  const double J = 2e-3, B = 0.04, Kt = 0.5, r = 1.5, wa = 2 * kPi * 40.0;
+  const double Jm = J / (1 + r), Jl = J - Jm, K = Jl * wa * wa, c = 2 * 0.05 * Jl * wa;
+  const double Bl = 0.3 * B, Bm = B - Bl;
+  const std::vector<TransferFunction> tfs = TransferFunctions(model);
+  ASSERT_EQ(tfs.size(), 2u);
+  auto polyval = [](const std::vector<double>& p, Complex s) {
+    Complex v = 0.0;
+    for (double a : p) v = v * s + a;
+    return v;
+  };
+  for (double f : {1.0, 20.0, 40.0, 63.2456, 120.0}) {
+    const Complex s(0.0, 2 * kPi * f);
+    const Complex Z = K / s + c;
+    const Complex w = Kt * (Jl * s + Bl + Z) / ((Jm * s + Bm + Z) * (Jl * s + Bl + Z) - Z * Z);
+    EXPECT_NEAR(std::abs(FrequencyResponse(model, 0, f) - w), 0.0, 1e-9 * std::abs(w)) << f;
+    const Complex tf = polyval(tfs[0].numerator, s) / polyval(tfs[0].denominator, s);
+    EXPECT_NEAR(std::abs(tf - w), 0.0, 1e-7 * std::abs(w)) << f;
+  }
+  // The notch and the peak: |w| has a local minimum near the anti-resonance and a local
+  // maximum near the resonance, where it stands above the rigid shaft's.
+  auto gain = [&](double f) { return std::abs(FrequencyResponse(model, 0, f)); };
+  EXPECT_LT(gain(40.0), gain(36.0));
+  EXPECT_LT(gain(40.0), gain(44.0));
+  EXPECT_GT(gain(63.2456), gain(57.0));
+  EXPECT_GT(gain(63.2456), gain(70.0));
+  EXPECT_GT(gain(63.2456), 5.0 * std::abs(Kt / (J * Complex(0, 2 * kPi * 63.2456) + B)));
 }
 
 // Sampled with a zero-order hold at T: H(z) = K(1 - a)/(z - a), a = exp(-T/τ).

@@ -5,10 +5,14 @@
 // the closed forms to rounding.
 #include <gtest/gtest.h>
 
+#include <Eigen/Dense>
 #include <cmath>
+#include <complex>
 #include <string>
 #include <vector>
 
+#include "blmd/constants.h"
+#include "blmd/error.h"
 #include "blmd/io/config.h"
 #include "blmd/run.h"
 
@@ -145,6 +149,74 @@ TEST(RigidLoad, ReversalIsContinuousInTheParameters) {
   }
   EXPECT_LT(worst, 1e-7);
   EXPECT_LT(worst_closed_form, 1e-7);
+}
+
+// two_mass (docs/effects.md): the motor speed's steady response to a sinusoidal drive torque
+// is the two-mass transfer function. With Z = K/s + c the shaft's impedance,
+//   (Jm s + Bm + Z) Wm - Z Wl = T,   -Z Wm + (Jl s + Bl + Z) Wl = 0,
+//   Wm/T = (Jl s + Bl + Z) / ((Jm s + Bm + Z)(Jl s + Bl + Z) - Z^2),
+// the input read at each step's midpoint and held (no delay to first order). Checked below the
+// anti-resonance, near it (the notch), at the resonance fr = fa sqrt(1 + r) and above.
+TEST(TwoMass, MotorSpeedFollowsTheTwoMassTransferFunction) {
+  const double J = 2e-3, B = 0.04, Kt = 0.5, r = 1.5, fa = 40.0, zeta = 0.05, s = 0.3;
+  const double dt = 1e-5, rate = 1e4, duration = 1.5;
+  const double Jm = J / (1.0 + r), Jl = J - Jm, wa = 2.0 * kPi * fa;
+  const double K = Jl * wa * wa, c = 2.0 * zeta * Jl * wa, Bl = s * B, Bm = B - Bl;
+  for (const double f : {20.0, 0.97 * fa, fa * std::sqrt(1.0 + r), 120.0}) {
+    char text[2048];
+    std::snprintf(text, sizeof text, R"({
+  "name": "two-mass", "model": "rigid_load",
+  "parameters": { "J": %.17g, "B": %.17g, "Kt": %.17g },
+  "effects": { "two_mass": { "inertia_ratio": %.17g, "anti_resonance_hz": %.17g,
+                             "shaft_damping_ratio": %.17g, "load_damping_share": %.17g } },
+  "simulation": { "dt": %.17g },
+  "experiment": { "input": { "type": "chirp", "amplitude": 1.0, "f0": %.17g, "f1": %.17g },
+                  "duration": %.17g, "sample_rate": %.17g }
+})",
+                  J, B, Kt, r, fa, zeta, s, dt, f, f, duration, rate);
+    Trace trace;
+    const SimStatus status = RunExperiment(ParseConfig(text, "two-mass.json"), &trace);
+    ASSERT_TRUE(status.ok()) << status.message;
+    // The steady response: w regressed on sin, cos and 1 over the last 0.5 s (the transients
+    // have decayed by e^-20 by then).
+    const auto& t = trace.Column("t");
+    const auto& w = trace.Column("w");
+    Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+    for (std::size_t k = 0; k < t.size(); ++k) {
+      if (t[k] < duration - 0.5) continue;
+      const Eigen::Vector3d x(std::sin(2.0 * kPi * f * t[k]), std::cos(2.0 * kPi * f * t[k]), 1.0);
+      normal += x * x.transpose();
+      rhs += x * w[k];
+    }
+    const Eigen::Vector3d a = normal.ldlt().solve(rhs);
+    const std::complex<double> measured(a(0), a(1));  // w = Im(G e^{j w t}) = a0 sin + a1 cos
+    const std::complex<double> jw(0.0, 2.0 * kPi * f);
+    const std::complex<double> Z = K / jw + c;
+    const std::complex<double> G =
+        (Jl * jw + Bl + Z) / ((Jm * jw + Bm + Z) * (Jl * jw + Bl + Z) - Z * Z);
+    const std::complex<double> expected = Kt * G;
+    EXPECT_LT(std::abs(measured - expected), 1e-3 * std::abs(expected)) << "at " << f << " Hz";
+  }
+}
+
+// A share outside [0, 1] is refused with the file, line and column of its value.
+TEST(TwoMass, ConfigRefusesAShareAboveOne) {
+  const std::string text = R"({
+  "name": "two-mass", "model": "rigid_load",
+  "parameters": { "J": 1e-3, "B": 1e-3 },
+  "effects": { "two_mass": { "inertia_ratio": 1, "anti_resonance_hz": 30,
+                             "shaft_damping_ratio": 0.05, "load_damping_share": 1.5 } },
+  "experiment": { "input": { "type": "step", "amplitude": 1.0 }, "duration": 1 }
+})";
+  try {
+    ParseConfig(text, "two-mass.json");
+    FAIL() << "a share of 1.5 was accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("two-mass.json:5:", 0), 0u) << e.what();
+    EXPECT_NE(std::string(e.what()).find("must be in [0, 1] (got 1.5)"), std::string::npos)
+        << e.what();
+  }
 }
 
 }  // namespace

@@ -14,6 +14,9 @@
 #include "blmd/ident/fit/trace_input.h"
 #include "blmd/ident/optimizers/optimizer.h"
 #include "blmd/io/config.h"
+#include "blmd/io/csv.h"
+#include "blmd/io/starting_config.h"
+#include "blmd/run.h"
 #include "support/test_support.h"
 
 namespace blmd {
@@ -100,4 +103,39 @@ TEST(UnitsCheck, NoHintOnTracesInTheModelsUnits) {
 }
 
 }  // namespace
+// The starting config's typical values (blmd-sim --init-config) say nothing of the rig: a
+// shaft 57.3 times lighter and less damped than the typical one runs 57.3 times faster than
+// the start, the factor of deg/s, and is no units fault. The same record from a start the
+// user set (J 5 % off the typical) is named, as before.
+TEST(UnitsCheck, StartingConfigsTypicalValuesAreNoEvidence) {
+  Config truth = ParseConfig(StartingConfigText("rigid_load"), "truth.json");
+  truth.parameters.Set("J", truth.parameters.Get("J") / kDeg);
+  truth.parameters.Set("B", truth.parameters.Get("B") / kDeg);
+  Trace trace;
+  ASSERT_TRUE(RunExperiment(truth, &trace).ok());
+  testing::TempDir dir;
+  const std::string path = dir.path() + "/light.csv";
+  WriteTraceCsv(trace, path);
+  for (const double start_factor : {1.0, 1.05}) {
+    Config config = ParseConfig(StartingConfigText("rigid_load"), "start.json");
+    config.parameters.Set("J", config.parameters.Get("J") * start_factor);
+    TraceInputOptions options;
+    options.required = {"w"};
+    std::vector<FitTrace> traces;
+    traces.push_back(LoadFitTrace(path, options, config.experiment.initial));
+    FitProblem problem(config, std::move(traces), {"w"}, MakeFreeParameters(config, {"J", "B"}));
+    OptimizerOptions fit_options;
+    fit_options.threads = 2;
+    const std::vector<double> fitted = FindOptimizer("ceres").Minimize(problem, fit_options).values;
+    ASSERT_NEAR(fitted[0] / truth.parameters.Get("J"), 1.0, 1e-3);
+    const std::vector<UnitsHint> hints = CheckUnits(problem, fitted);
+    if (start_factor == 1.0) {
+      EXPECT_TRUE(hints.empty()) << hints.front().evidence;
+    } else {
+      ASSERT_EQ(hints.size(), 1u);
+      EXPECT_EQ(hints[0].unit, "deg/s");
+    }
+  }
+}
+
 }  // namespace blmd

@@ -20,6 +20,7 @@
 #include "blmd/ident/optimizers/noise_model.h"
 #include "blmd/ident/optimizers/optimizer.h"
 #include "blmd/ident/residual/diagnostics.h"
+#include "blmd/ident/uncertainty/derived_quantities.h"
 #include "blmd/ident/uncertainty/parameter_correlation.h"
 #include "blmd/report/linear_views.h"
 #include "blmd/sim/linear_model.h"
@@ -109,6 +110,9 @@ struct ModelReport {
   // The correlation of the free parameters' estimates, from the covariance of the intervals
   // (ident/uncertainty/parameter_correlation.h): "correlation" in the JSON.
   ParameterCorrelation correlation;
+  // The enabled effects' derived figures (a two-mass shaft's resonance, its inertias and
+  // stiffness) with their delta-method intervals: "derived" in the JSON, when there are any.
+  std::vector<DerivedEstimate> derived;
 };
 
 // A model that discovery could not tell apart from another (reported, not hidden).

@@ -12,6 +12,12 @@
 //             + K (theta - theta0)                        (spring: the torque -K (theta - theta0))
 //             + Tg sin(theta + gravity_phase)             (gravity: the torque -Tg sin(...))
 //
+// two_mass is no torque of the state but a second body: the shaft of inertia J splits into
+// the motor, Jm = J/(1+r), and a load, Jl = J r/(1+r), joined by a stiffness K = Jl (2 pi fa)^2
+// with damping c = 2 zeta Jl (2 pi fa), and B into the motor's (1-s) B and the load's s B; the
+// torques above act on the motor, whose speed and angle are the ones measured (rigid_load,
+// docs/effects.md).
+//
 // spring and gravity act on the shaft as -K (theta - theta0) and -Tg sin(theta + phase):
 // restoring torques, so their T_effects (subtracted) are the opposite signs above. A spring
 // pulls the shaft back to theta0; gravity (an unbalanced arm, a pendulum) to the angle where
@@ -36,12 +42,21 @@
 #pragma once
 
 #include <cmath>
+#include <functional>
 #include <string>
 #include <vector>
 
 #include "blmd/sim/parameters.h"
 
 namespace blmd {
+
+// A figure computed from the parameters (model's and effect's), in `unit`.
+struct DerivedInfo {
+  std::string name;
+  std::string unit;
+  std::string meaning;
+  std::function<double(const ParameterSet&)> value;
+};
 
 struct EffectInfo {
   std::string name;
@@ -59,6 +74,14 @@ struct EffectInfo {
   enum class AtRest { kNothing, kHoldsByFriction, kLoads };
   AtRest at_rest = AtRest::kNothing;
   std::string at_rest_amplitude{};  // the parameter whose |value| is that torque, N·m
+  // Figures a user asks for that are functions of the parameters (two_mass: the resonance,
+  // the two inertias, the stiffness): reported with their intervals by the delta method
+  // (ident/uncertainty/derived_quantities.h).
+  std::vector<DerivedInfo> derived{};
+  // It adds states the record's initial conditions do not give (two_mass: the load's speed and
+  // the shaft's twist): a part of the record cut from the middle starts them wrong, so the
+  // adequacy check's comparison of the record's parts leaves its parameters out.
+  bool hidden_states = false;
 };
 
 // Every effect, sorted by name. The one place that knows them all.
@@ -76,6 +99,8 @@ double TorqueAtRest(const ParameterSet& values, const std::vector<std::string>& 
 std::vector<std::string> FrictionAtRestEffects();
 // True when `parameter` (a flat name) is an effect's angle that wraps (ParamInfo::periodic).
 bool IsPeriodicParameter(const std::string& parameter);
+// True when `parameter` (a flat name) is an effect's share in [0, 1] (ParamInfo::share).
+bool IsShareParameter(const std::string& parameter);
 
 // Hot-loop view of the enabled shaft effects, unpacked once per simulation.
 struct ShaftEffects {
@@ -93,8 +118,14 @@ struct ShaftEffects {
   double Tg = 0.0;             // gravity torque amplitude (arm's m g l), N·m
   double gravity_phase = 0.0;  // gravity phase, rad (stable equilibrium at theta = -phase)
   double smoothing_w = 0.0;    // rad/s; > 0: tanh(w/eps) friction without sticking
+  // two_mass: a flexible coupling to the load (rigid_load's four-state step); 0: rigid.
+  double inertia_ratio = 0.0;        // Jl/Jm
+  double anti_resonance_hz = 0.0;    // sqrt(K/Jl)/(2 pi), Hz
+  double shaft_damping_ratio = 0.0;  // c/(2 sqrt(K Jl))
+  double load_damping_share = 0.0;   // s: the load's viscous damping Bl = s B, the motor's (1-s) B
 
   bool has_friction() const { return Tc > 0.0 || Ts > 0.0; }
+  bool two_mass() const { return inertia_ratio > 0.0 && anti_resonance_hz > 0.0; }
 
   static ShaftEffects From(const ParameterSet& values, const std::vector<std::string>& enabled,
                            double smoothing_w);

@@ -17,6 +17,14 @@ struct LinearModel {
   std::string assumption;                    // what is idealised or left out, one line
   std::vector<std::string> states, outputs;  // names of x and y (SI units of the columns)
   Eigen::MatrixXd A, B, C, D;
+  // The rigid shaft the input drives below any resonance, J dw/dt = -B w + K u (K in N·m per
+  // unit of u), when the states hold more than it (rigid_load with two_mass: the motor, the
+  // load and the twist); absent: the first state's row is that shaft's (J = values' J).
+  struct RigidPart {
+    double J = 0.0, B = 0.0, K = 0.0;
+  };
+  bool has_rigid_part = false;
+  RigidPart rigid_part;
 };
 
 // G(s) = num(s)/den(s), coefficients in descending powers of s (MATLAB's tf order).
@@ -27,7 +35,7 @@ struct TransferFunction {
 
 // The transfer function u -> y_k of every output: den(s) = det(sI - A) and
 // num(s) = C_k·adj(sI - A)·B + D_k·den(s) by the Faddeev-LeVerrier recursion (exact for the
-// small systems here, n <= 3), with common factors of s cancelled (an integrator that the
+// small systems here, n <= 4), with common factors of s cancelled (an integrator that the
 // output does not see) and the numerator's leading zeros dropped.
 std::vector<TransferFunction> TransferFunctions(const LinearModel& model);
 

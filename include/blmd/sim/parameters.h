@@ -32,6 +32,10 @@ struct ParamInfo {
   // poor fit, and two values that differ by 2π are the same model. Discovery's validity check and
   // the adequacy check's split-record comparison leave such parameters out.
   bool periodic = false;
+  // A share, in [0, 1] (two_mass's load_damping_share): its range is its physical domain, so
+  // an estimate on an end is a finding (all of it on one side), not the search box deciding;
+  // configs are refused outside it, and its interval is judged against the range's width.
+  bool share = false;
   const std::string& config_key() const { return key.empty() ? name : key; }
 };
 

@@ -181,6 +181,7 @@ void RefitCandidate(const FitProblem& base, const RoundBase& round, const Candid
   for (std::size_t k = 0; k < plan.free.size(); ++k) {
     const FreeParameter& p = plan.free[k];
     if (IsPeriodicParameter(p.name)) continue;  // a phase wraps: no bound to sit on
+    if (IsShareParameter(p.name)) continue;     // a share's ends are findings (all on one side)
     const double v = run->fit.values[offset + k];
     const double margin = 1e-3 * (p.log_scale ? std::log(p.upper / p.lower) : (p.upper - p.lower));
     const double below = p.log_scale ? std::log(v / p.lower) : v - p.lower;
@@ -206,6 +207,13 @@ void RefitCandidate(const FitProblem& base, const RoundBase& round, const Candid
     for (std::size_t k = 0; k < run->free.size(); ++k)
       values.Set(run->free[k].name, run->fit.values[k]);
     if (std::string why = plan.constraint(values); !why.empty()) {
+      run->outcome.valid = false;
+      run->outcome.reason = why;
+    }
+  }
+  if (run->outcome.valid && plan.residual_check) {
+    const FitProblem model(run->config, base.traces(), base.observe(), run->free);
+    if (std::string why = plan.residual_check(model, run->fit.values); !why.empty()) {
       run->outcome.valid = false;
       run->outcome.reason = why;
     }

@@ -18,16 +18,6 @@ namespace {
 
 std::string G(double v, int digits = 4) { return FormatSignificant(v, digits); }
 
-FreeParameter Free(const std::string& name, double lower, double upper, bool log_scale = false) {
-  FreeParameter p;
-  p.name = name;
-  p.lower = lower;
-  p.upper = upper;
-  p.log_scale = log_scale;
-  p.initial = log_scale ? std::sqrt(lower * upper) : 0.5 * (lower + upper);
-  return p;
-}
-
 // The torque scale T that sizes the candidates' search boxes (docs/discovery.md §2): the
 // largest torque the record shows, the model's DriveTorqueScale at the current fit's
 // values. dc_servo and blmd: the motor torque at the largest simulated current.
@@ -781,6 +771,7 @@ const std::vector<EffectSearch>& EffectSearchRegistry() {
       {"cogging", PlanCogging, Pointer::kAnglePeak},
       {"spring", PlanSpring, Pointer::kAngleDependence},
       {"gravity", PlanGravity, Pointer::kAngleDependence},
+      {"two_mass", PlanTwoMass, Pointer::kInputPast},
       {"dead_time", PlanDeadTime, Pointer::kSignOfI},
       {"current_offset", PlanCurrentOffset, Pointer::kResidualMean},
   };
@@ -867,9 +858,10 @@ std::string PointingDiagnostic(const std::string& effect, const ResidualAnalysis
                 " was chosen by the refit";
       }
     }
-  } else if (pointer == Pointer::kAngleDependence) {
+  } else if (pointer == Pointer::kAngleDependence || pointer == Pointer::kInputPast) {
     // The torque balance's regression on the measured angle, quoted by the plan's evidence
-    // (PlanSpring, PlanGravity), says it; the residual's diagnostics have no such statistic.
+    // (PlanSpring, PlanGravity), and the input-residual test quoted by PlanTwoMass's, say it;
+    // the residual's diagnostics have no such statistic.
   } else {
     pick([](const ColumnDiagnostics& d) { return d.rms > 0.0 ? std::abs(d.mean) / d.rms : 0.0; });
     if (strongest)

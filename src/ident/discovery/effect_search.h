@@ -4,6 +4,7 @@
 // physical constraint) and of the residual diagnostic that points at it. Private to ident.
 #pragma once
 
+#include <cmath>
 #include <functional>
 #include <map>
 #include <string>
@@ -29,6 +30,10 @@ struct CandidatePlan {
   // Physical constraint on the refit's values (all parameters, model and effects): empty
   // when valid, else why not.
   std::function<std::string(const ParameterSet&)> constraint;
+  // A check on the refit's residual (the candidate's problem at its fitted values): empty when
+  // the effect explains what pointed at it, else why not (two_mass: the residual must stop
+  // following the input's past).
+  std::function<std::string(const FitProblem&, const std::vector<double>&)> residual_check;
   std::string evidence;  // what chose the plan's set-up (cogging: the order), for the report
   // Per alternative (cogging: per order), what chose it, for the evidence line of the one
   // added ("" when the plan's `evidence` says it all).
@@ -52,6 +57,7 @@ enum class Pointer {
   kAnglePeak,        // a peak of the residual's angle spectrum (cogging)
   kAngleDependence,  // the torque balance's dependence on the measured angle (spring, gravity)
   kResidualMean,     // the residual's mean (offsets, loads, drag)
+  kInputPast,        // the residual follows the input's past (two_mass: input_residual.h)
 };
 
 struct EffectSearch {
@@ -59,6 +65,22 @@ struct EffectSearch {
   CandidatePlan (*plan)(const PlanContext& context);
   Pointer pointer;
 };
+
+// A free effect parameter searched over [lower, upper] (on a log scale: ln x), started in the
+// middle of its box.
+inline FreeParameter Free(const std::string& name, double lower, double upper,
+                          bool log_scale = false) {
+  FreeParameter p;
+  p.name = name;
+  p.lower = lower;
+  p.upper = upper;
+  p.log_scale = log_scale;
+  p.initial = log_scale ? std::sqrt(lower * upper) : 0.5 * (lower + upper);
+  return p;
+}
+
+// two_mass's plan (dynamics_search.cc): offered where the residual follows the input's past.
+CandidatePlan PlanTwoMass(const PlanContext& context);
 
 // Every effect discovery can add, in the registry's order.
 const std::vector<EffectSearch>& EffectSearchRegistry();

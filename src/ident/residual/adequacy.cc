@@ -782,20 +782,30 @@ void CheckEffectStability(const FitProblem& problem, const std::vector<double>& 
                           const AdequacyOptions& options, AdequacyReport* report) {
   report->stability.clear();
   report->unstable.clear();
-  // The effect parameters to compare: free, not periodic (a phase wraps).
+  // The effect parameters to compare: free, not periodic (a phase wraps), of an effect whose
+  // states the record's initial conditions give (a part cut from the middle starts a hidden
+  // state such as a two-mass shaft's twist wrong, and its transient moves the part's fit).
   std::vector<std::size_t> compared;
   std::vector<std::string> owner;
+  std::string hidden;
   for (std::size_t k = 0; k < problem.num_free(); ++k) {
     std::string effect;
     const std::string& name = problem.free()[k].name;
     if (!IsEffectParameter(name, &effect)) continue;
     if (std::find(effects.begin(), effects.end(), effect) == effects.end()) continue;
     if (IsPeriodicParameter(name)) continue;
+    if (FindEffect(effect).hidden_states) {
+      if (hidden.find(effect) == std::string::npos) hidden += (hidden.empty() ? "" : ", ") + effect;
+      continue;
+    }
     compared.push_back(k);
     owner.push_back(effect);
   }
   if (compared.empty()) {
-    report->stability_reason = "no effect parameter to compare";
+    report->stability_reason = hidden.empty()
+                                   ? "no effect parameter to compare"
+                                   : "no effect parameter to compare (" + hidden +
+                                         ": its hidden states at a part's start are unknown)";
     return;
   }
   const internal::RecordParts parts = internal::SplitRecord(problem, values);
@@ -838,7 +848,17 @@ void CheckEffectStability(const FitProblem& problem, const std::vector<double>& 
     s.z = spread > 0.0 ? std::abs(s.first - s.second) / spread
                        : std::numeric_limits<double>::infinity();
     const double scale = std::max(std::abs(values[k]), 1e-300);
-    s.unstable = s.z > limit && std::abs(s.first - s.second) > options.min_relative_change * scale;
+    // An estimate within two of its standard errors of its search bound has no normal
+    // interval (the bound truncates its distribution: Self & Liang, J. Amer. Statist. Assoc.
+    // 82, 1987): a part that does not excite what the parameter describes (a chirp's half
+    // below a resonance) leaves it there, which says nothing about a change over the record.
+    const FreeParameter& free = problem.free()[k];
+    auto near_bound = [&](double value, double std) {
+      return value - free.lower <= 2.0 * std || free.upper - value <= 2.0 * std;
+    };
+    s.near_bound = near_bound(s.first, s.first_std) || near_bound(s.second, s.second_std);
+    s.unstable = !s.near_bound && s.z > limit &&
+                 std::abs(s.first - s.second) > options.min_relative_change * scale;
     if (s.unstable && std::find(report->unstable.begin(), report->unstable.end(), s.effect) ==
                           report->unstable.end())
       report->unstable.push_back(s.effect);

@@ -4,11 +4,13 @@
 #include "ident/uncertainty/fit_intervals.h"
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
 
 #include "blmd/ident/uncertainty/uncertainty.h"
+#include "blmd/sim/effects.h"
 #include "ident/fit/jacobian.h"
 
 namespace blmd {
@@ -157,6 +159,12 @@ void SetInterval(const FreeParameter& parameter, double std_search, const std::s
     estimate->std = std_search;
     estimate->ci95_low = estimate->value - quantile * std_search;
     estimate->ci95_high = estimate->value + quantile * std_search;
+    // A share cannot leave [0, 1] (ParamInfo::share): its interval is cut to that domain, which
+    // keeps at least the interval's coverage.
+    if (IsShareParameter(parameter.name)) {
+      estimate->ci95_low = std::max(estimate->ci95_low, 0.0);
+      estimate->ci95_high = std::min(estimate->ci95_high, 1.0);
+    }
   }
   estimate->has_interval = std::isfinite(estimate->std) && std::isfinite(estimate->ci95_low) &&
                            std::isfinite(estimate->ci95_high);

@@ -62,6 +62,107 @@ ModelTraits RigidLoadModel::traits() const {
   return traits;
 }
 
+namespace {
+
+// The open-loop stepping both shafts share: from (w, theta) at the first sample, each step
+// [t, t + dt) reads the input just after its midpoint (sim/input_read.h: events on the grid
+// take effect there whatever the rounding of t, as in dc_servo) and `advance(t, u, &w, &theta)`
+// moves the shaft, returning false when a state (its own hidden ones too) leaves the divergence
+// limit; the samples are interpolated between steps and the u column is the input at each
+// sample.
+template <typename Advance>
+SimStatus StepOpenLoop(const SimulationRequest& request, double w, double theta, Advance advance,
+                       Trace* out) {
+  const Experiment& experiment = *request.experiment;
+  const std::vector<double>& times = *request.sample_times;
+  const double dt = request.settings.dt;
+  internal::OutputSampler sampler(times, {"u", "w", "theta"});
+  InputCursor input(experiment.input);
+  const double t_start = times.front();
+  std::array<double, 3> prev = {input.At(internal::InputReadTime(t_start, dt)), w, theta};
+  sampler.Record(t_start, prev.data(), t_start, prev.data());
+  std::array<double, 3> now = prev;
+  for (long step = 0; !sampler.done(); ++step) {
+    const double t = t_start + static_cast<double>(step) * dt;
+    const double t_next = t_start + static_cast<double>(step + 1) * dt;
+    const double u = input.At(internal::InputReadTime(t, dt));
+    const bool finite = advance(t, u, &w, &theta);
+    now = {input.At(internal::InputReadTime(t_next, dt)), w, theta};
+    if (!finite || !internal::AllFinite(now.data() + 1, 2, request.settings.divergence_limit)) {
+      return {SimStatus::Code::kDiverged,
+              internal::DivergedMessage(request.settings.divergence_limit), t_next};
+    }
+    sampler.Record(t, prev.data(), t_next, now.data());
+    prev = now;
+  }
+  sampler.Finish(out);
+  auto& u_column = out->Column("u");
+  // (a cursor: the sample times increase, so each read continues where the last stopped)
+  InputCursor u_cursor(experiment.input);
+  for (std::size_t k = 0; k < times.size(); ++k)
+    u_column[k] = u_cursor.At(internal::InputReadTime(times[k], dt));
+  return SimStatus::Ok();
+}
+
+// The shaft with a flexible coupling to its load (two_mass, docs/effects.md): the exact
+// zero-order-hold step of x = [wm, theta_m, wl, delta], delta = theta_m - theta_l the twist,
+//   Jm wm' = T - Bm wm - K delta - c (wm - wl),   Jl wl' = K delta + c (wm - wl) - Bl wl,
+//   theta_m' = wm,   delta' = wm - wl,
+// with T = Kt u - T_effects held over the step; the effects act on the motor at its speed and
+// angle. Friction: at rest the motor sticks while static friction can balance what it feels
+// (the drive, the positional effects and the shaft's torque); the load then swings on the held
+// motor (its own exact two-state step). A step in which friction would reverse the motor ends
+// with the motor at rest (the rigid model's interpolated stop is not made here).
+SimStatus SimulateTwoMass(const SimulationRequest& request, const ShaftEffects& shaft, Trace* out) {
+  const ParameterSet& values = *request.parameters;
+  const Experiment& experiment = *request.experiment;
+  const double dt = request.settings.dt;
+  const double J = values.Get("J"), B = values.Get("B"), Kt = values.Get("Kt");
+  const double r = shaft.inertia_ratio, wa = 2.0 * kPi * shaft.anti_resonance_hz;
+  const double Jm = J / (1.0 + r), Jl = J - Jm;
+  const double K = Jl * wa * wa, c = 2.0 * shaft.shaft_damping_ratio * Jl * wa;
+  const double Bl = shaft.load_damping_share * B, Bm = B - Bl;
+  Eigen::Matrix4d A, Ad;
+  A << -(Bm + c) / Jm, 0.0, c / Jm, -K / Jm,  //
+      1.0, 0.0, 0.0, 0.0,                     //
+      c / Jl, 0.0, -(c + Bl) / Jl, K / Jl,    //
+      1.0, 0.0, -1.0, 0.0;
+  Eigen::Matrix<double, 4, 1> Bin, Bd;
+  Bin << 1.0 / Jm, 0.0, 0.0, 0.0;
+  internal::Discretise<4, 1>(A, Bin, dt, &Ad, &Bd);
+  Eigen::Matrix2d A_held, Ad_held;  // [wl, delta] on a motor held at rest
+  A_held << -(c + Bl) / Jl, K / Jl, -1.0, 0.0;
+  Eigen::Matrix<double, 2, 1> none = Eigen::Matrix<double, 2, 1>::Zero(), unused;
+  internal::Discretise<2, 1>(A_held, none, dt, &Ad_held, &unused);
+
+  // The load starts with the motor, the shaft untwisted.
+  Eigen::Vector4d x(experiment.initial.w, experiment.initial.theta, experiment.initial.w, 0.0);
+  EffectAngle effect_angle(request.sample_times, request.settings.effect_angle);
+  const double limit = request.settings.divergence_limit;
+  auto advance = [&](double t, double u, double* w, double* theta) {
+    const double drive = Kt * u;
+    const double wm = x(0), wl = x(2), twist = x(3);
+    const double positional = shaft.NonFrictionTorque(effect_angle.At(t, x(1)));
+    const double coupling = K * twist + c * (wm - wl);  // the shaft's torque on the motor
+    bool stuck = false;
+    const double friction =
+        shaft.StepFriction(wm, drive - positional - shaft.DragTorque(wm) - coupling, &stuck);
+    if (stuck) {
+      const Eigen::Vector2d load = Ad_held * Eigen::Vector2d(wl, twist);
+      x = Eigen::Vector4d(0.0, x(1), load(0), load(1));
+    } else {
+      x = Ad * x + Bd * (drive - friction - positional - shaft.DragTorque(wm));
+      if (shaft.StopsWithin(wm, x(0))) x(0) = 0.0;
+    }
+    *w = x(0);
+    *theta = x(1);
+    return internal::AllFinite(x.data(), 4, limit);
+  };
+  return StepOpenLoop(request, x(0), x(1), advance, out);
+}
+
+}  // namespace
+
 // The closed loop: the controller samples at its own rate and holds its output; the current
 // (force) loop, a first-order lag, is a third state of the exact discretisation:
 // x = [w, theta, u_a], u_a' = ω_b (u − u_a), the shaft driven by Kt u_a.
@@ -150,13 +251,21 @@ SimStatus RigidLoadModel::SimulateClosedLoop(const SimulationRequest& request, T
 SimStatus RigidLoadModel::Simulate(const SimulationRequest& request, Trace* out) const {
   const ParameterSet& values = *request.parameters;
   const Experiment& experiment = *request.experiment;
-  const std::vector<double>& times = *request.sample_times;
   const double dt = request.settings.dt;
   if (SimStatus status = CheckRequest(request); !status.ok()) return status;
-  if (experiment.closed_loop) return SimulateClosedLoop(request, out);
-  const double J = values.Get("J"), B = values.Get("B"), Kt = values.Get("Kt");
   const ShaftEffects shaft =
       ShaftEffects::From(values, *request.effects, request.settings.friction_smoothing_w);
+  if (shaft.two_mass()) {
+    if (experiment.closed_loop) {
+      return {SimStatus::Code::kInvalidParameters,
+              "the two-mass shaft is simulated with a recorded or given input, not inside the "
+              "config's closed loop (experiment.pid): replay the recorded u",
+              0.0};
+    }
+    return SimulateTwoMass(request, shaft, out);
+  }
+  if (experiment.closed_loop) return SimulateClosedLoop(request, out);
+  const double J = values.Get("J"), B = values.Get("B"), Kt = values.Get("Kt");
 
   // x = [w, theta], input: the net torque Kt u - T_effects, held over the step.
   Eigen::Matrix2d A, Ad;
@@ -165,49 +274,25 @@ SimStatus RigidLoadModel::Simulate(const SimulationRequest& request, Trace* out)
   Bm << 1.0 / J, 0.0;
   internal::Discretise<2, 1>(A, Bm, dt, &Ad, &Bd);
 
-  internal::OutputSampler sampler(times, {"u", "w", "theta"});
-  InputCursor input(experiment.input);
-  const double t_start = times.front();
-  double w = experiment.initial.w, theta = experiment.initial.theta;
-  std::array<double, 3> prev = {input.At(internal::InputReadTime(t_start, dt)), w, theta};
-  sampler.Record(t_start, prev.data(), t_start, prev.data());
-  std::array<double, 3> now = prev;
   EffectAngle effect_angle(request.sample_times, request.settings.effect_angle);
-  for (long step = 0; !sampler.done(); ++step) {
-    const double t = t_start + static_cast<double>(step) * dt;
-    const double t_next = t_start + static_cast<double>(step + 1) * dt;
-    // The input over [t, t + dt) is read just after the step's midpoint (sim/input_read.h:
-    // events on the grid take effect there whatever the rounding of t, as in dc_servo).
-    const double u = input.At(internal::InputReadTime(t, dt));
+  auto advance = [&](double t, double u, double* w, double* theta) {
     const double drive = Kt * u;
     // (the drag vanishes at rest: what the shaft feels once stopped is drive - positional)
-    const double positional = shaft.NonFrictionTorque(effect_angle.At(t, theta));
-    const double non_friction = positional + shaft.DragTorque(w);
+    const double positional = shaft.NonFrictionTorque(effect_angle.At(t, *theta));
+    const double non_friction = positional + shaft.DragTorque(*w);
     bool stuck = false;
-    const double friction = shaft.StepFriction(w, drive - non_friction, &stuck);
-    const double w_old = w, theta_old = theta;
+    const double friction = shaft.StepFriction(*w, drive - non_friction, &stuck);
+    const double w_old = *w, theta_old = *theta;
     if (!stuck) {
       const Eigen::Vector2d x =
-          Ad * Eigen::Vector2d(w, theta) + Bd * (drive - friction - non_friction);
-      w = x(0);
-      theta = x(1);
-      shaft.StopInStep(w_old, theta_old, dt, J, B, drive - positional, &w, &theta);
+          Ad * Eigen::Vector2d(*w, *theta) + Bd * (drive - friction - non_friction);
+      *w = x(0);
+      *theta = x(1);
+      shaft.StopInStep(w_old, theta_old, dt, J, B, drive - positional, w, theta);
     }
-    now = {input.At(internal::InputReadTime(t_next, dt)), w, theta};
-    if (!internal::AllFinite(now.data() + 1, 2, request.settings.divergence_limit)) {
-      return {SimStatus::Code::kDiverged,
-              internal::DivergedMessage(request.settings.divergence_limit), t_next};
-    }
-    sampler.Record(t, prev.data(), t_next, now.data());
-    prev = now;
-  }
-  sampler.Finish(out);
-  auto& u_column = out->Column("u");
-  // (a cursor: the sample times increase, so each read continues where the last stopped)
-  InputCursor u_cursor(experiment.input);
-  for (std::size_t k = 0; k < times.size(); ++k)
-    u_column[k] = u_cursor.At(internal::InputReadTime(times[k], dt));
-  return SimStatus::Ok();
+    return true;
+  };
+  return StepOpenLoop(request, experiment.initial.w, experiment.initial.theta, advance, out);
 }
 
 double RigidLoadModel::DriveTorqueScale(const ParameterSet& values, double /*i_max*/, double u_max,
@@ -226,6 +311,30 @@ LinearModel RigidLoadModel::Linearise(const ParameterSet& values) const {
   LinearModel model;
   model.available = true;
   model.input = "u (N·m, or N for a linear axis, per Kt)";
+  // A two-mass shaft (docs/effects.md) is linear: kept, so that the transfer functions, the
+  // Bode plot and the exports show its resonance; the measured w and theta are the motor's.
+  if (values.Has("inertia_ratio") && values.Has("anti_resonance_hz")) {
+    const double r = values.Get("inertia_ratio"), wa = 2.0 * kPi * values.Get("anti_resonance_hz");
+    const double Jm = J / (1.0 + r), Jl = J - Jm, K = Jl * wa * wa;
+    const double c = 2.0 * values.GetOr("shaft_damping_ratio", 0.0) * Jl * wa;
+    const double Bl = values.GetOr("load_damping_share", 0.0) * B, Bm = B - Bl;
+    model.assumption =
+        "the two-mass shaft kept; the other effects (friction, load, cogging, ...) left out";
+    model.states = {"w", "theta", "w_load", "twist"};
+    model.outputs = {"w", "theta"};
+    model.A.resize(4, 4);
+    model.A << -(Bm + c) / Jm, 0.0, c / Jm, -K / Jm,  //
+        1.0, 0.0, 0.0, 0.0,                           //
+        c / Jl, 0.0, -(c + Bl) / Jl, K / Jl,          //
+        1.0, 0.0, -1.0, 0.0;
+    model.B.resize(4, 1);
+    model.B << Kt / Jm, 0.0, 0.0, 0.0;
+    model.C = Eigen::MatrixXd::Identity(2, 4);
+    model.D = Eigen::MatrixXd::Zero(2, 1);
+    model.has_rigid_part = true;
+    model.rigid_part = {J, B, Kt};
+    return model;
+  }
   model.assumption = "the effects (friction, load, cogging, ...) left out";
   model.states = {"w", "theta"};
   model.outputs = model.states;

@@ -110,6 +110,9 @@ struct EffectStability {
   double z = 0.0;                            // |first - second| / sqrt(s1^2 + s2^2)
   double limit = 0.0;                        // the family-wise z it is compared with
   bool unstable = false;
+  // A part's estimate lies within two of its standard errors of its search bound (or on it):
+  // no normal interval holds there, and the pair is not compared (never unstable).
+  bool near_bound = false;
 };
 
 struct AdequacyReport {
