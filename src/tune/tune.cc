@@ -1,6 +1,7 @@
 // Tune: design, the nominal checks, the refusals, and the box's corners (docs/tuning.md).
 #include "blmd/tune/tune.h"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -484,6 +485,26 @@ TuneResult TuneSampled(const TuneInput& original, const TuneRequest& request) {
   result.plant_output = position ? "theta" : "w";
   const Config& config = input.config;
   result.plant = PlantAt(*config.model, config.parameters, result.plant_output);
+  // A flexible coupling (two_mass): the sampled loops here are designed and checked on a rigid
+  // shaft, with no resonance in their margins, their simulated step or a notch to offer.
+  // Refused rather than tuned on the rigid part as if the resonance were not there.
+  const LinearModel linear = config.model->Linearise(config.parameters);
+  if (linear.has_rigid_part) {
+    // The lightly damped pair's natural frequency |lambda| / (2 pi).
+    const Eigen::VectorXcd poles = linear.A.eigenvalues();
+    Eigen::Index pair = 0;
+    for (Eigen::Index k = 1; k < poles.size(); ++k)
+      if (std::abs(poles(k).imag()) > std::abs(poles(pair).imag())) pair = k;
+    const double resonance_hz = std::abs(poles(pair)) / kTwoPi;
+    result.refused = true;
+    result.refusal = "the model has a flexible coupling (two-mass shaft, resonance near " +
+                     Text(resonance_hz, 3) +
+                     " Hz): blmd-tune designs and checks its loops on a rigid shaft and does not "
+                     "yet place them against a resonance or offer a notch; a loop tuned on the "
+                     "rigid part must keep its crossover well below " +
+                     Text(resonance_hz, 3) + " Hz (docs/tuning.md §7.6)";
+    return result;
+  }
   SampledTuning& sampled = result.sampled;
   sampled.used = true;
   sampled.linear_axis = config.linear_axis;

@@ -492,5 +492,28 @@ TEST(TuneRigidLoad, BadInput) {
       << linear.err;
 }
 
+// A two-mass shaft (two_mass): refused (exit 1) with one line naming its resonance, rather than
+// tuned on the rigid part as if the resonance were not there.
+TEST(TuneRigidLoad, RefusesATwoMassShaftNamingItsResonance) {
+  TempDir dir;
+  const std::string config = dir.Write("two-mass.json", R"({
+    "name": "two-mass", "model": "rigid_load",
+    "parameters": { "J": 2e-3, "B": 0.04, "Kt": 0.5 },
+    "effects": { "two_mass": { "inertia_ratio": 1.5, "anti_resonance_hz": 40,
+                               "shaft_damping_ratio": 0.02, "load_damping_share": 0.0 } },
+    "experiment": { "input": { "type": "step", "amplitude": 1 }, "duration": 1 } })");
+  const CommandResult refused = Tune("--config " + config +
+                                     " --loop speed --crossover 20 --phase-margin 60 --limit u=5"
+                                     " --sample-rate 8000");
+  EXPECT_EQ(refused.exit_code, 1) << refused.err;
+  EXPECT_EQ(std::count(refused.err.begin(), refused.err.end(), '\n'), 1) << refused.err;
+  // The resonance: f_a sqrt(1 + r) = 63.25 Hz undamped; the damping (B/J = 20/s, zeta 0.02)
+  // moves the lightly damped poles' natural frequency by less than 1 %.
+  const std::regex named("resonance near ([0-9.]+) Hz");
+  std::smatch match;
+  ASSERT_TRUE(std::regex_search(refused.err, match, named)) << refused.err;
+  EXPECT_NEAR(std::stod(match[1].str()), 40.0 * std::sqrt(2.5), 0.01 * 63.25);
+}
+
 }  // namespace
 }  // namespace blmd
