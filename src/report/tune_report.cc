@@ -204,10 +204,13 @@ json SampledLoopJson(const TuneInput& input, const TuneRequest& request, const T
       {"speed_limit_rad_s", Number(request.w_max)},
       {"limits", {{"u_min", request.LowerLimit()}, {"u_max", request.u_max}}},
       {"discretisation",
-       "plant: exact zero-order hold of K/(J s + B) (K: Kt, or blmd's 1.5 Ke Kc/Kf; and the "
-       "current lag); z^-d delay; PI "
-       "C(z) = kp + ki Ts z/(z - 1) (backward Euler integral); anti-windup by conditional "
-       "integration"},
+       std::string(config.model->Linearise(config.parameters).has_shaft
+                       ? "plant: exact zero-order hold of the two-mass shaft (the motor's speed; "
+                         "docs/effects.md, two_mass) and the current lag"
+                       : "plant: exact zero-order hold of K/(J s + B) (K: Kt, or blmd's 1.5 Ke "
+                         "Kc/Kf; and the current lag)") +
+           "; z^-d delay; PI C(z) = kp + ki Ts z/(z - 1) (backward Euler integral); "
+           "anti-windup by conditional integration"},
       {"closed_loop_poles_plane", "z"},
       {"speed_loop", speed}};
   if (!IsSpeed(request)) {

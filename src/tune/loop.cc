@@ -134,7 +134,9 @@ LoopMargins ComputeMargins(const std::function<Complex(double omega)>& loop, dou
     const double wc = Bisect(log_gain, omega[k], omega[k + 1]);
     const double pm = WrapDegrees(180.0 + std::arg(loop(wc)) * 180.0 / std::numbers::pi);
     ++margins.gain_crossovers;
-    if (!(pm >= margins.phase_margin_deg)) {  // the smallest (NaN at first)
+    // The crossing nearest -1: the smallest |margin| (wrapped to (-180°, 180°]). At a second
+    // crossing (a resonance's peak) a margin of -170° is a phase of +10°, far from -1.
+    if (!(std::abs(pm) >= std::abs(margins.phase_margin_deg))) {  // NaN at first
       margins.phase_margin_deg = pm;
       margins.crossover_hz = wc / kTwoPi;
     }

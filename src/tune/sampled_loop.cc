@@ -23,9 +23,9 @@ double RoundTowards(double value, bool down) {
   return (down ? std::floor(value / scale) : std::ceil(value / scale)) * scale;
 }
 
-// The exact ZOH discretisation of the continuous plant, states [w, theta (position), u_a
-// (with the current lag)], input the held command u: expm([[A, b], [0, 0]]·Ts) (Franklin,
-// Powell & Workman 1998, ch. 4).
+// The exact ZOH discretisation of the continuous plant, states [w, theta (position), w_load
+// and twist (a two-mass shaft), u_a (with the current lag)], input the held command u:
+// expm([[A, b], [0, 0]]·Ts) (Franklin, Powell & Workman 1998, ch. 4). w is the motor's.
 struct DiscretePlant {
   Eigen::MatrixXd Ad;
   Eigen::VectorXd Bd;
@@ -33,17 +33,37 @@ struct DiscretePlant {
 };
 
 DiscretePlant Discretise(const RigidPlant& p, double wb, bool lag, bool position, double ts) {
-  const int n = 1 + (position ? 1 : 0) + (lag ? 1 : 0);
+  const bool flexible = p.two_mass();
+  const int n = 1 + (position ? 1 : 0) + (flexible ? 2 : 0) + (lag ? 1 : 0);
   const int ua = n - 1;
+  // The inertia the drive torque accelerates directly: the motor's on a two-mass shaft.
+  double Jm = p.J, Bm = p.B;
   Eigen::MatrixXd augmented = Eigen::MatrixXd::Zero(n + 1, n + 1);
-  augmented(0, 0) = -p.B / p.J;
+  if (flexible) {
+    const int wl = position ? 2 : 1, twist = wl + 1;
+    const double r = p.inertia_ratio, wa = kTwoPi * p.anti_resonance_hz;
+    Jm = p.J / (1.0 + r);
+    const double Jl = p.J - Jm, K = Jl * wa * wa, c = 2.0 * p.shaft_damping_ratio * Jl * wa;
+    const double Bl = p.load_damping_share * p.B;
+    Bm = p.B - Bl;
+    augmented(0, 0) = -(Bm + c) / Jm;
+    augmented(0, wl) = c / Jm;
+    augmented(0, twist) = -K / Jm;
+    augmented(wl, 0) = c / Jl;
+    augmented(wl, wl) = -(c + Bl) / Jl;
+    augmented(wl, twist) = K / Jl;
+    augmented(twist, 0) = 1.0;
+    augmented(twist, wl) = -1.0;
+  } else {
+    augmented(0, 0) = -Bm / Jm;
+  }
   if (position) augmented(1, 0) = 1.0;
   if (lag) {
-    augmented(0, ua) = p.Kt / p.J;
+    augmented(0, ua) = p.Kt / Jm;
     augmented(ua, ua) = -wb;
     augmented(ua, n) = wb;
   } else {
-    augmented(0, n) = p.Kt / p.J;
+    augmented(0, n) = p.Kt / Jm;
   }
   const Eigen::MatrixXd expm = (augmented * ts).exp();
   DiscretePlant out;
@@ -199,6 +219,15 @@ Complex SampledRigidLoop::PositionLoopAt(const CascadeGains& g, double omega) co
 Complex SampledRigidLoop::ContinuousSpeedLoopAt(const CascadeGains& g, double omega) const {
   const Complex s(0.0, omega);
   Complex plant = plant_.Kt / (plant_.J * s + plant_.B);
+  if (plant_.two_mass()) {
+    // Wm/T = (Jl s + Bl + Z) / ((Jm s + Bm + Z)(Jl s + Bl + Z) - Z^2), Z = K/s + c.
+    const double r = plant_.inertia_ratio, wa = kTwoPi * plant_.anti_resonance_hz;
+    const double Jm = plant_.J / (1.0 + r), Jl = plant_.J - Jm, K = Jl * wa * wa;
+    const double c = 2.0 * plant_.shaft_damping_ratio * Jl * wa;
+    const double Bl = plant_.load_damping_share * plant_.B, Bm = plant_.B - Bl;
+    const Complex Z = K / s + c;
+    plant = plant_.Kt * (Jl * s + Bl + Z) / ((Jm * s + Bm + Z) * (Jl * s + Bl + Z) - Z * Z);
+  }
   if (lag_) plant /= 1.0 + s / (kTwoPi * drive_.current_bandwidth_hz);
   return (g.speed_kp + g.speed_ki / s) * plant;
 }

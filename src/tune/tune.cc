@@ -1,7 +1,6 @@
 // Tune: design, the nominal checks, the refusals, and the box's corners (docs/tuning.md).
 #include "blmd/tune/tune.h"
 
-#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -247,9 +246,15 @@ void EvaluateBox(const TuneInput& input, const TuneRequest& request, TuneResult*
 // torque demand, its current loops ideal; their lag is the drive's current bandwidth).
 RigidPlant RigidAt(const Model& model, const ParameterSet& values) {
   const LinearModel linear = model.Linearise(values);
-  if (linear.has_rigid_part) {
-    const LinearModel::RigidPart& rigid = linear.rigid_part;
-    return {rigid.J, rigid.B, rigid.K};
+  if (linear.has_shaft) {
+    const LinearModel::Shaft& shaft = linear.shaft;
+    return {shaft.J,
+            shaft.B,
+            shaft.K,
+            shaft.inertia_ratio,
+            shaft.anti_resonance_hz,
+            shaft.shaft_damping_ratio,
+            shaft.load_damping_share};
   }
   const double J = values.Get("J");
   return {J, -linear.A(0, 0) * J, linear.B(0, 0) * J};
@@ -275,6 +280,43 @@ void SampledMargins(const SampledRigidLoop& loop, const CascadeGains& gains, boo
                                    low, crossover_hz * kSearchDecades);
     }
   }
+}
+
+// On a two-mass shaft the PI placed at f_c must meet the request on the whole loop: L at least
+// the phase margin asked for (0.01° of rounding: the design puts the margin at f_c to rounding)
+// away from -1 at every gain crossover (the resonance's peak may cross 1 again, its phase far
+// from -180°) and stable poles (which decide what the crossings alone cannot: the Nyquist
+// encirclements). The resonance-limited crossover is the highest f_c where it does: scanned
+// down from `from_hz` over two decades (50 points per decade), then bisected to 1e-3 relative
+// and rounded down to 4 significant digits. NaN when none.
+bool MeetsOnTwoMass(const SampledRigidLoop& loop, double fc, double pm) {
+  const SampledDesignResult design = DesignSampledSpeedPi(loop, fc, pm);
+  if (!design.ok || !loop.Poles(design.gains, false).stable) return false;
+  LoopMargins margins;
+  SampledMargins(loop, design.gains, false, fc, &margins, nullptr);
+  return margins.ok && std::abs(margins.phase_margin_deg) >= pm - 0.01;
+}
+
+double ResonanceLimitedCrossover(const SampledRigidLoop& loop, double from_hz, double pm) {
+  constexpr int kPerDecade = 50;
+  double above = from_hz;
+  for (int k = 1; k <= 2 * kPerDecade; ++k) {
+    const double f = from_hz * std::pow(10.0, -static_cast<double>(k) / kPerDecade);
+    if (!MeetsOnTwoMass(loop, f, pm)) {
+      above = f;
+      continue;
+    }
+    double below = f;
+    while (above - below > 1e-3 * below) {
+      const double mid = std::sqrt(above * below);
+      (MeetsOnTwoMass(loop, mid, pm) ? below : above) = mid;
+    }
+    // Named with 4 significant digits, rounded down, so that asking for the number as
+    // printed succeeds.
+    const double scale = std::pow(10.0, std::floor(std::log10(below)) - 3.0);
+    return std::floor(below / scale) * scale;
+  }
+  return std::numeric_limits<double>::quiet_NaN();
 }
 
 LoopCheck CheckSampledAt(const TuneInput& input, const TuneRequest& request,
@@ -485,26 +527,6 @@ TuneResult TuneSampled(const TuneInput& original, const TuneRequest& request) {
   result.plant_output = position ? "theta" : "w";
   const Config& config = input.config;
   result.plant = PlantAt(*config.model, config.parameters, result.plant_output);
-  // A flexible coupling (two_mass): the sampled loops here are designed and checked on a rigid
-  // shaft, with no resonance in their margins, their simulated step or a notch to offer.
-  // Refused rather than tuned on the rigid part as if the resonance were not there.
-  const LinearModel linear = config.model->Linearise(config.parameters);
-  if (linear.has_rigid_part) {
-    // The lightly damped pair's natural frequency |lambda| / (2 pi).
-    const Eigen::VectorXcd poles = linear.A.eigenvalues();
-    Eigen::Index pair = 0;
-    for (Eigen::Index k = 1; k < poles.size(); ++k)
-      if (std::abs(poles(k).imag()) > std::abs(poles(pair).imag())) pair = k;
-    const double resonance_hz = std::abs(poles(pair)) / kTwoPi;
-    result.refused = true;
-    result.refusal = "the model has a flexible coupling (two-mass shaft, resonance near " +
-                     Text(resonance_hz, 3) +
-                     " Hz): blmd-tune designs and checks its loops on a rigid shaft and does not "
-                     "yet place them against a resonance or offer a notch; a loop tuned on the "
-                     "rigid part must keep its crossover well below " +
-                     Text(resonance_hz, 3) + " Hz (docs/tuning.md §7.6)";
-    return result;
-  }
   SampledTuning& sampled = result.sampled;
   sampled.used = true;
   sampled.linear_axis = config.linear_axis;
@@ -523,6 +545,31 @@ TuneResult TuneSampled(const TuneInput& original, const TuneRequest& request) {
   }
   SampledMargins(loop, sampled.gains, false, fc, &sampled.speed, &sampled.speed_continuous);
   sampled.speed_poles = loop.Poles(sampled.gains, false);
+  const RigidPlant shaft = RigidAt(*config.model, config.parameters);
+  if (shaft.two_mass() &&
+      !(sampled.speed_poles.stable && sampled.speed.ok &&
+        std::abs(sampled.speed.phase_margin_deg) >= request.design.phase_margin_deg - 0.01)) {
+    // A flexible coupling (two_mass): the resonance, not the delay, limits the loop.
+    const double fr = shaft.anti_resonance_hz * std::sqrt(1.0 + shaft.inertia_ratio);
+    const double highest = ResonanceLimitedCrossover(loop, fc, request.design.phase_margin_deg);
+    result.refused = true;
+    result.refusal =
+        "the sampled speed loop placed at " + Text(fc) + " Hz on the two-mass shaft (resonance " +
+        Text(fr, 3) + " Hz) " +
+        (sampled.speed_poles.stable
+             ? "crosses 1 " + std::to_string(sampled.speed.gain_crossovers) +
+                   " time(s), at one of them " + Text(std::abs(sampled.speed.phase_margin_deg), 3) +
+                   " deg from -180 deg"
+             : std::string("is unstable")) +
+        ": the resonance limits the crossover; " +
+        (std::isfinite(highest)
+             ? "the highest crossover with " + Text(request.design.phase_margin_deg) +
+                   " deg from -180 deg at every crossing on the two-mass shaft is " +
+                   Text(highest, 4) + " Hz"
+             : std::string("no crossover within two decades below meets the request")) +
+        " (a notch filter at the resonance is not offered yet; docs/tuning.md §7.6)";
+    return result;
+  }
   if (!sampled.speed_poles.stable) {
     result.refused = true;
     result.refusal = "the sampled speed loop placed at " + Text(fc) +

@@ -120,7 +120,7 @@ def record(seed, rigid, ar):
     w_meas = w + level * noise
     th_meas = theta + level * dt * np.cumsum(rng.normal(0.0, 1.0, n))
     truth = {"kind": kind, "J": J, "B": bm + bl, "ratio": ratio, "fa": fa,
-             "fr": fa * math.sqrt(1 + ratio)}
+             "fr": fa * math.sqrt(1 + ratio), "plant": (Jm, Jl, K, c, bm, bl)}
     return np.column_stack([np.arange(n) * dt, u, w_meas, th_meas]), truth
 
 

@@ -86,7 +86,7 @@ TEST(LinearResponse, ContinuousBodeIsTheClosedForm) {
 // the two-mass transfer function (docs/effects.md), Wm/U = Kt (Jl s + Bl + Z) / ((Jm s + Bm +
 // Z)(Jl s + Bl + Z) - Z^2), Z = K/s + c: a notch at the anti-resonance and a peak at the
 // resonance; its transfer function, from the Faddeev-LeVerrier recursion, is the same; the
-// rigid part handed to the tuner is J, B, Kt.
+// shaft handed to the tuner is J, B, Kt and the coupling.
 TEST(LinearResponse, TwoMassShaftShowsItsResonance) {
   TempDir dir;
   const Config config = LoadConfig(dir.Write("two-mass.json", R"({
@@ -99,10 +99,12 @@ TEST(LinearResponse, TwoMassShaftShowsItsResonance) {
   const LinearModel model = config.model->Linearise(config.parameters);
   ASSERT_TRUE(model.available);
   ASSERT_EQ(model.outputs, (std::vector<std::string>{"w", "theta"}));
-  ASSERT_TRUE(model.has_rigid_part);
-  EXPECT_EQ(model.rigid_part.J, 2e-3);
-  EXPECT_EQ(model.rigid_part.B, 0.04);
-  EXPECT_EQ(model.rigid_part.K, 0.5);
+  ASSERT_TRUE(model.has_shaft);
+  EXPECT_EQ(model.shaft.J, 2e-3);
+  EXPECT_EQ(model.shaft.B, 0.04);
+  EXPECT_EQ(model.shaft.K, 0.5);
+  EXPECT_EQ(model.shaft.inertia_ratio, 1.5);
+  EXPECT_EQ(model.shaft.anti_resonance_hz, 40.0);
   const double J = 2e-3, B = 0.04, Kt = 0.5, r = 1.5, wa = 2 * kPi * 40.0;
   const double Jm = J / (1 + r), Jl = J - Jm, K = Jl * wa * wa, c = 2 * 0.05 * Jl * wa;
   const double Bl = 0.3 * B, Bm = B - Bl;

@@ -17,14 +17,17 @@ struct LinearModel {
   std::string assumption;                    // what is idealised or left out, one line
   std::vector<std::string> states, outputs;  // names of x and y (SI units of the columns)
   Eigen::MatrixXd A, B, C, D;
-  // The rigid shaft the input drives below any resonance, J dw/dt = -B w + K u (K in N·m per
-  // unit of u), when the states hold more than it (rigid_load with two_mass: the motor, the
-  // load and the twist); absent: the first state's row is that shaft's (J = values' J).
-  struct RigidPart {
+  // The shaft the drive's loops act on, when the states hold more than the rigid
+  // J dw/dt = -B w + K u (rigid_load with two_mass: the motor, the load and the twist): J and B
+  // the totals, K in N·m per unit of u, and the coupling (docs/effects.md, two_mass; ratio 0:
+  // rigid). Absent: the first state's row is that shaft's (J = the values' J).
+  struct Shaft {
     double J = 0.0, B = 0.0, K = 0.0;
+    double inertia_ratio = 0.0, anti_resonance_hz = 0.0, shaft_damping_ratio = 0.0,
+           load_damping_share = 0.0;
   };
-  bool has_rigid_part = false;
-  RigidPart rigid_part;
+  bool has_shaft = false;
+  Shaft shaft;
 };
 
 // G(s) = num(s)/den(s), coefficients in descending powers of s (MATLAB's tf order).

@@ -40,7 +40,9 @@ std::complex<double> FrequencyResponse(const TransferFunction& g, double omega);
 // ch. 9 "Frequency Domain Analysis", stability margins), found on a logarithmic grid of 400 points
 // per decade between low_hz and high_hz and refined by bisection to 1e-12 of the frequency:
 //  - gain crossovers: |L| = 1. Where there are several, crossover_hz and phase_margin_deg are
-//    those of the one with the smallest phase margin (as MATLAB's `margin`);
+//    those of the one nearest −1, the smallest |phase margin| (MATLAB's `allmargin` lists them
+//    all): a resonance's peak that crosses 1 again with a margin of −170° has a phase of +10°,
+//    far from −1, and is not the worst crossing;
 //  - phase margin: 180° + arg L(jω_c), wrapped to (−180°, 180°];
 //  - phase crossovers: L(jω) on the negative real axis (Im L = 0, Re L < 0). gain_margin_db
 //    is the smallest −20·log10|L| over those with |L| < 1 (how far the gain may rise; +inf

@@ -28,9 +28,15 @@ struct SampledDrive {
   std::string Validate() const;       // "" when usable, else what is wrong (one line)
 };
 
-// J (kg·m², kg), B (N·m·s/rad, N·s/m), Kt (torque or force per unit of u).
+// J (kg·m², kg), B (N·m·s/rad, N·s/m), Kt (torque or force per unit of u): the totals; with
+// inertia_ratio > 0 a flexible coupling to the load (docs/effects.md, two_mass: Jm = J/(1+r),
+// Jl = J r/(1+r), K = Jl (2 pi fa)^2, c = 2 zeta Jl 2 pi fa, B split (1-s) B, s B), the loop
+// measuring the motor.
 struct RigidPlant {
   double J = 0.0, B = 0.0, Kt = 1.0;
+  double inertia_ratio = 0.0, anti_resonance_hz = 0.0, shaft_damping_ratio = 0.0,
+         load_damping_share = 0.0;
+  bool two_mass() const { return inertia_ratio > 0.0 && anti_resonance_hz > 0.0; }
 };
 
 // The gains in continuous-time SI units: C(z) = speed_kp + speed_ki·Ts·z/(z − 1); a drive

@@ -183,27 +183,65 @@ SimStatus RigidLoadModel::SimulateClosedLoop(const SimulationRequest& request, T
       ShaftEffects::From(values, *request.effects, request.settings.friction_smoothing_w);
   const bool lag = pid.current_bandwidth > 0.0;
   const double wb = kTwoPi * pid.current_bandwidth;
-  // Inputs [u, T_effects]; without the lag u_a is u itself and its state stays 0.
-  Eigen::Matrix3d A = Eigen::Matrix3d::Zero(), Ad;
-  Eigen::Matrix<double, 3, 2> Bm = Eigen::Matrix<double, 3, 2>::Zero(), Bd;
-  A(0, 0) = -B / J;
+  // x = [w, theta, u_a] and, on a two-mass shaft (two_mass, docs/effects.md), the load's
+  // speed and the twist [w_l, delta]; inputs [u, T_effects] on the motor. Without the lag u_a
+  // is u itself and its state stays 0.
+  const bool flexible = shaft.two_mass();
+  const int n = flexible ? 5 : 3;
+  double Jm = J, Bm_motor = B, Jl = 0.0, K = 0.0, c = 0.0, Bl = 0.0;
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(n, n);
+  Eigen::MatrixXd Bm = Eigen::MatrixXd::Zero(n, 2);
+  if (flexible) {
+    const double r = shaft.inertia_ratio, wa = kTwoPi * shaft.anti_resonance_hz;
+    Jm = J / (1.0 + r);
+    Jl = J - Jm;
+    K = Jl * wa * wa;
+    c = 2.0 * shaft.shaft_damping_ratio * Jl * wa;
+    Bl = shaft.load_damping_share * B;
+    Bm_motor = B - Bl;
+    A(0, 3) = c / Jm;
+    A(0, 4) = -K / Jm;
+    A(3, 0) = c / Jl;
+    A(3, 3) = -(c + Bl) / Jl;
+    A(3, 4) = K / Jl;
+    A(4, 0) = 1.0;
+    A(4, 3) = -1.0;
+  }
+  A(0, 0) = -(Bm_motor + c) / Jm;
   A(1, 0) = 1.0;
-  Bm(0, 1) = -1.0 / J;
+  Bm(0, 1) = -1.0 / Jm;
   if (lag) {
-    A(0, 2) = Kt / J;
+    A(0, 2) = Kt / Jm;
     A(2, 2) = -wb;
     Bm(2, 0) = wb;
   } else {
-    Bm(0, 0) = Kt / J;
+    Bm(0, 0) = Kt / Jm;
   }
-  internal::Discretise<3, 2>(A, Bm, dt, &Ad, &Bd);
+  // Fixed sizes, so that the rigid shaft's steps stay those of its own 3-state discretisation.
+  Eigen::Matrix3d Ad;
+  Eigen::Matrix<double, 3, 2> Bd;
+  Eigen::Matrix<double, 5, 5> Ad5;
+  Eigen::Matrix<double, 5, 2> Bd5;
+  if (flexible) {
+    internal::Discretise<5, 2>(A, Bm, dt, &Ad5, &Bd5);
+  } else {
+    internal::Discretise<3, 2>(A, Bm, dt, &Ad, &Bd);
+  }
   const double lag_decay = lag ? std::exp(-wb * dt) : 0.0;  // u_a while the shaft sticks
+  // A held motor: the load swings on it, [w_l, delta]' = [[-(c + Bl)/Jl, K/Jl], [-1, 0]] x.
+  Eigen::Matrix2d held = Eigen::Matrix2d::Identity();
+  if (flexible) {
+    Eigen::Matrix2d A_held;
+    A_held << -(c + Bl) / Jl, K / Jl, -1.0, 0.0;
+    held = (A_held * dt).exp();
+  }
 
   internal::OutputSampler sampler(times, {"u", "w", "theta", "r"});
   InputCursor input(experiment.input);
   internal::DigitalCascade controller(pid, Ts);
   const double t_start = times.front();
   double w = experiment.initial.w, theta = experiment.initial.theta, u_a = 0.0;
+  double w_load = w, twist = 0.0;  // a two-mass shaft's load starts with the motor, untwisted
   double reference = input.At(internal::InputReadTime(t_start, dt));
   double u = controller.Tick(reference, w, theta);
   std::array<double, 4> prev = {u, w, theta, reference};
@@ -217,11 +255,26 @@ SimStatus RigidLoadModel::SimulateClosedLoop(const SimulationRequest& request, T
     // (the drag vanishes at rest: what the shaft feels once stopped is drive - positional)
     const double positional = shaft.NonFrictionTorque(effect_angle.At(t, theta));
     const double non_friction = positional + shaft.DragTorque(w);
+    const double coupling = K * twist + c * (w - w_load);  // the load's torque on the motor
     bool stuck = false;
-    const double friction = shaft.StepFriction(w, drive - non_friction, &stuck);
+    const double friction = shaft.StepFriction(w, drive - non_friction - coupling, &stuck);
     const double w_old = w, theta_old = theta;
     if (stuck) {
       u_a = lag_decay * u_a + (1.0 - lag_decay) * u;
+      if (flexible) {
+        const Eigen::Vector2d load = held * Eigen::Vector2d(w_load, twist);
+        w_load = load(0);
+        twist = load(1);
+      }
+    } else if (flexible) {
+      Eigen::Matrix<double, 5, 1> x;
+      x << w, theta, u_a, w_load, twist;
+      x = Ad5 * x + Bd5 * Eigen::Vector2d(u, friction + non_friction);
+      w = shaft.StopsWithin(w_old, x(0)) ? 0.0 : x(0);
+      theta = x(1);
+      u_a = x(2);
+      w_load = x(3);
+      twist = x(4);
     } else {
       const Eigen::Vector3d x =
           Ad * Eigen::Vector3d(w, theta, u_a) + Bd * Eigen::Vector2d(u, friction + non_friction);
@@ -237,7 +290,9 @@ SimStatus RigidLoadModel::SimulateClosedLoop(const SimulationRequest& request, T
       u = controller.Tick(reference, w, theta);
     }
     now = {u, w, theta, reference};
-    if (!internal::AllFinite(now.data() + 1, 2, request.settings.divergence_limit)) {
+    const std::array<double, 2> load = {w_load, twist};
+    if (!internal::AllFinite(now.data() + 1, 2, request.settings.divergence_limit) ||
+        !internal::AllFinite(load.data(), 2, request.settings.divergence_limit)) {
       return {SimStatus::Code::kDiverged,
               internal::DivergedMessage(request.settings.divergence_limit), t_next};
     }
@@ -255,16 +310,8 @@ SimStatus RigidLoadModel::Simulate(const SimulationRequest& request, Trace* out)
   if (SimStatus status = CheckRequest(request); !status.ok()) return status;
   const ShaftEffects shaft =
       ShaftEffects::From(values, *request.effects, request.settings.friction_smoothing_w);
-  if (shaft.two_mass()) {
-    if (experiment.closed_loop) {
-      return {SimStatus::Code::kInvalidParameters,
-              "the two-mass shaft is simulated with a recorded or given input, not inside the "
-              "config's closed loop (experiment.pid): replay the recorded u",
-              0.0};
-    }
-    return SimulateTwoMass(request, shaft, out);
-  }
   if (experiment.closed_loop) return SimulateClosedLoop(request, out);
+  if (shaft.two_mass()) return SimulateTwoMass(request, shaft, out);
   const double J = values.Get("J"), B = values.Get("B"), Kt = values.Get("Kt");
 
   // x = [w, theta], input: the net torque Kt u - T_effects, held over the step.
@@ -331,8 +378,14 @@ LinearModel RigidLoadModel::Linearise(const ParameterSet& values) const {
     model.B << Kt / Jm, 0.0, 0.0, 0.0;
     model.C = Eigen::MatrixXd::Identity(2, 4);
     model.D = Eigen::MatrixXd::Zero(2, 1);
-    model.has_rigid_part = true;
-    model.rigid_part = {J, B, Kt};
+    model.has_shaft = true;
+    model.shaft = {J,
+                   B,
+                   Kt,
+                   r,
+                   values.Get("anti_resonance_hz"),
+                   values.GetOr("shaft_damping_ratio", 0.0),
+                   values.GetOr("load_damping_share", 0.0)};
     return model;
   }
   model.assumption = "the effects (friction, load, cogging, ...) left out";
