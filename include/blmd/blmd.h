@@ -33,6 +33,7 @@
 #include "blmd/ident/residual/input_residual.h"
 #include "blmd/ident/residual/spectral.h"
 #include "blmd/ident/residual/stats.h"
+#include "blmd/ident/uncertainty/derived_quantities.h"
 #include "blmd/ident/uncertainty/parameter_correlation.h"
 #include "blmd/ident/uncertainty/uncertainty.h"
 #include "blmd/io/config.h"
