@@ -148,6 +148,30 @@ void StoredReport::RequireModel(const std::string& model, const std::string& the
                      ours + " " + model);
 }
 
+double StoredReport::input_past_frequency_hz() const {
+  const nlohmann::json& root = document_.root();
+  // The final model's adequacy: discovery's when it ran, else the fit's.
+  const nlohmann::json* adequacy = nullptr;
+  if (root.contains("discovery") && root["discovery"].is_object() &&
+      root["discovery"].contains("adequacy")) {
+    adequacy = &root["discovery"]["adequacy"];
+  } else if (root.contains("adequacy")) {
+    adequacy = &root["adequacy"];
+  }
+  if (!adequacy || !adequacy->is_object() || !adequacy->contains("tests") ||
+      !(*adequacy)["tests"].is_array())
+    return 0.0;
+  double frequency = 0.0;
+  for (const auto& test : (*adequacy)["tests"]) {
+    if (!test.is_object() || test.value("state", std::string()) != "u (past)" ||
+        !test.value("flagged", false) || !test.contains("frequency_hz") ||
+        !test["frequency_hz"].is_number())
+      continue;
+    frequency = std::max(frequency, test["frequency_hz"].get<double>());
+  }
+  return std::isfinite(frequency) && frequency > 0.0 ? frequency : 0.0;
+}
+
 std::vector<std::string> ReportInadequacy(const StoredReport& report) {
   std::vector<std::string> reasons;
   if (report.nrmse() >= 1.0) {
@@ -165,6 +189,14 @@ std::vector<std::string> ReportInadequacy(const StoredReport& report) {
         std::end(kModelWarnings)) {
       reasons.push_back("warning " + code);
     }
+  }
+  // Dynamics the model lacks, where they are: a loop's crossover must stay well below.
+  if (const double f = report.input_past_frequency_hz(); f > 0.0) {
+    reasons.push_back("its residual follows the input's past, most near " +
+                      FormatSignificant(f, 3) +
+                      " Hz: dynamics the model lacks (a resonance, a lag) that the gains do not "
+                      "see; a crossover must stay well below it" +
+                      std::string(report.ran_discovery() ? "" : ", or identify with --discover"));
   }
   return reasons;
 }

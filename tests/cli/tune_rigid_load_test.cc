@@ -571,5 +571,48 @@ TEST(TuneRigidLoad, TwoMassShaftLimitsTheCrossoverByItsResonance) {
   std::cout << "\n";
 }
 
+// A rigid fit of a two-mass record (blmd-sim with two_mass, a PRBS, 0.5 % noise; blmd-ident
+// with J and B only, no --discover): its adequacy check flags the input's past near the
+// resonance (fa sqrt(1 + r) = 63.2 Hz), and blmd-tune from that report says where, in its
+// report_inadequate warning, with the advice to run --discover.
+TEST(TuneRigidLoad, RigidReportOfATwoMassRecordNamesWhereItsResidualFollowsTheInput) {
+  TempDir dir;
+  const std::string truth = dir.Write("truth.json", R"({
+    "name": "two-mass", "model": "rigid_load",
+    "parameters": { "J": 2e-3, "B": 0.04, "Kt": 0.5 },
+    "effects": { "two_mass": { "inertia_ratio": 1.5, "anti_resonance_hz": 40,
+                               "shaft_damping_ratio": 0.05, "load_damping_share": 0.3 } },
+    "simulation": { "dt": 1e-4 },
+    "experiment": { "input": { "type": "prbs", "amplitude": 1.0, "clock": 0.0025, "order": 10,
+                               "seed": 3 },
+                    "duration": 2.5, "sample_rate": 2000 } })");
+  const std::string rigid = dir.Write("rigid.json", R"({
+    "name": "rigid", "model": "rigid_load",
+    "parameters": { "J": 1e-3, "B": 0.02, "Kt": 0.5 },
+    "simulation": { "dt": 1e-4 },
+    "experiment": { "input": { "type": "step", "amplitude": 1 }, "duration": 1 },
+    "identification": { "free": ["J", "B"], "observe": ["w"] } })");
+  const std::string trace = dir.File("trace.csv"), report = dir.File("report.json");
+  ASSERT_EQ(testing::Run(BinPath("blmd-sim") + " --config " + truth + " --out " + trace +
+                         " --noise w=0.5% --seed 7")
+                .exit_code,
+            0);
+  const CommandResult fitted = testing::Run(BinPath("blmd-ident") + " --config " + rigid +
+                                            " --trace " + trace + " --quiet --report " + report);
+  ASSERT_EQ(fitted.exit_code, 0) << fitted.err;
+  const json tuned = TuneJson("--config " + rigid + " --from-report " + report +
+                              " --loop speed --crossover 20 --phase-margin 60 --limit u=5"
+                              " --sample-rate 2000");
+  std::string message;
+  for (const auto& w : tuned["warnings"]) {
+    if (w["code"] == "report_inadequate") message = w["message"];
+  }
+  const std::regex named("its residual follows the input's past, most near ([0-9.]+) Hz");
+  std::smatch match;
+  ASSERT_TRUE(std::regex_search(message, match, named)) << message;
+  EXPECT_NEAR(std::stod(match[1].str()), 63.25, 0.15 * 63.25) << message;
+  EXPECT_NE(message.find("or identify with --discover"), std::string::npos) << message;
+}
+
 }  // namespace
 }  // namespace blmd

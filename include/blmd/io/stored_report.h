@@ -47,6 +47,10 @@ class StoredReport {
   bool has_effects() const { return has_effects_; }
   // Whether the report ran discovery (a "discovery" block): advice then is not --discover.
   bool ran_discovery() const { return document_.root().contains("discovery"); }
+  // Where the final model's residual follows the input's past most, Hz (the adequacy check's
+  // flagged "u (past)" test: dynamics the model lacks, docs/discovery.md §7b); 0 when it does
+  // not, or the report does not say.
+  double input_past_frequency_hz() const;
   const std::vector<std::string>& effects() const { return effects_; }
   // In the report's order.
   const std::vector<StoredParameter>& parameters() const { return parameters_; }
@@ -96,7 +100,8 @@ class StoredReport {
 // each: NRMSE >= 1 (no better than predicting the mean), a parameter at its bound, and the
 // report's own warnings that say the model is incomplete or the fit failed
 // (model_inadequate, unexplained_structure, not_a_fit, not_converged, nrmse_at_least_one,
-// decision_unstable). Empty when none applies.
+// decision_unstable), and where its residual follows the input's past (the frequency, which a
+// loop's crossover must stay well below). Empty when none applies.
 std::vector<std::string> ReportInadequacy(const StoredReport& report);
 
 // The report's final model on `config` (of the same model): the report's effects that the
