@@ -23,7 +23,7 @@ _blmd_columns="i ib ic theta u w"
 _blmd_ident_flags="--baseline --baseline-dir --batch --bic-margin --candidates --column --config --decimate --delimiter --derive --discover --drift-alpha --duplicate-time --error --export-matlab --fail-above-nrmse --fail-on-warning --filter-hz --free --help --html --init-config --initial --initial-state --json --max-effects --max-evaluations --method --min-share --new-baselines --no-header --no-progress --noise-std --observe --option --out --progress --quiet --report --resample --sample-rate --scale --seed --select --split --threads --trace --validate --verbose --version --weighting --write-config"
 _blmd_sim_flags="--config --delimiter --duplicate-time --effect --help --init-config --input --no-header --noise --out --quiet --sample-rate --seed --version"
 _blmd_surface_flags="--column --config --decimate --delimiter --derive --duplicate-time --error --filter-hz --force --grid --help --initial-state --json --no-header --observe --out --quiet --resample --sample-rate --scale --select --shard --split --svg --threads --trace --version"
-_blmd_tune_flags="--config --crossover --current-bandwidth --delay --duration --fail-on-warning --filter-ratio --from-report --help --integral-ratio --json --limit --loop --phase-margin --position-crossover --quiet --report --sample-rate --step --threads --version --write-config"
+_blmd_tune_flags="--config --crossover --current-bandwidth --delay --duration --fail-on-warning --filter-ratio --from-report --help --integral-ratio --json --limit --loop --notch --phase-margin --position-crossover --quiet --report --sample-rate --step --threads --version --write-config"
 _blmd_design_flags="--column --config --delimiter --derive --duplicate-time --duration --fail-on-warning --family --from-report --help --initial-state --json --limit --no-header --noise --quiet --report --resample --sample-rate --scale --select --split --target --threads --trace --version --write-config --write-input"
 _blmd_surface_merge_flags="--help --out"
 _blmd_surface_plot_flags="--help --quiet --svg --title"
@@ -135,6 +135,7 @@ _blmd_complete() {
     --duplicate-time) _blmd_words "error first mean" "$cur" ;;
     --resample) _blmd_words "auto" "$cur" ;; # or a step in seconds
     --loop) _blmd_words "position speed" "$cur" ;;
+    --notch) _blmd_words "auto off" "$cur" ;;
     --bic-margin | --min-share | --column | --decimate | --target | --fail-above-nrmse | --filter-hz | --free | \
       --grid | --initial | --max-effects | --max-evaluations | --option | --scale | --seed | --noise-std | \
       --select | --shard | --split | --threads | --title | --crossover | --phase-margin | \

@@ -711,7 +711,8 @@ PYBIND11_MODULE(_blmd, m) {
       .def_readwrite("sample_rate_hz", &blmd::TuneSettings::sample_rate_hz)
       .def_readwrite("current_bandwidth_hz", &blmd::TuneSettings::current_bandwidth_hz)
       .def_readwrite("position_crossover_hz", &blmd::TuneSettings::position_crossover_hz)
-      .def_readwrite("delay_samples", &blmd::TuneSettings::delay_samples);
+      .def_readwrite("delay_samples", &blmd::TuneSettings::delay_samples)
+      .def_readwrite("notch", &blmd::TuneSettings::notch);
   m.def("tune", &Tune, py::arg("config"), py::arg("report"), py::arg("settings"));
   py::class_<blmd::DesignSettings>(m, "DesignSettings")
       .def(py::init<>())

@@ -12,7 +12,7 @@ namespace blmd::app {
 
 // Every flag of blmd-tune (docs/cli.md §4).
 struct TuneFlags {
-  std::string config_path, report_in_path, loop, report_path, write_config_path;
+  std::string config_path, report_in_path, loop, report_path, write_config_path, notch;
   std::vector<std::string> limits;
   double crossover_hz = 0.0, phase_margin_deg = 0.0, step = 0.0, duration = 0.0;
   double integral_ratio = 4.0, filter_ratio = 10.0;
@@ -68,6 +68,11 @@ struct TuneFlags {
                    "rigid_load, position loop: the position P's crossover, Hz (default: a fifth "
                    "of --crossover)")
         ->check(PositiveNumber());
+    app.add_option("--notch", notch,
+                   "rigid_load, blmd: auto (default: the drive's own experiment.pid.notch kept; "
+                   "on a two-mass shaft a notch at the resonance designed when the request "
+                   "needs one) or off (none)")
+        ->check(CLI::IsMember({"auto", "off"}));
     app.add_option("--report", report_path, "write the JSON report here");
     app.add_option("--write-config", write_config_path,
                    "write the closed-loop config (the tuned step) that blmd-sim runs");
@@ -96,6 +101,7 @@ inline blmd::TuneSettings TuneSettingsOf(const CLI::App& app, const TuneFlags& f
   if (app.count("--position-crossover") > 0) {
     settings.position_crossover_hz = f.position_crossover_hz;
   }
+  if (app.count("--notch") > 0) settings.notch = f.notch;
   settings.threads = f.threads;
   return settings;
 }

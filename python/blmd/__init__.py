@@ -720,6 +720,7 @@ _TUNE_OPTIONS = {
     "position_crossover": ("position_crossover_hz", "--position-crossover"),
     "delay": ("delay_samples", "--delay"),
     "threads": ("threads", "--threads"),
+    "notch": ("notch", "--notch"),
 }
 
 
@@ -810,6 +811,8 @@ def tune(config, report=None, loop="speed", crossover=None, phase_margin=None, l
         elif key == "delay":
             value = _whole(int(value) if isinstance(value, str) and value.isdigit() else value,
                            flag)
+        elif key == "notch":
+            value = _choice(value, flag, ["auto", "off"])
         else:
             value = _positive(value, flag)
         setattr(settings, field, value)

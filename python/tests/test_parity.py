@@ -167,6 +167,38 @@ def test_tune_equals_blmd_tune(tmp_path):
     assert_same_report(stepped, load_json(out))
 
 
+TWO_MASS = {
+    "name": "two-mass", "model": "rigid_load",
+    "parameters": {"J": 2e-3, "B": 0.04, "Kt": 0.5},
+    "effects": {"two_mass": {"inertia_ratio": 1.5, "anti_resonance_hz": 40,
+                             "shaft_damping_ratio": 0.02, "load_damping_share": 0.0}},
+    "experiment": {"input": {"type": "step", "amplitude": 1}, "duration": 1}}
+
+
+def test_tune_notch_equals_blmd_tune(tmp_path):
+    """notch= is --notch: the notch designed at the resonance (auto) and the refusal (off)."""
+    config = tmp_path / "two-mass.json"
+    config.write_text(json.dumps(TWO_MASS))
+    out = tmp_path / "tune.json"
+    flags = ["--loop", "speed", "--crossover", 20, "--phase-margin", 60, "--limit", "u=5",
+             "--sample-rate", 1000]
+    run_command("blmd-tune", "--config", config, *flags, "--report", out, "--quiet")
+    tuned = blmd.tune(config, loop="speed", crossover=20, phase_margin=60, limits={"u": 5},
+                      sample_rate=1000, notch="auto")
+    assert_same_report(tuned, load_json(out))
+    assert tuned["sampled_loop"]["notch"]["source"] == "designed"
+    assert tuned.config["experiment"]["pid"]["notch"]["frequency"] == \
+        tuned["sampled_loop"]["notch"]["frequency_hz"]
+    done = run_command("blmd-tune", "--config", config, *flags, "--notch", "off", expect=1)
+    with pytest.raises(blmd.FitError) as raised:
+        blmd.tune(config, loop="speed", crossover=20, phase_margin=60, limits={"u": 5},
+                  sample_rate=1000, notch="off")
+    assert "error: " + str(raised.value) == done[1].strip()
+    with pytest.raises(blmd.InputError, match=r"notch"):
+        blmd.tune(config, loop="speed", crossover=20, phase_margin=60, limits={"u": 5},
+                  sample_rate=1000, notch="sometimes")
+
+
 def test_tune_refusal_and_bad_input(tmp_path):
     flags = ["--loop", "speed", "--crossover", 3000, "--phase-margin", 60, "--limit", "u=24"]
     done = run_command("blmd-tune", "--config", SQUARE, *flags, expect=1)

@@ -62,7 +62,8 @@ void ReadDrive(const TuneSettings& settings, const Config& config, TuneRequest* 
          {std::pair<const char*, bool>{"--sample-rate", settings.sample_rate_hz.has_value()},
           {"--delay", settings.delay_samples.has_value()},
           {"--current-bandwidth", settings.current_bandwidth_hz.has_value()},
-          {"--position-crossover", settings.position_crossover_hz.has_value()}}) {
+          {"--position-crossover", settings.position_crossover_hz.has_value()},
+          {"--notch", settings.notch.has_value()}}) {
       if (given) {
         throw InputError(
             std::string(flag) + " applies to models rigid_load and blmd (the drive's sampled " +
@@ -87,6 +88,14 @@ void ReadDrive(const TuneSettings& settings, const Config& config, TuneRequest* 
     request->sample_rate_assumed = true;
   }
   drive.delay_samples = settings.delay_samples.value_or(has_pid ? pid.delay : 1);
+  if (has_pid) drive.notch = pid.notch;
+  if (settings.notch) {
+    if (*settings.notch != "auto" && *settings.notch != "off") {
+      throw InputError("--notch: '" + InputError::Excerpt(*settings.notch) +
+                       "' is not a choice (valid: auto, off)");
+    }
+    request->notch = *settings.notch == "off" ? NotchMode::kOff : NotchMode::kAuto;
+  }
   if (config.model->traits().own_current_loop) {
     // blmd: the drive's own current loops, their bandwidth computed from the compensator,
     // the PWM and the winding (Model::CurrentLoopBandwidthHz).

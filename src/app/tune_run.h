@@ -28,6 +28,8 @@ struct TuneSettings {
   // crossover for the position loop).
   std::optional<double> sample_rate_hz, current_bandwidth_hz, position_crossover_hz;
   std::optional<int> delay_samples;
+  // --notch auto|off (nullopt: auto; rigid_load and blmd only).
+  std::optional<std::string> notch;
 };
 
 // Checks the settings against the plant's config in blmd-tune's order: the loop's flags, the

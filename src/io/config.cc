@@ -435,6 +435,32 @@ void CheckInputAgainstSamples(const Reader& reader, Experiment* experiment) {
   }
 }
 
+// The drive's notch on its torque command (experiment.pid.notch, notch_filter.h), checked
+// against the controller's sample rate.
+void ReadNotch(const Reader& reader, const json& node, PidSettings* out) {
+  const std::string pointer = "/experiment/pid/notch";
+  reader.RequireObject(node, pointer);
+  reader.CheckKeys(node, pointer, {"frequency", "width", "depth"});
+  for (const char* key : {"frequency", "width", "depth"}) {
+    if (!node.contains(key)) {
+      reader.Fail(pointer, std::string("the notch needs '") + key +
+                               "' (frequency and width in "
+                               "Hz, depth its gain at the centre, 0 to < 1)");
+    }
+  }
+  NotchFilter& notch = out->notch;
+  notch.frequency = reader.Positive(node["frequency"], pointer + "/frequency");
+  notch.width = reader.Positive(node["width"], pointer + "/width");
+  notch.depth = reader.Number(node["depth"], pointer + "/depth");
+  if (!(notch.depth >= 0.0 && notch.depth < 1.0)) {
+    reader.Fail(pointer + "/depth", "the notch depth (its gain at the centre) must be in [0, 1)");
+  }
+  if (!(notch.frequency < 0.5 * out->sample_rate)) {
+    reader.Fail(pointer + "/frequency",
+                NotchFilter{notch.frequency, 1.0, 0.0}.Validate(out->sample_rate));
+  }
+}
+
 // rigid_load's digital loop (PidSettings): the inner speed PI, the lower limit, the
 // controller's sample rate (a whole number of simulation steps), delay and current loop.
 void ReadSampledPid(const Reader& reader, const json& pid, double dt, PidSettings* out) {
@@ -464,6 +490,7 @@ void ReadSampledPid(const Reader& reader, const json& pid, double dt, PidSetting
     }
     out->delay = static_cast<int>(delay);
   }
+  if (pid.contains("notch")) ReadNotch(reader, pid["notch"], out);
   if (pid.contains("current_bandwidth")) {
     out->current_bandwidth =
         reader.Number(pid["current_bandwidth"], "/experiment/pid/current_bandwidth");
@@ -516,13 +543,13 @@ void ReadExperiment(const Reader& reader, const json& root, Config* out) {
       reader.RequireObject(pid, "/experiment/pid");
       if (traits.own_current_loop) {
         // The drive's own current loops follow the demand (no current_bandwidth to give).
-        reader.CheckKeys(
-            pid, "/experiment/pid",
-            {"loop", "Kp", "Ki", "speed_Kp", "speed_Ki", "u_max", "u_min", "sample_rate", "delay"});
+        reader.CheckKeys(pid, "/experiment/pid",
+                         {"loop", "Kp", "Ki", "speed_Kp", "speed_Ki", "u_max", "u_min",
+                          "sample_rate", "delay", "notch"});
       } else if (traits.sampled_pid) {
         reader.CheckKeys(pid, "/experiment/pid",
                          {"loop", "Kp", "Ki", "speed_Kp", "speed_Ki", "u_max", "u_min",
-                          "sample_rate", "delay", "current_bandwidth"});
+                          "sample_rate", "delay", "current_bandwidth", "notch"});
       } else {
         reader.CheckKeys(pid, "/experiment/pid", {"loop", "Kp", "Ki", "Kd", "tau_d", "u_max"});
       }

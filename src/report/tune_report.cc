@@ -47,6 +47,11 @@ GainUnits UnitsOfGains(const TuneInput& input, const TuneRequest& request) {
   return {u + "/rad", u + "/(rad·s)", u + "·s/rad"};
 }
 
+// experiment.pid.notch as the config reads it (notch_filter.h).
+json NotchJson(const NotchFilter& notch) {
+  return {{"frequency", notch.frequency}, {"width", notch.width}, {"depth", notch.depth}};
+}
+
 // experiment.pid of the tuned loop's checked step, as blmd-sim reads it.
 json PidExperimentJson(const TuneRequest& request, const TuneResult& result,
                        bool report_own_current_loop) {
@@ -65,6 +70,8 @@ json PidExperimentJson(const TuneRequest& request, const TuneResult& result,
     out["delay"] = e.pid.delay;
     // A drive with its own current loops (blmd) takes no current_bandwidth: they are simulated.
     if (!report_own_current_loop) out["current_bandwidth"] = e.pid.current_bandwidth;
+    // The notch the loop was tuned with (the drive's own or designed): the gains need it.
+    if (result.sampled.notch.active()) out["notch"] = NotchJson(result.sampled.notch);
     return out;
   }
   const Experiment e = StepExperiment(request.design.loop, result.design.controller, request.u_max,
@@ -212,7 +219,21 @@ json SampledLoopJson(const TuneInput& input, const TuneRequest& request, const T
            "; z^-d delay; PI C(z) = kp + ki Ts z/(z - 1) (backward Euler integral); "
            "anti-windup by conditional integration"},
       {"closed_loop_poles_plane", "z"},
-      {"speed_loop", speed}};
+      {"speed_loop", speed},
+      {"resonance_hz", Number(s.resonance_hz)},
+      {"resonance_limited_crossover_hz", Number(s.resonance_limited_crossover_hz)},
+      {"notch", nullptr}};
+  if (s.notch.active()) {
+    out["notch"] = {{"frequency_hz", s.notch.frequency},
+                    {"width_hz", s.notch.width},
+                    {"depth", s.notch.depth},
+                    {"depth_db", 20.0 * std::log10(std::max(s.notch.depth, 1e-12))},
+                    {"source", s.notch_designed ? "designed" : "drive"},
+                    {"placement", "the speed PI's output (the torque command), before the limit"},
+                    {"discretisation", "bilinear (Tustin) prewarped at the notch frequency"},
+                    {"peak_ratio", Number(s.notch_peak_ratio)},
+                    {"worst_variant_margin_deg", Number(s.notch_worst_variant_margin_deg)}};
+  }
   if (!IsSpeed(request)) {
     out["position_loop"] = {{"crossover_hz_requested", s.design.position_crossover_hz},
                             {"kp", s.gains.position_kp},
@@ -326,6 +347,17 @@ std::string SampledSummary(const TuneReport& report) {
   out << "  speed PI: kp " << Text(t.gains.speed_kp, 6) << " " << u << "·s/" << x << "   ki "
       << Text(t.gains.speed_ki, 6) << " " << u << "/" << x << "   (per sample: kp "
       << Text(t.gains.speed_kp, 6) << ", ki·Ts " << Text(t.gains.speed_ki * ts, 6) << ")\n";
+  if (t.notch.active()) {
+    out << "  notch on the torque command: " << Text(t.notch.frequency, 4) << " Hz, width "
+        << Text(t.notch.width, 3) << " Hz, depth " << Text(t.notch.depth, 2) << " ("
+        << Text(20.0 * std::log10(std::max(t.notch.depth, 1e-12)), 3) << " dB), "
+        << (t.notch_designed ? "designed at the resonance: without it the resonance (" +
+                                   Text(t.resonance_hz, 3) + " Hz) allows at most " +
+                                   Text(t.resonance_limited_crossover_hz, 4) +
+                                   " Hz; the drive must run it with these gains"
+                             : std::string("the drive's own (experiment.pid.notch)"))
+        << "\n";
+  }
   out << "  speed loop, sampled: " << margins(t.speed) << "\n";
   out << "  speed loop, continuous (same gains, no hold or delay): " << margins(t.speed_continuous)
       << "\n";

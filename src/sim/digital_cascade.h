@@ -18,10 +18,12 @@ namespace blmd::internal {
 // the output saturates in the direction of the error (conditional integration, Åström &
 // Hägglund 1995, ch. 3, integrator windup): a position step that saturates the drive does not
 // wind it up. The position integral (Ki of the position loop; blmd-tune leaves it 0) is not
-// limited: its output, the speed reference, is not.
+// limited: its output, the speed reference, is not. A notch (pid.notch) filters the PI's
+// output before the limit; the integral is held when the filtered command saturates.
 class DigitalCascade {
  public:
-  DigitalCascade(const PidSettings& pid, double Ts) : pid_(pid), Ts_(Ts) {
+  DigitalCascade(const PidSettings& pid, double Ts)
+      : pid_(pid), Ts_(Ts), notch_(DiscreteNotch(pid.notch, Ts)) {
     queue_.assign(static_cast<std::size_t>(std::max(0, pid.delay)), 0.0);
   }
 
@@ -40,9 +42,9 @@ class DigitalCascade {
     }
     const double e = w_ref - w;
     const double candidate = speed_integral_ + ki * Ts_ * e;
-    const double u = kp * e + candidate;
+    const double u = notch_.Peek(kp * e + candidate);
     if (!((u > high && e > 0.0) || (u < low && e < 0.0))) speed_integral_ = candidate;
-    const double command = std::clamp(kp * e + speed_integral_, low, high);
+    const double command = std::clamp(notch_.Step(kp * e + speed_integral_), low, high);
     if (queue_.empty()) return command;
     const double out = queue_.front();
     queue_.erase(queue_.begin());
@@ -55,6 +57,7 @@ class DigitalCascade {
   double Ts_;
   double speed_integral_ = 0.0;     // u
   double position_integral_ = 0.0;  // rad/s
+  BiquadRunner notch_;              // the identity without a notch
   std::vector<double> queue_;       // the commands computed, oldest first
 };
 

@@ -73,6 +73,35 @@ DiscretePlant Discretise(const RigidPlant& p, double wb, bool lag, bool position
   return out;
 }
 
+// The plant behind the drive's notch: the filter's transposed direct form II (states s1, s2;
+// y = b0 x + s1, s1+ = −a1 s1 + s2 + (b1 − a1 b0) x, s2+ = −a2 s1 + (b2 − a2 b0) x) in series
+// before it, its states appended: [x; s]+ = [[Ad, Bd e1'], [0, Af]] [x; s] + [Bd b0; Bf] u.
+DiscretePlant BehindNotch(const DiscretePlant& plant, const NotchFilter& notch, double ts) {
+  if (!notch.active()) return plant;
+  const Biquad f = DiscreteNotch(notch, ts);
+  const int n = static_cast<int>(plant.Ad.rows());
+  DiscretePlant out;
+  out.theta = plant.theta;
+  out.Ad = Eigen::MatrixXd::Zero(n + 2, n + 2);
+  out.Ad.topLeftCorner(n, n) = plant.Ad;
+  out.Ad.block(0, n, n, 1) = plant.Bd;
+  out.Ad(n, n) = -f.a1;
+  out.Ad(n, n + 1) = 1.0;
+  out.Ad(n + 1, n) = -f.a2;
+  out.Bd = Eigen::VectorXd::Zero(n + 2);
+  out.Bd.head(n) = plant.Bd * f.b0;
+  out.Bd(n) = f.b1 - f.a1 * f.b0;
+  out.Bd(n + 1) = f.b2 - f.a2 * f.b0;
+  return out;
+}
+
+DiscretePlant DrivenPlant(const RigidPlant& p, const SampledDrive& drive, bool position,
+                          double ts) {
+  return BehindNotch(Discretise(p, kTwoPi * drive.current_bandwidth_hz,
+                                drive.current_bandwidth_hz > 0.0, position, ts),
+                     drive.notch, ts);
+}
+
 // The closed speed loop (or the cascade when position_kp > 0) as x+ = M x + N r: the plant,
 // the integral I (in u) and the delay line q_1..q_d of the commands computed, newest first.
 // At a sample: e = r_w − w, I += ki·Ts·e, u = kp·e + I, the plant driven by q_d (u when d = 0).
@@ -157,12 +186,17 @@ std::string DelayText(const SampledDrive& drive) {
 
 }  // namespace
 
+struct SampledRigidLoop::Discrete {
+  DiscretePlant speed, position;
+};
+
 std::string SampledDrive::Validate() const {
   if (!(sample_rate_hz > 0.0) || !std::isfinite(sample_rate_hz))
     return "the controller's sample rate must be > 0 Hz";
   if (delay_samples < 0 || delay_samples > 100) return "the delay must be 0 to 100 samples";
   if (!(current_bandwidth_hz >= 0.0) || !std::isfinite(current_bandwidth_hz))
     return "the current-loop bandwidth must be >= 0 Hz (0: ideal)";
+  if (notch.active()) return notch.Validate(sample_rate_hz);
   return "";
 }
 
@@ -170,11 +204,12 @@ SampledRigidLoop::SampledRigidLoop(const RigidPlant& plant, const SampledDrive& 
     : plant_(plant),
       drive_(drive),
       ts_(1.0 / drive.sample_rate_hz),
-      lag_(drive.current_bandwidth_hz > 0.0) {}
+      lag_(drive.current_bandwidth_hz > 0.0),
+      discrete_(std::make_shared<const Discrete>(
+          Discrete{DrivenPlant(plant, drive, false, ts_), DrivenPlant(plant, drive, true, ts_)})) {}
 
 Complex SampledRigidLoop::SpeedPlantAt(double omega) const {
-  const DiscretePlant p =
-      Discretise(plant_, kTwoPi * drive_.current_bandwidth_hz, lag_, false, ts_);
+  const DiscretePlant& p = discrete_->speed;
   const Complex z = std::polar(1.0, omega * ts_);
   return Resolvent(p.Ad, p.Bd, 0, z) * std::pow(z, -drive_.delay_samples);
 }
@@ -182,8 +217,7 @@ Complex SampledRigidLoop::SpeedPlantAt(double omega) const {
 // The hold and plant's phase, unwrapped along a logarithmic sweep from ω·1e-6 (where it is
 // nearly 0), and the delay's −d·ω·Ts added exactly.
 double SampledRigidLoop::SpeedPlantPhaseDeg(double omega) const {
-  const DiscretePlant p =
-      Discretise(plant_, kTwoPi * drive_.current_bandwidth_hz, lag_, false, ts_);
+  const DiscretePlant& p = discrete_->speed;
   constexpr int kSteps = 240;
   double phase = 0.0, previous = 0.0;
   for (int k = 0; k <= kSteps; ++k) {
@@ -209,7 +243,7 @@ Complex SampledRigidLoop::SpeedLoopAt(const CascadeGains& g, double omega) const
 }
 
 Complex SampledRigidLoop::PositionLoopAt(const CascadeGains& g, double omega) const {
-  const DiscretePlant p = Discretise(plant_, kTwoPi * drive_.current_bandwidth_hz, lag_, true, ts_);
+  const DiscretePlant& p = discrete_->position;
   CascadeGains inner = g;
   inner.position_kp = 0.0;
   const ClosedLoopMatrices c = CloseLoop(p, inner, drive_.delay_samples, ts_);
@@ -229,6 +263,7 @@ Complex SampledRigidLoop::ContinuousSpeedLoopAt(const CascadeGains& g, double om
     plant = plant_.Kt * (Jl * s + Bl + Z) / ((Jm * s + Bm + Z) * (Jl * s + Bl + Z) - Z * Z);
   }
   if (lag_) plant /= 1.0 + s / (kTwoPi * drive_.current_bandwidth_hz);
+  plant *= drive_.notch.ContinuousAt(s);
   return (g.speed_kp + g.speed_ki / s) * plant;
 }
 
@@ -238,8 +273,7 @@ Complex SampledRigidLoop::ContinuousPositionLoopAt(const CascadeGains& g, double
 }
 
 ClosedLoopPoles SampledRigidLoop::Poles(const CascadeGains& g, bool position) const {
-  const DiscretePlant p =
-      Discretise(plant_, kTwoPi * drive_.current_bandwidth_hz, lag_, position, ts_);
+  const DiscretePlant& p = position ? discrete_->position : discrete_->speed;
   CascadeGains gains = g;
   if (!position) gains.position_kp = 0.0;
   const ClosedLoopMatrices c = CloseLoop(p, gains, drive_.delay_samples, ts_);

@@ -10,6 +10,7 @@
 #include "blmd/error.h"
 #include "blmd/format.h"
 #include "blmd/run.h"
+#include "blmd/tune/resonance.h"
 #include "parallel.h"
 
 namespace blmd {
@@ -260,65 +261,6 @@ RigidPlant RigidAt(const Model& model, const ParameterSet& values) {
   return {J, -linear.A(0, 0) * J, linear.B(0, 0) * J};
 }
 
-// The margins of the tuned sampled loop (the speed loop, or the position loop of the
-// cascade) and its continuous counterpart, searched from four decades below its crossover
-// to just below the Nyquist frequency.
-void SampledMargins(const SampledRigidLoop& loop, const CascadeGains& gains, bool position,
-                    double crossover_hz, LoopMargins* sampled, LoopMargins* continuous) {
-  const double low = crossover_hz / kSearchDecades, high = loop.nyquist_hz() * (1.0 - 1e-6);
-  if (position) {
-    *sampled = ComputeMargins([&](double w) { return loop.PositionLoopAt(gains, w); }, low, high);
-    if (continuous) {
-      *continuous =
-          ComputeMargins([&](double w) { return loop.ContinuousPositionLoopAt(gains, w); }, low,
-                         crossover_hz * kSearchDecades);
-    }
-  } else {
-    *sampled = ComputeMargins([&](double w) { return loop.SpeedLoopAt(gains, w); }, low, high);
-    if (continuous) {
-      *continuous = ComputeMargins([&](double w) { return loop.ContinuousSpeedLoopAt(gains, w); },
-                                   low, crossover_hz * kSearchDecades);
-    }
-  }
-}
-
-// On a two-mass shaft the PI placed at f_c must meet the request on the whole loop: L at least
-// the phase margin asked for (0.01° of rounding: the design puts the margin at f_c to rounding)
-// away from -1 at every gain crossover (the resonance's peak may cross 1 again, its phase far
-// from -180°) and stable poles (which decide what the crossings alone cannot: the Nyquist
-// encirclements). The resonance-limited crossover is the highest f_c where it does: scanned
-// down from `from_hz` over two decades (50 points per decade), then bisected to 1e-3 relative
-// and rounded down to 4 significant digits. NaN when none.
-bool MeetsOnTwoMass(const SampledRigidLoop& loop, double fc, double pm) {
-  const SampledDesignResult design = DesignSampledSpeedPi(loop, fc, pm);
-  if (!design.ok || !loop.Poles(design.gains, false).stable) return false;
-  LoopMargins margins;
-  SampledMargins(loop, design.gains, false, fc, &margins, nullptr);
-  return margins.ok && std::abs(margins.phase_margin_deg) >= pm - 0.01;
-}
-
-double ResonanceLimitedCrossover(const SampledRigidLoop& loop, double from_hz, double pm) {
-  constexpr int kPerDecade = 50;
-  double above = from_hz;
-  for (int k = 1; k <= 2 * kPerDecade; ++k) {
-    const double f = from_hz * std::pow(10.0, -static_cast<double>(k) / kPerDecade);
-    if (!MeetsOnTwoMass(loop, f, pm)) {
-      above = f;
-      continue;
-    }
-    double below = f;
-    while (above - below > 1e-3 * below) {
-      const double mid = std::sqrt(above * below);
-      (MeetsOnTwoMass(loop, mid, pm) ? below : above) = mid;
-    }
-    // Named with 4 significant digits, rounded down, so that asking for the number as
-    // printed succeeds.
-    const double scale = std::pow(10.0, std::floor(std::log10(below)) - 3.0);
-    return std::floor(below / scale) * scale;
-  }
-  return std::numeric_limits<double>::quiet_NaN();
-}
-
 LoopCheck CheckSampledAt(const TuneInput& input, const TuneRequest& request,
                          const TuneResult& result, const ParameterSet& values) {
   LoopCheck check;
@@ -458,6 +400,7 @@ Experiment SampledStepExperiment(const TuneRequest& request, const CascadeGains&
   pid.sample_rate = request.drive.sample_rate_hz;
   pid.delay = request.drive.delay_samples;
   pid.current_bandwidth = request.drive.current_bandwidth_hz;
+  pid.notch = request.drive.notch;
   return experiment;
 }
 
@@ -520,8 +463,93 @@ void CheckTunedLoop(const TuneInput& input, const TuneRequest& request,
   AddStepWarnings(input, request, result);
 }
 
-TuneResult TuneSampled(const TuneInput& original, const TuneRequest& request) {
-  const TuneInput input = WithControllerGrid(original, request.drive);
+// The PI `design` placed at f_c on `loop` meets the request at every crossing
+// (MeetsAtEveryCrossing, resonance.h).
+bool MeetsWith(const SampledRigidLoop& loop, const SampledDesignResult& design, double fc,
+               double pm) {
+  return design.ok && WorstCrossingMarginDeg(loop, design.gains, fc) >= pm - 0.01;
+}
+
+// The plants the notch's width is chosen on (docs/tuning.md §7.7): the corners of the 95 % box
+// with the lowest and the highest resonance; without a box, the anti-resonance 10 % either
+// side of the model's (a resonance drifts with the load and the temperature).
+std::vector<RigidPlant> ResonanceVariants(const TuneInput& input, const RigidPlant& nominal) {
+  const std::size_t k = input.box.size();
+  if (k == 0) {
+    RigidPlant low = nominal, high = nominal;
+    low.anti_resonance_hz *= 0.9;
+    high.anti_resonance_hz *= 1.1;
+    return {low, high};
+  }
+  if (k > kMaxBoxParameters) return {};  // EvaluateBox refuses it, naming the count
+  RigidPlant lowest = nominal, highest = nominal;
+  double low = MotorResonanceHz(nominal), high = low;
+  for (std::size_t corner = 0; corner < (std::size_t{1} << k); ++corner) {
+    ParameterSet values = input.config.parameters;
+    for (std::size_t j = 0; j < k; ++j)
+      values.Set(input.box[j].name, (corner >> j) & 1u ? input.box[j].high : input.box[j].low);
+    const RigidPlant plant = RigidAt(*input.config.model, values);
+    const double fr = MotorResonanceHz(plant);
+    if (fr < low) {
+      low = fr;
+      lowest = plant;
+    }
+    if (fr > high) {
+      high = fr;
+      highest = plant;
+    }
+  }
+  return {lowest, highest};
+}
+
+std::string NotchText(const NotchFilter& notch) {
+  return Text(notch.frequency, 4) + " Hz, width " + Text(notch.width, 3) + " Hz, depth " +
+         Text(notch.depth, 2);
+}
+
+// The refusal of a speed loop the resonance does not allow: the crossing nearest -1 of the PI
+// placed at f_c, the resonance-limited crossover and, when a notch was tried, what it allows.
+std::string TwoMassRefusal(const SampledRigidLoop& loop, const SampledTuning& sampled, double fc,
+                           double pm, const NotchDesign* notch) {
+  const double highest = sampled.resonance_limited_crossover_hz;
+  std::string where = "the sampled speed loop placed at " + Text(fc) +
+                      " Hz on the two-mass shaft (resonance " + Text(sampled.resonance_hz, 3) +
+                      " Hz) ";
+  if (!sampled.design.ok) {
+    // No PI gives the margin at f_c: the shaft's phase there (near its anti-resonance).
+    where += "needs " + Text(sampled.design.controller_phase_deg) +
+             " deg of the PI (the shaft's phase there, sampled, is " +
+             Text(sampled.design.plant_phase_deg) + " deg), beyond the " +
+             Text(sampled.design.min_controller_phase_deg) + " to 0 deg it gives";
+  } else {
+    LoopMargins speed;
+    SampledMargins(loop, sampled.design.gains, false, fc, &speed, nullptr);
+    where += loop.Poles(sampled.design.gains, false).stable && speed.ok
+                 ? "crosses 1 " + std::to_string(speed.gain_crossovers) +
+                       " time(s), at one of them " + Text(std::abs(speed.phase_margin_deg), 3) +
+                       " deg from -180 deg"
+                 : std::string("is unstable");
+  }
+  std::string text = where + ": the resonance limits the crossover; " +
+                     (std::isfinite(highest)
+                          ? "the highest crossover with " + Text(pm) +
+                                " deg from -180 deg at every crossing on the two-mass shaft is " +
+                                Text(highest, 4) + " Hz"
+                          : std::string("no crossover within two decades below meets the request"));
+  if (notch == nullptr) return text + " (or allow a notch on the torque command: --notch auto)";
+  if (std::isfinite(notch->highest_crossover_hz)) {
+    return text + "; with a notch at the resonance (" + NotchText(notch->notch) +
+           ", the best of widths 0.05-1 times it) it is " + Text(notch->highest_crossover_hz, 4) +
+           " Hz";
+  }
+  return text + "; no notch at the resonance (widths 0.05-1 times it) meets the request either";
+}
+
+TuneResult TuneSampled(const TuneInput& original, const TuneRequest& asked) {
+  const TuneInput input = WithControllerGrid(original, asked.drive);
+  // The request the loop is checked with: the drive's notch may be designed here.
+  TuneRequest request = asked;
+  if (request.notch == NotchMode::kOff) request.drive.notch = NotchFilter{};
   TuneResult result;
   const bool position = !IsSpeed(request);
   result.plant_output = position ? "theta" : "w";
@@ -530,9 +558,35 @@ TuneResult TuneSampled(const TuneInput& original, const TuneRequest& request) {
   SampledTuning& sampled = result.sampled;
   sampled.used = true;
   sampled.linear_axis = config.linear_axis;
-  const SampledRigidLoop loop(RigidAt(*config.model, config.parameters), request.drive);
-  const double fc = request.design.crossover_hz;
-  sampled.design = DesignSampledSpeedPi(loop, fc, request.design.phase_margin_deg);
+  const RigidPlant shaft = RigidAt(*config.model, config.parameters);
+  const double fc = request.design.crossover_hz, pm = request.design.phase_margin_deg;
+  SampledRigidLoop loop(shaft, request.drive);
+  sampled.design = DesignSampledSpeedPi(loop, fc, pm);
+  if (shaft.two_mass() && fc < loop.nyquist_hz() && !MeetsWith(loop, sampled.design, fc, pm)) {
+    // A flexible coupling (two_mass): the resonance, not the delay, limits the loop.
+    sampled.resonance_hz = MotorResonanceHz(shaft);
+    sampled.resonance_limited_crossover_hz = ResonanceLimitedCrossover(loop, fc, pm);
+    if (request.notch == NotchMode::kOff) {
+      result.refused = true;
+      result.refusal = TwoMassRefusal(loop, sampled, fc, pm, nullptr);
+      return result;
+    }
+    SampledDrive bare = request.drive;
+    bare.notch = NotchFilter{};
+    const NotchDesign notch = DesignNotch(shaft, ResonanceVariants(input, shaft), bare, fc, pm);
+    if (!notch.ok) {
+      result.refused = true;
+      result.refusal = TwoMassRefusal(loop, sampled, fc, pm, &notch);
+      return result;
+    }
+    request.drive.notch = notch.notch;
+    loop = SampledRigidLoop(shaft, request.drive);
+    sampled.design = notch.design;
+    sampled.notch_designed = true;
+    sampled.notch_peak_ratio = notch.peak_ratio;
+    sampled.notch_worst_variant_margin_deg = notch.worst_variant_margin_deg;
+  }
+  sampled.notch = request.drive.notch;
   sampled.gains = sampled.design.gains;
   // The dc_servo fields the report shares: the tuned loop's gains and the plant at f_c.
   result.design.plant_gain = sampled.design.plant_gain;
@@ -545,31 +599,6 @@ TuneResult TuneSampled(const TuneInput& original, const TuneRequest& request) {
   }
   SampledMargins(loop, sampled.gains, false, fc, &sampled.speed, &sampled.speed_continuous);
   sampled.speed_poles = loop.Poles(sampled.gains, false);
-  const RigidPlant shaft = RigidAt(*config.model, config.parameters);
-  if (shaft.two_mass() &&
-      !(sampled.speed_poles.stable && sampled.speed.ok &&
-        std::abs(sampled.speed.phase_margin_deg) >= request.design.phase_margin_deg - 0.01)) {
-    // A flexible coupling (two_mass): the resonance, not the delay, limits the loop.
-    const double fr = shaft.anti_resonance_hz * std::sqrt(1.0 + shaft.inertia_ratio);
-    const double highest = ResonanceLimitedCrossover(loop, fc, request.design.phase_margin_deg);
-    result.refused = true;
-    result.refusal =
-        "the sampled speed loop placed at " + Text(fc) + " Hz on the two-mass shaft (resonance " +
-        Text(fr, 3) + " Hz) " +
-        (sampled.speed_poles.stable
-             ? "crosses 1 " + std::to_string(sampled.speed.gain_crossovers) +
-                   " time(s), at one of them " + Text(std::abs(sampled.speed.phase_margin_deg), 3) +
-                   " deg from -180 deg"
-             : std::string("is unstable")) +
-        ": the resonance limits the crossover; " +
-        (std::isfinite(highest)
-             ? "the highest crossover with " + Text(request.design.phase_margin_deg) +
-                   " deg from -180 deg at every crossing on the two-mass shaft is " +
-                   Text(highest, 4) + " Hz"
-             : std::string("no crossover within two decades below meets the request")) +
-        " (a notch filter at the resonance is not offered yet; docs/tuning.md §7.6)";
-    return result;
-  }
   if (!sampled.speed_poles.stable) {
     result.refused = true;
     result.refusal = "the sampled speed loop placed at " + Text(fc) +

@@ -10,6 +10,8 @@
 #include <utility>
 #include <vector>
 
+#include "blmd/sim/notch_filter.h"
+
 namespace blmd {
 
 // u(t) for the model input (dc_servo: armature voltage V; blmd: torque demand V;
@@ -115,6 +117,9 @@ struct PidSettings {
   double speed_Kp = 0.0;                                    // u·s/rad, position loop's inner PI
   double speed_Ki = 0.0;                                    // u/rad
   double u_min = std::numeric_limits<double>::quiet_NaN();  // NaN: -u_max
+  // A notch on the speed PI's output, the torque (force) command, before the limit
+  // (notch_filter.h); not active: none.
+  NotchFilter notch{};
   double LowerLimit() const { return std::isnan(u_min) ? -u_max : u_min; }
 };
 

@@ -10,22 +10,28 @@
 //  - position loop: a P of gain kp_position (1/s) on theta whose output is the speed
 //    reference of that PI, computed at the same sample (a cascade as drives run it):
 //    L_θ(z) = kp_position·T(z), T the closed speed loop from the speed reference to theta.
+// A notch N(z) on the torque command (SampledDrive::notch) is part of the plant the PI sees:
+// G_w(z) below is N(z) times the shaft's.
 #pragma once
 
 #include <complex>
 #include <limits>
+#include <memory>
 #include <string>
 
+#include "blmd/sim/notch_filter.h"
 #include "blmd/tune/loop.h"
 
 namespace blmd {
 
-// The drive's controller timing and current loop.
+// The drive's controller timing, current loop and the notch on its torque command (in the
+// loop between the PI and the plant, N(z) of notch_filter.h; not active: none).
 struct SampledDrive {
   double sample_rate_hz = 0.0;        // 1/Ts, > 0
   int delay_samples = 1;              // d: computation delay, samples
   double current_bandwidth_hz = 0.0;  // ω_b/2π; 0: an ideal current loop (no lag)
-  std::string Validate() const;       // "" when usable, else what is wrong (one line)
+  NotchFilter notch{};
+  std::string Validate() const;  // "" when usable, else what is wrong (one line)
 };
 
 // J (kg·m², kg), B (N·m·s/rad, N·s/m), Kt (torque or force per unit of u): the totals; with
@@ -69,10 +75,12 @@ class SampledRigidLoop {
   ClosedLoopPoles Poles(const CascadeGains& gains, bool position) const;
 
  private:
+  struct Discrete;  // the plant sampled once, for the speed and the position loop
   RigidPlant plant_;
   SampledDrive drive_;
   double ts_ = 0.0;
   bool lag_ = false;
+  std::shared_ptr<const Discrete> discrete_;
 };
 
 struct SampledDesignResult {

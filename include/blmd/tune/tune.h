@@ -55,6 +55,8 @@ TuneInput LoadTuneInput(const std::string& config_path, const std::string& repor
 // memory (JsonSource, io/config.h).
 TuneInput LoadTuneInput(const JsonSource& config, const JsonSource* report);
 
+enum class NotchMode { kAuto, kOff };
+
 struct TuneRequest {
   ControllerDesignOptions design;
   double u_max = 0.0;  // the drive's input limit (dc_servo: V), > 0
@@ -72,6 +74,11 @@ struct TuneRequest {
   bool sample_rate_assumed = false;  // drive.sample_rate_hz not given: 1/simulation.dt
   double position_crossover_hz = 0.0;
   double u_min = std::numeric_limits<double>::quiet_NaN();
+  // The notch on the torque command (docs/tuning.md §7.7). kAuto: the drive's own
+  // (drive.notch, from experiment.pid.notch) is kept; on a two-mass shaft whose resonance does
+  // not allow the request without one, a notch is designed at the resonance. kOff: none (the
+  // drive's own left out), a request the resonance does not allow is refused.
+  NotchMode notch = NotchMode::kAuto;
   double LowerLimit() const { return std::isnan(u_min) ? -u_max : u_min; }
   // "" when the request can be used, else what is wrong (one line).
   std::string Validate() const;
@@ -134,6 +141,18 @@ struct SampledTuning {
   LoopMargins speed, speed_continuous;        // the speed loop (the cascade's inner loop)
   LoopMargins position, position_continuous;  // the position loop (cascade only)
   ClosedLoopPoles speed_poles;                // z plane
+  // A two-mass shaft whose resonance does not allow the request without a notch: the
+  // resonance (Hz) and the highest crossover without one (resonance.h; NaN otherwise).
+  double resonance_hz = std::numeric_limits<double>::quiet_NaN();
+  double resonance_limited_crossover_hz = std::numeric_limits<double>::quiet_NaN();
+  // The notch the loop was tuned and checked with (not active: none): the drive's own, or
+  // designed here (notch_designed), its depth from the resonance's peak (notch_peak_ratio,
+  // before the limits of resonance.h) and the smallest margin it keeps on the plants at the
+  // ends of the resonance's range (deg).
+  NotchFilter notch{};
+  bool notch_designed = false;
+  double notch_peak_ratio = std::numeric_limits<double>::quiet_NaN();
+  double notch_worst_variant_margin_deg = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct TuneResult {

@@ -26,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include "blmd/sim/biquad.h"
 #include "blmd/sim/parameters.h"
 #include "blmd/sim/trace.h"
 
@@ -33,11 +34,6 @@ namespace blmd {
 
 struct FitTrace;
 struct IdentificationSettings;
-
-// One second-order section, y = (b0 + b1 z^-1 + b2 z^-2) / (1 + a1 z^-1 + a2 z^-2) x.
-struct Biquad {
-  double b0 = 1.0, b1 = 0.0, b2 = 0.0, a1 = 0.0, a2 = 0.0;
-};
 
 // Digital low-pass filters by the bilinear transform with a pre-warped cut-off, as cascades
 // of second-order sections (even orders). Butterworth: -3 dB at cutoff_hz. Chebyshev type
