@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 
+#include "blmd/constants.h"
 #include "blmd/sim/effects.h"
 #include "sim/dc_servo/dc_servo_steps.h"
 #include "sim/input_read.h"
@@ -24,8 +25,6 @@ ParamInfo P(const char* name, const char* unit, const char* meaning, double lo, 
   info.typical = typical;
   return info;
 }
-
-double Sign(double x) { return x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : 0.0); }
 
 // One step of the reference from x = [i, w, theta] under the voltage u_eff, the armature closed
 // or open (i = 0), with the shaft's effects (friction with sticking, drag, cogging at the
@@ -99,80 +98,23 @@ ModelTraits DcServoModel::traits() const {
 
 SimStatus DcServoModel::SimulateReference(const SimulationRequest& request, Trace* out) const {
   const ParameterSet& values = *request.parameters;
-  const Experiment& experiment = *request.experiment;
-  const std::vector<double>& times = *request.sample_times;
   const double dt = request.settings.dt;
   if (SimStatus status = CheckRequest(request); !status.ok()) return status;
 
   const double Kt = values.Get("Kt"), J = values.Get("J"), B = values.Get("B");
   const ShaftEffects shaft =
       ShaftEffects::From(values, *request.effects, request.settings.friction_smoothing_w);
+  if (shaft.two_mass()) return SimulateTwoMass(request, out);
   const DriveEffects drive = DriveEffects::From(values, *request.effects);
   const internal::DcServoDiscretisation discrete =
       internal::DcServoDiscretisation::From(values, dt);
-  const bool closed_loop = experiment.closed_loop;
-  const bool has_coast = experiment.coast_off_time >= 0.0;
-
-  std::vector<std::string> names = {"u", "i", "w", "theta"};
-  if (closed_loop) names.emplace_back("r");
-  internal::OutputSampler sampler(times, names);
-
-  InputCursor input(experiment.input);
-  const double t_start = times.front();
-  double i = experiment.initial.i, w = experiment.initial.w, theta = experiment.initial.theta;
-  internal::DcServoPid pid;
-  const bool speed_loop = experiment.pid.loop == PidSettings::Loop::kSpeed;
-  pid.derivative_state = speed_loop ? w : theta;
-  const double alpha = dt / (experiment.pid.tau_d + dt);
-
-  // The input over a step [t, t + dt) is read just after its midpoint (sim/input_read.h), so
-  // that an event on the step grid (a step's t0, a switching instant, an `open` sample,
-  // coast_off_time) takes effect at that grid point whatever the rounding of t = t_start + k dt;
-  // an event between grid points takes effect at the nearest one, one on a midpoint at the
-  // earlier one. The PID runs at t with the state at t.
-  auto control = [&](double t, double* reference) {
-    const double r = input.At(internal::InputReadTime(t, dt));
-    *reference = r;
-    return closed_loop ? pid.Control(experiment.pid, alpha, dt, r, speed_loop ? w : theta) : r;
-  };
-
-  double reference = 0.0;
-  double u = control(t_start, &reference);
-  std::array<double, 5> prev = {u, i + drive.i0, w, theta, reference};
-  sampler.Record(t_start, prev.data(), t_start, prev.data());
-  std::array<double, 5> now = prev;
-
   EffectAngle effect_angle(request.sample_times, request.settings.effect_angle);
-  for (long step = 0; !sampler.done(); ++step) {
-    // u: the voltage applied over [t, t_next), computed at t.
-    const double t = t_start + static_cast<double>(step) * dt;
-    const double t_next = t_start + static_cast<double>(step + 1) * dt;
-    const double t_mid = internal::InputReadTime(t, dt);
-    const bool open = (has_coast && t_mid >= experiment.coast_off_time) || input.OpenAt(t_mid);
-    const double effect_theta = effect_angle.At(t, theta);
-    ReferenceStep(discrete, shaft, Kt, J, B, dt, open, u - drive.Vdt * Sign(i), effect_theta, &i,
-                  &w, &theta);
-
-    // Recorded with the state at t_next: the voltage applied from t_next on, so that the u
-    // column of a closed-loop trace means what it means in open loop (the input from that
-    // instant on) and replays as a recorded input.
-    u = control(t_next, &reference);
-    now = {u, i + drive.i0, w, theta, reference};
-    if (!internal::AllFinite(now.data() + 1, 3, request.settings.divergence_limit)) {
-      return {SimStatus::Code::kDiverged,
-              internal::DivergedMessage(request.settings.divergence_limit), t_next};
-    }
-    sampler.Record(t, prev.data(), t_next, now.data());
-    prev = now;
-  }
-  sampler.Finish(out);
-  if (!closed_loop) {
-    auto& u_column = out->Column("u");
-    // (a cursor: the sample times increase, so each read continues where the last stopped)
-    InputCursor u_cursor(experiment.input);
-    for (std::size_t k = 0; k < times.size(); ++k) u_column[k] = u_cursor.At(times[k]);
-  }
-  return SimStatus::Ok();
+  auto advance = [&](double t, bool open, double u_eff, double* i, double* w, double* theta) {
+    ReferenceStep(discrete, shaft, Kt, J, B, dt, open, u_eff, effect_angle.At(t, *theta), i, w,
+                  theta);
+    return true;
+  };
+  return internal::RunDcServoSteps(request, drive, advance, out);
 }
 
 double DcServoModel::DriveTorqueScale(const ParameterSet& values, double i_max, double /*u_max*/,
@@ -193,6 +135,30 @@ LinearModel DcServoModel::Linearise(const ParameterSet& values) const {
   LinearModel model;
   model.available = true;
   model.input = "u (V)";
+  // A two-mass shaft (docs/effects.md) is linear: kept, as rigid_load keeps it, so that the
+  // transfer functions, the Bode plot, the exports and a tuned loop see its resonance.
+  if (values.Has("inertia_ratio") && values.Has("anti_resonance_hz")) {
+    const double r = values.Get("inertia_ratio"), wa = kTwoPi * values.Get("anti_resonance_hz");
+    const double Jm = J / (1.0 + r), Jl = J - Jm, K = Jl * wa * wa;
+    const double c = 2.0 * values.GetOr("shaft_damping_ratio", 0.0) * Jl * wa;
+    const double Bl = values.GetOr("load_damping_share", 0.0) * B, Bm = B - Bl;
+    model.assumption =
+        "the two-mass shaft kept; the other effects (friction, load, cogging, dead time, ...) "
+        "left out";
+    model.states = {"i", "w", "theta", "w_load", "twist"};
+    model.outputs = {"i", "w", "theta"};
+    model.A.resize(5, 5);
+    model.A << -R / L, -Kb / L, 0.0, 0.0, 0.0,          //
+        Kt / Jm, -(Bm + c) / Jm, 0.0, c / Jm, -K / Jm,  //
+        0.0, 1.0, 0.0, 0.0, 0.0,                        //
+        0.0, c / Jl, 0.0, -(c + Bl) / Jl, K / Jl,       //
+        0.0, 1.0, 0.0, -1.0, 0.0;
+    model.B.resize(5, 1);
+    model.B << 1.0 / L, 0.0, 0.0, 0.0, 0.0;
+    model.C = Eigen::MatrixXd::Identity(3, 5);
+    model.D = Eigen::MatrixXd::Zero(3, 1);
+    return model;
+  }
   model.assumption = "the effects (friction, load, cogging, dead time, ...) left out";
   model.states = {"i", "w", "theta"};
   model.outputs = model.states;

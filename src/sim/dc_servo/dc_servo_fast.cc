@@ -85,6 +85,9 @@ class MacroSteps {
 
 SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) const {
   if (internal::ForcedEffectAngle(request.settings)) return SimulateReference(request, out);
+  if (ShaftEffects::From(*request.parameters, *request.effects, 0.0).two_mass()) {
+    return SimulateReference(request, out);
+  }
   const ParameterSet& values = *request.parameters;
   const Experiment& experiment = *request.experiment;
   const std::vector<double>& times = *request.sample_times;

@@ -6,10 +6,17 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
+#include <string>
+#include <vector>
 
+#include "blmd/sim/effects.h"
 #include "blmd/sim/experiment.h"
+#include "blmd/sim/model.h"
 #include "blmd/sim/parameters.h"
 #include "sim/discretise.h"
+#include "sim/input_read.h"
+#include "sim/sampler.h"
 
 namespace blmd::internal {
 
@@ -70,5 +77,70 @@ struct DcServoPid {
     return std::clamp(u, -pid.u_max, pid.u_max);
   }
 };
+
+// The reference paths' step loop (the rigid shaft, dc_servo.cc, and the two-mass shaft,
+// dc_servo_two_mass.cc): `advance(t, open, u_eff, &i, &w, &theta)` moves the state over
+// [t, t + dt) under the voltage u_eff (the armature open when `open`) and returns false when a
+// state it keeps itself (the load's) diverged. The input over a step is read just after its
+// midpoint (sim/input_read.h), so that an event on the step grid (a step's t0, an `open`
+// sample, coast_off_time) takes effect at that grid point whatever the rounding of
+// t = t_start + k dt; an event between grid points takes effect at the nearest one, one on a
+// midpoint at the earlier one. The PID runs at t with the state at t. Each sample records the
+// state at t_next with the voltage applied from t_next on, so that the u column of a
+// closed-loop trace means what it means in open loop and replays as a recorded input; an
+// open-loop trace's u is the input at the sample times.
+template <typename Advance>
+SimStatus RunDcServoSteps(const SimulationRequest& request, const DriveEffects& drive,
+                          Advance advance, Trace* out) {
+  const Experiment& experiment = *request.experiment;
+  const std::vector<double>& times = *request.sample_times;
+  const double dt = request.settings.dt;
+  const bool closed_loop = experiment.closed_loop;
+  const bool has_coast = experiment.coast_off_time >= 0.0;
+  std::vector<std::string> names = {"u", "i", "w", "theta"};
+  if (closed_loop) names.emplace_back("r");
+  OutputSampler sampler(times, names);
+  InputCursor input(experiment.input);
+  const double t_start = times.front();
+  double i = experiment.initial.i, w = experiment.initial.w, theta = experiment.initial.theta;
+  DcServoPid pid;
+  const bool speed_loop = experiment.pid.loop == PidSettings::Loop::kSpeed;
+  pid.derivative_state = speed_loop ? w : theta;
+  const double alpha = dt / (experiment.pid.tau_d + dt);
+  auto control = [&](double t, double* reference) {
+    const double r = input.At(InputReadTime(t, dt));
+    *reference = r;
+    return closed_loop ? pid.Control(experiment.pid, alpha, dt, r, speed_loop ? w : theta) : r;
+  };
+  double reference = 0.0;
+  double u = control(t_start, &reference);
+  std::array<double, 5> prev = {u, i + drive.i0, w, theta, reference};
+  sampler.Record(t_start, prev.data(), t_start, prev.data());
+  std::array<double, 5> now = prev;
+  for (long step = 0; !sampler.done(); ++step) {
+    const double t = t_start + static_cast<double>(step) * dt;
+    const double t_next = t_start + static_cast<double>(step + 1) * dt;
+    const double t_mid = InputReadTime(t, dt);
+    const bool open = (has_coast && t_mid >= experiment.coast_off_time) || input.OpenAt(t_mid);
+    const double u_eff = u - drive.Vdt * (i > 0.0 ? 1.0 : (i < 0.0 ? -1.0 : 0.0));
+    const bool own_finite = advance(t, open, u_eff, &i, &w, &theta);
+    u = control(t_next, &reference);
+    now = {u, i + drive.i0, w, theta, reference};
+    if (!own_finite || !AllFinite(now.data() + 1, 3, request.settings.divergence_limit)) {
+      return {SimStatus::Code::kDiverged, DivergedMessage(request.settings.divergence_limit),
+              t_next};
+    }
+    sampler.Record(t, prev.data(), t_next, now.data());
+    prev = now;
+  }
+  sampler.Finish(out);
+  if (!closed_loop) {
+    auto& u_column = out->Column("u");
+    // (a cursor: the sample times increase, so each read continues where the last stopped)
+    InputCursor u_cursor(experiment.input);
+    for (std::size_t k = 0; k < times.size(); ++k) u_column[k] = u_cursor.At(times[k]);
+  }
+  return SimStatus::Ok();
+}
 
 }  // namespace blmd::internal

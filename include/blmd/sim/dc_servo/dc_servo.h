@@ -41,6 +41,11 @@ class DcServoModel final : public Model {
   // The reference path (src/sim/dc_servo/dc_servo.cc): the straightforward step loop with Eigen's
   // matrices, kept as the truth the fast path is tested against (tests/unit/fast_path_test.cc).
   SimStatus SimulateReference(const SimulationRequest& request, Trace* out) const;
+
+ private:
+  // A flexible coupling (two_mass): the five-state step (src/sim/dc_servo/dc_servo_two_mass.cc),
+  // which both paths take.
+  SimStatus SimulateTwoMass(const SimulationRequest& request, Trace* out) const;
 };
 
 }  // namespace blmd
