@@ -23,7 +23,7 @@ using json = nlohmann::json;
 // --limit NAME=VALUE: u (the input) or an output column of the model, VALUE > 0.
 void ParseLimits(const Config& config, const std::vector<std::string>& texts,
                  ExperimentDesignOptions* options, bool* has_input_limit) {
-  const std::vector<std::string> outputs = config.model->outputs();
+  const std::vector<std::string> outputs = config.model->OutputsWith(config.effects);
   std::vector<std::string> valid = {"u"};
   valid.insert(valid.end(), outputs.begin(), outputs.end());
   for (const auto& text : texts) {

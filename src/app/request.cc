@@ -21,12 +21,18 @@ namespace {
 void CheckObservedOutputs(const Config& config, const std::vector<std::string>& observe,
                           const char* separator) {
   if (config.identification.error == "equation") return;
-  const std::vector<std::string> outputs = config.model->outputs();
+  const std::vector<std::string> outputs = config.model->OutputsWith(config.effects);
   for (const auto& name : observe) {
     if (std::find(outputs.begin(), outputs.end(), name) == outputs.end()) {
+      // A column an effect adds (two_mass's load side) names the effect to declare.
+      std::string hint;
+      for (const EffectInfo& info : EffectRegistry()) {
+        if (std::find(info.outputs.begin(), info.outputs.end(), name) != info.outputs.end())
+          hint = "; it comes with the effect " + info.name;
+      }
       throw InputError("--observe: '" + name + "' is not an output of model " +
                        std::string(config.model->name()) + " (valid: " + Join(outputs, separator) +
-                       ")");
+                       ")" + hint);
     }
   }
 }

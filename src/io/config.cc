@@ -685,7 +685,7 @@ void ReadIdentification(const Reader& reader, const json& root, Config* out) {
     if (id.contains("noise_std")) {
       const json& noise = id["noise_std"];
       reader.RequireObject(noise, "/identification/noise_std");
-      const auto& outputs = config.model->outputs();
+      const std::vector<std::string> outputs = config.model->OutputsWith(config.effects);
       for (const auto& [column, value] : noise.items()) {
         const std::string pointer = "/identification/noise_std/" + column;
         std::vector<std::string> valid(outputs.begin(), outputs.end());

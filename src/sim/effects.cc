@@ -151,7 +151,8 @@ std::vector<EffectInfo> MakeRegistry() {
            const double r = p.Get("inertia_ratio"), wa = 2.0 * kPi * p.Get("anti_resonance_hz");
            return p.Get("J") * r / (1.0 + r) * wa * wa;
          }}},
-       /*hidden_states=*/true},
+       /*hidden_states=*/true,
+       /*outputs=*/{"w_load", "theta_load"}},
   };
   return effects;
 }

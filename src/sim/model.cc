@@ -5,9 +5,20 @@
 #include "blmd/error.h"
 #include "blmd/sim/blmd/blmd_drive.h"
 #include "blmd/sim/dc_servo/dc_servo.h"
+#include "blmd/sim/effects.h"
 #include "blmd/sim/rigid_load/rigid_load.h"
 
 namespace blmd {
+
+std::vector<std::string> Model::OutputsWith(const std::vector<std::string>& effects) const {
+  std::vector<std::string> out = outputs();
+  for (const std::string& name : effects) {
+    for (const EffectInfo& info : EffectRegistry()) {
+      if (info.name == name) out.insert(out.end(), info.outputs.begin(), info.outputs.end());
+    }
+  }
+  return out;
+}
 
 std::string Model::Validate(const ParameterSet& values, const SimulationSettings& settings) const {
   for (const auto& info : parameters()) {

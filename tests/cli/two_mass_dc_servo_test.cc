@@ -1,6 +1,5 @@
-// --discover on a DC servo with a flexible coupling (two_mass on dc_servo; docs/effects.md):
-// a record of the Ganesh servo's armature on a two-mass shaft (blmd-sim, PRBS voltage, 0.5 %
-// noise on the current and the speed), fitted from a rigid dc_servo config with J and B free.
+// Fits of flexible couplings (two_mass; docs/effects.md): --discover on a DC servo's record,
+// and the load side's encoder (w_load) used when a record has it.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -56,6 +55,73 @@ TEST(TwoMassDcServo, DiscoveryAddsTheCouplingAndFindsIt) {
   check("J", 2.26e-5, 0.01);
   check("anti_resonance_hz", 30.0, 0.02);
   check("inertia_ratio", 1.0, 0.10);
+}
+
+// A rigid_load two-mass record with a load-side encoder (blmd-sim writes w_load and
+// theta_load; 0.5 % noise on w and w_load), fitted with two_mass declared and every parameter
+// free from a start away from the truth: observing w and w_load, each 95 % interval is
+// narrower than with w alone (the load's column sees the shaft directly) and covers the
+// truth. Without two_mass, w_load is no output of the model: refused naming the valid ones.
+TEST(TwoMassLoadSide, TheLoadsEncoderNarrowsEveryInterval) {
+  TempDir dir;
+  const std::string truth = dir.Write("truth.json", R"({
+    "name": "two-mass", "model": "rigid_load",
+    "parameters": { "J": 2e-3, "B": 0.04, "Kt": 0.5 },
+    "effects": { "two_mass": { "inertia_ratio": 1.5, "anti_resonance_hz": 40,
+                               "shaft_damping_ratio": 0.05, "load_damping_share": 0.3 } },
+    "simulation": { "dt": 1e-4 },
+    "experiment": { "input": { "type": "prbs", "amplitude": 1.0, "clock": 0.0025, "order": 10,
+                               "seed": 3 },
+                    "duration": 2.5, "sample_rate": 2000 } })");
+  auto config = [&](const std::string& name, const std::string& observe) {
+    return dir.Write(name, R"({
+    "name": "fit", "model": "rigid_load",
+    "parameters": { "J": 1.5e-3, "B": 0.03, "Kt": 0.5 },
+    "effects": { "two_mass": { "inertia_ratio": 1.0, "anti_resonance_hz": 35,
+                               "shaft_damping_ratio": 0.05, "load_damping_share": 0.3 } },
+    "simulation": { "dt": 1e-4 },
+    "identification": { "free": ["J", "B", "inertia_ratio", "anti_resonance_hz",
+                                 "shaft_damping_ratio", "load_damping_share"],
+                        "observe": )" +
+                               observe + " } }");
+  };
+  const std::string trace = dir.File("trace.csv");
+  ASSERT_EQ(testing::Run(BinPath("blmd-sim") + " --config " + truth + " --out " + trace +
+                         " --noise w=0.5% --noise w_load=0.5% --seed 7")
+                .exit_code,
+            0);
+  auto fit = [&](const std::string& path, const std::string& report) {
+    const auto run = testing::Run(BinPath("blmd-ident") + " --config " + path + " --trace " +
+                                  trace + " --quiet --report " + dir.File(report));
+    EXPECT_EQ(run.exit_code, 0) << run.err;
+    return json::parse(testing::Slurp(dir.File(report)))["parameters"];
+  };
+  const json motor = fit(config("w.json", R"(["w"])"), "w.json.report");
+  const json both = fit(config("wl.json", R"(["w", "w_load"])"), "wl.json.report");
+  const std::pair<const char*, double> truths[] = {{"J", 2e-3},
+                                                   {"B", 0.04},
+                                                   {"inertia_ratio", 1.5},
+                                                   {"anti_resonance_hz", 40.0},
+                                                   {"shaft_damping_ratio", 0.05},
+                                                   {"load_damping_share", 0.3}};
+  for (const auto& [name, value] : truths) {
+    auto width = [&](const json& p) {
+      return p[name]["ci95"][1].get<double>() - p[name]["ci95"][0].get<double>();
+    };
+    EXPECT_LT(width(both), width(motor)) << name;
+    EXPECT_LE(both[name]["ci95"][0].get<double>(), value) << name;
+    EXPECT_GE(both[name]["ci95"][1].get<double>(), value) << name;
+  }
+  const std::string rigid = dir.Write("rigid.json", R"({
+    "name": "rigid", "model": "rigid_load", "parameters": { "J": 1e-3, "B": 0.02, "Kt": 0.5 },
+    "identification": { "free": ["J", "B"], "observe": ["w", "w_load"] } })");
+  const auto refused =
+      testing::Run(BinPath("blmd-ident") + " --config " + rigid + " --trace " + trace + " --quiet");
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_NE(refused.err.find("'w_load' is not an output of model rigid_load (valid: w,theta); it "
+                             "comes with the effect two_mass"),
+            std::string::npos)
+      << refused.err;
 }
 
 }  // namespace

@@ -156,7 +156,8 @@ TEST(RigidLoad, ReversalIsContinuousInTheParameters) {
 //   (Jm s + Bm + Z) Wm - Z Wl = T,   -Z Wm + (Jl s + Bl + Z) Wl = 0,
 //   Wm/T = (Jl s + Bl + Z) / ((Jm s + Bm + Z)(Jl s + Bl + Z) - Z^2),
 // the input read at each step's midpoint and held (no delay to first order). Checked below the
-// anti-resonance, near it (the notch), at the resonance fr = fa sqrt(1 + r) and above.
+// anti-resonance, near it (the notch), at the resonance fr = fa sqrt(1 + r) and above; the
+// load side's columns w_load and theta_load likewise.
 TEST(TwoMass, MotorSpeedFollowsTheTwoMassTransferFunction) {
   const double J = 2e-3, B = 0.04, Kt = 0.5, r = 1.5, fa = 40.0, zeta = 0.05, s = 0.3;
   const double dt = 1e-5, rate = 1e4, duration = 1.5;
@@ -197,6 +198,27 @@ TEST(TwoMass, MotorSpeedFollowsTheTwoMassTransferFunction) {
         (Jl * jw + Bl + Z) / ((Jm * jw + Bm + Z) * (Jl * jw + Bl + Z) - Z * Z);
     const std::complex<double> expected = Kt * G;
     EXPECT_LT(std::abs(measured - expected), 1e-3 * std::abs(expected)) << "at " << f << " Hz";
+    // The load side's columns (a second encoder): Wl = Z Wm / (Jl s + Bl + Z), and the twist
+    // theta - theta_load, (Wm - Wl)/(j w) (without the drift of the angles themselves).
+    const auto& wl = trace.Column("w_load");
+    const auto& thl = trace.Column("theta_load");
+    const auto& th = trace.Column("theta");
+    Eigen::Vector3d rhs_load = Eigen::Vector3d::Zero(), rhs_twist = Eigen::Vector3d::Zero();
+    for (std::size_t k = 0; k < t.size(); ++k) {
+      if (t[k] < duration - 0.5) continue;
+      const Eigen::Vector3d x(std::sin(2.0 * kPi * f * t[k]), std::cos(2.0 * kPi * f * t[k]), 1.0);
+      rhs_load += x * wl[k];
+      rhs_twist += x * (th[k] - thl[k]);
+    }
+    const Eigen::Vector3d b = normal.ldlt().solve(rhs_load), d = normal.ldlt().solve(rhs_twist);
+    const std::complex<double> expected_load = expected * Z / (Jl * jw + Bl + Z);
+    const std::complex<double> expected_twist = (expected - expected_load) / jw;
+    EXPECT_LT(std::abs(std::complex<double>(b(0), b(1)) - expected_load),
+              1e-3 * std::abs(expected_load))
+        << "w_load at " << f << " Hz";
+    EXPECT_LT(std::abs(std::complex<double>(d(0), d(1)) - expected_twist),
+              1e-3 * std::abs(expected_twist))
+        << "twist at " << f << " Hz";
   }
 }
 

@@ -82,6 +82,9 @@ struct EffectInfo {
   // the shaft's twist): a part of the record cut from the middle starts them wrong, so the
   // adequacy check's comparison of the record's parts leaves its parameters out.
   bool hidden_states = false;
+  // Columns it adds to the model's outputs (two_mass: the load's speed and angle, what a
+  // second, load-side encoder measures), written by the simulation and observable in a fit.
+  std::vector<std::string> outputs{};
 };
 
 // Every effect, sorted by name. The one place that knows them all.

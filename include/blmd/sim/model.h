@@ -76,6 +76,8 @@ class Model {
   virtual const std::vector<ParamInfo>& parameters() const = 0;
   // Output columns written besides "t" and "u", e.g. {"i", "w", "theta"}.
   virtual std::vector<std::string> outputs() const = 0;
+  // outputs() and the columns the `effects` add (EffectInfo::outputs: two_mass's load side).
+  std::vector<std::string> OutputsWith(const std::vector<std::string>& effects) const;
   virtual SimulationSettings default_settings() const = 0;
   virtual ModelTraits traits() const = 0;
   // Returns an error message for values the model cannot run with (empty: fine).

@@ -300,7 +300,7 @@ DesignProblem MakeDesignProblem(const Config& config) {
   problem.config.experiment.coast_off_time = -1.0;
   problem.observe = config.identification.observe.empty() ? config.model->traits().default_observe
                                                           : config.identification.observe;
-  const auto outputs = config.model->outputs();
+  const auto outputs = config.model->OutputsWith(config.effects);
   for (const auto& column : problem.observe) {
     if (std::find(outputs.begin(), outputs.end(), column) == outputs.end()) {
       throw InputError(config.path + ": observed column '" + column + "' is not an output of " +

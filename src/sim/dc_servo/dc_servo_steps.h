@@ -88,10 +88,12 @@ struct DcServoPid {
 // midpoint at the earlier one. The PID runs at t with the state at t. Each sample records the
 // state at t_next with the voltage applied from t_next on, so that the u column of a
 // closed-loop trace means what it means in open loop and replays as a recorded input; an
-// open-loop trace's u is the input at the sample times.
+// open-loop trace's u is the input at the sample times. `load` (two_mass): the load's speed
+// and angle, which `advance` keeps current, written as the columns w_load and theta_load.
 template <typename Advance>
 SimStatus RunDcServoSteps(const SimulationRequest& request, const DriveEffects& drive,
-                          Advance advance, Trace* out) {
+                          Advance advance, Trace* out,
+                          const std::array<double, 2>* load = nullptr) {
   const Experiment& experiment = *request.experiment;
   const std::vector<double>& times = *request.sample_times;
   const double dt = request.settings.dt;
@@ -99,6 +101,7 @@ SimStatus RunDcServoSteps(const SimulationRequest& request, const DriveEffects& 
   const bool has_coast = experiment.coast_off_time >= 0.0;
   std::vector<std::string> names = {"u", "i", "w", "theta"};
   if (closed_loop) names.emplace_back("r");
+  if (load) names.insert(names.end(), {"w_load", "theta_load"});
   OutputSampler sampler(times, names);
   InputCursor input(experiment.input);
   const double t_start = times.front();
@@ -114,9 +117,19 @@ SimStatus RunDcServoSteps(const SimulationRequest& request, const DriveEffects& 
   };
   double reference = 0.0;
   double u = control(t_start, &reference);
-  std::array<double, 5> prev = {u, i + drive.i0, w, theta, reference};
+  // The recorded row: u, i, w, theta, then r (closed loop) and the load's columns.
+  auto row = [&]() {
+    std::array<double, 7> values = {u, i + drive.i0, w, theta, reference, 0.0, 0.0};
+    if (load) {
+      const std::size_t at = closed_loop ? 5 : 4;
+      values[at] = (*load)[0];
+      values[at + 1] = (*load)[1];
+    }
+    return values;
+  };
+  std::array<double, 7> prev = row();
   sampler.Record(t_start, prev.data(), t_start, prev.data());
-  std::array<double, 5> now = prev;
+  std::array<double, 7> now = prev;
   for (long step = 0; !sampler.done(); ++step) {
     const double t = t_start + static_cast<double>(step) * dt;
     const double t_next = t_start + static_cast<double>(step + 1) * dt;
@@ -125,7 +138,7 @@ SimStatus RunDcServoSteps(const SimulationRequest& request, const DriveEffects& 
     const double u_eff = u - drive.Vdt * (i > 0.0 ? 1.0 : (i < 0.0 ? -1.0 : 0.0));
     const bool own_finite = advance(t, open, u_eff, &i, &w, &theta);
     u = control(t_next, &reference);
-    now = {u, i + drive.i0, w, theta, reference};
+    now = row();
     if (!own_finite || !AllFinite(now.data() + 1, 3, request.settings.divergence_limit)) {
       return {SimStatus::Code::kDiverged, DivergedMessage(request.settings.divergence_limit),
               t_next};

@@ -75,6 +75,8 @@ SimStatus DcServoModel::SimulateTwoMass(const SimulationRequest& request, Trace*
 
   const double limit = request.settings.divergence_limit;
   double w_load = experiment.initial.w, twist = 0.0;  // the load with the motor, untwisted
+  // Its speed and angle, theta - twist, written beside the motor's (a load-side encoder).
+  std::array<double, 2> load_side = {w_load, experiment.initial.theta};
   EffectAngle effect_angle(request.sample_times, request.settings.effect_angle);
   auto advance = [&](double t, bool open, double u_eff, double* i, double* w, double* theta) {
     const double positional = shaft.NonFrictionTorque(effect_angle.At(t, *theta));
@@ -107,10 +109,11 @@ SimStatus DcServoModel::SimulateTwoMass(const SimulationRequest& request, Trace*
       w_load = x(3);
       twist = x(4);
     }
+    load_side = {w_load, *theta - twist};
     const std::array<double, 2> load = {w_load, twist};
     return internal::AllFinite(load.data(), 2, limit);
   };
-  return internal::RunDcServoSteps(request, drive, advance, out);
+  return internal::RunDcServoSteps(request, drive, advance, out, &load_side);
 }
 
 }  // namespace blmd

@@ -69,25 +69,32 @@ namespace {
 // take effect there whatever the rounding of t, as in dc_servo) and `advance(t, u, &w, &theta)`
 // moves the shaft, returning false when a state (its own hidden ones too) leaves the divergence
 // limit; the samples are interpolated between steps and the u column is the input at each
-// sample.
+// sample. `load` (two_mass): the load's speed and angle, which `advance` keeps current, written
+// as the columns w_load and theta_load.
 template <typename Advance>
 SimStatus StepOpenLoop(const SimulationRequest& request, double w, double theta, Advance advance,
-                       Trace* out) {
+                       Trace* out, const std::array<double, 2>* load = nullptr) {
   const Experiment& experiment = *request.experiment;
   const std::vector<double>& times = *request.sample_times;
   const double dt = request.settings.dt;
-  internal::OutputSampler sampler(times, {"u", "w", "theta"});
+  std::vector<std::string> names = {"u", "w", "theta"};
+  if (load) names.insert(names.end(), {"w_load", "theta_load"});
+  internal::OutputSampler sampler(times, names);
   InputCursor input(experiment.input);
   const double t_start = times.front();
-  std::array<double, 3> prev = {input.At(internal::InputReadTime(t_start, dt)), w, theta};
+  auto row = [&](double u) {
+    return load ? std::array<double, 5>{u, w, theta, (*load)[0], (*load)[1]}
+                : std::array<double, 5>{u, w, theta, 0.0, 0.0};
+  };
+  std::array<double, 5> prev = row(input.At(internal::InputReadTime(t_start, dt)));
   sampler.Record(t_start, prev.data(), t_start, prev.data());
-  std::array<double, 3> now = prev;
+  std::array<double, 5> now = prev;
   for (long step = 0; !sampler.done(); ++step) {
     const double t = t_start + static_cast<double>(step) * dt;
     const double t_next = t_start + static_cast<double>(step + 1) * dt;
     const double u = input.At(internal::InputReadTime(t, dt));
     const bool finite = advance(t, u, &w, &theta);
-    now = {input.At(internal::InputReadTime(t_next, dt)), w, theta};
+    now = row(input.At(internal::InputReadTime(t_next, dt)));
     if (!finite || !internal::AllFinite(now.data() + 1, 2, request.settings.divergence_limit)) {
       return {SimStatus::Code::kDiverged,
               internal::DivergedMessage(request.settings.divergence_limit), t_next};
@@ -135,8 +142,10 @@ SimStatus SimulateTwoMass(const SimulationRequest& request, const ShaftEffects& 
   Eigen::Matrix<double, 2, 1> none = Eigen::Matrix<double, 2, 1>::Zero(), unused;
   internal::Discretise<2, 1>(A_held, none, dt, &Ad_held, &unused);
 
-  // The load starts with the motor, the shaft untwisted.
+  // The load starts with the motor, the shaft untwisted; its speed and angle, theta - delta,
+  // are written beside the motor's (a load-side encoder).
   Eigen::Vector4d x(experiment.initial.w, experiment.initial.theta, experiment.initial.w, 0.0);
+  std::array<double, 2> load_side = {x(2), x(1) - x(3)};
   EffectAngle effect_angle(request.sample_times, request.settings.effect_angle);
   const double limit = request.settings.divergence_limit;
   auto advance = [&](double t, double u, double* w, double* theta) {
@@ -156,9 +165,10 @@ SimStatus SimulateTwoMass(const SimulationRequest& request, const ShaftEffects& 
     }
     *w = x(0);
     *theta = x(1);
+    load_side = {x(2), x(1) - x(3)};
     return internal::AllFinite(x.data(), 4, limit);
   };
-  return StepOpenLoop(request, x(0), x(1), advance, out);
+  return StepOpenLoop(request, x(0), x(1), advance, out, &load_side);
 }
 
 }  // namespace
@@ -236,7 +246,9 @@ SimStatus RigidLoadModel::SimulateClosedLoop(const SimulationRequest& request, T
     held = (A_held * dt).exp();
   }
 
-  internal::OutputSampler sampler(times, {"u", "w", "theta", "r"});
+  std::vector<std::string> names = {"u", "w", "theta", "r"};
+  if (flexible) names.insert(names.end(), {"w_load", "theta_load"});  // a load-side encoder
+  internal::OutputSampler sampler(times, names);
   InputCursor input(experiment.input);
   internal::DigitalCascade controller(pid, Ts);
   const double t_start = times.front();
@@ -244,9 +256,9 @@ SimStatus RigidLoadModel::SimulateClosedLoop(const SimulationRequest& request, T
   double w_load = w, twist = 0.0;  // a two-mass shaft's load starts with the motor, untwisted
   double reference = input.At(internal::InputReadTime(t_start, dt));
   double u = controller.Tick(reference, w, theta);
-  std::array<double, 4> prev = {u, w, theta, reference};
+  std::array<double, 6> prev = {u, w, theta, reference, w_load, theta - twist};
   sampler.Record(t_start, prev.data(), t_start, prev.data());
-  std::array<double, 4> now = prev;
+  std::array<double, 6> now = prev;
   EffectAngle effect_angle(request.sample_times, request.settings.effect_angle);
   for (long step = 0; !sampler.done(); ++step) {
     const double t = t_start + static_cast<double>(step) * dt;
@@ -289,7 +301,7 @@ SimStatus RigidLoadModel::SimulateClosedLoop(const SimulationRequest& request, T
       reference = input.At(internal::InputReadTime(t_next, dt));
       u = controller.Tick(reference, w, theta);
     }
-    now = {u, w, theta, reference};
+    now = {u, w, theta, reference, w_load, theta - twist};
     const std::array<double, 2> load = {w_load, twist};
     if (!internal::AllFinite(now.data() + 1, 2, request.settings.divergence_limit) ||
         !internal::AllFinite(load.data(), 2, request.settings.divergence_limit)) {
