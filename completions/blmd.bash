@@ -20,9 +20,9 @@ _blmd_methods="ceres classic fsd powell"
 _blmd_effects="asymmetric_viscous cogging coulomb_friction current_offset dead_time gravity load_torque quadratic_drag spring stribeck two_mass"
 _blmd_columns="i ib ic theta u w"
 
-_blmd_ident_flags="--baseline --baseline-dir --batch --bic-margin --candidates --column --config --decimate --delimiter --derive --discover --drift-alpha --duplicate-time --error --export-matlab --fail-above-nrmse --fail-on-warning --filter-hz --free --help --html --init-config --initial --initial-state --json --max-effects --max-evaluations --method --min-share --new-baselines --no-header --no-progress --noise-std --observe --option --out --progress --quiet --report --resample --sample-rate --scale --seed --select --split --threads --trace --validate --verbose --version --weighting --write-config"
+_blmd_ident_flags="--baseline --baseline-dir --batch --bic-margin --candidates --column --config --decimate --delimiter --derive --discover --drift-alpha --duplicate-time --error --export-matlab --fail-above-nrmse --fail-on-warning --filter-hz --free --help --html --init-config --initial --initial-state --json --max-effects --max-evaluations --method --min-share --new-baselines --no-header --no-progress --noise-std --observe --option --out --progress --quiet --report --resample --sample-rate --scale --seed --select --simulate-from --split --threads --trace --validate --verbose --version --weighting --write-config"
 _blmd_sim_flags="--config --delimiter --duplicate-time --effect --help --init-config --input --no-header --noise --out --quiet --sample-rate --seed --version"
-_blmd_surface_flags="--column --config --decimate --delimiter --derive --duplicate-time --error --filter-hz --force --grid --help --initial-state --json --no-header --observe --out --quiet --resample --sample-rate --scale --select --shard --split --svg --threads --trace --version"
+_blmd_surface_flags="--column --config --decimate --delimiter --derive --duplicate-time --error --filter-hz --force --grid --help --initial-state --json --no-header --observe --out --quiet --resample --sample-rate --scale --select --shard --simulate-from --split --svg --threads --trace --version"
 _blmd_tune_flags="--config --crossover --current-bandwidth --delay --duration --fail-on-warning --filter-ratio --from-report --help --integral-ratio --json --limit --loop --notch --phase-margin --position-crossover --quiet --report --sample-rate --step --threads --version --write-config"
 _blmd_design_flags="--column --config --delimiter --derive --duplicate-time --duration --fail-on-warning --family --from-report --help --initial-state --json --limit --no-header --noise --quiet --report --resample --sample-rate --scale --select --split --target --threads --trace --version --write-config --write-input"
 _blmd_surface_merge_flags="--help --out"
@@ -129,6 +129,7 @@ _blmd_complete() {
     --family) _blmd_words "all chirp prbs square steps" "$cur" ;;
     --derive) _blmd_words "w=theta" "$cur" ;;
     --error) _blmd_words "output equation" "$cur" ;;
+    --simulate-from) _blmd_words "command reference" "$cur" ;;
     --weighting) _blmd_words "noise variance" "$cur" ;;
     --initial-state) _blmd_words "config trace" "$cur" ;;
     --delimiter) _blmd_words ", ; tab" "$cur" ;;

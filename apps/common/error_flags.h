@@ -22,6 +22,11 @@ struct ErrorFlags : ErrorSettings {
     app.add_option("--decimate", decimate,
                    "equation error: keep every N-th sample after an anti-alias filter")
         ->check(CLI::Range(1, 1000));
+    app.add_option("--simulate-from", simulate_from,
+                   "command|reference: what drives the simulation, the trace's u replayed open "
+                   "loop or its reference r through the config's experiment.pid (default: "
+                   "config, else command)")
+        ->check(CLI::IsMember({"command", "reference"}));
   }
 };
 

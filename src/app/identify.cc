@@ -15,6 +15,7 @@
 #include "blmd/io/csv.h"
 #include "blmd/report/export.h"
 #include "blmd/report/report.h"
+#include "blmd/run.h"
 
 namespace blmd {
 namespace {
@@ -92,6 +93,40 @@ CutoffChoice ChooseEquationCutoff(IdentRequest* request, const Optimizer& optimi
   DecideCutoff(&choice);
   ident.filter_hz = choice.chosen_hz;
   return choice;
+}
+
+}  // namespace
+
+namespace {
+
+// A fit from the reference whose loop reaches the drive's limit (docs/identification.md §9b):
+// the measurement noise the real loop fed back is clipped there, which the simulated loop (fed
+// back the model's own noise-free motion) does not reproduce, and the damping comes out
+// biased. The share of samples at which the final model's simulated command sits on a limit;
+// a message when it exceeds 1 %, "" otherwise.
+std::string SaturatedLoop(const FitProblem& problem, const IdentOutcome& outcome) {
+  const PidSettings& pid = outcome.final_config.experiment.pid;
+  std::size_t at_limit = 0, total = 0;
+  for (const FitTrace& part : problem.traces()) {
+    Config loop = outcome.final_config;
+    loop.parameters = outcome.final_parameters;
+    loop.experiment.initial = part.initial;
+    Trace simulated;
+    if (!RunRecordedInput(loop, part.input, &simulated).ok() || !simulated.Has("u")) continue;
+    for (const double u : simulated.Column("u")) {
+      at_limit += u >= pid.u_max * (1.0 - 1e-9) || u <= pid.LowerLimit() * (1.0 - 1e-9);
+      ++total;
+    }
+  }
+  if (total == 0 || static_cast<double>(at_limit) <= 0.01 * static_cast<double>(total)) return "";
+  return "the drive's loop sits on its limit on " +
+         FormatSignificant(100.0 * static_cast<double>(at_limit) / static_cast<double>(total), 3) +
+         " % of the samples: there the real loop clipped the measurement noise it fed back, which "
+         "a fit from the reference does not simulate, and B comes out biased (measured: 12 "
+         "standard errors on records that reach the limit); fit from the logged command "
+         "(--simulate-from command) where the record has one, or from a record that stays within "
+         "the "
+         "limit";
 }
 
 }  // namespace
@@ -224,11 +259,21 @@ IdentOutcome Identify(IdentRequest request) {
     plain.min_share = 0.005;
     report.adequacy = CheckResidualStructure(problem, outcome.first_fit.values, plain);
   }
-  if (problem.config().experiment.closed_loop) {
+  std::string saturated;  // a fit from the reference whose loop sits on its limit
+  if (problem.config().identification.simulate_from == "reference") {
+    saturated = SaturatedLoop(problem, outcome);
+    report.notes.push_back(
+        "identified from the reference: the fit simulates the drive's loop (experiment.pid) "
+        "from each trace's r with the model inside it (the indirect approach), so the "
+        "controller must be the drive's as written: the loop sees its gain over J, and a "
+        "wrong gain moves J with it; a wrong rate, delay or limit shows in the residual");
+  } else if (problem.config().experiment.closed_loop) {
     report.notes.push_back(
         "the config's experiment is a closed loop (experiment.pid): the fit replays each trace's "
         "recorded u open loop, so the loop's gains play no part (this is right when u is what "
-        "the drive applied; it is not the loop's reference)");
+        "the drive applied; it is not the loop's reference; --simulate-from reference fits from "
+        "the "
+        "loop's reference r instead)");
   }
   const ResidualAnalysis* left =
       report.final_model.residual.analysis ? &*report.final_model.residual.analysis : nullptr;
@@ -281,6 +326,7 @@ IdentOutcome Identify(IdentRequest request) {
   report.units_hints = CheckUnits(problem, outcome.first_fit.values);
   if (cutoff.ran) report.cutoff = cutoff;
   AddWarnings(&report);
+  if (!saturated.empty()) report.warnings.push_back({"reference_saturated", saturated});
   outcome.report = std::move(report);
   return outcome;
 }

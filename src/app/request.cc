@@ -10,6 +10,7 @@
 #include "blmd/io/csv.h"
 #include "blmd/io/files.h"
 #include "blmd/random.h"
+#include "blmd/run.h"
 #include "blmd/sim/effects.h"
 #include "io/flags.h"
 
@@ -22,6 +23,14 @@ void CheckObservedOutputs(const Config& config, const std::vector<std::string>& 
                           const char* separator) {
   if (config.identification.error == "equation") return;
   const std::vector<std::string> outputs = config.model->OutputsWith(config.effects);
+  if (config.identification.simulate_from == "reference" &&
+      std::find(observe.begin(), observe.end(), "u") != observe.end()) {
+    // The joint approach (the command observed beside the response) is not calibrated yet.
+    throw InputError(
+        "--observe u: a fit from the reference compares the response only (the command "
+        "observed too, the joint approach, is not supported yet); fit from the logged command "
+        "with --simulate-from command to use it");
+  }
   for (const auto& name : observe) {
     if (std::find(outputs.begin(), outputs.end(), name) == outputs.end()) {
       // A column an effect adds (two_mass's load side) names the effect to declare.
@@ -103,7 +112,7 @@ std::vector<std::string> DialectSettings::Names() const {
 }
 
 TraceInputOptions TraceSettings::Options(const std::vector<std::string>& observe,
-                                         bool equation_error) const {
+                                         bool equation_error, bool reference) const {
   TraceInputOptions options;
   options.delimiter = Delimiter();
   options.duplicate_time = Duplicates();
@@ -129,6 +138,7 @@ TraceInputOptions TraceSettings::Options(const std::vector<std::string>& observe
     options.derive.emplace_back(target, source);
   }
   if (!equation_error) options.required = observe;
+  if (reference) options.input = "r";
   options.initial_from_trace = initial_state == "trace";
   for (const auto& text : selects) options.select.push_back(ParseRowSelection(text));
   options.split = split;
@@ -166,7 +176,26 @@ std::vector<std::string> ErrorSettings::Apply(Config* config,
   if (!kind.empty()) ident.error = kind;
   if (filter_hz > 0.0) ident.filter_hz = filter_hz;
   if (decimate > 0) ident.decimate = decimate;
+  if (!simulate_from.empty()) {
+    if (simulate_from != "command" && simulate_from != "reference") {
+      throw InputError("--simulate-from: '" + InputError::Excerpt(simulate_from) +
+                       "' is not one of: command, reference");
+    }
+    ident.simulate_from = simulate_from;
+  }
   const bool equation = ident.error == "equation";
+  if (ident.simulate_from == "reference") {
+    if (!config->experiment.closed_loop) {
+      throw InputError(
+          "--simulate-from reference simulates the drive's loop from the trace's reference r: the "
+          "config needs its controller (experiment.pid)");
+    }
+    if (equation) {
+      throw InputError(
+          "--simulate-from reference needs the output error (the equation error compares "
+          "the recorded command)");
+    }
+  }
   if (!equation && (filter_hz > 0.0 || decimate > 0)) {
     throw InputError(std::string(filter_hz > 0.0 ? "--filter-hz" : "--decimate") +
                      " applies to the equation error only (--error equation)");
@@ -193,6 +222,29 @@ std::vector<FitTrace> LoadTraceSource(const TraceSource& source, const TraceInpu
   return PrepareFitTraces(*source.data, source.path, Sha256Hex(FormatTraceCsv(*source.data)),
                           options, default_initial);
 }
+
+namespace {
+
+// A record fitted from its reference that does not log the drive's command gets, as its u,
+// the command the config's loop computes around the model at the start values: what the
+// analyses that read the input (the input-residual test, discovery's torque scale, the
+// transient view) then see. The fit itself compares the observed columns only.
+void CommandFromTheLoop(const Config& config, FitTrace* part) {
+  if (part->trace.Has("u")) return;
+  Config loop = config;
+  loop.experiment.initial = part->initial;
+  Trace simulated;
+  const SimStatus status = RunRecordedInput(loop, part->input, &simulated);
+  if (!status.ok() || simulated.rows() != part->trace.rows()) {
+    throw InputError(part->path +
+                     ": the drive's loop cannot be simulated from its reference at "
+                     "the start values (" +
+                     status.message + ")");
+  }
+  part->trace.Set("u", simulated.Column("u"));
+}
+
+}  // namespace
 
 IdentRequest MakeIdentRequest(Config config_in, const std::string& config_path,
                               const IdentSettings& settings) {
@@ -225,8 +277,8 @@ IdentRequest MakeIdentRequest(Config config_in, const std::string& config_path,
     }
   }
   request.free = MakeFreeParameters(config, free_names);
-  const TraceInputOptions input_options =
-      settings.preparation.Options(request.observe, equation_error);
+  const TraceInputOptions input_options = settings.preparation.Options(
+      request.observe, equation_error, config.identification.simulate_from == "reference");
 
   OptimizerOptions& options = request.options;
   options.method_options = config.identification.method == request.method
@@ -249,6 +301,11 @@ IdentRequest MakeIdentRequest(Config config_in, const std::string& config_path,
   for (const auto& source : settings.validation) {
     for (auto& part : LoadTraceSource(source, input_options, config.experiment.initial)) {
       request.validation.push_back(std::move(part));
+    }
+  }
+  if (config.identification.simulate_from == "reference") {
+    for (auto* traces : {&request.traces, &request.validation}) {
+      for (FitTrace& part : *traces) CommandFromTheLoop(config, &part);
     }
   }
   options.seed = settings.seed;
@@ -330,9 +387,11 @@ SweepRequest MakeSweepRequest(Config config, const SweepSettings& settings) {
   CheckObservedOutputs(request.config, request.observe, ", ");
   const bool equation_error = request.config.identification.error == "equation";
   request.rows_line = settings.preparation.RowsLine();
-  request.traces =
-      LoadTraceSource(settings.trace, settings.preparation.Options(request.observe, equation_error),
-                      request.config.experiment.initial);
+  request.traces = LoadTraceSource(
+      settings.trace,
+      settings.preparation.Options(request.observe, equation_error,
+                                   request.config.identification.simulate_from == "reference"),
+      request.config.experiment.initial);
   // The sweep's size before it starts: a typo in N must not ask for gigabytes.
   std::size_t points = 1;
   for (const auto& axis : request.axes) points *= static_cast<std::size_t>(axis.count);

@@ -50,7 +50,9 @@ struct TraceSettings : DialectSettings {
 
   // The options of LoadFitTraces: every trace must have the observed columns (with the
   // output error; the equation error needs u and the motion, which it checks itself).
-  TraceInputOptions Options(const std::vector<std::string>& observe, bool equation_error) const;
+  // `reference`: the trace's r drives the simulation (identification.simulate_from "reference").
+  TraceInputOptions Options(const std::vector<std::string>& observe, bool equation_error,
+                            bool reference = false) const;
   // The rows as flags (" --select t=60: --split run --resample auto"): what selects, merges
   // or resamples them, recorded in a surface CSV so that merge tells sweeps of different
   // rows apart; "" when every row is used as recorded.
@@ -62,6 +64,8 @@ struct ErrorSettings {
   std::string kind;        // "", "output" or "equation"; "" keeps the config's
   double filter_hz = 0.0;  // 0 keeps the config's
   int decimate = 0;        // 0 keeps the config's
+  std::string
+      simulate_from;  // "", "command" or "reference" (identification.simulate_from); "" keeps it
 
   // Writes the settings into the config and returns the observed columns: `observe_text`
   // parsed (else the config's), `u` for the equation error. Throws InputError for a filter

@@ -12,6 +12,7 @@
 #include "blmd/io/csv.h"
 #include "blmd/io/files.h"
 #include "blmd/sim/effects.h"
+#include "io/config_pid.h"
 #include "io/json_reader.h"
 
 namespace blmd {
@@ -435,72 +436,6 @@ void CheckInputAgainstSamples(const Reader& reader, Experiment* experiment) {
   }
 }
 
-// The drive's notch on its torque command (experiment.pid.notch, notch_filter.h), checked
-// against the controller's sample rate.
-void ReadNotch(const Reader& reader, const json& node, PidSettings* out) {
-  const std::string pointer = "/experiment/pid/notch";
-  reader.RequireObject(node, pointer);
-  reader.CheckKeys(node, pointer, {"frequency", "width", "depth"});
-  for (const char* key : {"frequency", "width", "depth"}) {
-    if (!node.contains(key)) {
-      reader.Fail(pointer, std::string("the notch needs '") + key +
-                               "' (frequency and width in "
-                               "Hz, depth its gain at the centre, 0 to < 1)");
-    }
-  }
-  NotchFilter& notch = out->notch;
-  notch.frequency = reader.Positive(node["frequency"], pointer + "/frequency");
-  notch.width = reader.Positive(node["width"], pointer + "/width");
-  notch.depth = reader.Number(node["depth"], pointer + "/depth");
-  if (!(notch.depth >= 0.0 && notch.depth < 1.0)) {
-    reader.Fail(pointer + "/depth", "the notch depth (its gain at the centre) must be in [0, 1)");
-  }
-  if (!(notch.frequency < 0.5 * out->sample_rate)) {
-    reader.Fail(pointer + "/frequency",
-                NotchFilter{notch.frequency, 1.0, 0.0}.Validate(out->sample_rate));
-  }
-}
-
-// rigid_load's digital loop (PidSettings): the inner speed PI, the lower limit, the
-// controller's sample rate (a whole number of simulation steps), delay and current loop.
-void ReadSampledPid(const Reader& reader, const json& pid, double dt, PidSettings* out) {
-  auto get = [&](const char* key, double* field) {
-    if (pid.contains(key)) *field = reader.Number(pid[key], std::string("/experiment/pid/") + key);
-  };
-  get("speed_Kp", &out->speed_Kp);
-  get("speed_Ki", &out->speed_Ki);
-  get("u_min", &out->u_min);
-  if (!(out->LowerLimit() < out->u_max)) {
-    reader.Fail("/experiment/pid/u_min", "u_min must be below u_max");
-  }
-  out->sample_rate = 1.0 / dt;
-  if (pid.contains("sample_rate")) {
-    out->sample_rate = reader.Positive(pid["sample_rate"], "/experiment/pid/sample_rate");
-    const double steps = 1.0 / (out->sample_rate * dt);
-    if (steps < 1.0 - 1e-9 || std::abs(steps - std::round(steps)) > 1e-6 * steps) {
-      reader.Fail("/experiment/pid/sample_rate",
-                  "the controller's period must be a whole number of simulation steps (dt = " +
-                      DisplayNumber(dt) + " s)");
-    }
-  }
-  if (pid.contains("delay")) {
-    const double delay = reader.Number(pid["delay"], "/experiment/pid/delay");
-    if (!(delay >= 0.0 && delay <= 100.0 && delay == std::floor(delay))) {
-      reader.Fail("/experiment/pid/delay", "delay must be a whole number of samples, 0 to 100");
-    }
-    out->delay = static_cast<int>(delay);
-  }
-  if (pid.contains("notch")) ReadNotch(reader, pid["notch"], out);
-  if (pid.contains("current_bandwidth")) {
-    out->current_bandwidth =
-        reader.Number(pid["current_bandwidth"], "/experiment/pid/current_bandwidth");
-    if (!(out->current_bandwidth >= 0.0) || !std::isfinite(out->current_bandwidth)) {
-      reader.Fail("/experiment/pid/current_bandwidth",
-                  "current_bandwidth must be >= 0 Hz (0: an ideal current loop)");
-    }
-  }
-}
-
 // The experiment (input, duration, sample rate, coast-down, PID, initial state), and whether
 // it can be run at this step.
 void ReadExperiment(const Reader& reader, const json& root, Config* out) {
@@ -628,9 +563,10 @@ void ReadIdentification(const Reader& reader, const json& root, Config* out) {
   if (root.contains("identification")) {
     const json& id = root["identification"];
     reader.RequireObject(id, "/identification");
-    reader.CheckKeys(id, "/identification",
-                     {"free", "initial", "bounds", "observe", "method", "options", "error",
-                      "filter_hz", "decimate", "weighting", "noise_std", "effect_angle"});
+    reader.CheckKeys(
+        id, "/identification",
+        {"free", "initial", "bounds", "observe", "method", "options", "error", "filter_hz",
+         "decimate", "weighting", "noise_std", "effect_angle", "simulate_from"});
     if (id.contains("free")) ident.free = reader.Strings(id["free"], "/identification/free");
     if (id.contains("observe")) {
       ident.observe = reader.Strings(id["observe"], "/identification/observe");
@@ -680,6 +616,19 @@ void ReadIdentification(const Reader& reader, const json& root, Config* out) {
         reader.Fail("/identification/effect_angle", "effect_angle '" +
                                                         InputError::Excerpt(ident.effect_angle) +
                                                         "' is not one of: measured, simulated");
+      }
+    }
+    if (id.contains("simulate_from")) {
+      ident.simulate_from = reader.String(id["simulate_from"], "/identification/simulate_from");
+      if (ident.simulate_from != "command" && ident.simulate_from != "reference") {
+        reader.Fail("/identification/simulate_from", "simulate_from '" +
+                                                         InputError::Excerpt(ident.simulate_from) +
+                                                         "' is not one of: command, reference");
+      }
+      if (ident.simulate_from == "reference" && !config.experiment.closed_loop) {
+        reader.Fail("/identification/simulate_from",
+                    "identification from the reference simulates the drive's loop: the config "
+                    "needs its controller (experiment.pid)");
       }
     }
     if (id.contains("noise_std")) {

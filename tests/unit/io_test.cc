@@ -552,12 +552,12 @@ TEST(ConfigErrors, UnknownKeysSuggestTheNearest) {
       ConfigError(Base("\"free\"", "\"fre\"")),
       "config.json:12:5: unknown key 'fre' in 'identification' (did you mean 'free'?); "
       "valid keys: free, initial, bounds, observe, method, options, error, filter_hz, decimate, "
-      "weighting, noise_std, effect_angle");
+      "weighting, noise_std, effect_angle, simulate_from");
   // Nothing close: no suggestion.
   EXPECT_EQ(ConfigError(Base("\"free\"", "\"zzzzzz\"")),
             "config.json:12:5: unknown key 'zzzzzz' in 'identification'; valid keys: free, "
             "initial, bounds, observe, method, options, error, filter_hz, decimate, weighting, "
-            "noise_std, effect_angle");
+            "noise_std, effect_angle, simulate_from");
 }
 
 TEST(ConfigErrors, MissingOrUnknownModel) {

@@ -45,6 +45,10 @@ struct IdentificationSettings {
   // score do not hinge on where a simulated shaft settles in a detent) or "simulated" (the
   // free-running model's own angle: the fit then follows where the simulated shaft settles).
   std::string effect_angle = "measured";
+  // What drives the simulation of a fit (docs/identification.md §9b): "command" (the trace's u
+  // replayed open loop: the direct approach) or "reference" (the trace's r through the drive's
+  // controller, experiment.pid, closed around the model: the indirect approach).
+  std::string simulate_from = "command";
 };
 
 struct Config {

@@ -23,7 +23,8 @@ FitProblem::FitProblem(Config config, std::vector<FitTrace> traces,
     Experiment experiment = config_.experiment;
     experiment.input = fit_trace.input;
     experiment.initial = fit_trace.initial;
-    experiment.closed_loop = false;  // a recorded u is replayed open loop
+    // A recorded u is replayed open loop; a recorded reference drives the config's closed loop.
+    experiment.closed_loop = config_.identification.simulate_from == "reference";
     experiment.coast_off_time = -1.0;
     experiments_.push_back(std::move(experiment));
   }

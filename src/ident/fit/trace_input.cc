@@ -105,7 +105,7 @@ std::vector<std::string> UsedHeaders(const TraceInputOptions& options) {
     const auto mapped = options.columns.find(name);
     return mapped == options.columns.end() ? name : mapped->second;
   };
-  std::vector<std::string> used = {"t", "u", "open"};
+  std::vector<std::string> used = {"t", options.input, "open"};
   used.insert(used.end(), options.required.begin(), options.required.end());
   for (const auto& [target, source] : options.derive) used.push_back(source);
   for (const auto& selection : options.select) used.push_back(selection.column);
@@ -212,7 +212,7 @@ void MapAndScaleColumns(Trace& trace, const std::string& path, const TraceInputO
 // t, u, the sources of --derive and the columns of --select and --split must exist.
 void CheckNamedColumns(const Trace& trace, const std::string& path,
                        const TraceInputOptions& options) {
-  std::vector<std::string> required = {"t", "u"};
+  std::vector<std::string> required = {"t", options.input};
   for (const auto& [target, source] : options.derive) required.push_back(source);
   for (const auto& name : required) {
     if (!trace.Has(name)) {
@@ -573,7 +573,7 @@ std::vector<FitTrace> PrepareFitTraces(Trace trace, const std::string& path,
       }
       CheckFitColumns(resampled, file, by_rows);
       const InitialState initial = InitialStateOf(part, options, default_initial);
-      FitTrace fit = RecordedFitTrace(std::move(part), initial, resampled.name);
+      FitTrace fit = RecordedFitTrace(std::move(part), initial, resampled.name, options.input);
       fit.sha256 = sha256;
       experiments.push_back(std::move(fit));
     }
@@ -581,12 +581,13 @@ std::vector<FitTrace> PrepareFitTraces(Trace trace, const std::string& path,
   return experiments;
 }
 
-FitTrace RecordedFitTrace(Trace trace, const InitialState& initial, const std::string& path) {
+FitTrace RecordedFitTrace(Trace trace, const InitialState& initial, const std::string& path,
+                          const std::string& input) {
   FitTrace fit;
   fit.path = path;
   fit.input.kind = InputSignal::Kind::kRecorded;
   fit.input.times = trace.Column("t");
-  fit.input.values = trace.Column("u");
+  fit.input.values = trace.Column(input);
   if (trace.Has("open")) fit.input.open = trace.Column("open");
   fit.initial = initial;
   fit.trace = std::move(trace);

@@ -32,7 +32,11 @@ struct TraceInputOptions {
   std::map<std::string, std::string> columns;  // standard name -> header in the file
   std::map<std::string, double> scales;        // standard name -> factor (after mapping)
   std::vector<std::pair<std::string, std::string>> derive;  // {"w", "theta"}: w = d theta/dt
-  std::vector<std::string> required;  // standard columns needed besides t and u
+  std::vector<std::string> required;  // standard columns needed besides t and the input
+  // The column the simulation is driven by: "u" (the drive's command, replayed open loop) or
+  // "r" (the loop's reference, identification from the reference: the config's controller
+  // closes the loop; docs/identification.md §9b).
+  std::string input = "u";
   bool initial_from_trace = false;  // initial w, theta (and i) from each experiment's first sample
   // Rows kept: those matching every selection (all rows when empty). The kept rows of one
   // experiment must be one unbroken block of the file.
@@ -82,10 +86,11 @@ std::vector<FitTrace> PrepareFitTraces(Trace trace, const std::string& path,
 FitTrace LoadFitTrace(const std::string& path, const TraceInputOptions& options,
                       const InitialState& default_initial);
 
-// A trace in memory as one experiment: its `u` column (and `open`, when present) is the
-// recorded input, held between samples; `initial` is the state at its first sample.
+// A trace in memory as one experiment: its `input` column (u, or the reference r) and `open`,
+// when present, are the recorded input, held between samples; `initial` is the state at its
+// first sample.
 FitTrace RecordedFitTrace(Trace trace, const InitialState& initial,
-                          const std::string& path = "generated");
+                          const std::string& path = "generated", const std::string& input = "u");
 
 // d theta/dt on a possibly irregular grid: central difference (t_{k+1} - t_{k-1}) inside,
 // one-sided at the ends (second-order accurate for smooth signals).

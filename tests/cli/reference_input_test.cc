@@ -1,0 +1,135 @@
+// Identification from the reference (identification.simulate_from "reference", --simulate-from
+// reference; docs/identification.md §9b): a closed-loop record of a rigid_load speed loop
+// (blmd-sim: a digital PI at 1 kHz with one sample of delay, a square speed reference within the
+// drive's limit, 1 % noise on the measured speed), fitted with the drive's controller in the
+// config.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+
+#include "support/test_support.h"
+
+namespace blmd {
+namespace {
+
+using nlohmann::json;
+using testing::BinPath;
+using testing::TempDir;
+
+std::string Loop(double kp, double u_max = 50) {
+  std::ostringstream text;
+  text << R"({ "name": "loop", "model": "rigid_load",
+    "parameters": { "J": 1e-3, "B": 0.02, "Kt": 0.5 },
+    "simulation": { "dt": 1e-4 },
+    "experiment": { "input": { "type": "square", "amplitude": 20, "period": 0.5 },
+                    "duration": 3, "sample_rate": 1000,
+                    "pid": { "loop": "speed", "Kp": )"
+       << kp << R"(, "Ki": 6, "u_max": )" << u_max << R"(, "sample_rate": 1000, "delay": 1 } },
+    "identification": { "free": ["J", "B"], "observe": ["w"] } })";
+  return text.str();
+}
+
+// The trace's t, r and w only (no command logged): J and B within 1 %, the summary's note
+// saying the fit ran from the reference; a loop that reaches its limit is warned about. The
+// command observed too, no controller, or no r column: refused in one line (exit 2).
+TEST(ReferenceInput, FitsTheLoopFromTheReferenceWithoutTheCommand) {
+  TempDir dir;
+  std::string truth_text = Loop(0.3);
+  truth_text.replace(truth_text.find(R"("J": 1e-3, "B": 0.02)"), 20, R"("J": 2e-3, "B": 0.04)");
+  const std::string truth = dir.Write("truth.json", truth_text);
+  const std::string full = dir.File("full.csv");
+  ASSERT_EQ(testing::Run(BinPath("blmd-sim") + " --config " + truth + " --out " + full +
+                         " --noise w=1% --seed 3")
+                .exit_code,
+            0);
+  // The same record without u: what a PLC logs (set-point and response).
+  std::ifstream in(full);
+  std::ofstream out(dir.File("logged.csv"));
+  std::string line;
+  bool header = true;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::stringstream fields(line);
+    std::string t, u, w, theta, r;
+    std::getline(fields, t, ',');
+    std::getline(fields, u, ',');
+    std::getline(fields, w, ',');
+    std::getline(fields, theta, ',');
+    std::getline(fields, r, ',');
+    if (header) {
+      ASSERT_EQ(t + u + w + theta + r, "tuwthetar");
+    }
+    out << t << "," << r << "," << w << "\n";
+    header = false;
+  }
+  out.close();
+  const std::string config = dir.Write("fit.json", Loop(0.3));
+  const std::string report = dir.File("report.json");
+  const auto run =
+      testing::Run(BinPath("blmd-ident") + " --config " + config + " --trace " +
+                   dir.File("logged.csv") + " --simulate-from reference --report " + report);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("note: identified from the reference"), std::string::npos) << run.out;
+  EXPECT_EQ(run.out.find("reference_saturated"), std::string::npos) << run.out;
+  const json p = json::parse(testing::Slurp(report))["parameters"];
+  // Within 1 % and within 4 standard errors (the study tests/studies/reference_input.py
+  // measures the intervals' coverage over many records).
+  for (const auto& [name, value] : {std::pair<const char*, double>{"J", 2e-3}, {"B", 0.04}}) {
+    EXPECT_NEAR(p[name]["value"].get<double>(), value, 0.01 * value) << name;
+    EXPECT_NEAR(p[name]["value"].get<double>(), value, 4.0 * p[name]["std"].get<double>()) << name;
+  }
+  // The command observed too (the joint approach) is refused, naming the direct fit.
+  const auto joint = testing::Run(BinPath("blmd-ident") + " --config " + config + " --trace " +
+                                  full + " --simulate-from reference --observe w,u");
+  EXPECT_EQ(joint.exit_code, 2) << joint.err;
+  EXPECT_NE(joint.err.find("fit from the logged command with --simulate-from command"),
+            std::string::npos)
+      << joint.err;
+  // The same loop with a limit of 5 N·m, which the steps reach: the warning says the fit from
+  // the reference is biased there and names the fix.
+  const std::string limited_truth = dir.Write("limited-truth.json", [&] {
+    std::string text = Loop(0.3, 5);
+    text.replace(text.find(R"("J": 1e-3, "B": 0.02)"), 20, R"("J": 2e-3, "B": 0.04)");
+    return text;
+  }());
+  ASSERT_EQ(testing::Run(BinPath("blmd-sim") + " --config " + limited_truth + " --out " +
+                         dir.File("limited.csv") + " --noise w=1% --seed 3")
+                .exit_code,
+            0);
+  const auto limited =
+      testing::Run(BinPath("blmd-ident") + " --config " + dir.Write("limited.json", Loop(0.3, 5)) +
+                   " --trace " + dir.File("limited.csv") + " --simulate-from reference");
+  ASSERT_EQ(limited.exit_code, 0) << limited.err;
+  EXPECT_NE(limited.out.find("warning [reference_saturated]: the drive's loop sits on its limit"),
+            std::string::npos)
+      << limited.out;
+  EXPECT_NE(limited.out.find("fit from the logged command (--simulate-from command)"),
+            std::string::npos)
+      << limited.out;
+  // No controller: refused.
+  std::string open_text = Loop(0.3);
+  const auto pid = open_text.find(R"(,
+                    "pid")");
+  ASSERT_NE(pid, std::string::npos);
+  open_text.erase(pid, open_text.find('}', pid) + 1 - pid);
+  const std::string open = dir.Write("open.json", open_text);
+  const auto no_pid = testing::Run(BinPath("blmd-ident") + " --config " + open + " --trace " +
+                                   dir.File("logged.csv") + " --simulate-from reference");
+  EXPECT_EQ(no_pid.exit_code, 2) << no_pid.err;
+  EXPECT_NE(no_pid.err.find("the config needs its controller (experiment.pid)"), std::string::npos)
+      << no_pid.err;
+  // No reference column: refused naming it.
+  std::ofstream no_r(dir.File("no-r.csv"));
+  no_r << "t,u,w\n0,0,0\n0.001,0,0\n0.002,0,0\n0.003,0,0\n";
+  no_r.close();
+  const auto missing = testing::Run(BinPath("blmd-ident") + " --config " + config + " --trace " +
+                                    dir.File("no-r.csv") + " --simulate-from reference");
+  EXPECT_EQ(missing.exit_code, 2) << missing.err;
+  EXPECT_NE(missing.err.find("missing required column 'r'"), std::string::npos) << missing.err;
+}
+
+}  // namespace
+}  // namespace blmd
