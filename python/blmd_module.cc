@@ -661,7 +661,8 @@ PYBIND11_MODULE(_blmd, m) {
       .def(py::init<>())
       .def_readwrite("kind", &blmd::ErrorSettings::kind)
       .def_readwrite("filter_hz", &blmd::ErrorSettings::filter_hz)
-      .def_readwrite("decimate", &blmd::ErrorSettings::decimate);
+      .def_readwrite("decimate", &blmd::ErrorSettings::decimate)
+      .def_readwrite("simulate_from", &blmd::ErrorSettings::simulate_from);
   py::class_<blmd::IdentSettings>(m, "IdentSettings")
       .def(py::init<>())
       .def_readwrite("method", &blmd::IdentSettings::method)

@@ -309,8 +309,9 @@ def _delimiter(value):
     return _choice(value, "--delimiter", [",", ";", "tab"])
 
 
-def _error_settings(settings, error, filter_hz, decimate):
+def _error_settings(settings, error, filter_hz, decimate, simulate_from=None):
     settings.kind = _choice(error, "--error", ["output", "equation"])
+    settings.simulate_from = _choice(simulate_from, "--simulate-from", ["command", "reference"])
     if filter_hz is not None:
         settings.filter_hz = _positive(filter_hz, "--filter-hz")
     if decimate is not None:
@@ -475,7 +476,7 @@ def simulate(config, input=None, noise=None, seed=1, *, effects=None, delimiter=
 def identify(config, traces, method=None, discover=False, candidates=None, observe=None,
              validate=None, seed=1, threads=0, *, free=None, initial=None, max_evaluations=0,
              bic_margin=10.0, min_share=0.1, max_effects=3, error=None, filter_hz=None, decimate=None,
-             columns=None, scales=None, derive=None, select=None, split=None,
+             simulate_from=None, columns=None, scales=None, derive=None, select=None, split=None,
              initial_state="config", delimiter=None, duplicate_time=None, resample=None,
              verbose=False, baseline=None, bounds=None, **options):
     """Identifies the free parameters, as blmd-ident; returns an IdentifyResult, which is its
@@ -515,7 +516,7 @@ def identify(config, traces, method=None, discover=False, candidates=None, obser
     settings.min_share = _share(min_share, "--min-share")
     settings.max_effects = _whole(max_effects, "--max-effects", 1, 20)
     settings.verbose = bool(verbose)
-    _error_settings(settings.error, error, filter_hz, decimate)
+    _error_settings(settings.error, error, filter_hz, decimate, simulate_from)
     _trace_settings(settings.preparation, columns, scales, derive, select, split, initial_state,
                     delimiter, duplicate_time, resample)
     text, converged, termination, final = _blmd.identify(
@@ -536,7 +537,7 @@ def _grid_text(name, spec):
 
 @_in_python_terms
 def surface(config, traces, grid, observe=None, threads=0, *, force=False, error=None,
-            filter_hz=None, decimate=None, columns=None, scales=None, derive=None,
+            filter_hz=None, decimate=None, simulate_from=None, columns=None, scales=None, derive=None,
             select=None, split=None, initial_state="config", delimiter=None,
             duplicate_time=None, resample=None):
     """The cost over a 1-D or 2-D grid of parameters, as blmd-surface.
@@ -562,7 +563,7 @@ def surface(config, traces, grid, observe=None, threads=0, *, force=False, error
     settings.observe = _names_text(observe)
     settings.threads = _threads(threads)
     settings.force = bool(force)
-    _error_settings(settings.error, error, filter_hz, decimate)
+    _error_settings(settings.error, error, filter_hz, decimate, simulate_from)
     _trace_settings(settings.preparation, columns, scales, derive, select, split, initial_state,
                     delimiter, duplicate_time, resample)
     raw = _blmd.surface(_config_arg(config), settings, trace_args[0])

@@ -175,6 +175,30 @@ TWO_MASS = {
     "experiment": {"input": {"type": "step", "amplitude": 1}, "duration": 1}}
 
 
+def test_identify_from_the_reference_equals_blmd_ident(tmp_path):
+    """simulate_from= is --simulate-from: a closed-loop record fitted from its reference r."""
+    truth = dict(TWO_MASS, name="loop", effects={})
+    truth["simulation"] = {"dt": 1e-4}
+    truth["experiment"] = {"input": {"type": "square", "amplitude": 20, "period": 0.5},
+                           "duration": 2, "sample_rate": 1000,
+                           "pid": {"loop": "speed", "Kp": 0.3, "Ki": 6, "u_max": 50,
+                                   "sample_rate": 1000, "delay": 1}}
+    truth["identification"] = {"free": ["J", "B"], "observe": ["w"]}
+    config = tmp_path / "loop.json"
+    config.write_text(json.dumps(truth))
+    trace = tmp_path / "loop.csv"
+    run_command("blmd-sim", "--config", config, "--out", trace, "--noise", "w=1%", "--seed", 3,
+                "--quiet")
+    out = tmp_path / "ident.json"
+    run_command("blmd-ident", "--config", config, "--trace", trace, "--simulate-from",
+                "reference", "--report", out, "--quiet")
+    fitted = blmd.identify(config, trace, simulate_from="reference")
+    assert_same_report(fitted, load_json(out), ignore=VOLATILE_PATHS)
+    assert any("identified from the reference" in n for n in fitted["notes"])
+    with pytest.raises(blmd.InputError, match=r"^simulate_from: sometimes not in"):
+        blmd.identify(config, trace, simulate_from="sometimes")
+
+
 def test_tune_notch_equals_blmd_tune(tmp_path):
     """notch= is --notch: the notch designed at the resonance (auto) and the refusal (off)."""
     config = tmp_path / "two-mass.json"
