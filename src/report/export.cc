@@ -121,6 +121,12 @@ json ModelConfigJson(const Config& config, const ParameterSet& values,
     ident["noise_std"] = settings.noise_std;
   }
   ident["effect_angle"] = settings.effect_angle;
+  // A fit from the reference refits from the reference (identification.md §9b).
+  if (settings.simulate_from == "reference") {
+    ident["simulate_from"] = settings.simulate_from;
+  } else {
+    ident.erase("simulate_from");
+  }
   // Provenance and the intervals, as a comment.
   json intervals = json::object();
   for (const auto& [name, p] : report.final_model.parameters) {

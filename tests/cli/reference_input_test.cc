@@ -68,10 +68,13 @@ TEST(ReferenceInput, FitsTheLoopFromTheReferenceWithoutTheCommand) {
   out.close();
   const std::string config = dir.Write("fit.json", Loop(0.3));
   const std::string report = dir.File("report.json");
-  const auto run =
-      testing::Run(BinPath("blmd-ident") + " --config " + config + " --trace " +
-                   dir.File("logged.csv") + " --simulate-from reference --report " + report);
+  const auto run = testing::Run(BinPath("blmd-ident") + " --config " + config + " --trace " +
+                                dir.File("logged.csv") + " --simulate-from reference --report " +
+                                report + " --write-config " + dir.File("refit.json"));
   ASSERT_EQ(run.exit_code, 0) << run.err;
+  // The written config refits from the reference too.
+  EXPECT_EQ(json::parse(testing::Slurp(dir.File("refit.json")))["identification"]["simulate_from"],
+            "reference");
   EXPECT_NE(run.out.find("note: identified from the reference"), std::string::npos) << run.out;
   EXPECT_EQ(run.out.find("reference_saturated"), std::string::npos) << run.out;
   const json p = json::parse(testing::Slurp(report))["parameters"];
