@@ -52,7 +52,8 @@ struct NotchDesign {
   // The smallest distance of L from −1 (deg, over every crossing) on the variants with the
   // chosen notch; −inf when one of them is unstable, NaN without variants.
   double worst_variant_margin_deg = std::numeric_limits<double>::quiet_NaN();
-  // Not ok: the highest crossover any of the widths allows (NaN: none within two decades).
+  // Not ok: the highest crossover any of the widths allows, `notch` the one that allows it
+  // (NaN: none within two decades below the request).
   double highest_crossover_hz = std::numeric_limits<double>::quiet_NaN();
 };
 inline constexpr double kMinNotchDepth = 0.01, kMaxNotchDepth = 0.5;
