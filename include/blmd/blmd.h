@@ -66,6 +66,7 @@
 #include "blmd/sim/parameters.h"
 #include "blmd/sim/rigid_load/rigid_load.h"
 #include "blmd/sim/trace.h"
+#include "blmd/sim/two_mass.h"
 #include "blmd/tune/controller_design.h"
 #include "blmd/tune/loop.h"
 #include "blmd/tune/resonance.h"

@@ -603,28 +603,16 @@ void ReadIdentification(const Reader& reader, const json& root, Config* out) {
       ident.filter_hz = reader.Positive(id["filter_hz"], "/identification/filter_hz");
     }
     if (id.contains("weighting")) {
-      ident.weighting = reader.String(id["weighting"], "/identification/weighting");
-      if (ident.weighting != "noise" && ident.weighting != "variance") {
-        reader.Fail("/identification/weighting", "weighting '" +
-                                                     InputError::Excerpt(ident.weighting) +
-                                                     "' is not one of: noise, variance");
-      }
+      ident.weighting = reader.Choice(id["weighting"], "/identification/weighting", "weighting",
+                                      {"noise", "variance"});
     }
     if (id.contains("effect_angle")) {
-      ident.effect_angle = reader.String(id["effect_angle"], "/identification/effect_angle");
-      if (ident.effect_angle != "measured" && ident.effect_angle != "simulated") {
-        reader.Fail("/identification/effect_angle", "effect_angle '" +
-                                                        InputError::Excerpt(ident.effect_angle) +
-                                                        "' is not one of: measured, simulated");
-      }
+      ident.effect_angle = reader.Choice(id["effect_angle"], "/identification/effect_angle",
+                                         "effect_angle", {"measured", "simulated"});
     }
     if (id.contains("simulate_from")) {
-      ident.simulate_from = reader.String(id["simulate_from"], "/identification/simulate_from");
-      if (ident.simulate_from != "command" && ident.simulate_from != "reference") {
-        reader.Fail("/identification/simulate_from", "simulate_from '" +
-                                                         InputError::Excerpt(ident.simulate_from) +
-                                                         "' is not one of: command, reference");
-      }
+      ident.simulate_from = reader.Choice(id["simulate_from"], "/identification/simulate_from",
+                                          "simulate_from", {"command", "reference"});
       if (ident.simulate_from == "reference" && !config.experiment.closed_loop) {
         reader.Fail("/identification/simulate_from",
                     "identification from the reference simulates the drive's loop: the config "

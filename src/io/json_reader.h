@@ -375,6 +375,18 @@ class Reader {
     return value.get<std::string>();
   }
 
+  // A string that must be one of `valid`: "NAME 'VALUE' is not one of: a, b" otherwise.
+  std::string Choice(const json& value, const std::string& pointer, const std::string& name,
+                     const std::vector<std::string>& valid) const {
+    std::string text = String(value, pointer);
+    if (std::find(valid.begin(), valid.end(), text) == valid.end()) {
+      std::string list;
+      for (const auto& v : valid) list += (list.empty() ? "" : ", ") + v;
+      Fail(pointer, name + " '" + InputError::Excerpt(text) + "' is not one of: " + list);
+    }
+    return text;
+  }
+
   std::vector<double> Numbers(const json& value, const std::string& pointer) const {
     if (!value.is_array()) {
       Fail(pointer, "'" + Label(pointer) + "' must be an array of numbers, not " + TypeName(value));

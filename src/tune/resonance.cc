@@ -40,11 +40,16 @@ double WorstCrossingMarginDeg(const SampledRigidLoop& loop, const CascadeGains& 
   return margins.ok ? std::abs(margins.phase_margin_deg) : -std::numeric_limits<double>::infinity();
 }
 
-bool MeetsAtEveryCrossing(const SampledRigidLoop& loop, double crossover_hz,
-                          double phase_margin_deg) {
-  const SampledDesignResult design = DesignSampledSpeedPi(loop, crossover_hz, phase_margin_deg);
+bool MeetsAtEveryCrossing(const SampledRigidLoop& loop, const SampledDesignResult& design,
+                          double crossover_hz, double phase_margin_deg) {
   return design.ok &&
          WorstCrossingMarginDeg(loop, design.gains, crossover_hz) >= phase_margin_deg - 0.01;
+}
+
+bool MeetsAtEveryCrossing(const SampledRigidLoop& loop, double crossover_hz,
+                          double phase_margin_deg) {
+  return MeetsAtEveryCrossing(loop, DesignSampledSpeedPi(loop, crossover_hz, phase_margin_deg),
+                              crossover_hz, phase_margin_deg);
 }
 
 double ResonanceLimitedCrossover(const SampledRigidLoop& loop, double from_hz,
@@ -97,8 +102,7 @@ NotchDesign DesignNotch(const RigidPlant& nominal, const std::vector<RigidPlant>
     if (!filtered.Validate().empty()) continue;
     const SampledRigidLoop loop(nominal, filtered);
     const SampledDesignResult design = DesignSampledSpeedPi(loop, crossover_hz, phase_margin_deg);
-    if (!design.ok ||
-        WorstCrossingMarginDeg(loop, design.gains, crossover_hz) < phase_margin_deg - 0.01) {
+    if (!MeetsAtEveryCrossing(loop, design, crossover_hz, phase_margin_deg)) {
       failed.push_back(filtered);
       continue;
     }

@@ -37,25 +37,15 @@ DiscretePlant Discretise(const RigidPlant& p, double wb, bool lag, bool position
   const int n = 1 + (position ? 1 : 0) + (flexible ? 2 : 0) + (lag ? 1 : 0);
   const int ua = n - 1;
   // The inertia the drive torque accelerates directly: the motor's on a two-mass shaft.
-  double Jm = p.J, Bm = p.B;
+  double Jm = p.J;
   Eigen::MatrixXd augmented = Eigen::MatrixXd::Zero(n + 1, n + 1);
   if (flexible) {
     const int wl = position ? 2 : 1, twist = wl + 1;
-    const double r = p.inertia_ratio, wa = kTwoPi * p.anti_resonance_hz;
-    Jm = p.J / (1.0 + r);
-    const double Jl = p.J - Jm, K = Jl * wa * wa, c = 2.0 * p.shaft_damping_ratio * Jl * wa;
-    const double Bl = p.load_damping_share * p.B;
-    Bm = p.B - Bl;
-    augmented(0, 0) = -(Bm + c) / Jm;
-    augmented(0, wl) = c / Jm;
-    augmented(0, twist) = -K / Jm;
-    augmented(wl, 0) = c / Jl;
-    augmented(wl, wl) = -(c + Bl) / Jl;
-    augmented(wl, twist) = K / Jl;
-    augmented(twist, 0) = 1.0;
-    augmented(twist, wl) = -1.0;
+    const TwoMassSides sides = p.Sides();
+    Jm = sides.Jm;
+    sides.SetRows(0, wl, twist, &augmented);
   } else {
-    augmented(0, 0) = -Bm / Jm;
+    augmented(0, 0) = -p.B / Jm;
   }
   if (position) augmented(1, 0) = 1.0;
   if (lag) {
@@ -255,10 +245,7 @@ Complex SampledRigidLoop::ContinuousSpeedLoopAt(const CascadeGains& g, double om
   Complex plant = plant_.Kt / (plant_.J * s + plant_.B);
   if (plant_.two_mass()) {
     // Wm/T = (Jl s + Bl + Z) / ((Jm s + Bm + Z)(Jl s + Bl + Z) - Z^2), Z = K/s + c.
-    const double r = plant_.inertia_ratio, wa = kTwoPi * plant_.anti_resonance_hz;
-    const double Jm = plant_.J / (1.0 + r), Jl = plant_.J - Jm, K = Jl * wa * wa;
-    const double c = 2.0 * plant_.shaft_damping_ratio * Jl * wa;
-    const double Bl = plant_.load_damping_share * plant_.B, Bm = plant_.B - Bl;
+    const auto [Jm, Jl, K, c, Bm, Bl] = plant_.Sides();
     const Complex Z = K / s + c;
     plant = plant_.Kt * (Jl * s + Bl + Z) / ((Jm * s + Bm + Z) * (Jl * s + Bl + Z) - Z * Z);
   }

@@ -216,6 +216,20 @@ void AddToWorst(const LoopCheck& check, int corner, WorstCase* worst) {
   }
 }
 
+// The parameters at corner `corner` of the 95 % box (bit j: axis j at its high end), and the
+// box's values there when `at` is given.
+ParameterSet CornerValues(const TuneInput& input, std::size_t corner,
+                          std::vector<std::pair<std::string, double>>* at = nullptr) {
+  ParameterSet values = input.config.parameters;
+  for (std::size_t j = 0; j < input.box.size(); ++j) {
+    const ParameterInterval& axis = input.box[j];
+    const double v = (corner >> j) & 1u ? axis.high : axis.low;
+    values.Set(axis.name, v);
+    if (at) at->emplace_back(axis.name, v);
+  }
+  return values;
+}
+
 void EvaluateBox(const TuneInput& input, const TuneRequest& request, TuneResult* result) {
   const std::size_t k = input.box.size();
   if (k > kMaxBoxParameters) {
@@ -226,14 +240,8 @@ void EvaluateBox(const TuneInput& input, const TuneRequest& request, TuneResult*
   const std::size_t count = k == 0 ? 0 : std::size_t{1} << k;
   result->corners.resize(count);
   internal::ParallelFor(count, request.threads, [&](std::size_t corner) {
-    ParameterSet values = input.config.parameters;
     std::vector<std::pair<std::string, double>> at;
-    for (std::size_t j = 0; j < k; ++j) {
-      const ParameterInterval& axis = input.box[j];
-      const double v = (corner >> j) & 1u ? axis.high : axis.low;
-      values.Set(axis.name, v);
-      at.emplace_back(axis.name, v);
-    }
+    const ParameterSet values = CornerValues(input, corner, &at);
     result->corners[corner] = CheckAt(input, request, *result, values);
     result->corners[corner].values = std::move(at);
   });
@@ -463,13 +471,6 @@ void CheckTunedLoop(const TuneInput& input, const TuneRequest& request,
   AddStepWarnings(input, request, result);
 }
 
-// The PI `design` placed at f_c on `loop` meets the request at every crossing
-// (MeetsAtEveryCrossing, resonance.h).
-bool MeetsWith(const SampledRigidLoop& loop, const SampledDesignResult& design, double fc,
-               double pm) {
-  return design.ok && WorstCrossingMarginDeg(loop, design.gains, fc) >= pm - 0.01;
-}
-
 // The plants the notch's width is chosen on (docs/tuning.md §7.7): the corners of the 95 % box
 // with the lowest and the highest resonance; without a box, the anti-resonance 10 % either
 // side of the model's (a resonance drifts with the load and the temperature).
@@ -485,10 +486,7 @@ std::vector<RigidPlant> ResonanceVariants(const TuneInput& input, const RigidPla
   RigidPlant lowest = nominal, highest = nominal;
   double low = MotorResonanceHz(nominal), high = low;
   for (std::size_t corner = 0; corner < (std::size_t{1} << k); ++corner) {
-    ParameterSet values = input.config.parameters;
-    for (std::size_t j = 0; j < k; ++j)
-      values.Set(input.box[j].name, (corner >> j) & 1u ? input.box[j].high : input.box[j].low);
-    const RigidPlant plant = RigidAt(*input.config.model, values);
+    const RigidPlant plant = RigidAt(*input.config.model, CornerValues(input, corner));
     const double fr = MotorResonanceHz(plant);
     if (fr < low) {
       low = fr;
@@ -562,7 +560,8 @@ TuneResult TuneSampled(const TuneInput& original, const TuneRequest& asked) {
   const double fc = request.design.crossover_hz, pm = request.design.phase_margin_deg;
   SampledRigidLoop loop(shaft, request.drive);
   sampled.design = DesignSampledSpeedPi(loop, fc, pm);
-  if (shaft.two_mass() && fc < loop.nyquist_hz() && !MeetsWith(loop, sampled.design, fc, pm)) {
+  if (shaft.two_mass() && fc < loop.nyquist_hz() &&
+      !MeetsAtEveryCrossing(loop, sampled.design, fc, pm)) {
     // A flexible coupling (two_mass): the resonance, not the delay, limits the loop.
     sampled.resonance_hz = MotorResonanceHz(shaft);
     sampled.resonance_limited_crossover_hz = ResonanceLimitedCrossover(loop, fc, pm);

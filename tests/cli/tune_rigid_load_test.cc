@@ -643,15 +643,8 @@ TEST(TuneRigidLoad, NotchAtTheResonanceLetsTheLoopCrossAboveItsLimit) {
 // report_inadequate warning, with the advice to run --discover.
 TEST(TuneRigidLoad, RigidReportOfATwoMassRecordNamesWhereItsResidualFollowsTheInput) {
   TempDir dir;
-  const std::string truth = dir.Write("truth.json", R"({
-    "name": "two-mass", "model": "rigid_load",
-    "parameters": { "J": 2e-3, "B": 0.04, "Kt": 0.5 },
-    "effects": { "two_mass": { "inertia_ratio": 1.5, "anti_resonance_hz": 40,
-                               "shaft_damping_ratio": 0.05, "load_damping_share": 0.3 } },
-    "simulation": { "dt": 1e-4 },
-    "experiment": { "input": { "type": "prbs", "amplitude": 1.0, "clock": 0.0025, "order": 10,
-                               "seed": 3 },
-                    "duration": 2.5, "sample_rate": 2000 } })");
+  // A two-mass shaft (resonance 63.2 Hz) under a PRBS torque (configs/two-mass-prbs.json).
+  const std::string truth = testing::SourcePath("configs/two-mass-prbs.json");
   const std::string rigid = dir.Write("rigid.json", R"({
     "name": "rigid", "model": "rigid_load",
     "parameters": { "J": 1e-3, "B": 0.02, "Kt": 0.5 },

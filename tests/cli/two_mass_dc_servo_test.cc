@@ -5,6 +5,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <tuple>
 
 #include "support/test_support.h"
 
@@ -14,6 +15,12 @@ namespace {
 using nlohmann::json;
 using testing::BinPath;
 using testing::TempDir;
+
+// The report's 95 % interval of `name` (parameters[name].ci95) covers `value`.
+void ExpectCovers(const json& parameters, const char* name, double value) {
+  EXPECT_LE(parameters[name]["ci95"][0].get<double>(), value) << name;
+  EXPECT_GE(parameters[name]["ci95"][1].get<double>(), value) << name;
+}
 
 // Discovery adds two_mass and finds the truth: J within 1 %, the anti-resonance within 2 %,
 // the inertia ratio within 10 %, each 95 % interval covering it; the rigid fit's residual
@@ -46,15 +53,13 @@ TEST(TwoMassDcServo, DiscoveryAddsTheCouplingAndFindsIt) {
   const json r = json::parse(testing::Slurp(report));
   ASSERT_EQ(r["discovery"]["added"], json::array({"two_mass"})) << r["discovery"].dump();
   const auto& p = r["parameters"];
-  auto check = [&](const char* name, double value, double tolerance) {
-    const double estimate = p[name]["value"];
-    EXPECT_NEAR(estimate, value, tolerance * value) << name;
-    EXPECT_LE(p[name]["ci95"][0].get<double>(), value) << name;
-    EXPECT_GE(p[name]["ci95"][1].get<double>(), value) << name;
-  };
-  check("J", 2.26e-5, 0.01);
-  check("anti_resonance_hz", 30.0, 0.02);
-  check("inertia_ratio", 1.0, 0.10);
+  for (const auto& [name, value, tolerance] :
+       {std::tuple<const char*, double, double>{"J", 2.26e-5, 0.01},
+        {"anti_resonance_hz", 30.0, 0.02},
+        {"inertia_ratio", 1.0, 0.10}}) {
+    EXPECT_NEAR(p[name]["value"].get<double>(), value, tolerance * value) << name;
+    ExpectCovers(p, name, value);
+  }
 }
 
 // A rigid_load two-mass record with a load-side encoder (blmd-sim writes w_load and
@@ -64,15 +69,8 @@ TEST(TwoMassDcServo, DiscoveryAddsTheCouplingAndFindsIt) {
 // truth. Without two_mass, w_load is no output of the model: refused naming the valid ones.
 TEST(TwoMassLoadSide, TheLoadsEncoderNarrowsEveryInterval) {
   TempDir dir;
-  const std::string truth = dir.Write("truth.json", R"({
-    "name": "two-mass", "model": "rigid_load",
-    "parameters": { "J": 2e-3, "B": 0.04, "Kt": 0.5 },
-    "effects": { "two_mass": { "inertia_ratio": 1.5, "anti_resonance_hz": 40,
-                               "shaft_damping_ratio": 0.05, "load_damping_share": 0.3 } },
-    "simulation": { "dt": 1e-4 },
-    "experiment": { "input": { "type": "prbs", "amplitude": 1.0, "clock": 0.0025, "order": 10,
-                               "seed": 3 },
-                    "duration": 2.5, "sample_rate": 2000 } })");
+  // A two-mass shaft (resonance 63.2 Hz) under a PRBS torque (configs/two-mass-prbs.json).
+  const std::string truth = testing::SourcePath("configs/two-mass-prbs.json");
   auto config = [&](const std::string& name, const std::string& observe) {
     return dir.Write(name, R"({
     "name": "fit", "model": "rigid_load",
@@ -109,8 +107,7 @@ TEST(TwoMassLoadSide, TheLoadsEncoderNarrowsEveryInterval) {
       return p[name]["ci95"][1].get<double>() - p[name]["ci95"][0].get<double>();
     };
     EXPECT_LT(width(both), width(motor)) << name;
-    EXPECT_LE(both[name]["ci95"][0].get<double>(), value) << name;
-    EXPECT_GE(both[name]["ci95"][1].get<double>(), value) << name;
+    ExpectCovers(both, name, value);
   }
   const std::string rigid = dir.Write("rigid.json", R"({
     "name": "rigid", "model": "rigid_load", "parameters": { "J": 1e-3, "B": 0.02, "Kt": 0.5 },

@@ -170,6 +170,37 @@ def two_mass_figures(report, truth):
     }
 
 
+class TwoMassTally:
+    """Over the records where two_mass was added: how many meet the targets (the resonance
+    within 5 %, J within 2 %, the ratio within 20 %) and how often the intervals cover."""
+
+    def __init__(self):
+        self.added = 0
+        self.within = {"fr 5 %": 0, "J 2 %": 0, "ratio 20 %": 0}
+        self.covered = {"J": 0, "ratio": 0, "fa": 0, "fr": 0}
+
+    def add(self, figures):
+        """Counts a record's two_mass_figures (None: not added); its f_r and ratio errors as
+        table cells."""
+        if not figures:
+            return "-", "-"
+        self.added += 1
+        self.within["fr 5 %"] += abs(figures["fr"]) <= 0.05
+        self.within["J 2 %"] += abs(figures["J"]) <= 0.02
+        self.within["ratio 20 %"] += abs(figures["ratio"]) <= 0.20
+        for k, v in figures["covered"].items():
+            self.covered[k] += v
+        return f"{100 * figures['fr']:+.2f} %", f"{100 * figures['ratio']:+.1f} %"
+
+    def print_summary(self, name):
+        if self.added:
+            print(f"{name}: of the {self.added} with two_mass: within " +
+                  ", ".join(f"{k} {v}/{self.added}" for k, v in self.within.items()) +
+                  "; 95 % intervals cover " +
+                  ", ".join(f"{k} {v}/{self.added}" for k, v in self.covered.items()),
+                  flush=True)
+
+
 def main():
     groups = [("two-mass", False, False), ("rigid, white", True, False),
               ("rigid, AR(1) 0.95", True, True)]
@@ -178,9 +209,8 @@ def main():
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as scratch:
         for name, rigid, ar in groups:
-            warned = past_flagged = total = added = 0
-            within = {"fr 5 %": 0, "J 2 %": 0, "ratio 20 %": 0}
-            covered = {"J": 0, "ratio": 0, "fa": 0, "fr": 0}
+            warned = past_flagged = total = 0
+            tally = TwoMassTally()
             for seed in range(CASES):
                 data, truth = record(1000 + seed, rigid, ar)
                 report = fit(data, scratch)
@@ -199,29 +229,15 @@ def main():
                 p = min((t["p"] for t in past), default=float("nan"))
                 at = max((t.get("frequency_hz", 0) for t in past), default=0)
                 j = report["parameters"]["J"]["value"]
-                figures = two_mass_figures(report, truth)
-                fr_text = ratio_text = "-"
-                if figures:
-                    added += 1
-                    within["fr 5 %"] += abs(figures["fr"]) <= 0.05
-                    within["J 2 %"] += abs(figures["J"]) <= 0.02
-                    within["ratio 20 %"] += abs(figures["ratio"]) <= 0.20
-                    for k, v in figures["covered"].items():
-                        covered[k] += v
-                    fr_text = f"{100 * figures['fr']:+.2f} %"
-                    ratio_text = f"{100 * figures['ratio']:+.1f} %"
+                fr_text, ratio_text = tally.add(two_mass_figures(report, truth))
                 effects = ", ".join(report.get("effects", [])) or "-"
                 print(f"| {name} | {seed} | {truth['kind']} | {truth['ratio']:.2f} | "
                       f"{truth['fa']:.1f} | {truth['fr']:.1f} | {100 * (j / truth['J'] - 1):+.1f} % | "
                       f"{share:.3f} | {p:.2g} | {at:.3g} | {effects} | {fr_text} | {ratio_text} | "
                       f"{', '.join(codes) or '-'} |", flush=True)
             print(f"{name}: model warning on {warned}/{total}, u (past) flagged on "
-                  f"{past_flagged}/{total}, two_mass added on {added}/{total}", flush=True)
-            if added:
-                print(f"{name}: of the {added} with two_mass: within " +
-                      ", ".join(f"{k} {v}/{added}" for k, v in within.items()) +
-                      "; 95 % intervals cover " +
-                      ", ".join(f"{k} {v}/{added}" for k, v in covered.items()), flush=True)
+                  f"{past_flagged}/{total}, two_mass added on {tally.added}/{total}", flush=True)
+            tally.print_summary(name)
 
 
 if __name__ == "__main__":

@@ -110,9 +110,8 @@ def main():
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as scratch:
         for name, rigid, ar in groups:
-            total = added = any_effect = 0
-            within = {"fr 5 %": 0, "J 2 %": 0, "ratio 20 %": 0}
-            covered = {"J": 0, "ratio": 0, "fa": 0, "fr": 0}
+            total = any_effect = 0
+            tally = two_mass.TwoMassTally()
             for seed in range(CASES):
                 data, truth = record(2000 + seed, rigid, ar)
                 report = fit(data, truth, scratch)
@@ -123,29 +122,15 @@ def main():
                 codes = sorted({w["code"] for w in report.get("warnings", [])})
                 effects = report.get("effects", [])
                 any_effect += bool(effects)
-                figures = two_mass.two_mass_figures(report, truth)
-                fr_text = ratio_text = "-"
-                if figures:
-                    added += 1
-                    within["fr 5 %"] += abs(figures["fr"]) <= 0.05
-                    within["J 2 %"] += abs(figures["J"]) <= 0.02
-                    within["ratio 20 %"] += abs(figures["ratio"]) <= 0.20
-                    for k, v in figures["covered"].items():
-                        covered[k] += v
-                    fr_text = f"{100 * figures['fr']:+.2f} %"
-                    ratio_text = f"{100 * figures['ratio']:+.1f} %"
+                fr_text, ratio_text = tally.add(two_mass.two_mass_figures(report, truth))
                 j = report["parameters"]["J"]["value"]
                 print(f"| {name} | {seed} | {truth['kind']} | {1e3 * truth['L'] / truth['R']:.1f} | "
                       f"{truth['ratio']:.2f} | {truth['fa']:.1f} | {truth['fr']:.1f} | "
                       f"{100 * (j / truth['J'] - 1):+.2f} % | {', '.join(effects) or '-'} | "
                       f"{fr_text} | {ratio_text} | {', '.join(codes) or '-'} |", flush=True)
-            print(f"{name}: two_mass added on {added}/{total}, any effect on "
+            print(f"{name}: two_mass added on {tally.added}/{total}, any effect on "
                   f"{any_effect}/{total}", flush=True)
-            if added:
-                print(f"{name}: of the {added} with two_mass: within " +
-                      ", ".join(f"{k} {v}/{added}" for k, v in within.items()) +
-                      "; 95 % intervals cover " +
-                      ", ".join(f"{k} {v}/{added}" for k, v in covered.items()), flush=True)
+            tally.print_summary(name)
 
 
 if __name__ == "__main__":

@@ -120,17 +120,14 @@ TEST(NotchFilter, ConfigRefusesANotchAboveTheNyquistFrequency) {
   }
 }
 
-// The sampled plant the PI is designed on carries the notch: G(z) with it is N(z) times G(z)
-// without it, and the closed loop's poles (the state matrix with the filter's two states)
-// agree with the frequency response: a stable loop has margins, an unstable one has none.
+// The two-mass shaft of docs/tuning.md §7.6: J 2e-3 kg·m², B 0.04, Kt 0.5, r 1.5, fa 40 Hz,
+// zeta 0.02 (resonance 63.2 Hz).
+RigidPlant TwoMassShaft() { return {2e-3, 0.04, 0.5, 1.5, 40.0, 0.02, 0.0}; }
+
+// The sampled plant the PI is designed on carries the notch: G(z) with it (the filter's two
+// states in series before the shaft) is N(z) times G(z) without it.
 TEST(NotchFilter, SampledPlantIsTheNotchTimesTheShaft) {
-  RigidPlant plant;
-  plant.J = 2e-3;
-  plant.B = 0.04;
-  plant.Kt = 0.5;
-  plant.inertia_ratio = 1.5;
-  plant.anti_resonance_hz = 40.0;
-  plant.shaft_damping_ratio = 0.02;
+  const RigidPlant plant = TwoMassShaft();
   SampledDrive bare{1000.0, 1, 0.0, {}};
   SampledDrive notched = bare;
   notched.notch = NotchFilter{63.25, 30.0, 0.1};
@@ -150,13 +147,7 @@ TEST(NotchFilter, SampledPlantIsTheNotchTimesTheShaft) {
 // on the nominal shaft every crossing at least 60° from −180° (0.01° of rounding), and the
 // width chosen keeps the most margin on the shafts 10 % either side.
 TEST(NotchFilter, DesignedNotchLetsTheLoopCrossAboveTheResonanceLimit) {
-  RigidPlant plant;
-  plant.J = 2e-3;
-  plant.B = 0.04;
-  plant.Kt = 0.5;
-  plant.inertia_ratio = 1.5;
-  plant.anti_resonance_hz = 40.0;
-  plant.shaft_damping_ratio = 0.02;
+  const RigidPlant plant = TwoMassShaft();
   const SampledDrive drive{1000.0, 1, 0.0, {}};
   EXPECT_FALSE(MeetsAtEveryCrossing(SampledRigidLoop(plant, drive), 20.0, 60.0));
   RigidPlant low = plant, high = plant;

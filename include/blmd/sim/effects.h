@@ -47,6 +47,7 @@
 #include <vector>
 
 #include "blmd/sim/parameters.h"
+#include "blmd/sim/two_mass.h"
 
 namespace blmd {
 
@@ -129,6 +130,11 @@ struct ShaftEffects {
 
   bool has_friction() const { return Tc > 0.0 || Ts > 0.0; }
   bool two_mass() const { return inertia_ratio > 0.0 && anti_resonance_hz > 0.0; }
+  // The two sides of the coupling for the totals J and B.
+  TwoMassSides Sides(double J, double B) const {
+    return TwoMassSides::Of(J, B, inertia_ratio, anti_resonance_hz, shaft_damping_ratio,
+                            load_damping_share);
+  }
 
   static ShaftEffects From(const ParameterSet& values, const std::vector<std::string>& enabled,
                            double smoothing_w);

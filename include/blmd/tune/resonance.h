@@ -24,6 +24,9 @@ void SampledMargins(const SampledRigidLoop& loop, const CascadeGains& gains, boo
 // resonance's peak may cross 1 again) and stable poles (which decide the encirclements).
 bool MeetsAtEveryCrossing(const SampledRigidLoop& loop, double crossover_hz,
                           double phase_margin_deg);
+// The same for a PI already designed at `crossover_hz` (false when the design failed).
+bool MeetsAtEveryCrossing(const SampledRigidLoop& loop, const SampledDesignResult& design,
+                          double crossover_hz, double phase_margin_deg);
 
 // The highest crossover below `from_hz` at which MeetsAtEveryCrossing holds: scanned down over
 // two decades (50 points per decade), bisected to 1e-3 relative and rounded down to 4

@@ -19,6 +19,7 @@
 #include <memory>
 #include <string>
 
+#include "blmd/sim/effects.h"
 #include "blmd/sim/notch_filter.h"
 #include "blmd/tune/loop.h"
 
@@ -43,6 +44,10 @@ struct RigidPlant {
   double inertia_ratio = 0.0, anti_resonance_hz = 0.0, shaft_damping_ratio = 0.0,
          load_damping_share = 0.0;
   bool two_mass() const { return inertia_ratio > 0.0 && anti_resonance_hz > 0.0; }
+  TwoMassSides Sides() const {
+    return TwoMassSides::Of(J, B, inertia_ratio, anti_resonance_hz, shaft_damping_ratio,
+                            load_damping_share);
+  }
 };
 
 // The gains in continuous-time SI units: C(z) = speed_kp + speed_ki·Ts·z/(z − 1); a drive

@@ -138,21 +138,21 @@ LinearModel DcServoModel::Linearise(const ParameterSet& values) const {
   // A two-mass shaft (docs/effects.md) is linear: kept, as rigid_load keeps it, so that the
   // transfer functions, the Bode plot, the exports and a tuned loop see its resonance.
   if (values.Has("inertia_ratio") && values.Has("anti_resonance_hz")) {
-    const double r = values.Get("inertia_ratio"), wa = kTwoPi * values.Get("anti_resonance_hz");
-    const double Jm = J / (1.0 + r), Jl = J - Jm, K = Jl * wa * wa;
-    const double c = 2.0 * values.GetOr("shaft_damping_ratio", 0.0) * Jl * wa;
-    const double Bl = values.GetOr("load_damping_share", 0.0) * B, Bm = B - Bl;
+    const TwoMassSides sides = TwoMassSides::Of(
+        J, B, values.Get("inertia_ratio"), values.Get("anti_resonance_hz"),
+        values.GetOr("shaft_damping_ratio", 0.0), values.GetOr("load_damping_share", 0.0));
     model.assumption =
         "the two-mass shaft kept; the other effects (friction, load, cogging, dead time, ...) "
         "left out";
     model.states = {"i", "w", "theta", "w_load", "twist"};
     model.outputs = {"i", "w", "theta"};
-    model.A.resize(5, 5);
-    model.A << -R / L, -Kb / L, 0.0, 0.0, 0.0,          //
-        Kt / Jm, -(Bm + c) / Jm, 0.0, c / Jm, -K / Jm,  //
-        0.0, 1.0, 0.0, 0.0, 0.0,                        //
-        0.0, c / Jl, 0.0, -(c + Bl) / Jl, K / Jl,       //
-        0.0, 1.0, 0.0, -1.0, 0.0;
+    // x = [i, w, theta, w_load, twist]
+    model.A = Eigen::MatrixXd::Zero(5, 5);
+    model.A(0, 0) = -R / L;
+    model.A(0, 1) = -Kb / L;
+    model.A(1, 0) = Kt / sides.Jm;
+    sides.SetRows(1, 3, 4, &model.A);
+    model.A(2, 1) = 1.0;
     model.B.resize(5, 1);
     model.B << 1.0 / L, 0.0, 0.0, 0.0, 0.0;
     model.C = Eigen::MatrixXd::Identity(3, 5);

@@ -35,25 +35,16 @@ SimStatus DcServoModel::SimulateTwoMass(const SimulationRequest& request, Trace*
   const ShaftEffects shaft =
       ShaftEffects::From(values, *request.effects, request.settings.friction_smoothing_w);
   const DriveEffects drive = DriveEffects::From(values, *request.effects);
-  const double r = shaft.inertia_ratio, wa = kTwoPi * shaft.anti_resonance_hz;
-  const double Jm = J / (1.0 + r), Jl = J - Jm, K = Jl * wa * wa;
-  const double c = 2.0 * shaft.shaft_damping_ratio * Jl * wa;
-  const double Bl = shaft.load_damping_share * B, Bm = B - Bl;
+  const TwoMassSides sides = shaft.Sides(J, B);
+  const double Jm = sides.Jm, K = sides.K, c = sides.c;
 
   // Closed armature: x = [i, w, theta, w_load, twist], inputs [u_eff, T_effects].
   Eigen::Matrix<double, 5, 5> A = Eigen::Matrix<double, 5, 5>::Zero();
   A(0, 0) = -R / L;
   A(0, 1) = -Kb / L;
   A(1, 0) = Kt / Jm;
-  A(1, 1) = -(Bm + c) / Jm;
-  A(1, 3) = c / Jm;
-  A(1, 4) = -K / Jm;
+  sides.SetRows(1, 3, 4, &A);
   A(2, 1) = 1.0;
-  A(3, 1) = c / Jl;
-  A(3, 3) = -(c + Bl) / Jl;
-  A(3, 4) = K / Jl;
-  A(4, 1) = 1.0;
-  A(4, 3) = -1.0;
   Eigen::Matrix<double, 5, 2> Bin = Eigen::Matrix<double, 5, 2>::Zero();
   Bin(0, 0) = 1.0 / L;
   Bin(1, 1) = -1.0 / Jm;
@@ -69,9 +60,7 @@ SimStatus DcServoModel::SimulateTwoMass(const SimulationRequest& request, Trace*
   // The motor held at rest: the current alone, and the load swinging on the shaft,
   // [w_load, twist]' = [[-(c + Bl)/Jl, K/Jl], [-1, 0]] [w_load, twist].
   const internal::DcServoDiscretisation rigid = internal::DcServoDiscretisation::From(values, dt);
-  Eigen::Matrix2d A_held;
-  A_held << -(c + Bl) / Jl, K / Jl, -1.0, 0.0;
-  const Eigen::Matrix2d held = (A_held * dt).exp();
+  const Eigen::Matrix2d held = (sides.HeldLoad() * dt).exp();
 
   const double limit = request.settings.divergence_limit;
   double w_load = experiment.initial.w, twist = 0.0;  // the load with the motor, untwisted

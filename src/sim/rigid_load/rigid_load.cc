@@ -125,20 +125,17 @@ SimStatus SimulateTwoMass(const SimulationRequest& request, const ShaftEffects& 
   const Experiment& experiment = *request.experiment;
   const double dt = request.settings.dt;
   const double J = values.Get("J"), B = values.Get("B"), Kt = values.Get("Kt");
-  const double r = shaft.inertia_ratio, wa = 2.0 * kPi * shaft.anti_resonance_hz;
-  const double Jm = J / (1.0 + r), Jl = J - Jm;
-  const double K = Jl * wa * wa, c = 2.0 * shaft.shaft_damping_ratio * Jl * wa;
-  const double Bl = shaft.load_damping_share * B, Bm = B - Bl;
-  Eigen::Matrix4d A, Ad;
-  A << -(Bm + c) / Jm, 0.0, c / Jm, -K / Jm,  //
-      1.0, 0.0, 0.0, 0.0,                     //
-      c / Jl, 0.0, -(c + Bl) / Jl, K / Jl,    //
-      1.0, 0.0, -1.0, 0.0;
+  const TwoMassSides sides = shaft.Sides(J, B);
+  const double Jm = sides.Jm, K = sides.K, c = sides.c;
+  // x = [w, theta, w_load, delta]
+  Eigen::Matrix4d A = Eigen::Matrix4d::Zero(), Ad;
+  sides.SetRows(0, 2, 3, &A);
+  A(1, 0) = 1.0;
   Eigen::Matrix<double, 4, 1> Bin, Bd;
   Bin << 1.0 / Jm, 0.0, 0.0, 0.0;
   internal::Discretise<4, 1>(A, Bin, dt, &Ad, &Bd);
-  Eigen::Matrix2d A_held, Ad_held;  // [wl, delta] on a motor held at rest
-  A_held << -(c + Bl) / Jl, K / Jl, -1.0, 0.0;
+  const Eigen::Matrix2d A_held = sides.HeldLoad();  // [wl, delta] on a motor held at rest
+  Eigen::Matrix2d Ad_held;
   Eigen::Matrix<double, 2, 1> none = Eigen::Matrix<double, 2, 1>::Zero(), unused;
   internal::Discretise<2, 1>(A_held, none, dt, &Ad_held, &unused);
 
@@ -198,26 +195,15 @@ SimStatus RigidLoadModel::SimulateClosedLoop(const SimulationRequest& request, T
   // is u itself and its state stays 0.
   const bool flexible = shaft.two_mass();
   const int n = flexible ? 5 : 3;
-  double Jm = J, Bm_motor = B, Jl = 0.0, K = 0.0, c = 0.0, Bl = 0.0;
   Eigen::MatrixXd A = Eigen::MatrixXd::Zero(n, n);
   Eigen::MatrixXd Bm = Eigen::MatrixXd::Zero(n, 2);
+  const TwoMassSides sides = flexible ? shaft.Sides(J, B) : TwoMassSides{J, 0.0, 0.0, 0.0, B, 0.0};
+  const double Jm = sides.Jm, K = sides.K, c = sides.c;
   if (flexible) {
-    const double r = shaft.inertia_ratio, wa = kTwoPi * shaft.anti_resonance_hz;
-    Jm = J / (1.0 + r);
-    Jl = J - Jm;
-    K = Jl * wa * wa;
-    c = 2.0 * shaft.shaft_damping_ratio * Jl * wa;
-    Bl = shaft.load_damping_share * B;
-    Bm_motor = B - Bl;
-    A(0, 3) = c / Jm;
-    A(0, 4) = -K / Jm;
-    A(3, 0) = c / Jl;
-    A(3, 3) = -(c + Bl) / Jl;
-    A(3, 4) = K / Jl;
-    A(4, 0) = 1.0;
-    A(4, 3) = -1.0;
+    sides.SetRows(0, 3, 4, &A);
+  } else {
+    A(0, 0) = -B / J;
   }
-  A(0, 0) = -(Bm_motor + c) / Jm;
   A(1, 0) = 1.0;
   Bm(0, 1) = -1.0 / Jm;
   if (lag) {
@@ -238,12 +224,10 @@ SimStatus RigidLoadModel::SimulateClosedLoop(const SimulationRequest& request, T
     internal::Discretise<3, 2>(A, Bm, dt, &Ad, &Bd);
   }
   const double lag_decay = lag ? std::exp(-wb * dt) : 0.0;  // u_a while the shaft sticks
-  // A held motor: the load swings on it, [w_l, delta]' = [[-(c + Bl)/Jl, K/Jl], [-1, 0]] x.
+  // A held motor: the load swings on it (TwoMassSides::HeldLoad).
   Eigen::Matrix2d held = Eigen::Matrix2d::Identity();
   if (flexible) {
-    Eigen::Matrix2d A_held;
-    A_held << -(c + Bl) / Jl, K / Jl, -1.0, 0.0;
-    held = (A_held * dt).exp();
+    held = (sides.HeldLoad() * dt).exp();
   }
 
   std::vector<std::string> names = {"u", "w", "theta", "r"};
@@ -373,31 +357,23 @@ LinearModel RigidLoadModel::Linearise(const ParameterSet& values) const {
   // A two-mass shaft (docs/effects.md) is linear: kept, so that the transfer functions, the
   // Bode plot and the exports show its resonance; the measured w and theta are the motor's.
   if (values.Has("inertia_ratio") && values.Has("anti_resonance_hz")) {
-    const double r = values.Get("inertia_ratio"), wa = 2.0 * kPi * values.Get("anti_resonance_hz");
-    const double Jm = J / (1.0 + r), Jl = J - Jm, K = Jl * wa * wa;
-    const double c = 2.0 * values.GetOr("shaft_damping_ratio", 0.0) * Jl * wa;
-    const double Bl = values.GetOr("load_damping_share", 0.0) * B, Bm = B - Bl;
+    const double r = values.Get("inertia_ratio"), fa = values.Get("anti_resonance_hz");
+    const double zeta = values.GetOr("shaft_damping_ratio", 0.0);
+    const double share = values.GetOr("load_damping_share", 0.0);
+    const TwoMassSides sides = TwoMassSides::Of(J, B, r, fa, zeta, share);
     model.assumption =
         "the two-mass shaft kept; the other effects (friction, load, cogging, ...) left out";
     model.states = {"w", "theta", "w_load", "twist"};
     model.outputs = {"w", "theta"};
-    model.A.resize(4, 4);
-    model.A << -(Bm + c) / Jm, 0.0, c / Jm, -K / Jm,  //
-        1.0, 0.0, 0.0, 0.0,                           //
-        c / Jl, 0.0, -(c + Bl) / Jl, K / Jl,          //
-        1.0, 0.0, -1.0, 0.0;
+    model.A = Eigen::MatrixXd::Zero(4, 4);
+    sides.SetRows(0, 2, 3, &model.A);
+    model.A(1, 0) = 1.0;
     model.B.resize(4, 1);
-    model.B << Kt / Jm, 0.0, 0.0, 0.0;
+    model.B << Kt / sides.Jm, 0.0, 0.0, 0.0;
     model.C = Eigen::MatrixXd::Identity(2, 4);
     model.D = Eigen::MatrixXd::Zero(2, 1);
     model.has_shaft = true;
-    model.shaft = {J,
-                   B,
-                   Kt,
-                   r,
-                   values.Get("anti_resonance_hz"),
-                   values.GetOr("shaft_damping_ratio", 0.0),
-                   values.GetOr("load_damping_share", 0.0)};
+    model.shaft = {J, B, Kt, r, fa, zeta, share};
     return model;
   }
   model.assumption = "the effects (friction, load, cogging, ...) left out";
