@@ -102,7 +102,9 @@ TEST(TwoMassLoadSide, TheLoadsEncoderNarrowsEveryInterval) {
                                                    {"anti_resonance_hz", 40.0},
                                                    {"shaft_damping_ratio", 0.05},
                                                    {"load_damping_share", 0.3}};
-  for (const auto& [name, value] : truths) {
+  for (const auto& [name_, value] : truths) {
+    // A named copy, not the binding: clang before 16 cannot capture a structured binding.
+    const char* name = name_;
     auto width = [&](const json& p) {
       return p[name]["ci95"][1].get<double>() - p[name]["ci95"][0].get<double>();
     };
