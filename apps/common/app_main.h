@@ -142,7 +142,9 @@ inline void RefuseEmptyEquals(const CLI::App& app, int argc, char** argv) {
 inline void RefuseEmptyValues(const CLI::App& app,
                               const std::vector<std::string>& checked_in_body) {
   for (const CLI::Option* option : app.get_options()) {
-    if (option->count() == 0 || option->get_name().empty()) continue;
+    // An option whose value may be left out (--no-header before --names) checks that itself.
+    if (option->count() == 0 || option->get_name().empty() || option->get_expected_min() == 0)
+      continue;
     const std::string flag = option->get_name();
     if (std::find(checked_in_body.begin(), checked_in_body.end(), flag) != checked_in_body.end())
       continue;

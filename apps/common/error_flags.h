@@ -22,11 +22,19 @@ struct ErrorFlags : ErrorSettings {
     app.add_option("--decimate", decimate,
                    "equation error: keep every N-th sample after an anti-alias filter")
         ->check(CLI::Range(1, 1000));
-    app.add_option("--simulate-from", simulate_from,
-                   "command|reference: what drives the simulation, the trace's u replayed open "
-                   "loop or its reference r through the config's experiment.pid (default: "
-                   "config, else command)")
-        ->check(CLI::IsMember({"command", "reference"}));
+    CLI::Option* from =
+        app.add_option("--simulate-from", simulate_from,
+                       "command|reference: what drives the simulation, the trace's u replayed "
+                       "open loop or its reference r through the config's experiment.pid "
+                       "(default: config, else command)")
+            ->check(CLI::IsMember({"command", "reference"}));
+    // The closed-loop (indirect) fit by its name: the trace's r drives the config's
+    // controller, u may be absent (docs/identification.md §9b).
+    app.add_flag_callback(
+           "--closed-loop", [this] { simulate_from = "reference"; },
+           "the record is of a closed loop: simulate the config's experiment.pid from the "
+           "trace's reference r (the same as --simulate-from reference)")
+        ->excludes(from);
   }
 };
 

@@ -21,9 +21,33 @@ inline void AddDialectFlags(CLI::App& app, DialectSettings* dialect) {
                  "rows that repeat a time stamp: error (default), first (keep the first row), "
                  "mean (average the rows of each instant)")
       ->check(CLI::IsMember({"error", "first", "mean"}));
-  app.add_option("--no-header", dialect->no_header,
-                 "the trace files have no header row: NAMES (comma separated, e.g. u,theta) "
-                 "name their columns in order");
+  // Two spellings of a headerless file's names: --no-header NAMES, or --no-header --names
+  // NAMES. --names is defined first, so that its value is in place when --no-header's
+  // callback checks that the names were given once (CLI11 runs the callbacks in the order the
+  // options were added).
+  CLI::Option* names =
+      app.add_option("--names", dialect->no_header,
+                     "with --no-header: the columns' names in order, comma separated (e.g. t,u,w)");
+  CLI::Option* no_header =
+      app.add_option_function<std::string>(
+             "--no-header",
+             [dialect, names](const std::string& value) {
+               if (value.empty() && names->count() == 0) {
+                 throw CLI::ValidationError("--no-header",
+                                            "name the columns in order: --no-header --names "
+                                            "t,u,w (or --no-header t,u,w)");
+               }
+               if (!value.empty() && names->count() > 0) {
+                 throw CLI::ValidationError("--no-header",
+                                            "the names are given twice (--no-header NAMES and "
+                                            "--names NAMES): give them once");
+               }
+               if (!value.empty()) dialect->no_header = value;
+             },
+             "the trace files have no header row: NAMES (comma separated, e.g. u,theta), or "
+             "--names NAMES, name their columns in order")
+          ->expected(0, 1);
+  names->needs(no_header);
   app.add_option("--sample-rate", dialect->sample_rate,
                  "the trace files have no time column: their rows are samples at HZ (t = k/HZ)")
       ->check(CLI::PositiveNumber);

@@ -486,7 +486,8 @@ void ReadExperiment(const Reader& reader, const json& root, Config* out) {
                          {"loop", "Kp", "Ki", "speed_Kp", "speed_Ki", "u_max", "u_min",
                           "sample_rate", "delay", "current_bandwidth", "notch"});
       } else {
-        reader.CheckKeys(pid, "/experiment/pid", {"loop", "Kp", "Ki", "Kd", "tau_d", "u_max"});
+        reader.CheckKeys(pid, "/experiment/pid",
+                         {"loop", "Kp", "Ki", "Kd", "tau_d", "u_max", "sample_rate", "delay"});
       }
       experiment.closed_loop = true;
       if (pid.contains("loop")) {
@@ -511,7 +512,13 @@ void ReadExperiment(const Reader& reader, const json& root, Config* out) {
       get("u_max", &experiment.pid.u_max);
       if (!(experiment.pid.u_max > 0.0)) reader.Fail("/experiment/pid/u_max", "u_max must be > 0");
       if (!(experiment.pid.tau_d > 0.0)) reader.Fail("/experiment/pid/tau_d", "tau_d must be > 0");
-      if (traits.sampled_pid) ReadSampledPid(reader, pid, config.simulation.dt, &experiment.pid);
+      if (traits.sampled_pid) {
+        ReadSampledPid(reader, pid, config.simulation.dt, &experiment.pid);
+      } else if (pid.contains("sample_rate") || pid.contains("delay")) {
+        // dc_servo's PID runs on every step without delay unless it is given a rate or a
+        // delay: then it is a digital controller (a delay alone: sampled on every step).
+        ReadControllerRate(reader, pid, config.simulation.dt, &experiment.pid);
+      }
     }
     if (exp.contains("initial")) {
       const json& initial = exp["initial"];

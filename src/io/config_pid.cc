@@ -40,18 +40,9 @@ void ReadNotch(const Reader& reader, const json& node, PidSettings* out) {
 
 }  // namespace
 
-// rigid_load's digital loop (PidSettings): the inner speed PI, the lower limit, the
-// controller's sample rate (a whole number of simulation steps), delay and current loop.
-void ReadSampledPid(const Reader& reader, const json& pid, double dt, PidSettings* out) {
-  auto get = [&](const char* key, double* field) {
-    if (pid.contains(key)) *field = reader.Number(pid[key], std::string("/experiment/pid/") + key);
-  };
-  get("speed_Kp", &out->speed_Kp);
-  get("speed_Ki", &out->speed_Ki);
-  get("u_min", &out->u_min);
-  if (!(out->LowerLimit() < out->u_max)) {
-    reader.Fail("/experiment/pid/u_min", "u_min must be below u_max");
-  }
+// A digital controller's rate (every model's pid): sample_rate, Hz, a whole number of
+// simulation steps (default 1/dt: every step), and the output's delay in samples (default 1).
+void ReadControllerRate(const Reader& reader, const json& pid, double dt, PidSettings* out) {
   out->sample_rate = 1.0 / dt;
   if (pid.contains("sample_rate")) {
     out->sample_rate = reader.Positive(pid["sample_rate"], "/experiment/pid/sample_rate");
@@ -69,6 +60,21 @@ void ReadSampledPid(const Reader& reader, const json& pid, double dt, PidSetting
     }
     out->delay = static_cast<int>(delay);
   }
+}
+
+// rigid_load's digital loop (PidSettings): the inner speed PI, the lower limit, the
+// controller's sample rate (a whole number of simulation steps), delay and current loop.
+void ReadSampledPid(const Reader& reader, const json& pid, double dt, PidSettings* out) {
+  auto get = [&](const char* key, double* field) {
+    if (pid.contains(key)) *field = reader.Number(pid[key], std::string("/experiment/pid/") + key);
+  };
+  get("speed_Kp", &out->speed_Kp);
+  get("speed_Ki", &out->speed_Ki);
+  get("u_min", &out->u_min);
+  if (!(out->LowerLimit() < out->u_max)) {
+    reader.Fail("/experiment/pid/u_min", "u_min must be below u_max");
+  }
+  ReadControllerRate(reader, pid, dt, out);
   if (pid.contains("notch")) ReadNotch(reader, pid["notch"], out);
   if (pid.contains("current_bandwidth")) {
     out->current_bandwidth =

@@ -13,4 +13,9 @@ namespace blmd {
 void ReadSampledPid(const json_reader::Reader& reader, const nlohmann::json& pid, double dt,
                     PidSettings* out);
 
+// Reads sample_rate (Hz, default 1/dt) and delay (samples, default 1) of any model's digital
+// controller into *out.
+void ReadControllerRate(const json_reader::Reader& reader, const nlohmann::json& pid, double dt,
+                        PidSettings* out);
+
 }  // namespace blmd

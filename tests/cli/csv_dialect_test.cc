@@ -226,12 +226,33 @@ TEST(CsvDialects, HeaderlessFileAtAFixedRate) {
   run = blmd::testing::Run(fit + dir.File("headerless.json") + " --trace " + tsv +
                            " --no-header u,i,w --sample-rate 2000");
   ASSERT_EQ(run.exit_code, 0) << run.err;
+  // The names may also follow as --names (--no-header --names u,i,w): the same fit.
+  run = blmd::testing::Run(fit + dir.File("names.json") + " --trace " + tsv +
+                           " --no-header --names u,i,w --sample-rate 2000");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
   const nlohmann::json a = nlohmann::json::parse(Slurp(dir.File("with_header.json")));
-  const nlohmann::json b = nlohmann::json::parse(Slurp(dir.File("headerless.json")));
-  EXPECT_EQ(b["trace"]["samples"], a["trace"]["samples"]);
-  for (const char* name : {"J", "B"}) {
-    const double x = a["parameters"][name]["value"].get<double>();
-    EXPECT_NEAR(b["parameters"][name]["value"].get<double>() / x, 1.0, 1e-9) << name;
+  for (const char* file : {"headerless.json", "names.json"}) {
+    const nlohmann::json b = nlohmann::json::parse(Slurp(dir.File(file)));
+    EXPECT_EQ(b["trace"]["samples"], a["trace"]["samples"]);
+    for (const char* name : {"J", "B"}) {
+      const double x = a["parameters"][name]["value"].get<double>();
+      EXPECT_NEAR(b["parameters"][name]["value"].get<double>() / x, 1.0, 1e-9) << file << name;
+    }
+  }
+  // --no-header without names, names given twice, --names without --no-header: exit 2.
+  const std::string help = " (see " + BinPath("blmd-ident") + " --help)\n";
+  for (const auto& [flags, message] :
+       {std::pair<std::string, std::string>{" --no-header --sample-rate 2000",
+                                            "--no-header: name the columns in order: --no-header "
+                                            "--names t,u,w (or --no-header t,u,w)"},
+        {" --no-header u,i,w --names u,i,w --sample-rate 2000",
+         "--no-header: the names are given twice (--no-header NAMES and --names NAMES): give "
+         "them once"},
+        {" --names u,i,w --sample-rate 2000", "--names requires --no-header"}}) {
+    run = blmd::testing::Run(fit + dir.File("refused.json") + " --trace " + tsv + flags);
+    EXPECT_EQ(run.exit_code, 2) << flags;
+    EXPECT_EQ(run.err, "error: " + message + help) << flags;
+    EXPECT_FALSE(FileExists(dir.File("refused.json")));
   }
   // Without a header row, row k is line k + 1 (after the comments): a time column that
   // goes backwards is named at its own line.

@@ -134,5 +134,62 @@ TEST(ReferenceInput, FitsTheLoopFromTheReferenceWithoutTheCommand) {
   EXPECT_NE(missing.err.find("missing required column 'r'"), std::string::npos) << missing.err;
 }
 
+// --closed-loop is --simulate-from reference by its name (the two at once: exit 2); on
+// dc_servo the config's PID is the drive's digital controller (1 kHz, one sample late), and a
+// record of its reference and response alone (t, r, w, theta) gives J and B within 1 % and 4
+// standard errors.
+TEST(ReferenceInput, ClosedLoopFlagAndTheDcServosDigitalPid) {
+  TempDir dir;
+  json truth = json::parse(testing::Slurp(testing::SourcePath("configs/ganesh-pid.json")));
+  truth["experiment"]["pid"]["sample_rate"] = 1000;
+  truth["experiment"]["pid"]["delay"] = 1;
+  truth["experiment"]["input"] = {{"type", "square"}, {"amplitude", 1.0}, {"period", 0.5}};
+  truth["experiment"]["duration"] = 2.0;
+  truth["identification"]["observe"] = {"w", "theta"};
+  const std::string truth_path = dir.Write("truth.json", truth.dump(2));
+  ASSERT_EQ(testing::Run(BinPath("blmd-sim") + " --config " + truth_path + " --out " +
+                         dir.File("full.csv") + " --noise w=0.5% --noise theta=0.2% --seed 5")
+                .exit_code,
+            0);
+  std::ifstream in(dir.File("full.csv"));
+  std::ofstream out(dir.File("logged.csv"));
+  std::string line;
+  bool header = true;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::stringstream fields(line);
+    std::string t, u, i, w, theta, r;
+    for (std::string* field : {&t, &u, &i, &w, &theta, &r}) std::getline(fields, *field, ',');
+    if (header) {
+      ASSERT_EQ(t + u + i + w + theta + r, "tuiwthetar");
+    }
+    out << t << "," << r << "," << w << "," << theta << "\n";
+    header = false;
+  }
+  out.close();
+  json start = truth;  // the fit starts 30 % off
+  start["parameters"]["J"] = 1.3 * 2.26e-5;
+  start["parameters"]["B"] = 0.7 * 2.261e-5;
+  const std::string config = dir.Write("fit.json", start.dump(2));
+  const std::string fit = BinPath("blmd-ident") + " --config " + config + " --trace " +
+                          dir.File("logged.csv") + " --quiet";
+  const auto named = testing::Run(fit + " --closed-loop --report " + dir.File("a.json"));
+  ASSERT_EQ(named.exit_code, 0) << named.err;
+  const auto spelled =
+      testing::Run(fit + " --simulate-from reference --report " + dir.File("b.json"));
+  ASSERT_EQ(spelled.exit_code, 0) << spelled.err;
+  const json a = json::parse(testing::Slurp(dir.File("a.json")))["parameters"];
+  const json b = json::parse(testing::Slurp(dir.File("b.json")))["parameters"];
+  for (const auto& [name, value] :
+       {std::pair<const char*, double>{"J", 2.26e-5}, {"B", 2.261e-5}}) {
+    EXPECT_EQ(a[name]["value"], b[name]["value"]) << name;
+    EXPECT_NEAR(a[name]["value"].get<double>(), value, 0.01 * value) << name;
+    EXPECT_NEAR(a[name]["value"].get<double>(), value, 4.0 * a[name]["std"].get<double>()) << name;
+  }
+  const auto both = testing::Run(fit + " --closed-loop --simulate-from command");
+  EXPECT_EQ(both.exit_code, 2);
+  EXPECT_NE(both.err.find("--simulate-from excludes --closed-loop"), std::string::npos) << both.err;
+}
+
 }  // namespace
 }  // namespace blmd

@@ -166,6 +166,10 @@ TEST(FastPath, DcServoClosedLoopPidAndStaircase) {
   speed.experiment.pid = {PidSettings::Loop::kSpeed, 0.2, 3.0, 0.001, 2e-3, 24.0};
   speed.experiment.input.amplitude = 80.0;
   ExpectFastMatchesReference<DcServoModel>("dc_servo speed-loop PID", speed);
+  Config digital = Load("ganesh-pid.json");  // a drive's digital PID: 1 kHz, two samples late
+  digital.experiment.pid.sample_rate = 1000.0;
+  digital.experiment.pid.delay = 2;
+  ExpectFastMatchesReference<DcServoModel>("dc_servo digital PID", digital);
   Config staircase = Load("ganesh-staircase.json");
   staircase.experiment.sample_rate = 3000.0;  // samples between steps, interpolated
   ExpectFastMatchesReference<DcServoModel>("dc_servo staircase, 3 kHz", staircase);

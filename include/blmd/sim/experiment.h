@@ -110,7 +110,8 @@ struct PidSettings {
   // I) on theta (Kp 1/s, Ki 1/s²) whose output is the speed reference of the inner PI
   // (speed_Kp, speed_Ki). The integrals are backward Euler sums; the speed integral is held
   // while the output saturates in the direction of the error (conditional integration). u is
-  // limited to [u_min, u_max]; u_min NaN means -u_max. dc_servo ignores these fields.
+  // limited to [u_min, u_max]; u_min NaN means -u_max. dc_servo reads sample_rate and delay
+  // only (0: its PID on every simulation step, without delay) and ignores the rest.
   double sample_rate = 0.0;                                 // Hz; 0: every simulation step
   int delay = 1;                                            // samples
   double current_bandwidth = 0.0;                           // Hz; 0: ideal current loop

@@ -17,6 +17,7 @@
 
 #include "blmd/sim/dc_servo/dc_servo.h"
 #include "blmd/sim/effects.h"
+#include "sim/dc_servo/dc_servo_steps.h"
 #include "sim/discretise.h"
 #include "sim/input_read.h"
 #include "sim/plain_shaft.h"
@@ -144,6 +145,9 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
   const bool speed_loop = pid.loop == PidSettings::Loop::kSpeed;
   double integral = 0.0, derivative_state = speed_loop ? w : theta;
   const double alpha = dt / (pid.tau_d + dt);
+  // A digital controller (pid.sample_rate): sampled, delayed and held (dc_servo_steps.h).
+  std::optional<internal::SampledDcServoPid> sampled;
+  if (closed_loop && pid.sample_rate > 0.0) sampled.emplace(pid, dt, derivative_state);
 
   // The input over [t, t + dt) is read at t + dt/2 (as the reference), but only again once
   // that time reaches the signal's next change.
@@ -162,6 +166,7 @@ SimStatus DcServoModel::Simulate(const SimulationRequest& request, Trace* out) c
     *reference = r;
     if (!closed_loop) return r;
     const double y = speed_loop ? w : theta;
+    if (sampled) return sampled->Step(r, y);
     const double error = r - y;
     const double filtered_prev = derivative_state;
     derivative_state += alpha * (y - derivative_state);

@@ -7,6 +7,8 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <array>
+#include <cmath>
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -78,6 +80,47 @@ struct DcServoPid {
   }
 };
 
+// The same PID as a drive's digital controller (pid.sample_rate > 0, docs/model-dc-servo.md
+// §6.1): it samples r and y every `every` simulation steps (period Ts = every dt, its
+// derivative filter and integral on Ts), and its output takes effect `pid.delay` samples
+// later and is held between samples (zero-order hold); before its first output takes effect
+// the drive applies 0 V. With sample_rate 0 it is DcServoPid on every step, without delay.
+class SampledDcServoPid {
+ public:
+  SampledDcServoPid(const PidSettings& pid, double dt, double y0) : pid_(pid), dt_(dt) {
+    state_.derivative_state = y0;
+    if (pid.sample_rate > 0.0) {
+      every_ = std::max(1L, std::lround(1.0 / (pid.sample_rate * dt)));
+      pending_.assign(static_cast<std::size_t>(pid.delay) + 1, 0.0);
+    }
+    const double period = every_ > 0 ? static_cast<double>(every_) * dt : dt;
+    alpha_ = period / (pid.tau_d + period);
+  }
+
+  // The voltage over the step that starts now, for the reference r and the measured y.
+  double Step(double r, double y) {
+    if (every_ == 0) return state_.Control(pid_, alpha_, dt_, r, y);
+    if (countdown_ == 0) {
+      countdown_ = every_;
+      // pending_ is a ring of delay + 1 outputs: the slot written now is read delay samples on.
+      pending_[next_] = state_.Control(pid_, alpha_, static_cast<double>(every_) * dt_, r, y);
+      next_ = (next_ + 1) % pending_.size();
+      held_ = pending_[next_];
+    }
+    --countdown_;
+    return held_;
+  }
+
+ private:
+  const PidSettings& pid_;
+  double dt_, alpha_ = 0.0;
+  DcServoPid state_;
+  long every_ = 0, countdown_ = 0;  // every_ 0: every step, no delay
+  std::vector<double> pending_;
+  std::size_t next_ = 0;
+  double held_ = 0.0;
+};
+
 // The reference paths' step loop (the rigid shaft, dc_servo.cc, and the two-mass shaft,
 // dc_servo_two_mass.cc): `advance(t, open, u_eff, &i, &w, &theta)` moves the state over
 // [t, t + dt) under the voltage u_eff (the armature open when `open`) and returns false when a
@@ -106,14 +149,12 @@ SimStatus RunDcServoSteps(const SimulationRequest& request, const DriveEffects& 
   InputCursor input(experiment.input);
   const double t_start = times.front();
   double i = experiment.initial.i, w = experiment.initial.w, theta = experiment.initial.theta;
-  DcServoPid pid;
   const bool speed_loop = experiment.pid.loop == PidSettings::Loop::kSpeed;
-  pid.derivative_state = speed_loop ? w : theta;
-  const double alpha = dt / (experiment.pid.tau_d + dt);
+  SampledDcServoPid pid(experiment.pid, dt, speed_loop ? w : theta);
   auto control = [&](double t, double* reference) {
     const double r = input.At(InputReadTime(t, dt));
     *reference = r;
-    return closed_loop ? pid.Control(experiment.pid, alpha, dt, r, speed_loop ? w : theta) : r;
+    return closed_loop ? pid.Step(r, speed_loop ? w : theta) : r;
   };
   double reference = 0.0;
   double u = control(t_start, &reference);
