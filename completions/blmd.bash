@@ -1,5 +1,5 @@
-# Bash completion for blmd-ident, blmd-sim, blmd-surface, blmd-tune and blmd-design (docs/cli.md,
-# "Completion"). One file for the commands; `cmake --install` puts a copy under each command's name
+# Bash completion for blmd-ident, blmd-sim, blmd-surface, blmd-tune, blmd-design, blmd-export and
+# blmd-track (docs/cli.md, "Completion"). One file for the commands; `cmake --install` puts a copy under each command's name
 # in share/bash-completion/completions, where bash-completion loads it on first use. Without
 # an install: source completions/blmd.bash. Needs bash only (not the bash-completion
 # package's helpers).
@@ -25,6 +25,8 @@ _blmd_sim_flags="--config --delimiter --duplicate-time --effect --help --init-co
 _blmd_surface_flags="--closed-loop --column --config --decimate --delimiter --derive --duplicate-time --error --filter-hz --force --grid --help --initial-state --json --names --no-header --observe --out --quiet --resample --sample-rate --scale --select --shard --simulate-from --split --svg --threads --trace --version"
 _blmd_tune_flags="--config --crossover --current-bandwidth --delay --duration --fail-on-warning --filter-ratio --from-report --help --integral-ratio --json --limit --loop --notch --phase-margin --position-crossover --quiet --report --sample-rate --step --threads --version --write-config"
 _blmd_design_flags="--column --config --delimiter --derive --duplicate-time --duration --fail-on-warning --family --from-report --help --initial-state --json --limit --names --no-header --noise --quiet --report --resample --sample-rate --scale --select --split --target --threads --trace --version --write-config --write-input"
+_blmd_export_flags="--change-margin --cogging-points --config --filter-hz --format --from-report --gate --help --memory --out --quiet --speed-noise --tracker-rate --version"
+_blmd_track_flags="--change-margin --column --config --delimiter --derive --duplicate-time --fail-on-change --filter-hz --from-report --gate --help --html --initial-state --memory --names --no-header --out --quiet --report --resample --sample-rate --scale --select --speed-noise --split --trace --version"
 _blmd_surface_merge_flags="--help --out"
 _blmd_surface_plot_flags="--help --quiet --svg --title"
 
@@ -91,6 +93,8 @@ _blmd_complete() {
     sim) flags=$_blmd_sim_flags ;;
     tune) flags=$_blmd_tune_flags ;;
     design) flags=$_blmd_design_flags ;;
+    export) flags=$_blmd_export_flags ;;
+    track) flags=$_blmd_track_flags ;;
     surface)
       flags=$_blmd_surface_flags
       for ((k = 1; k < COMP_CWORD; ++k)); do
@@ -137,11 +141,13 @@ _blmd_complete() {
     --resample) _blmd_words "auto" "$cur" ;; # or a step in seconds
     --loop) _blmd_words "position speed" "$cur" ;;
     --notch) _blmd_words "auto off" "$cur" ;;
+    --format) _blmd_words "c mujoco odrive" "$cur" ;;
     --bic-margin | --min-share | --column | --decimate | --target | --fail-above-nrmse | --filter-hz | --free | \
       --grid | --initial | --max-effects | --max-evaluations | --option | --scale | --seed | --noise-std | \
       --select | --shard | --split | --threads | --title | --crossover | --phase-margin | \
       --step | --duration | --integral-ratio | --filter-ratio | --sample-rate | --delay | \
-      --current-bandwidth | --position-crossover | --drift-alpha)
+      --current-bandwidth | --position-crossover | --drift-alpha | --names | --cogging-points | \
+      --tracker-rate | --memory | --gate | --change-margin | --speed-noise)
       COMPREPLY=() # a value of the user's own
       ;;
     *) value=0 ;;
@@ -164,9 +170,13 @@ _blmd_sim() { _blmd_complete sim; }
 _blmd_surface() { _blmd_complete surface; }
 _blmd_tune() { _blmd_complete tune; }
 _blmd_design() { _blmd_complete design; }
+_blmd_export() { _blmd_complete export; }
+_blmd_track() { _blmd_complete track; }
 
 complete -F _blmd_ident blmd-ident
 complete -F _blmd_sim blmd-sim
 complete -F _blmd_surface blmd-surface
 complete -F _blmd_tune blmd-tune
 complete -F _blmd_design blmd-design
+complete -F _blmd_export blmd-export
+complete -F _blmd_track blmd-track

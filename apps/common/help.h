@@ -84,6 +84,32 @@ Examples:
   How good is the experiment already run (noise from its residual against the model):
     $ blmd-design --config configs/ganesh-square.json --trace testdata/ganesh-square.csv)";
   }
+  if (command == "blmd-export") {
+    return R"(Exit status:
+  0  the files were written
+  1  an output could not be written
+  2  bad usage or input: a flag, the config, the report, a final model that cannot be exported (one error line, nothing written)
+
+Examples:
+  The feed-forward of an identified servo as C99, with the J tracker for a 1 kHz loop:
+    $ blmd-ident --config configs/ganesh-square.json --trace testdata/ganesh-square.csv --report fit.json --quiet
+    $ blmd-export --config configs/ganesh-square.json --from-report fit.json --format c --tracker-rate 1000 --out firmware
+  ODrive's inertia and anti-cogging map, and a MuJoCo joint:
+    $ blmd-export --config configs/ganesh-square.json --from-report fit.json --format odrive --out odrive.json
+    $ blmd-export --config configs/ganesh-square.json --from-report fit.json --format mujoco --out shaft.xml)";
+  }
+  if (command == "blmd-track") {
+    return R"(Exit status:
+  0  the track was written
+  1  an output could not be written
+  2  bad usage or input: a flag, the config, the report, the trace (one error line, nothing written)
+  3  with --fail-on-change: J left its offline interval (changed) at the end of the trace
+
+Examples:
+  J and the load torque along a record, seeded by the identification:
+    $ blmd-ident --config configs/ganesh-square.json --trace testdata/ganesh-square.csv --report fit.json --quiet
+    $ blmd-track --config configs/ganesh-square.json --from-report fit.json --trace testdata/ganesh-square.csv --out track.csv)";
+  }
   throw std::logic_error("HelpFooter: no footer for " + command);
 }
 

@@ -70,6 +70,10 @@ void ReadSampledPid(const Reader& reader, const json& pid, double dt, PidSetting
   };
   get("speed_Kp", &out->speed_Kp);
   get("speed_Ki", &out->speed_Ki);
+  get("speed_feedforward", &out->speed_feedforward);
+  if (!std::isfinite(out->speed_feedforward)) {
+    reader.Fail("/experiment/pid/speed_feedforward", "speed_feedforward must be a finite number");
+  }
   get("u_min", &out->u_min);
   if (!(out->LowerLimit() < out->u_max)) {
     reader.Fail("/experiment/pid/u_min", "u_min must be below u_max");

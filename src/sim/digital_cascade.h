@@ -36,7 +36,13 @@ class DigitalCascade {
       // speed limit is the torque limit's consequence here).
       const double e = r - theta;
       position_integral_ += pid_.Ki * Ts_ * e;
-      w_ref = pid_.Kp * e + position_integral_;
+      // The reference's rate (backward difference over one sample; 0 at the first) fed
+      // forward into the speed reference: with speed_feedforward 1 and no speed integral the
+      // cascade is the PD with a speed reference, speed_Kp Kp (r - theta) + speed_Kp (r' - w).
+      const double rate = started_ ? (r - last_r_) / Ts_ : 0.0;
+      last_r_ = r;
+      started_ = true;
+      w_ref = pid_.Kp * e + position_integral_ + pid_.speed_feedforward * rate;
       kp = pid_.speed_Kp;
       ki = pid_.speed_Ki;
     }
@@ -57,8 +63,10 @@ class DigitalCascade {
   double Ts_;
   double speed_integral_ = 0.0;     // u
   double position_integral_ = 0.0;  // rad/s
-  BiquadRunner notch_;              // the identity without a notch
-  std::vector<double> queue_;       // the commands computed, oldest first
+  double last_r_ = 0.0;             // the position reference at the previous sample, rad
+  bool started_ = false;
+  BiquadRunner notch_;         // the identity without a notch
+  std::vector<double> queue_;  // the commands computed, oldest first
 };
 
 // The controller's period in simulation steps dt (1/pid.sample_rate, every step when 0); 0

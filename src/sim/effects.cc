@@ -139,6 +139,11 @@ std::vector<EffectInfo> MakeRegistry() {
          [](const ParameterSet& p) {
            return p.Get("anti_resonance_hz") * std::sqrt(1.0 + p.Get("inertia_ratio"));
          }},
+        // The anti-resonance under the name the report's readers look for beside
+        // resonance_hz (docs/effects.md: the parameter anti_resonance_hz, the same interval).
+        {"antiresonance_hz", "Hz",
+         "anti-resonance f_a, where the motor's speed dips (= anti_resonance_hz)",
+         [](const ParameterSet& p) { return p.Get("anti_resonance_hz"); }},
         {"motor_inertia", "kg·m²", "the motor side's inertia Jm = J/(1 + r)",
          [](const ParameterSet& p) { return p.Get("J") / (1.0 + p.Get("inertia_ratio")); }},
         {"load_inertia", "kg·m²", "the load side's inertia Jl = J r/(1 + r)",

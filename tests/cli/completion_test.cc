@@ -72,6 +72,8 @@ TEST(Completion, ListsAreTheCommandsOwn) {
         {"_blmd_surface_flags", "blmd-surface --help"},
         {"_blmd_tune_flags", "blmd-tune --help"},
         {"_blmd_design_flags", "blmd-design --help"},
+        {"_blmd_export_flags", "blmd-export --help"},
+        {"_blmd_track_flags", "blmd-track --help"},
         {"_blmd_surface_merge_flags", "blmd-surface merge --help"},
         {"_blmd_surface_plot_flags", "blmd-surface plot --help"}}) {
     SCOPED_TRACE(arguments);

@@ -42,7 +42,8 @@ TEST(HelpFooter, ExitCodesAndExamplesOfEveryCommand) {
   for (const Expected& expected :
        {Expected{"blmd-sim", {"0", "1", "2"}}, Expected{"blmd-ident", {"0", "1", "2", "3"}},
         Expected{"blmd-surface", {"0", "1", "2"}}, Expected{"blmd-tune", {"0", "1", "2"}},
-        Expected{"blmd-design", {"0", "1", "2"}}}) {
+        Expected{"blmd-design", {"0", "1", "2"}}, Expected{"blmd-export", {"0", "1", "2"}},
+        Expected{"blmd-track", {"0", "1", "2", "3"}}}) {
     SCOPED_TRACE(expected.command);
     const CommandResult help = testing::Run(BinPath(expected.command) + " --help");
     ASSERT_EQ(help.exit_code, 0) << help.err;
@@ -81,7 +82,8 @@ TEST(HelpFooter, ExitCodesAndExamplesOfEveryCommand) {
 }
 
 TEST(HelpFooter, VersionOfEveryCommand) {
-  for (const std::string command : {"blmd-sim", "blmd-ident", "blmd-surface"}) {
+  for (const std::string command : {"blmd-sim", "blmd-ident", "blmd-surface", "blmd-tune",
+                                    "blmd-design", "blmd-export", "blmd-track"}) {
     const CommandResult version = testing::Run(BinPath(command) + " --version");
     EXPECT_EQ(version.exit_code, 0);
     EXPECT_EQ(version.out, command + " " + kVersion + "\n");

@@ -112,11 +112,15 @@ struct PidSettings {
   // while the output saturates in the direction of the error (conditional integration). u is
   // limited to [u_min, u_max]; u_min NaN means -u_max. dc_servo reads sample_rate and delay
   // only (0: its PID on every simulation step, without delay) and ignores the rest.
-  double sample_rate = 0.0;                                 // Hz; 0: every simulation step
-  int delay = 1;                                            // samples
-  double current_bandwidth = 0.0;                           // Hz; 0: ideal current loop
-  double speed_Kp = 0.0;                                    // u·s/rad, position loop's inner PI
-  double speed_Ki = 0.0;                                    // u/rad
+  double sample_rate = 0.0;        // Hz; 0: every simulation step
+  int delay = 1;                   // samples
+  double current_bandwidth = 0.0;  // Hz; 0: ideal current loop
+  double speed_Kp = 0.0;           // u·s/rad, position loop's inner PI
+  double speed_Ki = 0.0;           // u/rad
+  // Position loop: the position reference's rate (its backward difference per controller
+  // sample) times this is added to the speed reference (speed feed-forward; 1: the PD with a
+  // speed reference, Kp' (r - theta) + Kd' (r' - w), of many drives and lab rigs).
+  double speed_feedforward = 0.0;
   double u_min = std::numeric_limits<double>::quiet_NaN();  // NaN: -u_max
   // A notch on the speed PI's output, the torque (force) command, before the limit
   // (notch_filter.h); not active: none.

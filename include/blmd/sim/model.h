@@ -66,6 +66,10 @@ struct ModelTraits {
   bool event_integrator = false;
   // The observed columns when the config's identification names none.
   std::vector<std::string> default_observe;
+  // The measured column whose multiple by Kt is the drive torque (dc_servo: the armature
+  // current i); empty when the model has none (its input is the torque, or it states no torque
+  // constant). What the feed-forward's drive input and the online tracker read.
+  std::string torque_current_column;
 };
 
 class Model {

@@ -91,6 +91,7 @@ SimulationSettings DcServoModel::default_settings() const {
 ModelTraits DcServoModel::traits() const {
   ModelTraits traits;
   traits.coast_down_and_pid = true;
+  traits.torque_current_column = "i";
   traits.classic_estimators = true;
   traits.default_observe = {"i", "w"};
   return traits;
