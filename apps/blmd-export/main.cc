@@ -4,6 +4,7 @@
 // -> Compensation -> the files; exit 2 on bad input with nothing written.
 #include <filesystem>
 #include <iostream>
+#include <optional>
 #include <string>
 
 #include "../common/app_main.h"

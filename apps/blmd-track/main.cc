@@ -18,6 +18,7 @@
 #include "blmd/io/files.h"
 #include "blmd/io/stored_report.h"
 #include "blmd/report/svg/plot.h"
+#include "report/markup.h"
 #include "tune/compensation.h"
 #include "tune/inertia_tracker.h"
 
@@ -94,9 +95,11 @@ std::string HtmlPage(const std::vector<Row>& rows, const blmd::TrackerSeed& seed
   offline.low = seed.J_low;
   offline.high = seed.J_high;
   options.bands.push_back(offline);
+  // The title names a file: escaped, so that no path breaks (or scripts) the page.
+  const std::string text = blmd::internal::Escape(title);
   std::ostringstream page;
-  page << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>" << title
-       << "</title></head><body>\n<h1>" << title << "</h1>\n"
+  page << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>" << text
+       << "</title></head><body>\n<h1>" << text << "</h1>\n"
        << blmd::LinePlotSvg(options, {estimate, low, high}) << "\n</body></html>\n";
   return page.str();
 }

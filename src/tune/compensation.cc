@@ -268,7 +268,8 @@ std::string ODriveSettings(const Compensation& c) {
   if (Tcog.has_interval) cogging["amplitude_ci95"] = {Tcog.low, Tcog.high};
   out["anticogging"] = cogging;
   nlohmann::json host = nlohmann::json::object();
-  for (const char* name : {"B", "dB", "Cd", "Tc", "Ts", "TL", "K", "Tg"}) {
+  for (const char* name :
+       {"B", "dB", "Cd", "Tc", "Ts", "ws", "TL", "K", "theta0", "Tg", "gravity_phase"}) {
     if (c.Value(name) != 0.0) host[name] = c.Value(name);
   }
   out["host_feed_forward"] = {

@@ -198,11 +198,14 @@ TEST(DriveExport, ODriveAndMujocoForms) {
 // The generated C tracker, fed the same samples, gives blmd-track's J to 1e-12.
 TEST(DriveExport, TrackerFlagsAChangeOfJAndTheCTrackerAgrees) {
   Fitted fit;
-  auto run =
-      testing::Run(BinPath("blmd-track") + " --config " + fit.config + " --from-report " +
-                   fit.report + " --trace " + fit.record + " --out " + fit.dir.File("same.csv") +
-                   " --report " + fit.dir.File("same.json") + " --memory 1 --quiet");
+  auto run = testing::Run(BinPath("blmd-track") + " --config " + fit.config + " --from-report " +
+                          fit.report + " --trace " + fit.record + " --out " +
+                          fit.dir.File("same.csv") + " --report " + fit.dir.File("same.json") +
+                          " --html " + fit.dir.File("same.html") + " --memory 1 --quiet");
   ASSERT_EQ(run.exit_code, 0) << run.err;
+  const std::string page = testing::Slurp(fit.dir.File("same.html"));
+  EXPECT_NE(page.find("<svg"), std::string::npos);
+  EXPECT_NE(page.find("offline 95 % interval"), std::string::npos);
   const auto same = ReadRows(testing::Slurp(fit.dir.File("same.csv")));
   ASSERT_EQ(same.size(), 4001u);
   int changed = 0;
