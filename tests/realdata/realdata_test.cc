@@ -1160,5 +1160,30 @@ TEST(DeltaServo, TheEquationErrorGivesJWithinTenPercentOnBothRuns) {
   }
 }
 
+// EMPS from its reference (configs/real/emps-reference.json, docs/real-data.md "EMPS from its
+// reference"): the benchmark's cascade in the config, the simulation driven by the recorded
+// reference qg, compared on the measured position. Measured: M 86.261 kg (-9.3 % of the
+// IDIM-LS reference 95.109), Fv 216.02 (+6.1 %), Fc 19.458 (-4.6 %), offset -3.1728 (+0.3 %):
+// the offset and Fc within 5 %, M and Fv within 10 %, the rest of the gap attributed in the
+// docs to the rig's filtered velocity, which the config's cascade does not model.
+TEST(EmpsFromTheReference, TheBenchmarksCascadeInTheConfig) {
+  REQUIRE_REAL_DATA("emps");
+  const std::string d = RealData() + "/emps/";
+  const nlohmann::json report =
+      Ident("--config configs/real/emps-reference.json --trace " + d +
+            "emps_estimation.csv --column t=t_s --column theta=q_m --column r=qref_m "
+            "--column u=u_V --initial-state trace");
+  ASSERT_TRUE(report.contains("parameters"));
+  const nlohmann::json& p = report["parameters"];
+  EXPECT_NEAR(Value(p["J"]["value"]), 86.261, 0.3);
+  EXPECT_NEAR(Value(p["B"]["value"]), 216.02, 1.0);
+  EXPECT_NEAR(Value(p["Tc"]["value"]), 19.458, 0.1);
+  EXPECT_NEAR(Value(p["TL"]["value"]), -3.1728, 0.02);
+  EXPECT_LE(std::abs(Value(p["J"]["value"]) / 95.1089 - 1.0), 0.10);
+  EXPECT_LE(std::abs(Value(p["B"]["value"]) / 203.5034 - 1.0), 0.10);
+  EXPECT_LE(std::abs(Value(p["Tc"]["value"]) / 20.3935 - 1.0), 0.05);
+  EXPECT_LE(std::abs(Value(p["TL"]["value"]) / -3.1648 - 1.0), 0.05);
+}
+
 }  // namespace
 }  // namespace blmd::testing
