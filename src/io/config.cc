@@ -478,13 +478,15 @@ void ReadExperiment(const Reader& reader, const json& root, Config* out) {
       reader.RequireObject(pid, "/experiment/pid");
       if (traits.own_current_loop) {
         // The drive's own current loops follow the demand (no current_bandwidth to give).
-        reader.CheckKeys(pid, "/experiment/pid",
-                         {"loop", "Kp", "Ki", "speed_Kp", "speed_Ki", "speed_feedforward", "u_max",
-                          "u_min", "sample_rate", "delay", "notch"});
+        reader.CheckKeys(
+            pid, "/experiment/pid",
+            {"loop", "Kp", "Ki", "speed_Kp", "speed_Ki", "speed_feedforward",
+             "speed_difference_samples", "u_max", "u_min", "sample_rate", "delay", "notch"});
       } else if (traits.sampled_pid) {
         reader.CheckKeys(pid, "/experiment/pid",
-                         {"loop", "Kp", "Ki", "speed_Kp", "speed_Ki", "speed_feedforward", "u_max",
-                          "u_min", "sample_rate", "delay", "current_bandwidth", "notch"});
+                         {"loop", "Kp", "Ki", "speed_Kp", "speed_Ki", "speed_feedforward",
+                          "speed_difference_samples", "u_max", "u_min", "sample_rate", "delay",
+                          "current_bandwidth", "notch"});
       } else {
         reader.CheckKeys(pid, "/experiment/pid",
                          {"loop", "Kp", "Ki", "Kd", "tau_d", "u_max", "sample_rate", "delay"});

@@ -71,6 +71,15 @@ void ReadSampledPid(const Reader& reader, const json& pid, double dt, PidSetting
   get("speed_Kp", &out->speed_Kp);
   get("speed_Ki", &out->speed_Ki);
   get("speed_feedforward", &out->speed_feedforward);
+  if (pid.contains("speed_difference_samples")) {
+    const double n =
+        reader.Number(pid["speed_difference_samples"], "/experiment/pid/speed_difference_samples");
+    if (!(n >= 0.0 && n <= 100.0 && n == std::floor(n))) {
+      reader.Fail("/experiment/pid/speed_difference_samples",
+                  "speed_difference_samples must be a whole number of samples, 0 to 100");
+    }
+    out->speed_difference_samples = static_cast<int>(n);
+  }
   if (!std::isfinite(out->speed_feedforward)) {
     reader.Fail("/experiment/pid/speed_feedforward", "speed_feedforward must be a finite number");
   }

@@ -29,6 +29,15 @@ class DigitalCascade {
 
   // The command that takes effect now, for the reference r and the sampled w, theta.
   double Tick(double r, double w, double theta) {
+    // The speed the controller feeds back: the measured one, or, as many drives and rigs
+    // estimate it, the difference of the angle over speed_difference_samples samples.
+    if (pid_.speed_difference_samples > 0) {
+      const std::size_t n = static_cast<std::size_t>(pid_.speed_difference_samples);
+      if (angles_.empty()) angles_.assign(n, theta);  // at rest before the first sample
+      w = (theta - angles_[angle_at_]) / (static_cast<double>(n) * Ts_);
+      angles_[angle_at_] = theta;
+      angle_at_ = (angle_at_ + 1) % n;
+    }
     const double low = pid_.LowerLimit(), high = pid_.u_max;
     double w_ref = r, kp = pid_.Kp, ki = pid_.Ki;
     if (pid_.loop == PidSettings::Loop::kPosition) {
@@ -64,6 +73,8 @@ class DigitalCascade {
   double speed_integral_ = 0.0;     // u
   double position_integral_ = 0.0;  // rad/s
   double last_r_ = 0.0;             // the position reference at the previous sample, rad
+  std::vector<double> angles_;      // the last speed_difference_samples angles, a ring
+  std::size_t angle_at_ = 0;        // the oldest of them
   bool started_ = false;
   BiquadRunner notch_;         // the identity without a notch
   std::vector<double> queue_;  // the commands computed, oldest first

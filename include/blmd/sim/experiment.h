@@ -121,6 +121,10 @@ struct PidSettings {
   // sample) times this is added to the speed reference (speed feed-forward; 1: the PD with a
   // speed reference, Kp' (r - theta) + Kd' (r' - w), of many drives and lab rigs).
   double speed_feedforward = 0.0;
+  // The speed the controller feeds back: 0, the measured w; N >= 1, the difference of the
+  // sampled angle over N controller samples, (theta_k - theta_{k-N}) / (N Ts), as drives that
+  // read only an encoder estimate it (N = 2: the mean of two one-sample differences).
+  int speed_difference_samples = 0;
   double u_min = std::numeric_limits<double>::quiet_NaN();  // NaN: -u_max
   // A notch on the speed PI's output, the torque (force) command, before the limit
   // (notch_filter.h); not active: none.
