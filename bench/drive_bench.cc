@@ -28,6 +28,7 @@ blmd::Compensation Shaft() {
   model.values["Tc"].value = 0.05;
   model.values["Tcog"].value = 0.01;
   model.values["periods"].value = 6.0;
+  model.Refresh();
   return model;
 }
 

@@ -56,22 +56,27 @@ double Compensation::Value(const std::string& name) const {
   const auto it = values.find(name);
   return it == values.end() ? 0.0 : it->second.value;
 }
-double Compensation::Inertia(double a) const { return Value("J") * a; }
+void Compensation::Refresh() {
+  numbers = {Value("J"),     Value("B"),  Value("dB"),     Value("Cd"),   Value("Tc"),
+             Value("Ts"),    Value("ws"), Value("TL"),     Value("Tcog"), Value("periods"),
+             Value("phase"), Value("K"),  Value("theta0"), Value("Tg"),   Value("gravity_phase")};
+}
+double Compensation::Inertia(double a) const { return numbers.J * a; }
 double Compensation::Viscous(double w) const {
-  return Value("B") * w + Value("dB") * std::abs(w) + Value("Cd") * w * std::abs(w);
+  return numbers.B * w + numbers.dB * std::abs(w) + numbers.Cd * w * std::abs(w);
 }
 double Compensation::Friction(double w) const {
-  const double ws = Value("ws");
-  const double stribeck = ws > 0.0 ? Value("Ts") * std::exp(-(w / ws) * (w / ws)) : 0.0;
-  return (Value("Tc") + stribeck) * Sign(w);
+  const double ws = numbers.ws;
+  const double stribeck = ws > 0.0 ? numbers.Ts * std::exp(-(w / ws) * (w / ws)) : 0.0;
+  return (numbers.Tc + stribeck) * Sign(w);
 }
-double Compensation::Load() const { return Value("TL"); }
+double Compensation::Load() const { return numbers.TL; }
 double Compensation::Cogging(double theta) const {
-  return Value("Tcog") * std::sin(Value("periods") * theta + Value("phase"));
+  return numbers.Tcog * std::sin(numbers.periods * theta + numbers.phase);
 }
-double Compensation::Spring(double theta) const { return Value("K") * (theta - Value("theta0")); }
+double Compensation::Spring(double theta) const { return numbers.K * (theta - numbers.theta0); }
 double Compensation::Gravity(double theta) const {
-  return Value("Tg") * std::sin(theta + Value("gravity_phase"));
+  return numbers.Tg * std::sin(theta + numbers.gravity_phase);
 }
 double Compensation::Torque(double theta, double w, double a) const {
   return Inertia(a) + Viscous(w) + Friction(w) + Load() + Cogging(theta) + Spring(theta) +
@@ -122,6 +127,7 @@ Compensation Compensation::FromReport(Config config, const StoredReport& report)
     }
     out.values[name] = v;
   }
+  out.Refresh();
   return out;
 }
 

@@ -47,6 +47,14 @@ struct Compensation {
   std::map<std::string, ExportedValue> values;
 
   double Value(const std::string& name) const;
+  // The same values as plain numbers, which the per-sample terms below read (a firmware's and
+  // a tracker's loop evaluates them every sample): set by FromReport, and by Refresh() after
+  // `values` is changed by hand.
+  struct Numbers {
+    double J = 0, B = 0, dB = 0, Cd = 0, Tc = 0, Ts = 0, ws = 0, TL = 0, Tcog = 0, periods = 0,
+           phase = 0, K = 0, theta0 = 0, Tg = 0, gravity_phase = 0;
+  } numbers;
+  void Refresh();
   // The terms of T_ff (N·m) at an angle theta (rad), speed w (rad/s), acceleration a (rad/s²).
   double Inertia(double a) const;
   double Viscous(double w) const;   // B w + dB |w| + Cd w |w|
