@@ -8,6 +8,7 @@
 #include <string>
 
 #include "../common/app_main.h"
+#include "../common/tracker_flags.h"
 #include "blmd/io/config.h"
 #include "blmd/io/files.h"
 #include "blmd/io/stored_report.h"
@@ -19,8 +20,8 @@ namespace {
 struct ExportFlags {
   std::string config_path, report_path, format, out_path;
   int cogging_points = 3600;
-  double tracker_rate = 0.0, filter_hz = 0.0, memory_s = 1.0, gate = 3.0, change_margin = 0.05;
-  double speed_noise = 0.0;
+  double tracker_rate = 0.0;
+  blmd::app::TrackerFlags tracker;
   bool quiet = false;
 
   void Add(CLI::App& app) {
@@ -41,22 +42,7 @@ struct ExportFlags {
                    "--format c: the rate (Hz) the firmware calls the J tracker at (default: "
                    "the J tracker is left out)")
         ->check(blmd::app::PositiveNumber());
-    app.add_option("--filter-hz", filter_hz,
-                   "tracker: the state-variable filter's corner (default fs/50 within 1-50 Hz)")
-        ->check(blmd::app::PositiveNumber());
-    app.add_option("--memory", memory_s, "tracker: forgetting time constant of J, s (default 1)")
-        ->check(blmd::app::PositiveNumber());
-    app.add_option(
-           "--gate", gate,
-           "tracker: J updates where |filtered acceleration| > GATE x its noise (default 3)")
-        ->check(CLI::NonNegativeNumber);
-    app.add_option("--change-margin", change_margin,
-                   "tracker: 'changed' when J's interval leaves the offline one by this fraction "
-                   "(default 0.05)")
-        ->check(CLI::NonNegativeNumber);
-    app.add_option("--speed-noise", speed_noise,
-                   "tracker: the speed's noise std, rad/s (default: the report's for w)")
-        ->check(CLI::NonNegativeNumber);
+    tracker.Add(app, "tracker: ");
     app.add_flag("--quiet", quiet, "print nothing on success");
   }
 };
@@ -71,24 +57,16 @@ int Run(const ExportFlags& f) {
   std::string written;
   if (f.format == "c") {
     const blmd::CFiles files = blmd::CompensationC(compensation, f.cogging_points);
-    std::optional<blmd::CFiles> tracker;
+    std::optional<blmd::CFiles> tracker_files;
     if (f.tracker_rate > 0.0) {
-      const auto noise = report.noise_std().find("w");
-      const double speed_noise = f.speed_noise > 0.0
-                                     ? f.speed_noise
-                                     : (noise != report.noise_std().end() ? noise->second : 0.0);
-      if (!(speed_noise > 0.0)) {
+      const blmd::SpeedNoise noise = blmd::SpeedNoiseOf(f.tracker, report);
+      if (!(noise.sigma > 0.0)) {
         throw blmd::InputError(
             "--tracker-rate: the report gives no noise for w: give the speed's noise std "
             "(--speed-noise SIGMA, rad/s) so that the tracker can tell motion from noise");
       }
-      blmd::TrackerSettings settings;
-      settings.filter_hz = f.filter_hz;
-      settings.memory_s = f.memory_s;
-      settings.gate = f.gate;
-      settings.change_margin = f.change_margin;
-      tracker = blmd::TrackerC(
-          blmd::MakeTrackerSeed(compensation, settings, 1.0 / f.tracker_rate, speed_noise));
+      tracker_files = blmd::TrackerC(
+          blmd::MakeTrackerSeed(compensation, f.tracker, 1.0 / f.tracker_rate, noise.sigma));
     }
     std::error_code error;
     std::filesystem::create_directories(f.out_path, error);
@@ -97,9 +75,9 @@ int Run(const ExportFlags& f) {
     blmd::WriteFileAtomically((out / "blmd_compensation.h").string(), files.header);
     blmd::WriteFileAtomically((out / "blmd_compensation.c").string(), files.source);
     written = (out / "blmd_compensation.h").string() + ", blmd_compensation.c";
-    if (tracker) {
-      blmd::WriteFileAtomically((out / "blmd_tracker.h").string(), tracker->header);
-      blmd::WriteFileAtomically((out / "blmd_tracker.c").string(), tracker->source);
+    if (tracker_files) {
+      blmd::WriteFileAtomically((out / "blmd_tracker.h").string(), tracker_files->header);
+      blmd::WriteFileAtomically((out / "blmd_tracker.c").string(), tracker_files->source);
       written += ", blmd_tracker.h, blmd_tracker.c";
     }
   } else if (f.format == "odrive") {

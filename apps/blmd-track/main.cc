@@ -12,6 +12,7 @@
 
 #include "../common/app_main.h"
 #include "../common/trace_flags.h"
+#include "../common/tracker_flags.h"
 #include "app/request.h"
 #include "blmd/format.h"
 #include "blmd/io/config.h"
@@ -27,7 +28,7 @@ namespace {
 struct TrackFlags {
   std::string config_path, report_in_path, trace_path, out_path, report_path, html_path;
   blmd::app::TraceFlags trace;
-  double filter_hz = 0.0, memory_s = 1.0, gate = 3.0, change_margin = 0.05, speed_noise = 0.0;
+  blmd::app::TrackerFlags tracker;
   bool quiet = false, fail_on_change = false;
 
   void Add(CLI::App& app) {
@@ -41,24 +42,7 @@ struct TrackFlags {
     app.add_option("--report", report_path, "a JSON summary of the track");
     app.add_option("--html", html_path, "a page with J, its interval and the offline interval");
     trace.Add(app);
-    app.add_option("--filter-hz", filter_hz,
-                   "the state-variable filter's corner (default fs/50 within 1-50 Hz)")
-        ->check(blmd::app::PositiveNumber());
-    app.add_option("--memory", memory_s,
-                   "forgetting time constant of J over excited time, s "
-                   "(default 1)")
-        ->check(blmd::app::PositiveNumber());
-    app.add_option("--gate", gate,
-                   "J updates where |filtered acceleration| > GATE x its noise (default 3)")
-        ->check(CLI::NonNegativeNumber);
-    app.add_option("--change-margin", change_margin,
-                   "'changed' when J's 95 % interval leaves the offline one by this fraction "
-                   "(default 0.05)")
-        ->check(CLI::NonNegativeNumber);
-    app.add_option("--speed-noise", speed_noise,
-                   "the speed's noise std, rad/s (default: the report's for w, else 1 % of the "
-                   "trace's RMS speed)")
-        ->check(CLI::NonNegativeNumber);
+    tracker.Add(app);
     app.add_flag("--fail-on-change", fail_on_change,
                  "exit 3 when J has left its offline interval at the end of the trace");
     app.add_flag("--quiet", quiet, "print nothing on success");
@@ -138,6 +122,7 @@ int Run(TrackFlags& f) {
   const std::vector<double>& t = trace.Column("t");
   const std::vector<double>& w = trace.Column("w");
   const std::vector<double>& drive = trace.Column(torque_column);
+  const std::vector<double>* theta = trace.Has("theta") ? &trace.Column("theta") : nullptr;
   if (t.size() < 3) throw blmd::InputError(f.trace_path + ": fewer than 3 samples to track");
   const double dt = (t.back() - t.front()) / static_cast<double>(t.size() - 1);
   for (std::size_t k = 1; k < t.size(); ++k) {
@@ -148,33 +133,22 @@ int Run(TrackFlags& f) {
                              "resample the record (--resample auto)");
     }
   }
-  std::string noise_source = "--speed-noise";
-  double speed_noise = f.speed_noise;
-  if (!(speed_noise > 0.0)) {
-    const auto it = report.noise_std().find("w");
-    if (it != report.noise_std().end() && it->second > 0.0) {
-      speed_noise = it->second;
-      noise_source = "the report's noise of w";
-    } else {
-      double sum = 0.0;
-      for (double v : w) sum += v * v;
-      speed_noise = 0.01 * std::sqrt(sum / static_cast<double>(w.size()));
-      noise_source = "1 % of the trace's RMS speed (the report gives no noise for w)";
-    }
+  blmd::SpeedNoise noise = blmd::SpeedNoiseOf(f.tracker, report);
+  if (!(noise.sigma > 0.0)) {
+    double sum = 0.0;
+    for (double v : w) sum += v * v;
+    noise = {0.01 * std::sqrt(sum / static_cast<double>(w.size())),
+             "1 % of the trace's RMS speed (the report gives no noise for w)"};
   }
-  blmd::TrackerSettings settings;
-  settings.filter_hz = f.filter_hz;
-  settings.memory_s = f.memory_s;
-  settings.gate = f.gate;
-  settings.change_margin = f.change_margin;
-  const blmd::TrackerSeed seed = blmd::MakeTrackerSeed(model, settings, dt, speed_noise);
+  const double speed_noise = noise.sigma;
+  const std::string& noise_source = noise.source;
+  const blmd::TrackerSeed seed = blmd::MakeTrackerSeed(model, f.tracker, dt, speed_noise);
   blmd::InertiaTracker tracker(model, seed);
   std::vector<Row> rows;
   rows.reserve(t.size());
   std::size_t excited = 0, first_change = t.size();
   for (std::size_t k = 0; k < t.size(); ++k) {
-    const double theta = trace.Has("theta") ? trace.Column("theta")[k] : 0.0;
-    tracker.Update(model.torque_per_input * drive[k], w[k], theta);
+    tracker.Update(model.torque_per_input * drive[k], w[k], theta ? (*theta)[k] : 0.0);
     if (!std::isfinite(tracker.J()) || !std::isfinite(tracker.J_high())) {
       throw blmd::InputError(f.trace_path + ": the tracker diverged at t = " +
                              blmd::FormatNumber(t[k]) + " s (a non-finite value in the record)");
@@ -208,7 +182,7 @@ int Run(TrackFlags& f) {
         {"J_ci95", {seed.J_low, seed.J_high}},
         {"TL", seed.TL},
         {"filter_hz", seed.filter_hz},
-        {"memory_s", settings.memory_s},
+        {"memory_s", f.tracker.memory_s},
         {"lambda", seed.lambda},
         {"gate_acceleration", seed.gate_acceleration},
         {"speed_noise", speed_noise},

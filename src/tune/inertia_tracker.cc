@@ -61,8 +61,9 @@ TrackerSeed MakeTrackerSeed(const Compensation& model, const TrackerSettings& se
   seed.change_margin = settings.change_margin;
   // The filtered acceleration's response to white speed noise of unit std: the root sum of
   // squares of its impulse response (Tustin: the impulse enters two steps at half weight).
-  double ad[4], bd[2];
-  TrackerFilter(seed.filter_hz, dt, ad, bd);
+  TrackerFilter(seed.filter_hz, dt, seed.ad, seed.bd);
+  const double* ad = seed.ad;
+  const double* bd = seed.bd;
   double x0 = 0.0, x1 = 0.0, sum = 0.0, previous = 1.0;
   const long steps = std::max(1000L, std::lround(20.0 / (seed.filter_hz * dt)));
   for (long k = 0; k < steps; ++k) {
@@ -91,16 +92,17 @@ TrackerSeed MakeTrackerSeed(const Compensation& model, const TrackerSettings& se
   return seed;
 }
 
+SpeedNoise SpeedNoiseOf(const TrackerSettings& settings, const StoredReport& report) {
+  if (settings.speed_noise > 0.0) return {settings.speed_noise, "--speed-noise"};
+  const auto it = report.noise_std().find("w");
+  if (it != report.noise_std().end() && it->second > 0.0) {
+    return {it->second, "the report's noise of w"};
+  }
+  return {};
+}
+
 InertiaTracker::InertiaTracker(const Compensation& model, const TrackerSeed& seed)
     : model_(model), seed_(seed), J_(seed.J), TL_(seed.TL), noise_(seed.noise_floor) {
-  double ad[4], bd[2];
-  TrackerFilter(seed.filter_hz, seed.dt, ad, bd);
-  ad_[0][0] = ad[0];
-  ad_[0][1] = ad[1];
-  ad_[1][0] = ad[2];
-  ad_[1][1] = ad[3];
-  bd_[0] = bd[0];
-  bd_[1] = bd[1];
   // P is kept in units of the equation noise's variance (normalised RLS), so that the
   // estimates adapt at the rate of the memory whatever that variance turns out to be; the
   // interval is P times the noise variance estimated from the innovations.
@@ -126,8 +128,9 @@ void InertiaTracker::Update(double drive_torque, double w, double theta) {
   }
   // One period of the filter with the input v_mean over it.
   auto step = [&](double* x, double v_mean) {
-    const double n0 = ad_[0][0] * x[0] + ad_[0][1] * x[1] + bd_[0] * v_mean;
-    const double n1 = ad_[1][0] * x[0] + ad_[1][1] * x[1] + bd_[1] * v_mean;
+    const double* ad = seed_.ad;
+    const double n0 = ad[0] * x[0] + ad[1] * x[1] + seed_.bd[0] * v_mean;
+    const double n1 = ad[2] * x[0] + ad[3] * x[1] + seed_.bd[1] * v_mean;
     x[0] = n0;
     x[1] = n1;
   };
@@ -186,8 +189,8 @@ bool InertiaTracker::changed() const {
 }
 
 CFiles TrackerC(const TrackerSeed& seed) {
-  double ad[4], bd[2];
-  TrackerFilter(seed.filter_hz, seed.dt, ad, bd);
+  const double* ad = seed.ad;
+  const double* bd = seed.bd;
   std::ostringstream h;
   h << "/* blmd_tracker.h: an online estimator of the inertia J and the load torque TL, generated\n"
     << " * by blmd-export " << kVersion << " (docs/export.md §7). Recursive least squares with\n"

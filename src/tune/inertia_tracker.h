@@ -28,6 +28,14 @@ struct TrackerSettings {
                                 // of the trace's RMS speed, said by the caller)
 };
 
+// The speed noise the tracker gates on: the settings' when given, else the report's noise of
+// w; `source` says which. 0 (source "") when neither gives one.
+struct SpeedNoise {
+  double sigma = 0.0;
+  std::string source;
+};
+SpeedNoise SpeedNoiseOf(const TrackerSettings& settings, const StoredReport& report);
+
 // The recursion's numbers, fixed at the start: what the C tracker is generated with.
 struct TrackerSeed {
   double dt = 0.0;  // s, the sample period
@@ -41,6 +49,8 @@ struct TrackerSeed {
   double J_low = 0.0, J_high = 0.0;    // the offline 95 % interval
   double change_margin = 0.05;
   double acceleration_noise_gain = 0.0;  // std of a_f per unit of white speed noise std
+  // The filter's Tustin coefficients at this period (TrackerFilter): ad row-major, bd.
+  double ad[4] = {0, 0, 0, 0}, bd[2] = {0, 0};
   // Samples after the first during which the filters settle from their start (ten time
   // constants of the filter's poles, 10 / (zeta wf dt)): nothing is updated.
   long warmup_samples = 0;
@@ -72,9 +82,7 @@ class InertiaTracker {
  private:
   const Compensation& model_;
   TrackerSeed seed_;
-  // Tustin discretisation of x' = A x + b v, A = [0 1; -wf^2 -2 zeta wf], b = [0; wf^2]:
-  // x_{k+1} = Ad x_k + bd (v_k + v_{k+1}) / 2.
-  double ad_[2][2] = {{0, 0}, {0, 0}}, bd_[2] = {0, 0};
+  // The filters run x_{k+1} = Ad x_k + bd v_mean with the seed's Ad, bd (TrackerFilter).
   // Filter states of w, of the drive torque and of the known torque.
   double a_[2] = {0, 0}, d_[2] = {0, 0}, k_[2] = {0, 0};
   double last_w_ = 0.0, last_d_ = 0.0, last_k_ = 0.0;
@@ -83,8 +91,9 @@ class InertiaTracker {
   double J_, TL_, p_[2][2], noise_;
 };
 
-// The filter's discrete coefficients (shared with the C generator so both run the same
-// arithmetic): ad (2x2, row-major) and bd (2) for corner filter_hz at period dt.
+// The filter's discrete coefficients: ad (2x2, row-major) and bd (2) for corner filter_hz at
+// period dt; MakeTrackerSeed keeps them in the seed, which the tracker and the C generator
+// both read, so that both run the same arithmetic.
 void TrackerFilter(double filter_hz, double dt, double ad[4], double bd[2]);
 
 // The C99 tracker (blmd_tracker.h and .c) seeded with `seed`; it calls blmd_compensation.h's
