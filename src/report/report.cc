@@ -357,8 +357,9 @@ std::string ClosedLoopAdvice(const IdentReport& report) {
 
 // What a residual that follows the input's past means (the input-residual test, docs/
 // discovery.md §7b), when one of `adequacy`'s flagged tests is that test: "" otherwise. The
-// vocabulary's effects are static torques of the state; none makes a response to the input's
-// history, so the warning names the kinds of dynamics that do and what the values still mean.
+// vocabulary's effects but the two-mass coupling are static torques of the state; none of
+// them makes a response to the input's history, so the warning names the kinds of dynamics
+// that do and what the values still mean.
 std::string DynamicsMeaning(const AdequacyReport& adequacy) {
   const auto past = std::find_if(adequacy.flagged.begin(), adequacy.flagged.end(),
                                  [](const StructureTest& t) { return t.state == "u (past)"; });
@@ -374,8 +375,9 @@ std::string DynamicsMeaning(const AdequacyReport& adequacy) {
   const bool where = past->frequency_hz > 0.0;
   return "; the residual follows the input's past" +
          (where ? " (most near " + Figure(past->frequency_hz, 3) + " Hz)" : std::string()) +
-         ": dynamics the model lacks, such as a flexible coupling's resonance, a lag in the "
-         "current loop, or a filter, which no effect of the vocabulary makes. J is then the "
+         ": dynamics the model lacks, such as a flexible coupling's resonance (the two-mass "
+         "effect, which --discover tries), a lag in the current loop, or a filter, which no "
+         "other effect of the vocabulary makes. J is then the "
          "rigid part's (the total inertia below " +
          (where ? "that frequency" : std::string("those dynamics")) +
          "), and a loop tuned on it must keep its crossover well below " +

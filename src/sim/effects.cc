@@ -116,8 +116,9 @@ std::vector<EffectInfo> MakeRegistry() {
       // A flexible coupling between the motor and its load (docs/effects.md, "two_mass"): J and
       // B stay the totals a rigid fit gives (below the resonance the shaft is rigid), split
       // between the two sides; the measured speed and angle are the motor's. Simulated by
-      // rigid_load (its exact four-state step) and dc_servo (five states, the armature's
-      // current the first).
+      // rigid_load (its exact four-state step), dc_servo (five states, the armature's
+      // current the first) and blmd (the drive's torque on the motor's side, the shaft's exact
+      // four-state step on the reference step loop).
       {"two_mass",
        {P("inertia_ratio", "1", "load inertia over motor inertia, Jl/Jm", Sign::kPositive, 1e-3,
           1e3),
@@ -131,7 +132,7 @@ std::vector<EffectInfo> MakeRegistry() {
        "Jm dwm/dt = T - Bm wm - K (thm - thl) - c (wm - wl), Jl dwl/dt = K (thm - thl) + c (wm - "
        "wl) - Bl wl; Jm = J/(1+r), Jl = J r/(1+r), K = Jl (2 pi fa)^2, c = 2 zeta Jl 2 pi fa, "
        "Bm = (1-s) B, Bl = s B",
-       {"rigid_load", "dc_servo"},
+       {"rigid_load", "dc_servo", "blmd"},
        /*position_dependent=*/false,
        EffectInfo::AtRest::kNothing,
        "",

@@ -3,7 +3,41 @@
 #include <algorithm>
 #include <cmath>
 
+#include "blmd/sim/parameters.h"
+#include "blmd/sim/two_mass.h"
+
 namespace blmd {
+
+void LinearShaft(const ParameterSet& values, double torque_per_input, LinearModel* model) {
+  const double J = values.Get("J"), B = values.Get("B");
+  model->available = true;
+  model->outputs = {"w", "theta"};
+  model->C = Eigen::MatrixXd::Identity(2, 2);
+  model->D = Eigen::MatrixXd::Zero(2, 1);
+  // A two-mass shaft is linear: kept, so that the transfer functions, the Bode plot and the
+  // exports show its resonance.
+  if (values.Has("inertia_ratio") && values.Has("anti_resonance_hz")) {
+    const double r = values.Get("inertia_ratio"), fa = values.Get("anti_resonance_hz");
+    const double zeta = values.GetOr("shaft_damping_ratio", 0.0);
+    const double share = values.GetOr("load_damping_share", 0.0);
+    const TwoMassSides sides = TwoMassSides::Of(J, B, r, fa, zeta, share);
+    model->states = {"w", "theta", "w_load", "twist"};
+    model->A = Eigen::MatrixXd::Zero(4, 4);
+    sides.SetRows(0, 2, 3, &model->A);
+    model->A(1, 0) = 1.0;
+    model->B = Eigen::MatrixXd::Zero(4, 1);
+    model->B(0, 0) = torque_per_input / sides.Jm;
+    model->C = Eigen::MatrixXd::Identity(2, 4);
+    model->has_shaft = true;
+    model->shaft = {J, B, torque_per_input, r, fa, zeta, share};
+    return;
+  }
+  model->states = {"w", "theta"};
+  model->A.resize(2, 2);
+  model->A << -B / J, 0.0, 1.0, 0.0;
+  model->B.resize(2, 1);
+  model->B << torque_per_input / J, 0.0;
+}
 
 std::vector<TransferFunction> TransferFunctions(const LinearModel& model) {
   std::vector<TransferFunction> functions;

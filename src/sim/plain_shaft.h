@@ -6,12 +6,12 @@
 namespace blmd::internal {
 
 // True when the shaft feels no effect torque but a constant load: no friction, no
-// position-dependent torque (cogging, spring, gravity), and no speed-dependent torque besides B w
-// (DragTorque is zero both ways, whatever terms it sums). The fast paths then take the mechanical
-// step without the effect calls.
+// position-dependent torque (cogging, spring, gravity), no speed-dependent torque besides B w
+// (DragTorque is zero both ways, whatever terms it sums), and one body (no two-mass coupling).
+// The fast paths then take the mechanical step without the effect calls.
 inline bool PlainShaft(const ShaftEffects& shaft) {
-  return !shaft.has_friction() && !shaft.position_dependent() && shaft.DragTorque(1.0) == 0.0 &&
-         shaft.DragTorque(-1.0) == 0.0;
+  return !shaft.two_mass() && !shaft.has_friction() && !shaft.position_dependent() &&
+         shaft.DragTorque(1.0) == 0.0 && shaft.DragTorque(-1.0) == 0.0;
 }
 
 }  // namespace blmd::internal

@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -136,6 +137,13 @@ struct InitialState {
   double i = 0.0;      // A
   double w = 0.0;      // rad/s
   double theta = 0.0;  // rad
+  // A two-mass shaft's load (docs/effects.md, two_mass): its speed (rad/s; unset: the motor's)
+  // and the twist theta - theta_load (rad). A record starts with the load turning with the
+  // motor, untwisted; a part cut from the middle of a record (discovery's cross-validation)
+  // starts where the model's own simulation had them.
+  std::optional<double> w_load;
+  double twist = 0.0;
+  double LoadSpeed() const { return w_load.value_or(w); }
 };
 
 struct Experiment {

@@ -30,6 +30,16 @@ struct LinearModel {
   Shaft shaft;
 };
 
+class ParameterSet;
+
+// The linear part of a shaft J dw/dt = -B w + K u, dtheta/dt = w, driven with
+// `torque_per_input` N·m per unit of u; with a two-mass coupling among the values
+// (docs/effects.md, two_mass) the motor, the load and the twist, [w, theta, w_load, twist],
+// the measured w and theta the motor's (rigid_load, blmd). Sets states, outputs, A, B, C, D
+// and, with the coupling, the shaft the tuning's loops act on; the caller names the input and
+// the assumption.
+void LinearShaft(const ParameterSet& values, double torque_per_input, LinearModel* model);
+
 // G(s) = num(s)/den(s), coefficients in descending powers of s (MATLAB's tf order).
 struct TransferFunction {
   std::string output;

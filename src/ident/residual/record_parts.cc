@@ -69,6 +69,14 @@ RecordParts SplitRecord(const FitProblem& problem, const std::vector<double>& va
   second.initial.theta = have_simulation && simulated.Has("theta")
                              ? simulated.Column("theta")[split]
                              : (angle.empty() ? whole.initial.theta : angle[split]);
+  // A two-mass shaft's load, a state no column of the record gives: where the simulation had
+  // it at the cut (a load left with the motor and untwisted there keeps the momentum it lacks
+  // for as long as J/B, seconds on a lightly damped shaft).
+  if (have_simulation && simulated.Has("w_load") && simulated.Has("theta_load") &&
+      simulated.Has("theta")) {
+    second.initial.w_load = simulated.Column("w_load")[split];
+    second.initial.twist = simulated.Column("theta")[split] - simulated.Column("theta_load")[split];
+  }
   parts.first.push_back(std::move(first));
   parts.second.push_back(std::move(second));
   parts.description = "the two halves of the trace";

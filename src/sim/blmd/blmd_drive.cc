@@ -7,9 +7,11 @@
 #include <numbers>
 
 #include "blmd/sim/effects.h"
+#include "blmd/sim/two_mass.h"
 #include "sim/blmd/blmd_events.h"
 #include "sim/blmd/blmd_legs.h"
 #include "sim/digital_cascade.h"
+#include "sim/discretise.h"
 #include "sim/input_read.h"
 #include "sim/sampler.h"
 
@@ -57,6 +59,14 @@ struct ReferenceConstants : internal::BlmdParameters {
   double carrier_slope;  // V per step
   ShaftEffects shaft;
   DriveEffects drive;
+  // A two-mass shaft (docs/effects.md, two_mass): the exact zero-order-hold step of
+  // [w, theta, w_load, twist] with the torque on the motor held over the step, and the load
+  // swinging on a motor that friction holds (TwoMassSides::HeldLoad).
+  bool flexible = false;
+  double Jm = 0.0, K = 0.0, c_shaft = 0.0;
+  Eigen::Matrix4d flexible_Ad = Eigen::Matrix4d::Identity();
+  Eigen::Vector4d flexible_Bd = Eigen::Vector4d::Zero();
+  Eigen::Matrix2d held_load = Eigen::Matrix2d::Identity();
 
   static ReferenceConstants From(const ParameterSet& values,
                                  const std::vector<std::string>& effects,
@@ -72,6 +82,20 @@ struct ReferenceConstants : internal::BlmdParameters {
     c.Ki_dt = c.Ki * dt;
     c.steps_per_half_period = std::lround(0.5 * c.Tpwm / dt);
     c.carrier_slope = 2.0 * c.Vtri / static_cast<double>(c.steps_per_half_period);
+    c.flexible = c.shaft.two_mass();
+    if (c.flexible) {
+      const TwoMassSides sides = c.shaft.Sides(c.J, c.B);
+      c.Jm = sides.Jm;
+      c.K = sides.K;
+      c.c_shaft = sides.c;
+      Eigen::Matrix4d A = Eigen::Matrix4d::Zero();
+      sides.SetRows(0, 2, 3, &A);
+      A(1, 0) = 1.0;
+      Eigen::Vector4d input = Eigen::Vector4d::Zero();
+      input(0) = 1.0 / sides.Jm;  // the net torque on the motor, N·m
+      internal::Discretise<4, 1>(A, input, dt, &c.flexible_Ad, &c.flexible_Bd);
+      c.held_load = (sides.HeldLoad() * dt).exp();
+    }
     return c;
   }
 
@@ -94,6 +118,7 @@ struct ReferenceState {
   std::array<double, 3> phase_voltage = {0.0, 0.0, 0.0};  // V
   double torque = 0.0, neutral_voltage = 0.0;             // N·m, V
   double w = 0.0, theta = 0.0;                            // rad/s, rad
+  double w_load = 0.0, twist = 0.0;  // rad/s, rad: a two-mass shaft's load and θ − θ_load
 
   // The output row: u, the currents (ia as measured, with i0), w, theta, and with
   // diagnostics the phase voltages, torque and neutral voltage.
@@ -188,14 +213,31 @@ struct ReferenceState {
 }
 
 // The shaft over the step (backward Euler) with the shared effects, cogging at the angle
-// effect_theta; a shaft that friction stops inside the step ends it at rest.
+// effect_theta; a shaft that friction stops inside the step ends it at rest. A two-mass shaft
+// takes its exact step instead, the load's torque K twist + c (w − w_load) on the motor.
 [[gnu::always_inline]] inline void ReferenceShaft(const ReferenceConstants& c, double dt,
                                                   double effect_theta, ReferenceState* s) {
   const ShaftEffects& shaft = c.shaft;
   const double w_old = s->w, theta_old = s->theta;
   const double non_friction = shaft.NonFrictionTorque(effect_theta) + shaft.DragTorque(s->w);
+  const double coupling = c.flexible ? c.K * s->twist + c.c_shaft * (s->w - s->w_load) : 0.0;
   bool stuck = false;
-  const double friction = shaft.StepFriction(s->w, s->torque - non_friction, &stuck);
+  const double friction = shaft.StepFriction(s->w, s->torque - non_friction - coupling, &stuck);
+  if (c.flexible) {
+    if (stuck) {
+      const Eigen::Vector2d load = c.held_load * Eigen::Vector2d(s->w_load, s->twist);
+      s->w_load = load(0);
+      s->twist = load(1);
+      return;
+    }
+    const Eigen::Vector4d x = c.flexible_Ad * Eigen::Vector4d(s->w, s->theta, s->w_load, s->twist) +
+                              c.flexible_Bd * (s->torque - friction - non_friction);
+    s->w = shaft.StopsWithin(w_old, x(0)) ? 0.0 : x(0);
+    s->theta = x(1);
+    s->w_load = x(2);
+    s->twist = x(3);
+    return;
+  }
   if (stuck) return;
   s->w = (s->w + dt / c.J * (s->torque - friction - non_friction)) * c.speed_gain;
   if (shaft.StopsWithin(w_old, s->w)) {
@@ -297,6 +339,8 @@ SimStatus BlmdDriveModel::SimulateReference(const SimulationRequest& request, Tr
   std::vector<std::string> names = internal::BlmdOutputNames(settings.diagnostics);
   const std::size_t r_index = names.size();  // the row's slot for r (closed loop)
   if (closed_loop) names.emplace_back("r");
+  const std::size_t load_index = names.size();  // w_load, theta_load (a two-mass shaft)
+  if (c.flexible) names.insert(names.end(), {"w_load", "theta_load"});  // a load-side encoder
   internal::OutputSampler sampler(times, names);
   InputCursor input(experiment.input);
   const double Ts = experiment.pid.sample_rate > 0.0 ? 1.0 / experiment.pid.sample_rate : dt;
@@ -306,11 +350,20 @@ SimStatus BlmdDriveModel::SimulateReference(const SimulationRequest& request, Tr
   ReferenceState s;
   s.w = experiment.initial.w;
   s.theta = experiment.initial.theta;
+  s.w_load = experiment.initial.LoadSpeed();  // a two-mass shaft's load (InitialState)
+  s.twist = experiment.initial.twist;
   double reference = input.At(internal::InputReadTime(t_start, dt));
   double command = closed_loop ? controller.Tick(reference, s.w, s.theta) : 0.0;  // V
-  std::array<double, 12> prev{}, now{};
-  s.Pack(closed_loop ? command : input.At(t_start), c.drive.i0, settings.diagnostics, prev.data());
-  prev[r_index] = reference;
+  std::array<double, 14> prev{}, now{};
+  auto pack = [&](double u, double* row) {
+    s.Pack(u, c.drive.i0, settings.diagnostics, row);
+    if (closed_loop) row[r_index] = reference;
+    if (c.flexible) {
+      row[load_index] = s.w_load;
+      row[load_index + 1] = s.theta - s.twist;
+    }
+  };
+  pack(closed_loop ? command : input.At(t_start), prev.data());
   sampler.Record(t_start, prev.data(), t_start, prev.data());
 
   constexpr double kHalfSqrt3 = 0.86602540378443864676;  // sin(2 pi/3)
@@ -364,9 +417,10 @@ SimStatus BlmdDriveModel::SimulateReference(const SimulationRequest& request, Tr
       reference = input.At(internal::InputReadTime(t_high, dt));
       command = controller.Tick(reference, s.w, s.theta);
     }
-    s.Pack(closed_loop ? command : demand, c.drive.i0, settings.diagnostics, now.data());
-    now[r_index] = reference;
-    if (!internal::AllFinite(now.data() + 1, 5, settings.divergence_limit)) {
+    pack(closed_loop ? command : demand, now.data());
+    const std::array<double, 2> load = {s.w_load, s.twist};
+    if (!internal::AllFinite(now.data() + 1, 5, settings.divergence_limit) ||
+        !internal::AllFinite(load.data(), 2, settings.divergence_limit)) {
       return {SimStatus::Code::kDiverged, internal::DivergedMessage(settings.divergence_limit),
               t_high};
     }
@@ -422,7 +476,8 @@ double BlmdDriveModel::DriveTorqueScale(const ParameterSet& values, double i_max
 
 // The drive with ideal current loops (docs/model-blmd.md, "Linear part"): each phase
 // current follows its demand i_j = (Kc/Kf)·Td·cos(p·theta - 2(j-1)pi/3), so
-// Te = Ke·sum_j i_j·cos(...) = 1.5·Ke·Kc/Kf·Td, and J dw/dt = Te - B w. The phase current is
+// Te = Ke·sum_j i_j·cos(...) = 1.5·Ke·Kc/Kf·Td, and J dw/dt = Te - B w (or the two-mass shaft
+// driven by Te, LinearShaft). The phase current is
 // modulated by the rotor angle, so u -> i is not time-invariant and is not given.
 LinearModel BlmdDriveModel::Linearise(const ParameterSet& values) const {
   LinearModel model;
@@ -434,20 +489,11 @@ LinearModel BlmdDriveModel::Linearise(const ParameterSet& values) const {
     return model;
   }
   const double torque_per_volt = 1.5 * values.Get("Ke") * values.Get("Kc") / Kf;  // N·m/V
-  const double J = values.Get("J"), B = values.Get("B");
-  model.available = true;
   model.input = "u = Td (V, the torque demand)";
-  model.assumption =
-      "ideal current loops (Te = 1.5·Ke·Kc/Kf·Td); PWM, dead time and the "
-      "effects left out";
-  model.states = {"w", "theta"};
-  model.outputs = model.states;
-  model.A.resize(2, 2);
-  model.A << -B / J, 0.0, 1.0, 0.0;
-  model.B.resize(2, 1);
-  model.B << torque_per_volt / J, 0.0;
-  model.C = Eigen::MatrixXd::Identity(2, 2);
-  model.D = Eigen::MatrixXd::Zero(2, 1);
+  LinearShaft(values, torque_per_volt, &model);
+  model.assumption = std::string("ideal current loops (Te = 1.5·Ke·Kc/Kf·Td); ") +
+                     (model.has_shaft ? "the two-mass shaft kept; " : "") +
+                     "PWM, dead time and the effects left out";
   return model;
 }
 

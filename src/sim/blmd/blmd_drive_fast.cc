@@ -295,6 +295,11 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
   // The closed loop (experiment.pid) runs on the reference step loop whatever the method: the
   // controller's samples fall on its grid (docs/model-blmd.md §10).
   if (request.experiment->closed_loop) return SimulateReference(request, out);
+  // A two-mass shaft (docs/effects.md) runs on the reference step loop whatever the method:
+  // its exact four-state step replaces the rigid shaft's there (docs/model-blmd.md §10).
+  if (ShaftEffects::From(*request.parameters, *request.effects, 0.0).two_mass()) {
+    return SimulateReference(request, out);
+  }
   if (request.settings.method == SimulationMethod::kEvents) {
     return internal::SimulateBlmdEvents(*this, request, out);
   }

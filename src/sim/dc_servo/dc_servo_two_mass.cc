@@ -63,7 +63,7 @@ SimStatus DcServoModel::SimulateTwoMass(const SimulationRequest& request, Trace*
   const Eigen::Matrix2d held = (sides.HeldLoad() * dt).exp();
 
   const double limit = request.settings.divergence_limit;
-  double w_load = experiment.initial.w, twist = 0.0;  // the load with the motor, untwisted
+  double w_load = experiment.initial.LoadSpeed(), twist = experiment.initial.twist;
   // Its speed and angle, theta - twist, written beside the motor's (a load-side encoder).
   std::array<double, 2> load_side = {w_load, experiment.initial.theta};
   EffectAngle effect_angle(request.sample_times, request.settings.effect_angle);

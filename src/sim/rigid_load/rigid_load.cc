@@ -139,9 +139,11 @@ SimStatus SimulateTwoMass(const SimulationRequest& request, const ShaftEffects& 
   Eigen::Matrix<double, 2, 1> none = Eigen::Matrix<double, 2, 1>::Zero(), unused;
   internal::Discretise<2, 1>(A_held, none, dt, &Ad_held, &unused);
 
-  // The load starts with the motor, the shaft untwisted; its speed and angle, theta - delta,
-  // are written beside the motor's (a load-side encoder).
-  Eigen::Vector4d x(experiment.initial.w, experiment.initial.theta, experiment.initial.w, 0.0);
+  // The load starts as the initial state gives it (with the motor, the shaft untwisted, unless
+  // set); its speed and angle, theta - delta, are written beside the motor's (a load-side
+  // encoder).
+  Eigen::Vector4d x(experiment.initial.w, experiment.initial.theta, experiment.initial.LoadSpeed(),
+                    experiment.initial.twist);
   std::array<double, 2> load_side = {x(2), x(1) - x(3)};
   EffectAngle effect_angle(request.sample_times, request.settings.effect_angle);
   const double limit = request.settings.divergence_limit;
@@ -237,7 +239,8 @@ SimStatus RigidLoadModel::SimulateClosedLoop(const SimulationRequest& request, T
   internal::DigitalCascade controller(pid, Ts);
   const double t_start = times.front();
   double w = experiment.initial.w, theta = experiment.initial.theta, u_a = 0.0;
-  double w_load = w, twist = 0.0;  // a two-mass shaft's load starts with the motor, untwisted
+  // A two-mass shaft's load: with the motor, untwisted, unless the initial state sets it.
+  double w_load = experiment.initial.LoadSpeed(), twist = experiment.initial.twist;
   double reference = input.At(internal::InputReadTime(t_start, dt));
   double u = controller.Tick(reference, w, theta);
   std::array<double, 6> prev = {u, w, theta, reference, w_load, theta - twist};
@@ -348,43 +351,14 @@ double RigidLoadModel::StallTorquePerInput(const ParameterSet& values) const {
 }
 
 // The shaft without effects (docs/model-rigid-load.md, "Linear part"):
-// J dw/dt = Kt u - B w, dtheta/dt = w.
+// J dw/dt = Kt u - B w, dtheta/dt = w, or the two-mass shaft when the values hold one.
 LinearModel RigidLoadModel::Linearise(const ParameterSet& values) const {
-  const double J = values.Get("J"), B = values.Get("B"), Kt = values.Get("Kt");
   LinearModel model;
-  model.available = true;
   model.input = "u (N·m, or N for a linear axis, per Kt)";
-  // A two-mass shaft (docs/effects.md) is linear: kept, so that the transfer functions, the
-  // Bode plot and the exports show its resonance; the measured w and theta are the motor's.
-  if (values.Has("inertia_ratio") && values.Has("anti_resonance_hz")) {
-    const double r = values.Get("inertia_ratio"), fa = values.Get("anti_resonance_hz");
-    const double zeta = values.GetOr("shaft_damping_ratio", 0.0);
-    const double share = values.GetOr("load_damping_share", 0.0);
-    const TwoMassSides sides = TwoMassSides::Of(J, B, r, fa, zeta, share);
-    model.assumption =
-        "the two-mass shaft kept; the other effects (friction, load, cogging, ...) left out";
-    model.states = {"w", "theta", "w_load", "twist"};
-    model.outputs = {"w", "theta"};
-    model.A = Eigen::MatrixXd::Zero(4, 4);
-    sides.SetRows(0, 2, 3, &model.A);
-    model.A(1, 0) = 1.0;
-    model.B.resize(4, 1);
-    model.B << Kt / sides.Jm, 0.0, 0.0, 0.0;
-    model.C = Eigen::MatrixXd::Identity(2, 4);
-    model.D = Eigen::MatrixXd::Zero(2, 1);
-    model.has_shaft = true;
-    model.shaft = {J, B, Kt, r, fa, zeta, share};
-    return model;
-  }
-  model.assumption = "the effects (friction, load, cogging, ...) left out";
-  model.states = {"w", "theta"};
-  model.outputs = model.states;
-  model.A.resize(2, 2);
-  model.A << -B / J, 0.0, 1.0, 0.0;
-  model.B.resize(2, 1);
-  model.B << Kt / J, 0.0;
-  model.C = Eigen::MatrixXd::Identity(2, 2);
-  model.D = Eigen::MatrixXd::Zero(2, 1);
+  LinearShaft(values, values.Get("Kt"), &model);
+  model.assumption = model.has_shaft ? "the two-mass shaft kept; the other effects (friction, "
+                                       "load, cogging, ...) left out"
+                                     : "the effects (friction, load, cogging, ...) left out";
   return model;
 }
 
