@@ -63,7 +63,7 @@ struct ReferenceConstants : internal::BlmdParameters {
   // [w, theta, w_load, twist] with the torque on the motor held over the step, and the load
   // swinging on a motor that friction holds (TwoMassSides::HeldLoad).
   bool flexible = false;
-  double Jm = 0.0, K = 0.0, c_shaft = 0.0;
+  double K = 0.0, c_shaft = 0.0;  // N·m/rad, N·m·s/rad
   Eigen::Matrix4d flexible_Ad = Eigen::Matrix4d::Identity();
   Eigen::Vector4d flexible_Bd = Eigen::Vector4d::Zero();
   Eigen::Matrix2d held_load = Eigen::Matrix2d::Identity();
@@ -85,7 +85,6 @@ struct ReferenceConstants : internal::BlmdParameters {
     c.flexible = c.shaft.two_mass();
     if (c.flexible) {
       const TwoMassSides sides = c.shaft.Sides(c.J, c.B);
-      c.Jm = sides.Jm;
       c.K = sides.K;
       c.c_shaft = sides.c;
       Eigen::Matrix4d A = Eigen::Matrix4d::Zero();

@@ -296,7 +296,7 @@ SimStatus BlmdDriveModel::Simulate(const SimulationRequest& request, Trace* out)
   // controller's samples fall on its grid (docs/model-blmd.md §10).
   if (request.experiment->closed_loop) return SimulateReference(request, out);
   // A two-mass shaft (docs/effects.md) runs on the reference step loop whatever the method:
-  // its exact four-state step replaces the rigid shaft's there (docs/model-blmd.md §10).
+  // its exact four-state step replaces the rigid shaft's there (docs/model-blmd.md §10a).
   if (ShaftEffects::From(*request.parameters, *request.effects, 0.0).two_mass()) {
     return SimulateReference(request, out);
   }

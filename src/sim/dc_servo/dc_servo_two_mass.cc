@@ -65,7 +65,7 @@ SimStatus DcServoModel::SimulateTwoMass(const SimulationRequest& request, Trace*
   const double limit = request.settings.divergence_limit;
   double w_load = experiment.initial.LoadSpeed(), twist = experiment.initial.twist;
   // Its speed and angle, theta - twist, written beside the motor's (a load-side encoder).
-  std::array<double, 2> load_side = {w_load, experiment.initial.theta};
+  std::array<double, 2> load_side = {w_load, experiment.initial.theta - twist};
   EffectAngle effect_angle(request.sample_times, request.settings.effect_angle);
   auto advance = [&](double t, bool open, double u_eff, double* i, double* w, double* theta) {
     const double positional = shaft.NonFrictionTorque(effect_angle.At(t, *theta));
