@@ -174,4 +174,12 @@ Trace SimulateWithEffect(Config config, const std::string& effect, const Paramet
   return trace;
 }
 
+std::string SineInput(double amplitude, double hz) {
+  char input[256];
+  std::snprintf(input, sizeof input,
+                R"({ "type": "chirp", "amplitude": %.17g, "f0": %.17g, "f1": %.17g })", amplitude,
+                hz, hz);
+  return input;
+}
+
 }  // namespace blmd::testing

@@ -47,4 +47,8 @@ double WorstRelativeDeviation(const Trace& fast, const Trace& reference, std::st
 // record of an effect the config does not declare.
 Trace SimulateWithEffect(Config config, const std::string& effect, const ParameterSet& values);
 
+// A config's experiment.input that is a sine of `amplitude` at `hz` from t = 0 (a chirp whose
+// two frequencies are the same), for a frequency response read at one frequency.
+std::string SineInput(double amplitude, double hz);
+
 }  // namespace blmd::testing

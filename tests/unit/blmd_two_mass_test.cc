@@ -15,6 +15,7 @@
 #include "blmd/run.h"
 #include "blmd/sim/linear_model.h"
 #include "blmd/sim/model.h"
+#include "support/test_support.h"
 
 namespace blmd::testing {
 namespace {
@@ -87,9 +88,7 @@ Complex Phasor(const Trace& trace, const char* column, double f, double from) {
 TEST(BlmdTwoMass, MotorSpeedFollowsTheTwoMassTransferFunction) {
   const double duration = 1.6;
   for (const double f : {15.0, kFa, kFa * std::sqrt(1.0 + kRatio), 200.0}) {
-    char input[256];
-    std::snprintf(input, sizeof input,
-                  R"({ "type": "chirp", "amplitude": 0.2, "f0": %.17g, "f1": %.17g })", f, f);
+    const std::string input = SineInput(0.2, f);
     Trace trace;
     const SimStatus status = RunExperiment(
         ParseConfig(ConfigText(input, "events", true, duration, 2e5), "blmd.json"), &trace);

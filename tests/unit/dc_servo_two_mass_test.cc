@@ -15,6 +15,7 @@
 #include "blmd/run.h"
 #include "blmd/sim/linear_model.h"
 #include "blmd/sim/model.h"
+#include "support/test_support.h"
 
 namespace blmd::testing {
 namespace {
@@ -61,9 +62,7 @@ void ClosedForm(double f, Complex* i_per_u, Complex* w_per_u) {
 TEST(DcServoTwoMass, CurrentAndMotorSpeedFollowTheTransferFunctions) {
   const double duration = 2.0;
   for (const double f : {5.0, kFa, kFa * std::sqrt(1.0 + kRatio), 90.0}) {
-    char input[256];
-    std::snprintf(input, sizeof input,
-                  R"({ "type": "chirp", "amplitude": 1.0, "f0": %.17g, "f1": %.17g })", f, f);
+    const std::string input = SineInput(1.0, f);
     Trace trace;
     const SimStatus status =
         RunExperiment(ParseConfig(ConfigText(input, "", 1e-5, duration, 1e4), "dc.json"), &trace);

@@ -63,7 +63,7 @@ struct ReferenceConstants : internal::BlmdParameters {
   // [w, theta, w_load, twist] with the torque on the motor held over the step, and the load
   // swinging on a motor that friction holds (TwoMassSides::HeldLoad).
   bool flexible = false;
-  double K = 0.0, c_shaft = 0.0;  // N·m/rad, N·m·s/rad
+  TwoMassSides sides;
   Eigen::Matrix4d flexible_Ad = Eigen::Matrix4d::Identity();
   Eigen::Vector4d flexible_Bd = Eigen::Vector4d::Zero();
   Eigen::Matrix2d held_load = Eigen::Matrix2d::Identity();
@@ -84,16 +84,14 @@ struct ReferenceConstants : internal::BlmdParameters {
     c.carrier_slope = 2.0 * c.Vtri / static_cast<double>(c.steps_per_half_period);
     c.flexible = c.shaft.two_mass();
     if (c.flexible) {
-      const TwoMassSides sides = c.shaft.Sides(c.J, c.B);
-      c.K = sides.K;
-      c.c_shaft = sides.c;
+      c.sides = c.shaft.Sides(c.J, c.B);
       Eigen::Matrix4d A = Eigen::Matrix4d::Zero();
-      sides.SetRows(0, 2, 3, &A);
+      c.sides.SetRows(0, 2, 3, &A);
       A(1, 0) = 1.0;
       Eigen::Vector4d input = Eigen::Vector4d::Zero();
-      input(0) = 1.0 / sides.Jm;  // the net torque on the motor, N·m
+      input(0) = 1.0 / c.sides.Jm;  // the net torque on the motor, N·m
       internal::Discretise<4, 1>(A, input, dt, &c.flexible_Ad, &c.flexible_Bd);
-      c.held_load = (sides.HeldLoad() * dt).exp();
+      c.held_load = (c.sides.HeldLoad() * dt).exp();
     }
     return c;
   }
@@ -212,31 +210,14 @@ struct ReferenceState {
 }
 
 // The shaft over the step (backward Euler) with the shared effects, cogging at the angle
-// effect_theta; a shaft that friction stops inside the step ends it at rest. A two-mass shaft
-// takes its exact step instead, the load's torque K twist + c (w − w_load) on the motor.
+// effect_theta; a shaft that friction stops inside the step ends it at rest.
 [[gnu::always_inline]] inline void ReferenceShaft(const ReferenceConstants& c, double dt,
                                                   double effect_theta, ReferenceState* s) {
   const ShaftEffects& shaft = c.shaft;
   const double w_old = s->w, theta_old = s->theta;
   const double non_friction = shaft.NonFrictionTorque(effect_theta) + shaft.DragTorque(s->w);
-  const double coupling = c.flexible ? c.K * s->twist + c.c_shaft * (s->w - s->w_load) : 0.0;
   bool stuck = false;
-  const double friction = shaft.StepFriction(s->w, s->torque - non_friction - coupling, &stuck);
-  if (c.flexible) {
-    if (stuck) {
-      const Eigen::Vector2d load = c.held_load * Eigen::Vector2d(s->w_load, s->twist);
-      s->w_load = load(0);
-      s->twist = load(1);
-      return;
-    }
-    const Eigen::Vector4d x = c.flexible_Ad * Eigen::Vector4d(s->w, s->theta, s->w_load, s->twist) +
-                              c.flexible_Bd * (s->torque - friction - non_friction);
-    s->w = shaft.StopsWithin(w_old, x(0)) ? 0.0 : x(0);
-    s->theta = x(1);
-    s->w_load = x(2);
-    s->twist = x(3);
-    return;
-  }
+  const double friction = shaft.StepFriction(s->w, s->torque - non_friction, &stuck);
   if (stuck) return;
   s->w = (s->w + dt / c.J * (s->torque - friction - non_friction)) * c.speed_gain;
   if (shaft.StopsWithin(w_old, s->w)) {
@@ -246,6 +227,30 @@ struct ReferenceState {
   } else {
     s->theta += dt * s->w;
   }
+}
+
+// A two-mass shaft over the step (§10a): the exact step of [w, theta, w_load, twist] with the
+// drive's torque and the effects' held, the load's torque K twist + c (w − w_load) on the motor
+// deciding whether static friction holds it; a held motor lets the load swing.
+[[gnu::always_inline]] inline void ReferenceFlexibleShaft(const ReferenceConstants& c,
+                                                          double effect_theta, ReferenceState* s) {
+  const ShaftEffects& shaft = c.shaft;
+  const double non_friction = shaft.NonFrictionTorque(effect_theta) + shaft.DragTorque(s->w);
+  const double coupling = c.sides.K * s->twist + c.sides.c * (s->w - s->w_load);
+  bool stuck = false;
+  const double friction = shaft.StepFriction(s->w, s->torque - non_friction - coupling, &stuck);
+  if (stuck) {
+    const Eigen::Vector2d load = c.held_load * Eigen::Vector2d(s->w_load, s->twist);
+    s->w_load = load(0);
+    s->twist = load(1);
+    return;
+  }
+  const Eigen::Vector4d x = c.flexible_Ad * Eigen::Vector4d(s->w, s->theta, s->w_load, s->twist) +
+                            c.flexible_Bd * (s->torque - friction - non_friction);
+  s->w = shaft.StopsWithin(s->w, x(0)) ? 0.0 : x(0);
+  s->theta = x(1);
+  s->w_load = x(2);
+  s->twist = x(3);
 }
 
 }  // namespace
@@ -408,7 +413,11 @@ SimStatus BlmdDriveModel::SimulateReference(const SimulationRequest& request, Tr
                                  leg_voltage.data(), open.data());
     }
     ReferenceWindings(c, dt, cosine, leg_voltage, open, &s);
-    ReferenceShaft(c, dt, effect_angle.At(t_low, s.theta), &s);
+    if (c.flexible) {
+      ReferenceFlexibleShaft(c, effect_angle.At(t_low, s.theta), &s);
+    } else {
+      ReferenceShaft(c, dt, effect_angle.At(t_low, s.theta), &s);
+    }
 
     if (closed_loop && (step + 1) % period == 0) {
       // The controller samples at t_high; its command holds from there on (recorded with
@@ -419,7 +428,7 @@ SimStatus BlmdDriveModel::SimulateReference(const SimulationRequest& request, Tr
     pack(closed_loop ? command : demand, now.data());
     const std::array<double, 2> load = {s.w_load, s.twist};
     if (!internal::AllFinite(now.data() + 1, 5, settings.divergence_limit) ||
-        !internal::AllFinite(load.data(), 2, settings.divergence_limit)) {
+        (c.flexible && !internal::AllFinite(load.data(), 2, settings.divergence_limit))) {
       return {SimStatus::Code::kDiverged, internal::DivergedMessage(settings.divergence_limit),
               t_high};
     }
