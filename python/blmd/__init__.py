@@ -92,7 +92,7 @@ def _python_terms(message, renames=None):
             return f"{_keyword(flag, renames)}[{name!r}]"
         return f"{_keyword(flag, renames)}={{{name!r}: {_value_text(value)}}}"
 
-    message = re.sub(r"(?<![\w-])--(column|scale|initial|limit|noise) (\w+)(?:=([^\s:),]+))?",
+    message = re.sub(r"(?<![\w-])--(column|scale|initial|limit|noise) (\w+)(?:=([^\s:),;]+))?",
                      mapping, message)
 
     def flag(match):

@@ -144,8 +144,7 @@ IdentOutcome Identify(IdentRequest request) {
     Stage(request.options.progress, "equation error: cut-off ladder");
   }
   const CutoffChoice cutoff = ChooseEquationCutoff(&request, optimizer);
-  const FitProblem unweighted(request.config, std::move(request.traces), request.observe,
-                              request.free);
+  const FitProblem given(request.config, std::move(request.traces), request.observe, request.free);
   std::unique_ptr<FitProblem> validation;
   if (!request.validation.empty()) {
     validation = std::make_unique<FitProblem>(request.config, std::move(request.validation),
@@ -156,8 +155,16 @@ IdentOutcome Identify(IdentRequest request) {
   Stage(progress, "first fit (" + request.method + ")");
   // A local fit that stopped on a bound or far above the noise is restarted from the best
   // points of a scan of the bounds box (start_scan.h).
-  const FitResult unweighted_fit =
-      MinimizeWithStartScan(optimizer, unweighted, options, &outcome.start_scan);
+  FitResult given_fit = MinimizeWithStartScan(optimizer, given, options, &outcome.start_scan);
+  // A default range the fit stopped on is moved past that end and the fit repeated (a start
+  // far from this machine's values; start_scan.h): every step below works in the moved box.
+  RangeMove range = MoveDefaultRanges(optimizer, given, given_fit, options);
+  if (range.problem) {
+    outcome.range_shifts = range.shifts;
+    outcome.start_scan = range.start_scan;
+  }
+  const FitProblem& unweighted = range.problem ? *range.problem : given;
+  const FitResult unweighted_fit = range.problem ? std::move(range.fit) : std::move(given_fit);
   // The cost weighted by each column's noise (noise_model.h): estimated from the residual,
   // refit from the optimum until the noise settles.
   Stage(progress, "noise-weighted refit (" + request.method + ")");
@@ -295,6 +302,21 @@ IdentOutcome Identify(IdentRequest request) {
                            " points of the bounds box and a fit from its best (" + start +
                            ") reached NRMSE " + FormatSignificant(scan.nrmse_final, 4) +
                            " (docs/identification.md §2a)");
+  }
+  if (!outcome.range_shifts.empty()) {
+    std::string moved;
+    for (const RangeShift& shift : outcome.range_shifts) {
+      moved += (moved.empty() ? "" : "; ") + shift.name + " from [" +
+               FormatSignificant(shift.from_lower, 4) + ", " +
+               FormatSignificant(shift.from_upper, 4) + "] to [" +
+               FormatSignificant(shift.to_lower, 4) + ", " + FormatSignificant(shift.to_upper, 4) +
+               "]";
+    }
+    report.notes.push_back(
+        "the first fit stopped on an end of a default search range (three decades either side "
+        "of the config's start, which is far from this record's values): the range was moved "
+        "past that end and the fit repeated from it, " +
+        moved + " (docs/identification.md §2b)");
   }
   RecordFitSettings(request, problem, &outcome.final_config);
   // A record whose u follows the residual was made in closed loop (diagnostics.h, feedback):

@@ -1160,6 +1160,99 @@ TEST(DeltaServo, TheEquationErrorGivesJWithinTenPercentOnBothRuns) {
   }
 }
 
+// The starting config's J 0.02 and B 0.05 (a 10 kg·cm² axis) on small motors: their B lies
+// below B's default range [5e-05, 50] and the gearmotor's J below J's [2e-05, 20]. The fit
+// stops on those ends, and the ranges are moved past them (docs/identification.md §2b): the
+// new user's run gives what --initial B=5e-06 --initial J=2e-06 gave by hand. Measured: J
+// 7.016e-06 [5.148e-06, 9.562e-06] against the record's regression 7.15e-06.
+std::string NewUserCommand(const std::string& traces, const std::string& extra = "") {
+  return "--config configs/real/delta-a3.json " + traces + " --discover" + extra;
+}
+
+bool HasWarning(const nlohmann::json& report, const std::string& code) {
+  for (const auto& w : report["warnings"])
+    if (w["code"] == code) return true;
+  return false;
+}
+
+TEST(NewRigs, TheDefaultRangesMoveToTheGearmotorWithoutItsFlywheel) {
+  constexpr double kIndependentJ = 7.15e-6;
+  const nlohmann::json report = CachedReport(
+      "gearmotor-noflywheel",
+      NewUserCommand("--trace testdata/realdata/ultra_mk2_odrive_flywheel/noflywheel_steps.csv"));
+  const auto& j = report["parameters"]["J"];
+  EXPECT_LT(std::abs(Value(j["value"]) / kIndependentJ - 1.0), 0.10);
+  EXPECT_LE(Value(j["ci95"][0]), kIndependentJ);
+  EXPECT_GE(Value(j["ci95"][1]), kIndependentJ);
+  EXPECT_FALSE(HasWarning(report, "parameter_at_bound"));
+  bool moved = false;
+  for (const auto& note : report["notes"]) {
+    moved = moved || note.get<std::string>().find(
+                         "J from [2e-05, 20] to [2e-08, 0.02]; B from [5e-05, 50] to [5e-08, "
+                         "0.05]") != std::string::npos;
+  }
+  EXPECT_TRUE(moved) << report["notes"].dump();
+}
+
+// A record that turns one way only (voltage steps of the QNET motor, 4 V then 6 V): B + dB
+// forwards is all it shows, so the direction-dependent damping is not a candidate there
+// (docs/discovery.md §2). Before, it was added with no interval for J; now Coulomb friction
+// (a constant drag, one way) is, and J is -0.7 % of the record's regression 2.08e-05, its
+// interval [2.011e-05, 2.121e-05] covering it.
+TEST(NewRigs, AOneWayRecordGetsNoDirectionDependentDamping) {
+  constexpr double kIndependentJ = 2.08e-5;
+  const nlohmann::json report = CachedReport(
+      "qnet-4v6v",
+      NewUserCommand("--trace testdata/realdata/mcgill_qnet_dcmotor/qnet_step4V6V_torque.csv"));
+  const auto& added = report["discovery"]["added"];
+  EXPECT_EQ(std::find(added.begin(), added.end(), "asymmetric_viscous"), added.end());
+  bool refused = false;
+  for (const auto& c : report["discovery"]["steps"][0]["candidates"]) {
+    refused = refused || (c["effect"] == "asymmetric_viscous" &&
+                          c.value("reason", "").find("turned one way only") != std::string::npos);
+  }
+  EXPECT_TRUE(refused) << report["discovery"]["steps"][0]["candidates"].dump();
+  const auto& j = report["parameters"]["J"];
+  ASSERT_TRUE(j.contains("ci95"));
+  EXPECT_LT(std::abs(Value(j["value"]) / kIndependentJ - 1.0), 0.10);
+  EXPECT_LE(Value(j["ci95"][0]), kIndependentJ);
+  EXPECT_GE(Value(j["ci95"][1]), kIndependentJ);
+}
+
+// Two SRV02 servos' bump tests, the load shaft's angle alone logged (no speed column). The
+// plain command names the two ways to fit such a record; on the six steps with the angle
+// observed, J is +2.4 % of the datasheet's 3.83e-3 (home pose) with an interval that covers
+// it. A single step from rest at the record's middle has a first half at rest: the block
+// cross-validation cannot use it and says so (before, the command failed with exit 2).
+TEST(NewRigs, AnAngleOnlyRecordIsFittedOnTheAngle) {
+  const std::string dir = "testdata/realdata/asb_srv02_cnc_steps/";
+  const CommandResult plain = blmd::testing::Run(
+      "cd " + SourcePath("") + " && " + BinPath("blmd-ident") + " " +
+      NewUserCommand("--trace " + dir + "m0_p2V.csv") + " --quiet --report /dev/null");
+  EXPECT_EQ(plain.exit_code, 2);
+  EXPECT_NE(plain.err.find("fit it (--observe theta) or the speed derived from it (--derive "
+                           "w=theta)"),
+            std::string::npos)
+      << plain.err;
+  std::string six;
+  for (const char* f : {"m0_p0V5", "m0_m0V5", "m0_p1V", "m0_m1V", "m0_p2V", "m0_m2V"})
+    six += std::string(" --trace ") + dir + f + ".csv";
+  constexpr double kDatasheetJ = 3.83e-3;
+  const nlohmann::json pooled =
+      CachedReport("srv02-six", NewUserCommand(six.substr(1), " --observe theta"));
+  const auto& j = pooled["parameters"]["J"];
+  EXPECT_LT(std::abs(Value(j["value"]) / kDatasheetJ - 1.0), 0.10);
+  EXPECT_LE(Value(j["ci95"][0]), kDatasheetJ);
+  EXPECT_GE(Value(j["ci95"][1]), kDatasheetJ);
+  const nlohmann::json one = CachedReport(
+      "srv02-p2v", NewUserCommand("--trace " + dir + "m0_p2V.csv", " --observe theta"));
+  EXPECT_NE(one["discovery"]
+                .value("cross_validation_parts", "")
+                .find("(not used: a part of the record cannot be fitted alone"),
+            std::string::npos)
+      << one["discovery"].dump();
+}
+
 // EMPS from its reference (configs/real/emps-reference.json, docs/real-data.md "From its
 // reference"): the benchmark's cascade in the config, with the rig's velocity estimate (the
 // angle's difference over two samples), the simulation driven by the recorded reference qg and

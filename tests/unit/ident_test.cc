@@ -360,5 +360,45 @@ TEST(StartScan, SettledFitIsLeftAsTheMethodReturnedIt) {
   EXPECT_EQ(scanned.summary.evaluations, local.summary.evaluations);
 }
 
+// A start three decades and a half above the record's B (a config written for another
+// machine): B's default range [start/1000, start*1000] excludes the truth, the fit stops on
+// its lower end, and the range is moved to three decades either side of that end
+// (docs/identification.md §2b), where the fit finds J and B. A range the config gives is
+// never moved.
+TEST(RangeMove, DefaultRangeThatExcludesTheOptimumIsMovedPastTheEndItStoppedOn) {
+  Config config = GaneshShort(0.6);
+  config.identification.bounds.erase("J");
+  config.identification.bounds.erase("B");
+  const double J = config.parameters.Get("J"), B = config.parameters.Get("B");
+  const FitTrace trace = MakeNoisyTrace(config, {"i", "w"}, 13);
+  const FitProblem problem =
+      MakeProblem(config, trace, {"i", "w"}, {"J", "B"}, {2.0 * J, 3000.0 * B});
+  ASSERT_DOUBLE_EQ(problem.free()[1].lower, 3.0 * B);
+  const Optimizer& ceres = FindOptimizer("ceres");
+  OptimizerOptions options;
+  options.threads = 1;
+  const FitResult first = MinimizeWithStartScan(ceres, problem, options, nullptr);
+  EXPECT_EQ(SideValleyReason(problem, first), "B stopped on its bound");
+  const RangeMove move = MoveDefaultRanges(ceres, problem, first, options);
+  ASSERT_TRUE(move.problem);
+  ASSERT_EQ(move.shifts.size(), 1u);
+  EXPECT_EQ(move.shifts[0].name, "B");
+  EXPECT_DOUBLE_EQ(move.shifts[0].from_lower, 3.0 * B);
+  EXPECT_DOUBLE_EQ(move.shifts[0].to_lower, 3e-3 * B);
+  EXPECT_DOUBLE_EQ(move.shifts[0].to_upper, 3000.0 * B);
+  EXPECT_EQ(move.problem->free()[0].lower, problem.free()[0].lower);  // J was not moved
+  EXPECT_LT(RelativeError(move.fit.values[0], J), 0.01) << "J = " << move.fit.values[0];
+  EXPECT_LT(RelativeError(move.fit.values[1], B), 0.01) << "B = " << move.fit.values[1];
+  EXPECT_EQ(SideValleyReason(*move.problem, move.fit), "");
+
+  Config given = config;
+  given.identification.bounds["B"] = {3.0 * B, 10.0};
+  const FitProblem bounded =
+      MakeProblem(given, trace, {"i", "w"}, {"J", "B"}, {2.0 * J, 3000.0 * B});
+  const FitResult stopped = MinimizeWithStartScan(ceres, bounded, options, nullptr);
+  EXPECT_EQ(SideValleyReason(bounded, stopped), "B stopped on its bound");
+  EXPECT_FALSE(MoveDefaultRanges(ceres, bounded, stopped, options).problem);
+}
+
 }  // namespace
 }  // namespace blmd

@@ -58,5 +58,31 @@ TEST(RecordParts, TheSecondHalfStartsTheLoadWhereTheSimulationHadIt) {
   EXPECT_GT(std::abs(*start.w_load - start.w), 1e-3);  // the load apart from the motor there
 }
 
+// A record whose motion lies in its second half (a step at the middle, the shaft at rest
+// before it: a student lab's bump test) cannot be cut in two: its first half's angle is
+// constant, and a fit of it is no fit. The parts say so with the reason; before, the part's
+// FitProblem threw, and the command that asked for a cross-validation failed with exit 2.
+TEST(RecordParts, AHalfAtRestIsNoPartAndSaysWhy) {
+  Config config = ParseConfig(R"({
+    "name": "late-step", "model": "rigid_load",
+    "parameters": { "J": 2e-3, "B": 2e-3, "Kt": 1.0 },
+    "simulation": { "dt": 1e-3 },
+    "experiment": { "input": { "type": "step", "amplitude": 1.0, "t0": 0.6 },
+                    "duration": 1.0, "sample_rate": 500 },
+    "identification": { "free": ["J", "B"], "observe": ["theta"] } })",
+                              "late-step.json");
+  Trace simulated;
+  ASSERT_TRUE(RunExperiment(config, &simulated).ok());
+  std::vector<FitTrace> traces;
+  traces.push_back(RecordedFitTrace(simulated, config.experiment.initial));
+  const FitProblem problem(config, traces, {"theta"}, MakeFreeParameters(config, {"J", "B"}));
+  const internal::RecordParts parts = internal::SplitRecord(problem, {2e-3, 2e-3});
+  EXPECT_FALSE(parts.ok);
+  EXPECT_EQ(parts.reason,
+            "a part of the record cannot be fitted alone (generated (first half): observed column "
+            "'theta' is constant: it cannot inform the fit (observe another column with "
+            "--observe))");
+}
+
 }  // namespace
 }  // namespace blmd

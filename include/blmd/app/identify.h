@@ -53,6 +53,9 @@ struct IdentOutcome {
   // The first fit's guard against a side valley (start_scan.h): whether it ran, and whether a
   // restart from the scan replaced the fit from the config's start.
   StartScanRecord start_scan;
+  // The default ranges the first fit stopped on and where they were moved (start_scan.h,
+  // MoveDefaultRanges); empty when none was.
+  std::vector<RangeShift> range_shifts;
   std::unique_ptr<DiscoveryResult> discovery;  // when request.discover
   // The final model (after discovery, else the first fit): its config, its parameters at
   // the fitted values and its free parameters with their bounds (--write-config).

@@ -99,7 +99,13 @@ CurrentOnParts CrossValidateCurrent(const FitProblem& problem, const FitProblem&
   level.on_data =
       BlockCrossValidate(config, StartingAt(current.free(), fit.values), problem.traces(),
                          problem.observe(), fit.values, options.refit);
-  if (result->cross_validation_parts.empty()) result->cross_validation_parts = level.on_data.parts;
+  if (result->cross_validation_parts.empty()) {
+    result->cross_validation_parts = level.on_data.parts;
+    // Parts that cannot be fitted (a half at rest) judge nothing: the evidence alone decides.
+    if (!level.on_data.ok && !level.on_data.reason.empty()) {
+      result->cross_validation_parts += " (not used: " + level.on_data.reason + ")";
+    }
+  }
   // The copies' fits also start a little off the values (where the previous fits stopped
   // is known only to their tolerance): a verdict that hinges on that is no finding either.
   std::vector<double> usable_ratio = {level.on_data.nrmse / round.base.nrmse};

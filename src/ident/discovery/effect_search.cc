@@ -322,6 +322,16 @@ CandidatePlan PlanQuadraticDrag(const PlanContext& context) {
 
 CandidatePlan PlanAsymmetricViscous(const PlanContext& context) {
   CandidatePlan plan;
+  // On a record that turns one way only, dB |w| is dB w: B's own term, so B and dB cannot be
+  // told apart (a rank-deficient Jacobian, no interval) and nothing is learnt of the other
+  // direction (a case: added on every constant-torque spin-up of a reaction wheel, each with
+  // J and no interval).
+  if (!context.analysis.w_changes_sign) {
+    plan.applicable = false;
+    plan.not_applicable =
+        "the shaft turned one way only: dB |w| is then part of B; record both directions";
+    return plan;
+  }
   const double T = context.torque_scale, w_max = context.w_max;
   // dB |w|: the damping B + dB forwards, B - dB backwards. Searched over the damping that
   // would take the whole torque scale at the top speed, either sign; valid while both

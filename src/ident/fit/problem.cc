@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <stdexcept>
 
 #include "blmd/error.h"
 #include "blmd/io/csv.h"
@@ -195,6 +196,19 @@ FitProblem FitProblem::WithStart(const std::vector<double>& values) const {
     p.initial = std::clamp(values[k], p.lower, p.upper);
   }
   return restarted;
+}
+
+FitProblem FitProblem::WithFree(std::vector<FreeParameter> free) const {
+  FitProblem moved = *this;
+  for (std::size_t k = 0; k < moved.free_.size() && k < free.size(); ++k) {
+    if (free[k].name != moved.free_[k].name) {
+      throw std::logic_error("WithFree: parameter " + free[k].name + " in place of " +
+                             moved.free_[k].name);
+    }
+  }
+  if (free.size() != moved.free_.size()) throw std::logic_error("WithFree: wrong count");
+  moved.free_ = std::move(free);
+  return moved;
 }
 
 FitProblem FitProblem::WithStep(double dt) const {

@@ -499,9 +499,19 @@ void CheckFitColumns(const Samples& samples, const TraceFile& file, bool by_rows
   const std::string& path = file.path;
   for (const auto& required_name : file.options.required) {
     if (!part.Has(required_name)) {
-      throw InputError(path + ": missing observed column '" + required_name +
-                       "' (header has: " + HeaderSummary(part.names()) +
-                       "; map another header with --column " + required_name + "=HEADER)");
+      // A record of the angle alone (an encoder, no tachometer) is common: the two ways to
+      // fit it are named where they apply.
+      std::string other;
+      if (required_name == "w" && part.Has("theta")) {
+        other =
+            "; or, with only the angle logged, fit it (--observe theta) or the speed derived "
+            "from it (--derive w=theta)";
+      } else if (required_name == "theta" && part.Has("w")) {
+        other = "; or fit the speed alone (--observe w)";
+      }
+      throw InputError(path + ": missing observed column '" + required_name + "' (header has: " +
+                       HeaderSummary(part.names()) + "; map another header with --column " +
+                       required_name + "=HEADER" + other + ")");
     }
   }
   if (part.rows() < 3) {

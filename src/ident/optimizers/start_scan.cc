@@ -8,6 +8,7 @@
 
 #include "blmd/format.h"
 #include "blmd/ident/fit/noise_floor.h"
+#include "blmd/io/config.h"
 
 namespace blmd {
 namespace {
@@ -40,6 +41,18 @@ double Halton(int index, int dimension) {
 bool OnBound(const FreeParameter& p, double value) {
   const BoundDistance d = DistanceToBounds(p, value);
   return std::min(d.below, d.above) <= 1e-6 * d.span;
+}
+
+// Which end of p's range `value` sits on that a move may pass: -1 the lower, +1 the upper, 0
+// none (not on an end, a range the config gave, or the model's own limit).
+int MovableEnd(const Config& config, const FreeParameter& p, double value) {
+  if (!p.log_scale || config.identification.bounds.count(p.name)) return 0;
+  const ParamInfo* info = config.FindParameterInfo(p.name);
+  if (!info || !info->positive) return 0;
+  const BoundDistance d = DistanceToBounds(p, value);
+  if (d.below <= 1e-6 * d.span && p.lower > info->default_lower * (1.0 + 1e-9)) return -1;
+  if (d.above <= 1e-6 * d.span && p.upper < info->default_upper * (1.0 - 1e-9)) return 1;
+  return 0;
 }
 
 }  // namespace
@@ -121,6 +134,63 @@ FitResult MinimizeWithStartScan(const Optimizer& optimizer, const FitProblem& pr
     kept.estimates[k].initial = problem.free()[k].initial;
   out.nrmse_final = std::sqrt(kept.evaluation.nrmse2);
   return kept;
+}
+
+RangeMove MoveDefaultRanges(const Optimizer& optimizer, const FitProblem& problem,
+                            const FitResult& fit, const OptimizerOptions& options) {
+  RangeMove none;
+  if (!fit.evaluation.ok || fit.values.size() != problem.num_free()) return none;
+  const Config& config = problem.config();
+  std::vector<FreeParameter> free = problem.free();
+  std::vector<int> shift_of(free.size(), -1);  // index into `shifts`, -1: never moved
+  std::vector<RangeShift> shifts;
+  std::unique_ptr<FitProblem> moved;
+  FitResult current = fit;
+  StartScanRecord scan;
+  for (int move = 0; move < kMaxRangeMoves; ++move) {
+    std::vector<bool> moving(free.size(), false);
+    for (std::size_t k = 0; k < free.size(); ++k) {
+      const int end = MovableEnd(config, free[k], current.values[k]);
+      if (end == 0) continue;
+      const ParamInfo& info = *config.FindParameterInfo(free[k].name);
+      // Centred on the end it stopped on, three decades either side as Config::Bounds
+      // centres the default range on the start.
+      const double reached = end < 0 ? free[k].lower : free[k].upper;
+      if (shift_of[k] < 0) {
+        shift_of[k] = static_cast<int>(shifts.size());
+        shifts.push_back({free[k].name, free[k].lower, free[k].upper, 0.0, 0.0});
+      }
+      free[k].lower = std::max(info.default_lower, reached * 1e-3);
+      free[k].upper = std::min(info.default_upper, reached * 1e3);
+      free[k].initial = reached;
+      moving[k] = true;
+    }
+    if (std::find(moving.begin(), moving.end(), true) == moving.end()) break;
+    // The others go on from where the fit left them.
+    for (std::size_t k = 0; k < free.size(); ++k) {
+      if (!moving[k]) free[k].initial = std::clamp(current.values[k], free[k].lower, free[k].upper);
+    }
+    moved = std::make_unique<FitProblem>(problem.WithFree(free));
+    current = MinimizeWithStartScan(optimizer, *moved, options, &scan);
+    if (!current.evaluation.ok) return none;
+  }
+  if (!moved) return none;
+  for (std::size_t k = 0; k < free.size(); ++k) {
+    if (shift_of[k] >= 0 && OnBound(free[k], current.values[k])) return none;  // not freed
+  }
+  if (!(current.evaluation.cost <= fit.evaluation.cost)) return none;
+  for (std::size_t k = 0; k < free.size(); ++k) {
+    if (shift_of[k] < 0) continue;
+    RangeShift& shift = shifts[static_cast<std::size_t>(shift_of[k])];
+    shift.to_lower = free[k].lower;
+    shift.to_upper = free[k].upper;
+  }
+  RangeMove out;
+  out.problem = std::move(moved);
+  out.fit = std::move(current);
+  out.start_scan = std::move(scan);
+  out.shifts = std::move(shifts);
+  return out;
 }
 
 }  // namespace blmd

@@ -1,6 +1,9 @@
 #include "ident/residual/record_parts.h"
 
 #include <algorithm>
+#include <string>
+
+#include "blmd/error.h"
 
 namespace blmd::internal {
 namespace {
@@ -18,6 +21,25 @@ Trace Rows(const Trace& trace, std::size_t begin, std::size_t end) {
   return out;
 }
 
+// Each part must inform a fit on its own: a record whose motion lies in one half (a step at
+// the middle of a short record, the shaft at rest before it) has a half whose observed
+// columns are constant, and a fit of that half is no fit (FitProblem refuses it). Then the
+// parts cannot judge anything, and the caller says so instead of failing the whole command.
+RecordParts Checked(const FitProblem& problem, RecordParts parts) {
+  for (const auto* part : {&parts.first, &parts.second}) {
+    try {
+      const FitProblem alone(problem.config(), *part, problem.observe(), problem.free());
+    } catch (const InputError& error) {
+      RecordParts refused;
+      refused.description = parts.description;
+      refused.reason =
+          std::string("a part of the record cannot be fitted alone (") + error.what() + ")";
+      return refused;
+    }
+  }
+  return parts;
+}
+
 }  // namespace
 
 RecordParts SplitRecord(const FitProblem& problem, const std::vector<double>& values) {
@@ -32,7 +54,7 @@ RecordParts SplitRecord(const FitProblem& problem, const std::vector<double>& va
     }
     parts.description = "the odd and the even traces";
     parts.ok = true;
-    return parts;
+    return Checked(problem, std::move(parts));
   }
   if (traces.empty()) {
     parts.reason = "no trace";
@@ -81,7 +103,7 @@ RecordParts SplitRecord(const FitProblem& problem, const std::vector<double>& va
   parts.second.push_back(std::move(second));
   parts.description = "the two halves of the trace";
   parts.ok = true;
-  return parts;
+  return Checked(problem, std::move(parts));
 }
 
 }  // namespace blmd::internal

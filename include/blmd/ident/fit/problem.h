@@ -120,6 +120,9 @@ class FitProblem {
   // The same problem (weights, forced angles) started from `values` (physical units, each
   // clamped into its bounds): a restart of a local fit.
   FitProblem WithStart(const std::vector<double>& values) const;
+  // The same problem with other ranges and starts for its free parameters (the same names in
+  // the same order): a search box moved (start_scan.h, MoveDefaultRanges).
+  FitProblem WithFree(std::vector<FreeParameter> free) const;
   // The same problem (weights, forced angles, start) simulated on a fixed step of `dt` s.
   FitProblem WithStep(double dt) const;
 

@@ -8,6 +8,7 @@
 // hinges on the last bits of the data).
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -35,5 +36,34 @@ std::string SideValleyReason(const FitProblem& problem, const FitResult& fit);
 // (may be null) says what ran.
 FitResult MinimizeWithStartScan(const Optimizer& optimizer, const FitProblem& problem,
                                 const OptimizerOptions& options, StartScanRecord* record);
+
+// A positive parameter without bounds in the config is searched over three decades either side
+// of its start (Config::Bounds): a start written for another machine (a 20 g rotor fitted from
+// a config made for a 10 kg axis) can put the optimum outside that range, and the fit then
+// stops on an end of it. Such an end is not evidence: when the fit stops on an end of a range
+// that the config did not give and that lies inside the model's own limits, the range is
+// moved to three decades either side of that end and the fit repeated from it (at most
+// kMaxRangeMoves times). The moved fit is kept only when every moved parameter ends inside its
+// new range with a cost no higher; otherwise nothing changes and the report's
+// parameter_at_bound says what to do (docs/identification.md §2b).
+struct RangeShift {
+  std::string name;
+  double from_lower = 0.0, from_upper = 0.0;  // the default range the first fit stopped on
+  double to_lower = 0.0, to_upper = 0.0;      // the range of the fit kept
+};
+
+struct RangeMove {
+  std::unique_ptr<FitProblem> problem;  // the problem with the moved ranges (null: none kept)
+  FitResult fit;                        // its fit (with the start scan's guard)
+  StartScanRecord start_scan;           // the guard's record of that fit
+  std::vector<RangeShift> shifts;       // one per moved parameter
+};
+
+inline constexpr int kMaxRangeMoves = 2;
+
+// The moved fit of `problem` after `fit`, or a RangeMove whose `problem` is null when no
+// parameter stopped on a movable default end or moving did not free it.
+RangeMove MoveDefaultRanges(const Optimizer& optimizer, const FitProblem& problem,
+                            const FitResult& fit, const OptimizerOptions& options);
 
 }  // namespace blmd
