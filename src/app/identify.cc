@@ -81,7 +81,11 @@ CutoffChoice ChooseEquationCutoff(IdentRequest* request, const Optimizer& optimi
       Config at = config;
       at.identification.filter_hz = hz;
       const FitProblem problem(at, request->traces, request->observe, request->free);
-      const FitResult fit = optimizer.Minimize(problem, options);
+      FitResult fit = optimizer.Minimize(problem, options);
+      // Each level in the box the first fit will search: a default range moved past the end
+      // it stops on (start_scan.h), else the ladder would compare values pinned on one end.
+      RangeMove moved = MoveDefaultRanges(optimizer, problem, fit, options);
+      if (moved.problem) fit = std::move(moved.fit);
       level.ok = fit.evaluation.ok;
       level.estimates = fit.estimates;
       if (!level.ok) level.reason = fit.evaluation.reason;
@@ -297,11 +301,13 @@ IdentOutcome Identify(IdentRequest request) {
       start +=
           (k ? ", " : "") + unweighted.free()[k].name + " = " + FormatSignificant(scan.start[k], 4);
     }
-    report.notes.push_back("the local fit from the config's start stopped in a side valley (" +
-                           scan.reason + "); a scan of " + std::to_string(scan.points) +
-                           " points of the bounds box and a fit from its best (" + start +
-                           ") reached NRMSE " + FormatSignificant(scan.nrmse_final, 4) +
-                           " (docs/identification.md §2a)");
+    report.notes.push_back(
+        std::string("the local fit from the ") +
+        (outcome.range_shifts.empty() ? "config's start" : "moved range's start") +
+        " stopped in a side valley (" + scan.reason + "); a scan of " +
+        std::to_string(scan.points) + " points of the bounds box and a fit from its best (" +
+        start + ") reached NRMSE " + FormatSignificant(scan.nrmse_final, 4) +
+        " (docs/identification.md §2a)");
   }
   if (!outcome.range_shifts.empty()) {
     std::string moved;

@@ -103,7 +103,8 @@ CurrentOnParts CrossValidateCurrent(const FitProblem& problem, const FitProblem&
     result->cross_validation_parts = level.on_data.parts;
     // Parts that cannot be fitted (a half at rest) judge nothing: the evidence alone decides.
     if (!level.on_data.ok && !level.on_data.reason.empty()) {
-      result->cross_validation_parts += " (not used: " + level.on_data.reason + ")";
+      result->cross_validation_parts += (result->cross_validation_parts.empty() ? "" : " ") +
+                                        std::string("(not used: ") + level.on_data.reason + ")";
     }
   }
   // The copies' fits also start a little off the values (where the previous fits stopped

@@ -326,7 +326,20 @@ CandidatePlan PlanAsymmetricViscous(const PlanContext& context) {
   // told apart (a rank-deficient Jacobian, no interval) and nothing is learnt of the other
   // direction (a case: added on every constant-torque spin-up of a reaction wheel, each with
   // J and no interval).
-  if (!context.analysis.w_changes_sign) {
+  // The current model's speed decides (its simulation has no noise at rest); a measured speed
+  // that clearly reverses (past a tenth of its peak both ways, far above a speed's noise at
+  // rest) also counts, where a missing effect keeps the model's speed from reversing.
+  double peak = 0.0, forwards = 0.0, backwards = 0.0;
+  for (const FitTrace& trace : context.problem.traces()) {
+    if (!trace.trace.Has("w")) continue;
+    for (double w : trace.trace.Column("w")) {
+      peak = std::max(peak, std::abs(w));
+      forwards = std::max(forwards, w);
+      backwards = std::max(backwards, -w);
+    }
+  }
+  const bool measured_reverses = peak > 0.0 && std::min(forwards, backwards) > 0.1 * peak;
+  if (!context.analysis.w_changes_sign && !measured_reverses) {
     plan.applicable = false;
     plan.not_applicable =
         "the shaft turned one way only: dB |w| is then part of B; record both directions";

@@ -178,7 +178,10 @@ RangeMove MoveDefaultRanges(const Optimizer& optimizer, const FitProblem& proble
   for (std::size_t k = 0; k < free.size(); ++k) {
     if (shift_of[k] >= 0 && OnBound(free[k], current.values[k])) return none;  // not freed
   }
-  if (!(current.evaluation.cost <= fit.evaluation.cost)) return none;
+  // Freed, and the data say so: the cost lower by more than the start scan's share (a
+  // parameter the record hardly determines would leave an end without lowering it; measured on
+  // the small motors of docs/real-data.md, the move took the NRMSE from 0.5-1.6 to 0.02-0.2).
+  if (!(current.evaluation.cost < (1.0 - kImprovement) * fit.evaluation.cost)) return none;
   for (std::size_t k = 0; k < free.size(); ++k) {
     if (shift_of[k] < 0) continue;
     RangeShift& shift = shifts[static_cast<std::size_t>(shift_of[k])];

@@ -44,7 +44,7 @@ FitResult MinimizeWithStartScan(const Optimizer& optimizer, const FitProblem& pr
 // that the config did not give and that lies inside the model's own limits, the range is
 // moved to three decades either side of that end and the fit repeated from it (at most
 // kMaxRangeMoves times). The moved fit is kept only when every moved parameter ends inside its
-// new range with a cost no higher; otherwise nothing changes and the report's
+// new range with a cost lower by more than 1 %; otherwise nothing changes and the report's
 // parameter_at_bound says what to do (docs/identification.md §2b).
 struct RangeShift {
   std::string name;
