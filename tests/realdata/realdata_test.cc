@@ -1169,12 +1169,6 @@ std::string NewUserCommand(const std::string& traces, const std::string& extra =
   return "--config configs/real/delta-a3.json " + traces + " --discover" + extra;
 }
 
-bool HasWarning(const nlohmann::json& report, const std::string& code) {
-  for (const auto& w : report["warnings"])
-    if (w["code"] == code) return true;
-  return false;
-}
-
 TEST(NewRigs, TheDefaultRangesMoveToTheGearmotorWithoutItsFlywheel) {
   constexpr double kIndependentJ = 7.15e-6;
   const nlohmann::json report = CachedReport(
@@ -1184,7 +1178,7 @@ TEST(NewRigs, TheDefaultRangesMoveToTheGearmotorWithoutItsFlywheel) {
   EXPECT_LT(std::abs(Value(j["value"]) / kIndependentJ - 1.0), 0.10);
   EXPECT_LE(Value(j["ci95"][0]), kIndependentJ);
   EXPECT_GE(Value(j["ci95"][1]), kIndependentJ);
-  EXPECT_FALSE(HasWarning(report, "parameter_at_bound"));
+  EXPECT_FALSE(Has(WarningCodes(report), "parameter_at_bound"));
   bool moved = false;
   for (const auto& note : report["notes"]) {
     moved = moved || note.get<std::string>().find(

@@ -325,10 +325,9 @@ CandidatePlan PlanAsymmetricViscous(const PlanContext& context) {
   // On a record that turns one way only, dB |w| is dB w: B's own term, so B and dB cannot be
   // told apart (a rank-deficient Jacobian, no interval) and nothing is learnt of the other
   // direction (a case: added on every constant-torque spin-up of a reaction wheel, each with
-  // J and no interval).
-  // The current model's speed decides (its simulation has no noise at rest); a measured speed
-  // that clearly reverses (past a tenth of its peak both ways, far above a speed's noise at
-  // rest) also counts, where a missing effect keeps the model's speed from reversing.
+  // J and no interval). The current model's speed decides (its simulation has no noise at
+  // rest), or a measured speed that clearly reverses (past a tenth of its peak both ways, far
+  // above a speed's noise at rest) where a missing effect keeps the model's from reversing.
   double peak = 0.0, forwards = 0.0, backwards = 0.0;
   for (const FitTrace& trace : context.problem.traces()) {
     if (!trace.trace.Has("w")) continue;

@@ -14,40 +14,18 @@ Spread: OLS standard errors, per-file fits (one direction each, Tc+d lumped), an
 leave-one-file-out jackknife of the pooled fit.  Run: /usr/bin/python3 estimate.py (numpy only).
 """
 import os, glob
+import sys
+
 import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from lsq_tools import filtfilt, ols, relative_rms  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 KU = 0.9 * 0.69 * 70 * 7.68e-3 / 2.6          # N*m per V at the load shaft
 B_EMF = 0.9 * 0.69 * 70**2 * 7.68e-3**2 / 2.6  # N*m*s/rad
 FCS = [5.0, 10.0, 20.0, 40.0]
 FC_MAIN = 10.0
-
-
-def butter2(fc, fs):
-    K = np.tan(np.pi * fc / fs)
-    n = 1.0 / (1.0 + np.sqrt(2.0) * K + K * K)
-    b = np.array([K * K * n, 2 * K * K * n, K * K * n])
-    a = np.array([1.0, 2.0 * (K * K - 1.0) * n, (1.0 - np.sqrt(2.0) * K + K * K) * n])
-    return b, a
-
-
-def _lfilter(b, a, x):
-    y = np.empty_like(x)
-    x1 = x2 = y1 = y2 = x[0]
-    for k in range(len(x)):
-        yk = b[0] * x[k] + b[1] * x1 + b[2] * x2 - a[1] * y1 - a[2] * y2
-        y[k] = yk
-        x2, x1, y2, y1 = x1, x[k], y1, yk
-    return y
-
-
-def filtfilt(x, fc, fs):
-    b, a = butter2(fc, fs)
-    npad = min(len(x) - 1, int(3.0 * fs / fc))
-    xp = np.concatenate([2 * x[0] - x[npad:0:-1], x, 2 * x[-1] - x[-2:-npad - 2:-1]])
-    y = _lfilter(b, a, xp)
-    y = _lfilter(b, a, y[::-1])[::-1]
-    return y[npad:npad + len(x)]
 
 
 def load(name):
@@ -66,13 +44,6 @@ def rows(name, fc):
     return a[m], w[m], uf[m], u[np.argmax(u != 0)]
 
 
-def ols(X, y):
-    th, *_ = np.linalg.lstsq(X, y, rcond=None)
-    r = y - X @ th
-    s2 = r @ r / max(1, len(y) - X.shape[1])
-    return th, np.sqrt(np.diag(s2 * np.linalg.inv(X.T @ X))), np.sqrt(np.mean(r**2)) / np.std(y)
-
-
 def pooled(files, fc):
     A = []
     Y = []
@@ -80,7 +51,9 @@ def pooled(files, fc):
         a, w, uf, _ = rows(f, fc)
         A.append(np.column_stack([a, w, np.sign(w), np.ones_like(w)]))
         Y.append(uf)
-    return ols(np.vstack(A), np.concatenate(Y))
+    X, y = np.vstack(A), np.concatenate(Y)
+    p, se, r = ols(X, y)
+    return p, se, relative_rms(r, y)
 
 
 if __name__ == '__main__':
@@ -89,7 +62,8 @@ if __name__ == '__main__':
     print('== per file, fc = %.0f Hz: u = J*dw + Btot*w + c' % FC_MAIN)
     for f in files:
         a, w, uf, u0 = rows(f, FC_MAIN)
-        p, se, rel = ols(np.column_stack([a, w, np.ones_like(w)]), uf)
+        p, se, r = ols(np.column_stack([a, w, np.ones_like(w)]), uf)
+        rel = relative_rms(r, uf)
         print('  %-14s V=%+.1f  n=%4d  J=%.4e (se %.1e)  Btot=%.4e  c=%+.3e  wmax=%5.2f rad/s  rel.res %.3f'
               % (os.path.basename(f), u0 / KU, len(w), p[0], se[0], p[1], p[2], np.max(np.abs(w)), rel))
     print('== pooled, both directions: u = J*dw + Btot*w + Tc*sign(w) + d')

@@ -12,36 +12,16 @@ blocks, 200 resamples), fc = 1/2/4 Hz, and across the four runs.
 Run: /usr/bin/python3 estimate.py  (numpy only)
 """
 import os, glob
+import sys
+
 import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from lsq_tools import block_bootstrap, filtfilt, ols, relative_rms  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 FCS = [1.0, 2.0, 4.0]
 FC_MAIN = 2.0
-
-
-def butter2(fc, fs):
-    K = np.tan(np.pi * fc / fs)
-    n = 1.0 / (1.0 + np.sqrt(2.0) * K + K * K)
-    return (np.array([K * K * n, 2 * K * K * n, K * K * n]),
-            np.array([1.0, 2.0 * (K * K - 1.0) * n, (1.0 - np.sqrt(2.0) * K + K * K) * n]))
-
-
-def _lfilter(b, a, x):
-    y = np.empty_like(x)
-    x1 = x2 = y1 = y2 = x[0]
-    for k in range(len(x)):
-        yk = b[0] * x[k] + b[1] * x1 + b[2] * x2 - a[1] * y1 - a[2] * y2
-        y[k] = yk
-        x2, x1, y2, y1 = x1, x[k], y1, yk
-    return y
-
-
-def filtfilt(x, fc, fs):
-    b, a = butter2(fc, fs)
-    npad = min(len(x) - 1, int(3.0 * fs / fc))
-    xp = np.concatenate([2 * x[0] - x[npad:0:-1], x, 2 * x[-1] - x[-2:-npad - 2:-1]])
-    y = _lfilter(b, a, _lfilter(b, a, xp)[::-1])[::-1]
-    return y[npad:npad + len(x)]
 
 
 def design(name, fc):
@@ -53,25 +33,6 @@ def design(name, fc):
     uf = filtfilt(u, fc, fs)
     m = (wf > 3.0) & (wf < 3500 * np.pi / 30) & (t > t[0] + 0.3) & (t < t[-1] - 0.3)
     return np.column_stack([a, wf, np.ones_like(wf)])[m], uf[m], t, u, w, fs
-
-
-def ols(X, y):
-    th, *_ = np.linalg.lstsq(X, y, rcond=None)
-    r = y - X @ th
-    s2 = r @ r / max(1, len(y) - X.shape[1])
-    return th, np.sqrt(np.diag(s2 * np.linalg.inv(X.T @ X))), np.sqrt(np.mean(r**2)) / np.std(y)
-
-
-def bootstrap(X, y, block, nboot=200, seed=1):
-    rng = np.random.default_rng(seed)
-    n = len(y)
-    nb = int(np.ceil(n / block))
-    est = []
-    for _ in range(nboot):
-        s = rng.integers(0, n - block + 1, nb)
-        idx = (s[:, None] + np.arange(block)[None, :]).ravel()[:n]
-        est.append(np.linalg.lstsq(X[idx], y[idx], rcond=None)[0])
-    return np.std(np.array(est), axis=0, ddof=1)
 
 
 def slope_difference(t, u, w):
@@ -101,8 +62,9 @@ if __name__ == '__main__':
     sdJ = []
     for f in files:
         X, y, t, u, w, fs = design(f, FC_MAIN)
-        p, se, rel = ols(X, y)
-        bse = bootstrap(X, y, int(0.3 * fs))
+        p, se, r = ols(X, y)
+        rel = relative_rms(r, y)
+        bse = block_bootstrap(X, y, int(0.3 * fs))
         allJ.append(p[0])
         Js, um, sl = students(t, u, w)
         upd = np.mean(np.diff(w) != 0)
@@ -111,7 +73,7 @@ if __name__ == '__main__':
               % (FC_MAIN, p[0], se[0], bse[0], p[1], bse[1], p[2], bse[2], rel))
         line = '   J vs fc:'
         for fc in FCS:
-            q, _, r2 = ols(*design(f, fc)[:2])
+            q, _, _ = ols(*design(f, fc)[:2])
             line += '  %.0f Hz: %.4e (B %+.2e, c %+.2e)' % (fc, q[0], q[1], q[2])
         print(line)
         Jd, aon, aoff, uon, fric, wc = slope_difference(t, u, w)
@@ -127,7 +89,9 @@ if __name__ == '__main__':
         Z[:, j] = 1.0
         Xs.append(np.column_stack([X[:, :2], Z]))
         ys.append(y)
-    p, se, rel = ols(np.vstack(Xs), np.concatenate(ys))
+    X, y = np.vstack(Xs), np.concatenate(ys)
+    p, se, r = ols(X, y)
+    rel = relative_rms(r, y)
     print('== all runs, one J and B, a c per run (fc = %.0f Hz): J = %.4e +- %.1e, B = %+.3e, c = %s, rel.res %.3f'
           % (FC_MAIN, p[0], se[0], p[1], ' '.join('%+.2e' % v for v in p[2:]), rel))
     print('   spread of per-run J (M1): mean %.4e, std %.1e' % (np.mean(allJ), np.std(allJ, ddof=1)))

@@ -15,64 +15,13 @@ so B*w and Tc cancel).
 Run: /usr/bin/python3 estimate.py
 """
 import os
+import sys
+
 import numpy as np
 
-def butter2(fc, fs):
-    """2nd-order Butterworth low-pass, bilinear transform with pre-warping."""
-    K = np.tan(np.pi * fc / fs)
-    n = 1.0 / (1.0 + np.sqrt(2.0) * K + K * K)
-    b = np.array([K * K * n, 2 * K * K * n, K * K * n])
-    a = np.array([1.0, 2.0 * (K * K - 1.0) * n, (1.0 - np.sqrt(2.0) * K + K * K) * n])
-    return b, a
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from lsq_tools import block_bootstrap, filtfilt, ols  # noqa: E402
 
-def _lfilter(b, a, x):
-    y = np.empty_like(x)
-    # start in steady state for the first sample (step response initial condition)
-    x1 = x2 = x[0]
-    y1 = y2 = x[0]
-    b0, b1, b2 = b
-    a1, a2 = a[1], a[2]
-    for i in range(len(x)):
-        xi = x[i]
-        yi = b0 * xi + b1 * x1 + b2 * x2 - a1 * y1 - a2 * y2
-        y[i] = yi
-        x2, x1 = x1, xi
-        y2, y1 = y1, yi
-    return y
-
-def filtfilt(x, fc, fs):
-    """Zero-phase forward-backward 2nd-order Butterworth (effective 4th order,
-    -6 dB at fc). Odd-reflection padding of 3/fc seconds at both ends."""
-    b, a = butter2(fc, fs)
-    npad = min(len(x) - 1, int(3.0 * fs / fc))
-    xp = np.concatenate([2 * x[0] - x[npad:0:-1], x, 2 * x[-1] - x[-2:-npad - 2:-1]])
-    y = _lfilter(b, a, xp)
-    y = _lfilter(b, a, y[::-1])[::-1]
-    return y[npad:npad + len(x)]
-
-def ols(X, y):
-    th, *_ = np.linalg.lstsq(X, y, rcond=None)
-    r = y - X @ th
-    dof = max(1, len(y) - X.shape[1])
-    s2 = r @ r / dof
-    cov = s2 * np.linalg.inv(X.T @ X)
-    return th, np.sqrt(np.diag(cov)), r
-
-def block_bootstrap(X, y, block, nboot=200, seed=1):
-    """Moving-block bootstrap of rows (keeps the serial correlation of the
-    residuals inside blocks). Returns the std of the parameter estimates."""
-    rng = np.random.default_rng(seed)
-    n = len(y)
-    nb = int(np.ceil(n / block))
-    starts_max = n - block
-    est = []
-    for _ in range(nboot):
-        s = rng.integers(0, starts_max + 1, nb)
-        idx = (s[:, None] + np.arange(block)[None, :]).ravel()[:n]
-        th, *_ = np.linalg.lstsq(X[idx], y[idx], rcond=None)
-        est.append(th)
-    return np.std(np.array(est), axis=0, ddof=1)
-# ---- end shared helpers ----
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 W_MIN = 10.0                 # rad/s

@@ -16,7 +16,12 @@ Uncertainty: OLS standard errors (optimistic) and a moving-block bootstrap (0.25
 Run: /usr/bin/python3 estimate.py   (numpy only, a few seconds)
 """
 import os
+import sys
+
 import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from lsq_tools import block_bootstrap, filtfilt, ols  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 FS = 100.0
@@ -25,54 +30,6 @@ FCS = [2.0, 3.0, 5.0, 8.0]
 FC_MAIN = 3.0
 J_FLYWHEEL_CAD = (2551.676 + 0.235) / 1000.0 / 1000.0   # kg m^2, repo config.py
 GEAR = 14.0
-
-
-def butter2(fc, fs):
-    K = np.tan(np.pi * fc / fs)
-    n = 1.0 / (1.0 + np.sqrt(2.0) * K + K * K)
-    b = np.array([K * K * n, 2 * K * K * n, K * K * n])
-    a = np.array([1.0, 2.0 * (K * K - 1.0) * n, (1.0 - np.sqrt(2.0) * K + K * K) * n])
-    return b, a
-
-
-def _lfilter(b, a, x):
-    y = np.empty_like(x)
-    x1 = x2 = y1 = y2 = x[0]
-    for k in range(len(x)):
-        yk = b[0] * x[k] + b[1] * x1 + b[2] * x2 - a[1] * y1 - a[2] * y2
-        y[k] = yk
-        x2, x1 = x1, x[k]
-        y2, y1 = y1, yk
-    return y
-
-
-def filtfilt(x, fc, fs):
-    b, a = butter2(fc, fs)
-    npad = min(len(x) - 1, int(3.0 * fs / fc))
-    xp = np.concatenate([2 * x[0] - x[npad:0:-1], x, 2 * x[-1] - x[-2:-npad - 2:-1]])
-    y = _lfilter(b, a, xp)
-    y = _lfilter(b, a, y[::-1])[::-1]
-    return y[npad:npad + len(x)]
-
-
-def ols(X, y):
-    th, *_ = np.linalg.lstsq(X, y, rcond=None)
-    r = y - X @ th
-    s2 = r @ r / max(1, len(y) - X.shape[1])
-    return th, np.sqrt(np.diag(s2 * np.linalg.inv(X.T @ X))), r
-
-
-def block_bootstrap(X, y, block, nboot=200, seed=1):
-    rng = np.random.default_rng(seed)
-    n = len(y)
-    nb = int(np.ceil(n / block))
-    est = []
-    for _ in range(nboot):
-        s = rng.integers(0, n - block + 1, nb)
-        idx = (s[:, None] + np.arange(block)[None, :]).ravel()[:n]
-        th, *_ = np.linalg.lstsq(X[idx], y[idx], rcond=None)
-        est.append(th)
-    return np.std(np.array(est), axis=0, ddof=1)
 
 
 def load(name):
